@@ -1,0 +1,65 @@
+#version 460
+// hard and pcf: one shadow-map test per view sample (mode 0, nearest texel), or a box of
+// kernel x kernel bilinear depth tests (mode 1) spaced one texel apart — hardware 2x2 PCF done by
+// hand, since depth formats cannot be linearly filtered everywhere. CPU twin: src/cpu/pcf.rs.
+#extension GL_GOOGLE_include_directive : require
+#include "shadow_map.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;
+layout(set = 0, binding = 2, r32f) uniform writeonly image2D visibility;
+// [0] view samples, [1] outside the light frustum, [2] lit, [3] umbra, [4] penumbra.
+layout(set = 0, binding = 3) buffer Counters { uint counters[]; };
+
+layout(push_constant) uniform Push {
+    mat4 light_view_proj;
+    ivec2 view_size;
+    ivec2 map_size;
+    int mode;
+    int kernel;
+    int pad0;
+    int pad1;
+} pc;
+
+shared uint group_counts[5];
+
+void main() {
+    if (gl_LocalInvocationIndex < 5) {
+        group_counts[gl_LocalInvocationIndex] = 0;
+    }
+    barrier();
+
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (all(lessThan(pixel, pc.view_size))) {
+        vec4 p = imageLoad(positions, pixel);
+        float v = 1.0;
+        if (p.w > 0.0) {
+            atomicAdd(group_counts[0], 1);
+            vec4 c = shadow_coord(pc.light_view_proj, p.xyz, pc.map_size);
+            if (!inside_map(c, pc.map_size)) {
+                atomicAdd(group_counts[1], 1);
+            } else if (pc.mode == 0) {
+                v = depth_test(shadow_map, ivec2(floor(c.xy)), pc.map_size, c.z);
+            } else {
+                float sum = 0.0;
+                float first = -0.5 * float(pc.kernel - 1);
+                for (int j = 0; j < pc.kernel; ++j) {
+                    for (int i = 0; i < pc.kernel; ++i) {
+                        vec2 offset = vec2(first + float(i), first + float(j));
+                        sum += bilinear_test(shadow_map, c.xy + offset, pc.map_size, c.z);
+                    }
+                }
+                v = sum / float(pc.kernel * pc.kernel);
+            }
+            atomicAdd(group_counts[v >= 1.0 ? 2 : (v <= 0.0 ? 3 : 4)], 1);
+        }
+        imageStore(visibility, pixel, vec4(v));
+    }
+
+    barrier();
+    if (gl_LocalInvocationIndex < 5 && group_counts[gl_LocalInvocationIndex] > 0) {
+        atomicAdd(counters[gl_LocalInvocationIndex], group_counts[gl_LocalInvocationIndex]);
+    }
+}

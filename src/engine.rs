@@ -1,0 +1,243 @@
+//! The public entry point: prepare a scene once, then render any technique on it.
+//!
+//! [`Engine::prepare`] uploads the scene's triangles, fits the light view and renders the camera's
+//! view samples — work every technique shares, done once. [`Engine::render`] builds a technique
+//! with its knobs, records it for a warm-up frame (lavapipe compiles shaders at first dispatch)
+//! and then `frames` timed frames, and returns the visibility of the last with [`FrameStats`]:
+//! the median GPU time of each pass, the technique's counters and the NaN count.
+
+use std::collections::BTreeMap;
+
+use ash::vk;
+use glam::Vec4;
+
+use crate::error::Result;
+use crate::gpu::{f32s, Context, ContextDesc, Image, ImageDesc, PassTime, Timestamps};
+use crate::passes::{LightView, SceneGeometry, ViewSamples};
+use crate::scene::{Camera, Light, Scene, SceneDefaults};
+use crate::techniques::{self, Params, TechniqueSetup};
+
+/// A Vulkan device ready to run techniques.
+pub struct Engine {
+    ctx: Context,
+}
+
+/// A scene on the GPU with its view samples rendered.
+pub struct PreparedScene {
+    /// The scene's name.
+    pub name: String,
+    /// Where the scene came from (file or procedural spec).
+    pub source: String,
+    /// The camera.
+    pub camera: Camera,
+    /// The light.
+    pub light: Light,
+    /// The scene's knob defaults.
+    pub defaults: SceneDefaults,
+    /// The light view fitted to the scene.
+    pub light_view: LightView,
+    /// Triangles on the GPU.
+    pub geometry: SceneGeometry,
+    /// The view samples.
+    pub view: ViewSamples,
+    /// The visibility target techniques write.
+    pub visibility: Image,
+    /// GPU time of the view-sample pass.
+    pub view_pass: PassTime,
+    /// Number of triangles.
+    pub triangles: usize,
+}
+
+/// What one technique computed, and what it cost.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FrameStats {
+    /// Technique name.
+    pub technique: String,
+    /// Resolved knob values.
+    pub params: BTreeMap<String, f64>,
+    /// Median GPU time per pass over the timed frames; `view-samples` first (shared by all
+    /// techniques, rendered once per scene).
+    pub passes: Vec<PassTime>,
+    /// Sum of the technique's own passes (view-samples excluded); `None` without timestamps.
+    pub total_gpu_ms: Option<f64>,
+    /// The technique's counters.
+    pub counters: BTreeMap<String, u64>,
+    /// View samples whose visibility is NaN or infinite.
+    pub nan_count: u64,
+    /// View samples whose visibility is finite but outside [0, 1].
+    pub out_of_range_count: u64,
+    /// Timed frames (after one warm-up frame).
+    pub frames: u32,
+}
+
+/// A rendered frame.
+pub struct Frame {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Visibility per pixel, row-major; 1 for background pixels.
+    pub visibility: Vec<f32>,
+    /// Times and counters.
+    pub stats: FrameStats,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        0.0
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+impl Engine {
+    /// Creates a device of its own.
+    pub fn new(desc: &ContextDesc) -> Result<Engine> {
+        Ok(Engine {
+            ctx: Context::new(desc)?,
+        })
+    }
+
+    /// Runs on an existing context (e.g. one wrapping the host engine's device).
+    pub fn from_context(ctx: Context) -> Engine {
+        Engine { ctx }
+    }
+
+    /// The device.
+    pub fn context(&self) -> &Context {
+        &self.ctx
+    }
+
+    /// Uploads `scene`, fits its light view and renders its view samples.
+    pub fn prepare(&self, scene: &Scene) -> Result<PreparedScene> {
+        let ctx = &self.ctx;
+        let light_view = LightView::fit(&scene.light, &scene.bounds())?;
+        let geometry = SceneGeometry::upload(ctx, scene)?;
+        let view = ViewSamples::new(ctx, &scene.camera)?;
+        let visibility = Image::new(
+            ctx,
+            "visibility",
+            ImageDesc::new_2d(
+                vk::Format::R32_SFLOAT,
+                scene.camera.width,
+                scene.camera.height,
+                vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
+            ),
+        )?;
+        let mut timestamps = Timestamps::new(ctx, 1)?;
+        ctx.submit(Some(&mut timestamps), |rec| {
+            view.record(rec, &geometry, &scene.camera)
+        })?;
+        let view_pass = timestamps.results()?.pop().unwrap_or(PassTime {
+            name: "view-samples".into(),
+            gpu_ms: None,
+        });
+        Ok(PreparedScene {
+            name: scene.name.clone(),
+            source: scene.source.display().to_string(),
+            camera: scene.camera.clone(),
+            light: scene.light,
+            defaults: scene.defaults,
+            light_view,
+            geometry,
+            view,
+            visibility,
+            view_pass,
+            triangles: scene.triangle_count(),
+        })
+    }
+
+    /// Renders `technique` with `overrides` (knob → value text) on `prepared`: one warm-up
+    /// frame, then `frames` timed frames (at least 1).
+    pub fn render(
+        &self,
+        prepared: &PreparedScene,
+        technique: &str,
+        overrides: &BTreeMap<String, String>,
+        frames: u32,
+    ) -> Result<Frame> {
+        let ctx = &self.ctx;
+        let info = techniques::find(technique)?;
+        let params = Params::resolve(info.name, info.knobs, overrides, &prepared.defaults)?;
+        let setup = TechniqueSetup {
+            ctx,
+            geometry: &prepared.geometry,
+            view: &prepared.view,
+            light: &prepared.light,
+            light_view: &prepared.light_view,
+            visibility: &prepared.visibility,
+        };
+        let mut instance = (info.create)(&setup, &params)?;
+        let mut timestamps = Timestamps::new(ctx, 16)?;
+        let frames = frames.max(1);
+        let mut samples: Vec<(String, Vec<f64>)> = Vec::new();
+        let mut timed = true;
+        for frame in 0..=frames {
+            ctx.submit(Some(&mut timestamps), |rec| instance.record(rec))?;
+            if frame == 0 {
+                continue; // warm-up
+            }
+            for (i, pass) in timestamps.results()?.into_iter().enumerate() {
+                if samples.len() <= i {
+                    samples.push((pass.name.clone(), Vec::new()));
+                }
+                match pass.gpu_ms {
+                    Some(ms) => samples[i].1.push(ms),
+                    None => timed = false,
+                }
+            }
+        }
+        let technique_passes: Vec<PassTime> = samples
+            .into_iter()
+            .map(|(name, ms)| PassTime {
+                name,
+                gpu_ms: timed.then(|| median(ms)),
+            })
+            .collect();
+        let total_gpu_ms = timed.then(|| technique_passes.iter().filter_map(|p| p.gpu_ms).sum());
+        let mut passes = vec![prepared.view_pass.clone()];
+        passes.extend(technique_passes);
+        let counters = instance.counters()?.into_iter().collect();
+        drop(instance);
+
+        let visibility = f32s(&ctx.read_image(&prepared.visibility)?);
+        let positions = prepared.view.read_positions(ctx)?;
+        let (nan_count, out_of_range_count) = count_bad(&visibility, &positions);
+        Ok(Frame {
+            width: prepared.view.width,
+            height: prepared.view.height,
+            visibility,
+            stats: FrameStats {
+                technique: info.name.to_string(),
+                params: params.values().clone(),
+                passes,
+                total_gpu_ms,
+                counters,
+                nan_count,
+                out_of_range_count,
+                frames,
+            },
+        })
+    }
+}
+
+/// Counts non-finite and out-of-range visibility values among view samples.
+pub fn count_bad(visibility: &[f32], positions: &[Vec4]) -> (u64, u64) {
+    let mut nan = 0;
+    let mut range = 0;
+    for (v, p) in visibility.iter().zip(positions) {
+        if p.w <= 0.0 {
+            continue;
+        }
+        if !v.is_finite() {
+            nan += 1;
+        } else if !(0.0..=1.0).contains(v) {
+            range += 1;
+        }
+    }
+    (nan, range)
+}

@@ -1,0 +1,150 @@
+//! The library's one error type.
+//!
+//! Callers can match on what went wrong: a Vulkan call's `vk::Result` (so a host engine can react
+//! to `ERROR_DEVICE_LOST` or out-of-memory), an allocation failure, a missing device feature, or
+//! bad input with the file and line it came from. Nothing in the library panics on these.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use ash::vk;
+
+/// Every error the library returns.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// `libvulkan.so.1` could not be loaded.
+    #[error("cannot load the Vulkan loader: {0}")]
+    Loader(String),
+    /// A Vulkan call returned an error code.
+    #[error("{call} failed: {result}")]
+    Vulkan {
+        /// The Vulkan entry point, e.g. `vkCreateBuffer`.
+        call: &'static str,
+        /// What it returned.
+        result: vk::Result,
+    },
+    /// No physical device matched the request.
+    #[error("no suitable Vulkan device: {0}")]
+    NoDevice(String),
+    /// The device lacks something a pass needs; the pass cannot run here.
+    #[error("device '{device}' does not support {feature}")]
+    Unsupported {
+        /// Device name.
+        device: String,
+        /// The missing feature, extension or limit.
+        feature: String,
+    },
+    /// gpu-allocator could not allocate memory for a named resource.
+    #[error("cannot allocate memory for '{name}': {source}")]
+    Allocation {
+        /// The resource's debug name.
+        name: String,
+        /// The allocator's error.
+        #[source]
+        source: gpu_allocator::AllocationError,
+    },
+    /// A file could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Bad input: a malformed scene file or mesh, NaN geometry, a degenerate light.
+    #[error("{}", Located { path, line: *line, message })]
+    Input {
+        /// The file the input came from (or a procedural scene's name).
+        path: PathBuf,
+        /// 1-based line, where known.
+        line: Option<usize>,
+        /// What was wrong and what was expected.
+        message: String,
+    },
+    /// A technique name that is not registered.
+    #[error("unknown technique '{name}'; known techniques: {}", known.join(", "))]
+    UnknownTechnique {
+        /// The name asked for.
+        name: String,
+        /// Every registered name.
+        known: Vec<String>,
+    },
+    /// A technique knob that is unknown or out of range.
+    #[error("technique '{technique}': {message}")]
+    Parameter {
+        /// The technique.
+        technique: String,
+        /// What was wrong.
+        message: String,
+    },
+    /// A shader module or pipeline could not be built from the embedded SPIR-V.
+    #[error("shader '{name}': {message}")]
+    Shader {
+        /// The shader's name (its path under `spirv/`).
+        name: String,
+        /// What was wrong.
+        message: String,
+    },
+    /// An image could not be encoded or decoded.
+    #[error("{}: {message}", path.display())]
+    Image {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+struct Located<'a> {
+    path: &'a Path,
+    line: Option<usize>,
+    message: &'a str,
+}
+
+impl fmt::Display for Located<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(line) => write!(f, "{}:{}: {}", self.path.display(), line, self.message),
+            None => write!(f, "{}: {}", self.path.display(), self.message),
+        }
+    }
+}
+
+impl Error {
+    /// Bad input in `path`, at `line` if known.
+    pub fn input(
+        path: impl Into<PathBuf>,
+        line: Option<usize>,
+        message: impl Into<String>,
+    ) -> Self {
+        Error::Input {
+            path: path.into(),
+            line,
+            message: message.into(),
+        }
+    }
+
+    /// An I/O error on `path`.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}
+
+/// Maps a `vk::Result` error into [`Error::Vulkan`] naming the call.
+pub(crate) trait VkResultExt<T> {
+    fn vk(self, call: &'static str) -> Result<T>;
+}
+
+impl<T> VkResultExt<T> for std::result::Result<T, vk::Result> {
+    fn vk(self, call: &'static str) -> Result<T> {
+        self.map_err(|result| Error::Vulkan { call, result })
+    }
+}
+
+/// The library's result type.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

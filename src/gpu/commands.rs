@@ -1,0 +1,525 @@
+//! Command recording, submit-and-wait, upload and readback.
+//!
+//! penumbra records one command buffer per submission and waits on a fence: techniques are
+//! measured per frame, and waiting keeps resource lifetimes trivial (nothing is in flight when a
+//! submit returns). Barriers come from the resources' trackers ([`super::sync`]): a recorder call
+//! that uses a resource emits exactly the barrier that use needs.
+
+use ash::vk;
+use bytemuck::Pod;
+
+use super::pipeline::{DescriptorSet, Pipeline, Resource};
+use super::sync::{Access, Tracker, Transition};
+use super::timestamps::Timestamps;
+use super::{Buffer, Context, Image, MemoryLocation};
+use crate::error::{Error, Result, VkResultExt};
+
+/// Records commands into one command buffer. Made by [`Context::submit`].
+pub struct Recorder<'a> {
+    ctx: &'a Context,
+    /// The command buffer being recorded.
+    pub cmd: vk::CommandBuffer,
+    timestamps: Option<&'a mut Timestamps>,
+    open_pass: Option<u32>,
+    /// Staging buffers that must live until the submission completes.
+    keep_alive: Vec<Buffer>,
+}
+
+fn barrier(ctx: &Context, cmd: vk::CommandBuffer, t: Transition, resource: &Resource) {
+    match resource {
+        Resource::Buffer(_) => {
+            let b = [vk::MemoryBarrier2::default()
+                .src_stage_mask(t.src_stage)
+                .src_access_mask(t.src_access)
+                .dst_stage_mask(t.dst_stage)
+                .dst_access_mask(t.dst_access)];
+            let dep = vk::DependencyInfo::default().memory_barriers(&b);
+            unsafe { ctx.device().cmd_pipeline_barrier2(cmd, &dep) };
+        }
+        Resource::Image(image, range) => {
+            let b = [vk::ImageMemoryBarrier2::default()
+                .src_stage_mask(t.src_stage)
+                .src_access_mask(t.src_access)
+                .dst_stage_mask(t.dst_stage)
+                .dst_access_mask(t.dst_access)
+                .old_layout(t.old_layout)
+                .new_layout(t.new_layout)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(*image)
+                .subresource_range(*range)];
+            let dep = vk::DependencyInfo::default().image_memory_barriers(&b);
+            unsafe { ctx.device().cmd_pipeline_barrier2(cmd, &dep) };
+        }
+    }
+}
+
+impl Recorder<'_> {
+    fn track(&mut self, tracker: &Tracker, resource: Resource, access: Access) {
+        let is_image = matches!(resource, Resource::Image(..));
+        if let Some(t) = tracker.use_as(access, is_image) {
+            barrier(self.ctx, self.cmd, t, &resource);
+        }
+    }
+
+    /// Declares the next use of a buffer, emitting the barrier it needs.
+    pub fn use_buffer(&mut self, buffer: &Buffer, access: Access) {
+        self.track(&buffer.tracker, Resource::Buffer(buffer.raw), access);
+    }
+
+    /// Declares the next use of an image, emitting the barrier and layout transition it needs.
+    pub fn use_image(&mut self, image: &Image, access: Access) {
+        self.track(
+            &image.tracker,
+            Resource::Image(image.raw, image.subresource_range()),
+            access,
+        );
+    }
+
+    /// Declares that an image's contents can be discarded before its next write (e.g. it is
+    /// about to be cleared), saving a layout-preserving transition.
+    pub fn discard(&mut self, image: &Image) {
+        image.tracker.discard();
+    }
+
+    fn bind_and_push<T: Pod>(
+        &mut self,
+        pipeline: &Pipeline,
+        set: Option<&DescriptorSet>,
+        push: &T,
+    ) -> Result<()> {
+        let bytes = bytemuck::bytes_of(push);
+        if bytes.len() as u32 != pipeline.push_constant_size() {
+            return Err(Error::Shader {
+                name: pipeline.name.clone(),
+                message: format!(
+                    "push constants are {} bytes in the shader, {} given",
+                    pipeline.push_constant_size(),
+                    bytes.len()
+                ),
+            });
+        }
+        let device = self.ctx.device();
+        unsafe {
+            device.cmd_bind_pipeline(self.cmd, pipeline.bind_point, pipeline.raw);
+            if let Some(set) = set {
+                device.cmd_bind_descriptor_sets(
+                    self.cmd,
+                    pipeline.bind_point,
+                    pipeline.layout(),
+                    0,
+                    &[set.raw],
+                    &[],
+                );
+            }
+            if !bytes.is_empty() {
+                device.cmd_push_constants(
+                    self.cmd,
+                    pipeline.layout(),
+                    pipeline.push_stages(),
+                    0,
+                    bytes,
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// Dispatches enough workgroups to cover `threads` invocations (rounded up by the shader's
+    /// declared `local_size`), after the barriers the set's resources need.
+    pub fn dispatch<T: Pod>(
+        &mut self,
+        pipeline: &Pipeline,
+        set: &DescriptorSet,
+        push: &T,
+        threads: [u32; 3],
+    ) -> Result<()> {
+        if threads.contains(&0) {
+            return Ok(());
+        }
+        for u in &set.uses {
+            let resource = match &u.resource {
+                Resource::Buffer(b) => Resource::Buffer(*b),
+                Resource::Image(i, r) => Resource::Image(*i, *r),
+            };
+            self.track(&u.tracker, resource, u.access);
+        }
+        self.bind_and_push(pipeline, Some(set), push)?;
+        let groups = [0, 1, 2].map(|i| threads[i].div_ceil(pipeline.local_size[i].max(1)));
+        unsafe {
+            self.ctx
+                .device()
+                .cmd_dispatch(self.cmd, groups[0], groups[1], groups[2])
+        };
+        Ok(())
+    }
+
+    /// Begins dynamic rendering into `colors` (cleared to their values) and `depth` (cleared to
+    /// the given depth), with a full-size viewport and scissor.
+    pub fn begin_rendering(&mut self, colors: &[(&Image, [f32; 4])], depth: (&Image, f32)) {
+        let extent = depth.0.extent();
+        for (img, _) in colors {
+            self.discard(img);
+            self.use_image(img, Access::ColorAttachment);
+        }
+        self.discard(depth.0);
+        self.use_image(depth.0, Access::DepthAttachment);
+        let color_infos: Vec<_> = colors
+            .iter()
+            .map(|(img, clear)| {
+                vk::RenderingAttachmentInfo::default()
+                    .image_view(img.view)
+                    .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                    .load_op(vk::AttachmentLoadOp::CLEAR)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .clear_value(vk::ClearValue {
+                        color: vk::ClearColorValue { float32: *clear },
+                    })
+            })
+            .collect();
+        let depth_info = vk::RenderingAttachmentInfo::default()
+            .image_view(depth.0.view)
+            .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth: depth.1,
+                    stencil: 0,
+                },
+            });
+        let area = vk::Rect2D {
+            offset: vk::Offset2D { x: 0, y: 0 },
+            extent,
+        };
+        let info = vk::RenderingInfo::default()
+            .render_area(area)
+            .layer_count(1)
+            .color_attachments(&color_infos)
+            .depth_attachment(&depth_info);
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: extent.width as f32,
+            height: extent.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        let device = self.ctx.device();
+        unsafe {
+            device.cmd_begin_rendering(self.cmd, &info);
+            device.cmd_set_viewport(self.cmd, 0, &[viewport]);
+            device.cmd_set_scissor(self.cmd, 0, &[area]);
+        }
+    }
+
+    /// Ends dynamic rendering.
+    pub fn end_rendering(&mut self) {
+        unsafe { self.ctx.device().cmd_end_rendering(self.cmd) };
+    }
+
+    /// Draws `index_count` indices with `pipeline` (inside `begin_rendering`). `depth_bias` is
+    /// (constant, slope, clamp) for pipelines built with depth bias. The vertex and index
+    /// buffers must have been declared with [`Access::VertexInput`] before rendering began.
+    pub fn draw_indexed<T: Pod>(
+        &mut self,
+        pipeline: &Pipeline,
+        vertices: &Buffer,
+        indices: &Buffer,
+        index_count: u32,
+        push: &T,
+        depth_bias: Option<[f32; 3]>,
+    ) -> Result<()> {
+        self.bind_and_push(pipeline, None, push)?;
+        let device = self.ctx.device();
+        unsafe {
+            if let Some([constant, slope, clamp]) = depth_bias {
+                device.cmd_set_depth_bias(self.cmd, constant, clamp, slope);
+            }
+            device.cmd_bind_vertex_buffers(self.cmd, 0, &[vertices.raw], &[0]);
+            device.cmd_bind_index_buffer(self.cmd, indices.raw, 0, vk::IndexType::UINT32);
+            device.cmd_draw_indexed(self.cmd, index_count, 1, 0, 0, 0);
+        }
+        Ok(())
+    }
+
+    /// Copies `data` into `dst` through a staging buffer kept alive until the submit completes.
+    pub fn upload(&mut self, dst: &Buffer, data: &[u8]) -> Result<()> {
+        if data.is_empty() {
+            return Ok(());
+        }
+        let staging = self.staging(&dst.name, data)?;
+        self.use_buffer(&staging, Access::TransferRead);
+        self.use_buffer(dst, Access::TransferWrite);
+        let region = vk::BufferCopy {
+            src_offset: 0,
+            dst_offset: 0,
+            size: data.len() as u64,
+        };
+        unsafe {
+            self.ctx
+                .device()
+                .cmd_copy_buffer(self.cmd, staging.raw, dst.raw, &[region])
+        };
+        self.keep_alive.push(staging);
+        Ok(())
+    }
+
+    /// Copies tightly packed texels into `dst`.
+    pub fn upload_image(&mut self, dst: &Image, data: &[u8]) -> Result<()> {
+        let staging = self.staging(&dst.name, data)?;
+        self.use_buffer(&staging, Access::TransferRead);
+        self.discard(dst);
+        self.use_image(dst, Access::TransferWrite);
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(dst.subresource_layers())
+            .image_extent(vk::Extent3D {
+                width: dst.desc.width,
+                height: dst.desc.height,
+                depth: 1,
+            });
+        unsafe {
+            self.ctx.device().cmd_copy_buffer_to_image(
+                self.cmd,
+                staging.raw,
+                dst.raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            )
+        };
+        self.keep_alive.push(staging);
+        Ok(())
+    }
+
+    fn staging(&self, name: &str, data: &[u8]) -> Result<Buffer> {
+        let mut staging = Buffer::new(
+            self.ctx,
+            &format!("{name} (upload)"),
+            data.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        let mapped = staging.mapped_mut().ok_or_else(|| Error::Unsupported {
+            device: self.ctx.info().name.clone(),
+            feature: "host-visible memory for staging".into(),
+        })?;
+        mapped[..data.len()].copy_from_slice(data);
+        Ok(staging)
+    }
+
+    /// Copies `src` into `dst` (a host-visible buffer) and makes it visible to the host.
+    pub fn copy_image_to_buffer(&mut self, src: &Image, dst: &Buffer) {
+        self.use_image(src, Access::TransferRead);
+        self.use_buffer(dst, Access::TransferWrite);
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(src.subresource_layers())
+            .image_extent(vk::Extent3D {
+                width: src.desc.width,
+                height: src.desc.height,
+                depth: 1,
+            });
+        unsafe {
+            self.ctx.device().cmd_copy_image_to_buffer(
+                self.cmd,
+                src.raw,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                dst.raw,
+                &[region],
+            )
+        };
+        self.use_buffer(dst, Access::HostRead);
+    }
+
+    /// Copies a whole buffer into `dst` (a host-visible buffer) and makes it visible to the host.
+    pub fn copy_buffer(&mut self, src: &Buffer, dst: &Buffer) {
+        self.use_buffer(src, Access::TransferRead);
+        self.use_buffer(dst, Access::TransferWrite);
+        let region = vk::BufferCopy {
+            src_offset: 0,
+            dst_offset: 0,
+            size: src.size.min(dst.size),
+        };
+        unsafe {
+            self.ctx
+                .device()
+                .cmd_copy_buffer(self.cmd, src.raw, dst.raw, &[region])
+        };
+        self.use_buffer(dst, Access::HostRead);
+    }
+
+    /// Fills a buffer with a repeated `u32`.
+    pub fn fill(&mut self, buffer: &Buffer, value: u32) {
+        self.use_buffer(buffer, Access::TransferWrite);
+        unsafe {
+            self.ctx
+                .device()
+                .cmd_fill_buffer(self.cmd, buffer.raw, 0, vk::WHOLE_SIZE, value)
+        };
+    }
+
+    /// Opens a named pass: a debug label, and a timestamp if the submit has a query pool.
+    /// Passes do not nest.
+    pub fn begin_pass(&mut self, name: &str) -> Result<()> {
+        if self.open_pass.is_some() {
+            self.end_pass();
+        }
+        if let Some(du) = &self.ctx.shared.debug_utils {
+            if let Ok(label) = std::ffi::CString::new(name) {
+                let info = vk::DebugUtilsLabelEXT::default().label_name(&label);
+                unsafe { du.cmd_begin_debug_utils_label(self.cmd, &info) };
+            }
+        }
+        if let Some(ts) = self.timestamps.as_deref_mut() {
+            self.open_pass = Some(ts.begin(self.ctx, self.cmd, name)?);
+        } else {
+            self.open_pass = Some(u32::MAX);
+        }
+        Ok(())
+    }
+
+    /// Closes the open pass.
+    pub fn end_pass(&mut self) {
+        if let Some(index) = self.open_pass.take() {
+            if let Some(ts) = self.timestamps.as_deref_mut() {
+                ts.end(self.ctx, self.cmd, index);
+            }
+            if let Some(du) = &self.ctx.shared.debug_utils {
+                unsafe { du.cmd_end_debug_utils_label(self.cmd) };
+            }
+        }
+    }
+
+    /// The context.
+    pub fn context(&self) -> &Context {
+        self.ctx
+    }
+}
+
+impl Context {
+    /// Records commands with `record`, submits them and waits for completion. With `timestamps`,
+    /// its pool is reset first and each pass opened with [`Recorder::begin_pass`] is timed.
+    pub fn submit<R>(
+        &self,
+        timestamps: Option<&mut Timestamps>,
+        record: impl FnOnce(&mut Recorder<'_>) -> Result<R>,
+    ) -> Result<R> {
+        let device = self.device();
+        let pool = self
+            .shared
+            .command_pool
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(*pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        let cmd =
+            unsafe { device.allocate_command_buffers(&alloc) }.vk("vkAllocateCommandBuffers")?[0];
+        // Whatever happens below, the command buffer goes back to the pool.
+        let result = (|| {
+            let begin = vk::CommandBufferBeginInfo::default()
+                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            unsafe { device.begin_command_buffer(cmd, &begin) }.vk("vkBeginCommandBuffer")?;
+            let mut rec = Recorder {
+                ctx: self,
+                cmd,
+                timestamps,
+                open_pass: None,
+                keep_alive: Vec::new(),
+            };
+            if let Some(ts) = rec.timestamps.as_deref_mut() {
+                ts.reset(self, cmd);
+            }
+            let out = record(&mut rec)?;
+            rec.end_pass();
+            unsafe { device.end_command_buffer(cmd) }.vk("vkEndCommandBuffer")?;
+            let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
+                .vk("vkCreateFence")?;
+            let cmds = [cmd];
+            let submit = vk::SubmitInfo::default().command_buffers(&cmds);
+            let submitted = {
+                let queue = self.queue();
+                unsafe { device.queue_submit(*queue, &[submit], fence) }.vk("vkQueueSubmit")
+            };
+            let waited = submitted.and_then(|_| {
+                unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }.vk("vkWaitForFences")
+            });
+            unsafe { device.destroy_fence(fence, None) };
+            waited?;
+            drop(rec.keep_alive);
+            Ok(out)
+        })();
+        unsafe { device.free_command_buffers(*pool, &[cmd]) };
+        result
+    }
+
+    /// Creates a device-local storage buffer holding `data`.
+    pub fn buffer_with<T: Pod>(
+        &self,
+        name: &str,
+        usage: vk::BufferUsageFlags,
+        data: &[T],
+    ) -> Result<Buffer> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let buffer = Buffer::new(
+            self,
+            name,
+            bytes.len() as u64,
+            usage | vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        self.submit(None, |rec| rec.upload(&buffer, bytes))?;
+        Ok(buffer)
+    }
+
+    /// Reads a whole buffer back to the host.
+    pub fn read_buffer(&self, src: &Buffer) -> Result<Vec<u8>> {
+        let dst = self.readback_buffer(&src.name, src.size)?;
+        self.submit(None, |rec| {
+            rec.copy_buffer(src, &dst);
+            Ok(())
+        })?;
+        Ok(dst.mapped().map(<[u8]>::to_vec).unwrap_or_default())
+    }
+
+    /// Reads a whole image back to the host, tightly packed.
+    pub fn read_image(&self, src: &Image) -> Result<Vec<u8>> {
+        let size = src.byte_size().ok_or_else(|| Error::Unsupported {
+            device: self.info().name.clone(),
+            feature: format!("readback of format {:?}", src.desc.format),
+        })?;
+        let dst = self.readback_buffer(&src.name, size)?;
+        self.submit(None, |rec| {
+            rec.copy_image_to_buffer(src, &dst);
+            Ok(())
+        })?;
+        Ok(dst.mapped().map(<[u8]>::to_vec).unwrap_or_default())
+    }
+
+    /// A host-visible buffer to copy results into.
+    pub fn readback_buffer(&self, name: &str, size: u64) -> Result<Buffer> {
+        Buffer::new(
+            self,
+            &format!("{name} (readback)"),
+            size,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )
+    }
+}
+
+/// Reinterprets read-back bytes as `f32`s (copying: the bytes need not be aligned).
+pub fn f32s(bytes: &[u8]) -> Vec<f32> {
+    bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect()
+}
+
+/// Reinterprets read-back bytes as `u32`s.
+pub fn u32s(bytes: &[u8]) -> Vec<u32> {
+    bytes
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect()
+}

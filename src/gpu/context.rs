@@ -1,0 +1,674 @@
+//! The Vulkan context: instance, validation messenger, physical-device choice, device, queue and
+//! allocator, torn down in the canonical order.
+//!
+//! One `Arc<DeviceShared>` is shared by every resource, so the device outlives everything created
+//! on it; `Drop` waits for the device to go idle, drops the allocator (which must go before the
+//! device), then destroys the device, the messenger and the instance. A context can also wrap a
+//! device the caller owns (`Context::from_raw`): then only penumbra's own objects are destroyed.
+//!
+//! penumbra needs Vulkan 1.3 for dynamic rendering and synchronization2, which keep the raster
+//! passes free of render-pass objects and let every barrier name its stages exactly. Everything
+//! else (float64, subgroup arithmetic, depth-bias clamp) is queried and enabled when present, and
+//! recorded in [`DeviceInfo`] so passes can ask instead of assuming.
+
+use std::ffi::{c_char, CStr, CString};
+use std::mem::ManuallyDrop;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+
+use super::validation::{messenger_info, ValidationLog};
+use crate::error::{Error, Result, VkResultExt};
+
+/// How to create a [`Context`].
+#[derive(Clone, Debug, Default)]
+pub struct ContextDesc {
+    /// Enable `VK_LAYER_KHRONOS_validation` with synchronization validation. Fails with
+    /// [`Error::Unsupported`] if the layer is not installed.
+    pub validation: bool,
+    /// Which physical device: an index into the enumeration order, or a case-insensitive
+    /// substring of its name. `None` reads `PENUMBRA_DEVICE`, then prefers discrete > integrated
+    /// > virtual > CPU.
+    pub device: Option<String>,
+}
+
+impl ContextDesc {
+    /// Validation on, device chosen by `PENUMBRA_DEVICE` or preference: what tests use.
+    pub fn validated() -> Self {
+        ContextDesc {
+            validation: true,
+            device: None,
+        }
+    }
+}
+
+/// What penumbra knows about a physical device, queried at run time.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DeviceInfo {
+    /// `deviceName`.
+    pub name: String,
+    /// `deviceType` as text: discrete, integrated, virtual, cpu, other.
+    pub device_type: String,
+    /// Reported API version, `major.minor.patch`.
+    pub api_version: String,
+    /// Driver name and info, e.g. `llvmpipe: Mesa 22.3.6 (LLVM 15.0.6)`.
+    pub driver: String,
+    /// Nanoseconds per timestamp tick.
+    pub timestamp_period: f32,
+    /// Valid bits of timestamps on the chosen queue family (0: no timestamps).
+    pub timestamp_valid_bits: u32,
+    /// `shaderFloat64`.
+    pub float64: bool,
+    /// `shaderInt64`.
+    pub int64: bool,
+    /// 64-bit integer atomics on buffers.
+    pub int64_atomics: bool,
+    /// Subgroup size (compute).
+    pub subgroup_size: u32,
+    /// Subgroup arithmetic operations in compute shaders.
+    pub subgroup_arithmetic: bool,
+    /// `shaderSubgroupExtendedTypes` (64-bit subgroup arithmetic).
+    pub subgroup_extended_types: bool,
+    /// `depthBiasClamp`.
+    pub depth_bias_clamp: bool,
+    /// `VK_EXT_conservative_rasterization`.
+    pub conservative_rasterization: bool,
+    /// `VK_EXT_fragment_shader_interlock`.
+    pub fragment_shader_interlock: bool,
+    /// `VK_KHR_ray_query`.
+    pub ray_query: bool,
+    /// Whether `D32_SFLOAT` can be sampled with linear filtering.
+    pub depth_linear_filter: bool,
+    /// `maxComputeSharedMemorySize` in bytes.
+    pub max_shared_memory: u32,
+    /// `maxStorageBufferRange` in bytes.
+    pub max_storage_buffer_range: u32,
+    /// `maxImageDimension2D`.
+    pub max_image_dimension_2d: u32,
+    /// Whether penumbra can run on it (Vulkan 1.3, a graphics+compute queue); else why not.
+    pub usable: Result<(), String>,
+}
+
+pub(crate) struct DeviceShared {
+    pub(crate) entry: ash::Entry,
+    pub(crate) instance: ash::Instance,
+    pub(crate) physical_device: vk::PhysicalDevice,
+    pub(crate) device: ash::Device,
+    pub(crate) queue_family: u32,
+    queue: Mutex<vk::Queue>,
+    pub(crate) debug_utils: Option<ash::ext::debug_utils::Device>,
+    messenger: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
+    pub(crate) command_pool: Mutex<vk::CommandPool>,
+    pub(crate) info: DeviceInfo,
+    owned: bool,
+    // Dropped last: the messenger's user data points into it.
+    log: Arc<ValidationLog>,
+}
+
+/// A Vulkan device and everything shared by the resources created on it. Cheap to clone.
+#[derive(Clone)]
+pub struct Context {
+    pub(crate) shared: Arc<DeviceShared>,
+}
+
+impl std::fmt::Debug for Context {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Context")
+            .field("device", &self.shared.info.name)
+            .finish()
+    }
+}
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+fn load_entry() -> Result<ash::Entry> {
+    // SAFETY: loading the system Vulkan loader; ash keeps the library alive inside `Entry`.
+    unsafe { ash::Entry::load() }.map_err(|e| Error::Loader(e.to_string()))
+}
+
+fn has_layer(entry: &ash::Entry, name: &CStr) -> Result<bool> {
+    let layers = unsafe { entry.enumerate_instance_layer_properties() }
+        .vk("vkEnumerateInstanceLayerProperties")?;
+    Ok(layers
+        .iter()
+        .any(|l| l.layer_name_as_c_str().map(|n| n == name).unwrap_or(false)))
+}
+
+fn has_instance_extension(entry: &ash::Entry, name: &CStr) -> Result<bool> {
+    let exts = unsafe { entry.enumerate_instance_extension_properties(None) }
+        .vk("vkEnumerateInstanceExtensionProperties")?;
+    Ok(exts.iter().any(|e| {
+        e.extension_name_as_c_str()
+            .map(|n| n == name)
+            .unwrap_or(false)
+    }))
+}
+
+/// Creates an instance; returns it with its messenger (if validation is on).
+fn create_instance(
+    entry: &ash::Entry,
+    validation: bool,
+    log: &ValidationLog,
+) -> Result<(
+    ash::Instance,
+    Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+)> {
+    let app_name = c"penumbra";
+    let app = vk::ApplicationInfo::default()
+        .application_name(app_name)
+        .engine_name(app_name)
+        .api_version(vk::API_VERSION_1_3);
+    let debug_utils = has_instance_extension(entry, ash::ext::debug_utils::NAME)?;
+    if validation && !has_layer(entry, VALIDATION_LAYER)? {
+        return Err(Error::Unsupported {
+            device: "Vulkan instance".into(),
+            feature: "VK_LAYER_KHRONOS_validation (install vulkan-validationlayers)".into(),
+        });
+    }
+    let layers: Vec<*const c_char> = if validation {
+        vec![VALIDATION_LAYER.as_ptr()]
+    } else {
+        Vec::new()
+    };
+    let extensions: Vec<*const c_char> = if debug_utils {
+        vec![ash::ext::debug_utils::NAME.as_ptr()]
+    } else {
+        Vec::new()
+    };
+    let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
+    let mut messenger_ci = messenger_info(log);
+    let mut info = vk::InstanceCreateInfo::default()
+        .application_info(&app)
+        .enabled_layer_names(&layers)
+        .enabled_extension_names(&extensions);
+    if validation {
+        info = info.push_next(&mut features);
+        if debug_utils {
+            info = info.push_next(&mut messenger_ci);
+        }
+    }
+    let instance = unsafe { entry.create_instance(&info, None) }.vk("vkCreateInstance")?;
+    let messenger = if validation && debug_utils {
+        let loader = ash::ext::debug_utils::Instance::new(entry, &instance);
+        match unsafe { loader.create_debug_utils_messenger(&messenger_info(log), None) } {
+            Ok(m) => Some((loader, m)),
+            Err(result) => {
+                unsafe { instance.destroy_instance(None) };
+                return Err(Error::Vulkan {
+                    call: "vkCreateDebugUtilsMessengerEXT",
+                    result,
+                });
+            }
+        }
+    } else {
+        None
+    };
+    Ok((instance, messenger))
+}
+
+fn device_type_name(t: vk::PhysicalDeviceType) -> &'static str {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => "discrete",
+        vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated",
+        vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual",
+        vk::PhysicalDeviceType::CPU => "cpu",
+        _ => "other",
+    }
+}
+
+fn type_rank(t: vk::PhysicalDeviceType) -> u32 {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+fn find_queue_family(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Option<(u32, u32)> {
+    let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+    families.iter().enumerate().find_map(|(i, f)| {
+        f.queue_flags
+            .contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
+            .then_some((i as u32, f.timestamp_valid_bits))
+    })
+}
+
+fn device_extensions(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Vec<CString> {
+    unsafe { instance.enumerate_device_extension_properties(pd) }
+        .unwrap_or_default()
+        .iter()
+        .filter_map(|e| e.extension_name_as_c_str().ok().map(CStr::to_owned))
+        .collect()
+}
+
+fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceInfo {
+    let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+    let mut driver = vk::PhysicalDeviceDriverProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default()
+        .push_next(&mut subgroup)
+        .push_next(&mut driver);
+    unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+    let props = props2.properties;
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+    let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
+    let mut features2 = vk::PhysicalDeviceFeatures2::default()
+        .push_next(&mut f12)
+        .push_next(&mut f13);
+    unsafe { instance.get_physical_device_features2(pd, &mut features2) };
+    let features = features2.features;
+    let exts = device_extensions(instance, pd);
+    let has_ext = |name: &CStr| exts.iter().any(|e| e.as_c_str() == name);
+    let depth_props =
+        unsafe { instance.get_physical_device_format_properties(pd, vk::Format::D32_SFLOAT) };
+    let queue = find_queue_family(instance, pd);
+    let v = props.api_version;
+    let usable = if vk::api_version_major(v) < 1
+        || (vk::api_version_major(v) == 1 && vk::api_version_minor(v) < 3)
+    {
+        Err(format!(
+            "needs Vulkan 1.3, device reports {}.{}",
+            vk::api_version_major(v),
+            vk::api_version_minor(v)
+        ))
+    } else if f13.dynamic_rendering == vk::FALSE || f13.synchronization2 == vk::FALSE {
+        Err("needs dynamicRendering and synchronization2".into())
+    } else if queue.is_none() {
+        Err("no queue family with graphics and compute".into())
+    } else {
+        Ok(())
+    };
+    let text = |chars: &[c_char]| {
+        // SAFETY: the spec guarantees these fixed arrays are NUL-terminated.
+        unsafe { CStr::from_ptr(chars.as_ptr()) }
+            .to_string_lossy()
+            .into_owned()
+    };
+    DeviceInfo {
+        name: text(&props.device_name),
+        device_type: device_type_name(props.device_type).into(),
+        api_version: format!(
+            "{}.{}.{}",
+            vk::api_version_major(v),
+            vk::api_version_minor(v),
+            vk::api_version_patch(v)
+        ),
+        driver: format!(
+            "{}: {}",
+            text(&driver.driver_name),
+            text(&driver.driver_info)
+        ),
+        timestamp_period: props.limits.timestamp_period,
+        timestamp_valid_bits: queue.map(|q| q.1).unwrap_or(0),
+        float64: features.shader_float64 == vk::TRUE,
+        int64: features.shader_int64 == vk::TRUE,
+        int64_atomics: f12.shader_buffer_int64_atomics == vk::TRUE,
+        subgroup_size: subgroup.subgroup_size,
+        subgroup_arithmetic: subgroup
+            .supported_operations
+            .contains(vk::SubgroupFeatureFlags::ARITHMETIC)
+            && subgroup
+                .supported_stages
+                .contains(vk::ShaderStageFlags::COMPUTE),
+        subgroup_extended_types: f12.shader_subgroup_extended_types == vk::TRUE,
+        depth_bias_clamp: features.depth_bias_clamp == vk::TRUE,
+        conservative_rasterization: has_ext(ash::ext::conservative_rasterization::NAME),
+        fragment_shader_interlock: has_ext(ash::ext::fragment_shader_interlock::NAME),
+        ray_query: has_ext(ash::khr::ray_query::NAME),
+        depth_linear_filter: depth_props
+            .optimal_tiling_features
+            .contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR),
+        max_shared_memory: props.limits.max_compute_shared_memory_size,
+        max_storage_buffer_range: props.limits.max_storage_buffer_range,
+        max_image_dimension_2d: props.limits.max_image_dimension2_d,
+        usable,
+    }
+}
+
+/// Lists every Vulkan device with what penumbra knows about it (creates a throwaway instance).
+pub fn enumerate_devices() -> Result<Vec<DeviceInfo>> {
+    let entry = load_entry()?;
+    let log = ValidationLog::default();
+    let (instance, _) = create_instance(&entry, false, &log)?;
+    let result = unsafe { instance.enumerate_physical_devices() }
+        .vk("vkEnumeratePhysicalDevices")
+        .map(|pds| pds.iter().map(|&pd| query_info(&instance, pd)).collect());
+    unsafe { instance.destroy_instance(None) };
+    result
+}
+
+fn choose_device(
+    instance: &ash::Instance,
+    request: Option<&str>,
+) -> Result<(vk::PhysicalDevice, DeviceInfo)> {
+    let pds = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+    let infos: Vec<_> = pds
+        .iter()
+        .map(|&pd| (pd, query_info(instance, pd)))
+        .collect();
+    if infos.is_empty() {
+        return Err(Error::NoDevice(
+            "the loader reports no Vulkan device (install mesa-vulkan-drivers for lavapipe)".into(),
+        ));
+    }
+    let names = || {
+        infos
+            .iter()
+            .enumerate()
+            .map(|(i, (_, d))| format!("{i}: {}", d.name))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let env = std::env::var("PENUMBRA_DEVICE").ok();
+    let request = request.or(env.as_deref()).filter(|s| !s.is_empty());
+    let chosen = match request {
+        Some(req) => {
+            let found = match req.parse::<usize>() {
+                Ok(i) => infos.get(i),
+                Err(_) => {
+                    let lower = req.to_lowercase();
+                    infos
+                        .iter()
+                        .find(|(_, d)| d.name.to_lowercase().contains(&lower))
+                }
+            };
+            found.ok_or_else(|| {
+                Error::NoDevice(format!("no device matches '{req}' (devices: {})", names()))
+            })?
+        }
+        None => infos
+            .iter()
+            .filter(|(_, d)| d.usable.is_ok())
+            .min_by_key(|(pd, _)| {
+                let props = unsafe { instance.get_physical_device_properties(*pd) };
+                type_rank(props.device_type)
+            })
+            .ok_or_else(|| {
+                Error::NoDevice(format!("no device supports Vulkan 1.3 ({})", names()))
+            })?,
+    };
+    if let Err(why) = &chosen.1.usable {
+        return Err(Error::Unsupported {
+            device: chosen.1.name.clone(),
+            feature: why.clone(),
+        });
+    }
+    Ok((chosen.0, chosen.1.clone()))
+}
+
+impl Context {
+    /// Creates an instance and a device of its own.
+    pub fn new(desc: &ContextDesc) -> Result<Context> {
+        let entry = load_entry()?;
+        let log = Arc::new(ValidationLog::default());
+        let (instance, messenger) = create_instance(&entry, desc.validation, &log)?;
+        // From here on a failure must destroy what was made; a guard closure keeps that in one place.
+        let cleanup = |instance: &ash::Instance,
+                       messenger: &Option<(
+            ash::ext::debug_utils::Instance,
+            vk::DebugUtilsMessengerEXT,
+        )>| unsafe {
+            if let Some((loader, m)) = messenger {
+                loader.destroy_debug_utils_messenger(*m, None);
+            }
+            instance.destroy_instance(None);
+        };
+        let made = choose_device(&instance, desc.device.as_deref())
+            .and_then(|(pd, info)| create_device(&instance, pd, &info).map(|d| (pd, info, d)));
+        let (pd, info, (device, queue_family)) = match made {
+            Ok(m) => m,
+            Err(e) => {
+                cleanup(&instance, &messenger);
+                return Err(e);
+            }
+        };
+        match Self::assemble(
+            entry,
+            instance.clone(),
+            pd,
+            device.clone(),
+            queue_family,
+            messenger.is_some() || desc.validation,
+            info,
+            true,
+            log,
+        ) {
+            Ok(shared) => {
+                let mut shared = shared;
+                shared.messenger = messenger;
+                Ok(Context {
+                    shared: Arc::new(shared),
+                })
+            }
+            Err(e) => {
+                unsafe { device.destroy_device(None) };
+                cleanup(&instance, &messenger);
+                Err(e)
+            }
+        }
+    }
+
+    /// Wraps a device the caller created and keeps owning: penumbra destroys only its own
+    /// objects. The device must have been created with Vulkan 1.3's `dynamicRendering` and
+    /// `synchronization2` enabled and a queue from `queue_family` supporting graphics and compute.
+    ///
+    /// # Safety
+    /// The handles must be valid, from `entry`/`instance`, and outlive the returned context and
+    /// every resource made from it. The caller must not use the queue from another thread while
+    /// penumbra submits to it.
+    pub unsafe fn from_raw(
+        entry: ash::Entry,
+        instance: ash::Instance,
+        physical_device: vk::PhysicalDevice,
+        device: ash::Device,
+        queue_family: u32,
+    ) -> Result<Context> {
+        let info = query_info(&instance, physical_device);
+        if let Err(why) = &info.usable {
+            return Err(Error::Unsupported {
+                device: info.name.clone(),
+                feature: why.clone(),
+            });
+        }
+        let debug_utils = has_instance_extension(&entry, ash::ext::debug_utils::NAME)?;
+        let shared = Self::assemble(
+            entry,
+            instance,
+            physical_device,
+            device,
+            queue_family,
+            debug_utils,
+            info,
+            false,
+            Arc::new(ValidationLog::default()),
+        )?;
+        Ok(Context {
+            shared: Arc::new(shared),
+        })
+    }
+
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "private constructor shared by both paths"
+    )]
+    fn assemble(
+        entry: ash::Entry,
+        instance: ash::Instance,
+        physical_device: vk::PhysicalDevice,
+        device: ash::Device,
+        queue_family: u32,
+        debug_utils: bool,
+        info: DeviceInfo,
+        owned: bool,
+        log: Arc<ValidationLog>,
+    ) -> Result<DeviceShared> {
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })
+        .map_err(|source| Error::Allocation {
+            name: "allocator".into(),
+            source,
+        })?;
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let command_pool =
+            unsafe { device.create_command_pool(&pool_info, None) }.vk("vkCreateCommandPool")?;
+        let debug_utils =
+            debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        Ok(DeviceShared {
+            entry,
+            instance,
+            physical_device,
+            device,
+            queue_family,
+            queue: Mutex::new(queue),
+            debug_utils,
+            messenger: None,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            command_pool: Mutex::new(command_pool),
+            info,
+            owned,
+            log,
+        })
+    }
+
+    /// The raw device, for linking users.
+    pub fn device(&self) -> &ash::Device {
+        &self.shared.device
+    }
+
+    /// The raw instance.
+    pub fn instance(&self) -> &ash::Instance {
+        &self.shared.instance
+    }
+
+    /// The Vulkan entry points.
+    pub fn entry(&self) -> &ash::Entry {
+        &self.shared.entry
+    }
+
+    /// The physical device.
+    pub fn physical_device(&self) -> vk::PhysicalDevice {
+        self.shared.physical_device
+    }
+
+    /// The queue family penumbra submits to.
+    pub fn queue_family(&self) -> u32 {
+        self.shared.queue_family
+    }
+
+    /// What penumbra knows about the device.
+    pub fn info(&self) -> &DeviceInfo {
+        &self.shared.info
+    }
+
+    /// The validation log (errors and warnings seen so far). Keep the `Arc` past the context's
+    /// drop to see what teardown reported.
+    pub fn validation(&self) -> Arc<ValidationLog> {
+        self.shared.log.clone()
+    }
+
+    /// Fails with [`Error::Unsupported`] unless `present`.
+    pub fn require(&self, present: bool, feature: &str) -> Result<()> {
+        if present {
+            Ok(())
+        } else {
+            Err(Error::Unsupported {
+                device: self.shared.info.name.clone(),
+                feature: feature.into(),
+            })
+        }
+    }
+
+    pub(crate) fn queue(&self) -> MutexGuard<'_, vk::Queue> {
+        self.shared.queue.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    pub(crate) fn allocator(&self) -> MutexGuard<'_, Allocator> {
+        self.shared
+            .allocator
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Gives a Vulkan object a debug name (shown by validation messages and capture tools).
+    pub(crate) fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        if let Some(du) = &self.shared.debug_utils {
+            if let Ok(name) = CString::new(name) {
+                let info = vk::DebugUtilsObjectNameInfoEXT::default()
+                    .object_handle(handle)
+                    .object_name(&name);
+                // Naming is a debugging aid; failing to name is not an error worth surfacing.
+                let _ = unsafe { du.set_debug_utils_object_name(&info) };
+            }
+        }
+    }
+}
+
+fn create_device(
+    instance: &ash::Instance,
+    pd: vk::PhysicalDevice,
+    info: &DeviceInfo,
+) -> Result<(ash::Device, u32)> {
+    let (queue_family, _) = find_queue_family(instance, pd).ok_or_else(|| Error::Unsupported {
+        device: info.name.clone(),
+        feature: "a queue family with graphics and compute".into(),
+    })?;
+    let priorities = [1.0f32];
+    let queues = [vk::DeviceQueueCreateInfo::default()
+        .queue_family_index(queue_family)
+        .queue_priorities(&priorities)];
+    // Enable explicitly what the passes use, and the optional features only where present.
+    let features = vk::PhysicalDeviceFeatures::default()
+        .shader_float64(info.float64)
+        .shader_int64(info.int64)
+        .depth_bias_clamp(info.depth_bias_clamp)
+        .shader_storage_image_write_without_format(false);
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
+        .shader_buffer_int64_atomics(info.int64_atomics)
+        .shader_subgroup_extended_types(info.subgroup_extended_types);
+    let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
+        .dynamic_rendering(true)
+        .synchronization2(true);
+    let create = vk::DeviceCreateInfo::default()
+        .queue_create_infos(&queues)
+        .enabled_features(&features)
+        .push_next(&mut f12)
+        .push_next(&mut f13);
+    let device = unsafe { instance.create_device(pd, &create, None) }.vk("vkCreateDevice")?;
+    Ok((device, queue_family))
+}
+
+impl Drop for DeviceShared {
+    fn drop(&mut self) {
+        unsafe {
+            // Nothing useful can be done if waiting fails (device lost): destroy anyway.
+            let _ = self.device.device_wait_idle();
+            let pool = *self
+                .command_pool
+                .get_mut()
+                .unwrap_or_else(|e| e.into_inner());
+            self.device.destroy_command_pool(pool, None);
+            // The allocator frees its memory blocks, so it must go before the device.
+            ManuallyDrop::drop(&mut self.allocator);
+            if self.owned {
+                self.device.destroy_device(None);
+                if let Some((loader, m)) = self.messenger.take() {
+                    loader.destroy_debug_utils_messenger(m, None);
+                }
+                self.instance.destroy_instance(None);
+            }
+        }
+    }
+}

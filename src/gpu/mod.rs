@@ -1,0 +1,26 @@
+//! The GPU layer: Vulkan objects on raw `ash` that free themselves, and nothing about shadows.
+//!
+//! - [`Context`]: instance, device, queue, allocator, validation log (`context.rs`).
+//! - [`Buffer`], [`Image`], [`Sampler`]: RAII resources (`resources.rs`).
+//! - [`Pipeline`], [`DescriptorSet`]: built from embedded SPIR-V and its reflected interface.
+//! - [`Recorder`]: command recording with automatic barriers from per-resource state tracking.
+//! - [`Timestamps`]: per-pass GPU time.
+
+mod commands;
+mod context;
+mod pipeline;
+pub mod reflect;
+mod resources;
+mod sync;
+mod timestamps;
+mod validation;
+
+pub use commands::{f32s, u32s, Recorder};
+pub use context::{enumerate_devices, Context, ContextDesc, DeviceInfo};
+pub use pipeline::{
+    shader_interface, shader_names, shader_spirv, Binding, DescriptorSet, GraphicsDesc, Pipeline,
+};
+pub use resources::{Buffer, Image, ImageDesc, MemoryLocation, Sampler};
+pub use sync::Access;
+pub use timestamps::{PassTime, Timestamps};
+pub use validation::{ValidationCounts, ValidationLog};

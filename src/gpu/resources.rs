@@ -1,0 +1,342 @@
+//! Buffers, images and samplers that own their memory and free it in `Drop`.
+//!
+//! gpu-allocator's `Allocation` does not free itself, so each resource keeps its allocation in an
+//! `Option` and hands it back in `Drop`, before destroying the Vulkan handle. Every resource holds
+//! a [`Context`] clone, so the device outlives it. Resources are only dropped after the
+//! submissions that use them have completed: penumbra waits on a fence at every submit.
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+pub use gpu_allocator::MemoryLocation;
+
+use super::sync::Tracker;
+use super::Context;
+use crate::error::{Error, Result, VkResultExt};
+
+fn allocate(
+    ctx: &Context,
+    name: &str,
+    requirements: vk::MemoryRequirements,
+    location: MemoryLocation,
+    linear: bool,
+) -> Result<Allocation> {
+    ctx.allocator()
+        .allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location,
+            linear,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        })
+        .map_err(|source| Error::Allocation {
+            name: name.to_string(),
+            source,
+        })
+}
+
+fn free(ctx: &Context, allocation: Option<Allocation>) {
+    if let Some(a) = allocation {
+        // Freeing only fails for an allocation from another allocator, which cannot happen here.
+        let _ = ctx.allocator().free(a);
+    }
+}
+
+/// A buffer with its own memory.
+pub struct Buffer {
+    ctx: Context,
+    /// The Vulkan handle.
+    pub raw: vk::Buffer,
+    allocation: Option<Allocation>,
+    /// Size in bytes.
+    pub size: u64,
+    /// Debug name.
+    pub name: String,
+    pub(crate) tracker: Arc<Tracker>,
+}
+
+impl Buffer {
+    /// Creates a buffer of `size` bytes (at least 4: Vulkan forbids empty buffers).
+    pub fn new(
+        ctx: &Context,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Buffer> {
+        let size = size.max(4);
+        let info = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let device = ctx.device();
+        let raw = unsafe { device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
+        let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
+        let allocation = match allocate(ctx, name, requirements, location, true) {
+            Ok(a) => a,
+            Err(e) => {
+                unsafe { device.destroy_buffer(raw, None) };
+                return Err(e);
+            }
+        };
+        let buffer = Buffer {
+            ctx: ctx.clone(),
+            raw,
+            allocation: Some(allocation),
+            size,
+            name: name.to_string(),
+            tracker: Arc::new(Tracker::new()),
+        };
+        // Bind through the wrapper so a failure drops (and frees) everything made so far.
+        let a = buffer
+            .allocation
+            .as_ref()
+            .map(|a| (unsafe { a.memory() }, a.offset()));
+        if let Some((memory, offset)) = a {
+            unsafe { device.bind_buffer_memory(raw, memory, offset) }.vk("vkBindBufferMemory")?;
+        }
+        ctx.set_name(raw, name);
+        Ok(buffer)
+    }
+
+    /// A device-local storage buffer that can also be copied to and from.
+    pub fn storage(ctx: &Context, name: &str, size: u64) -> Result<Buffer> {
+        Buffer::new(
+            ctx,
+            name,
+            size,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )
+    }
+
+    /// The mapped bytes, for host-visible buffers.
+    pub fn mapped(&self) -> Option<&[u8]> {
+        self.allocation
+            .as_ref()
+            .and_then(|a| a.mapped_slice())
+            .map(|s| &s[..self.size as usize])
+    }
+
+    /// The mapped bytes, writable, for host-visible buffers.
+    pub fn mapped_mut(&mut self) -> Option<&mut [u8]> {
+        let size = self.size as usize;
+        self.allocation
+            .as_mut()
+            .and_then(|a| a.mapped_slice_mut())
+            .map(|s| &mut s[..size])
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        free(&self.ctx, self.allocation.take());
+        unsafe { self.ctx.device().destroy_buffer(self.raw, None) };
+    }
+}
+
+/// What an image is: plain data, usable as a cache key.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ImageDesc {
+    /// Pixel format.
+    pub format: vk::Format,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// How it will be used.
+    pub usage: vk::ImageUsageFlags,
+}
+
+impl ImageDesc {
+    /// A 2D image of `format` and size.
+    pub fn new_2d(format: vk::Format, width: u32, height: u32, usage: vk::ImageUsageFlags) -> Self {
+        ImageDesc {
+            format,
+            width,
+            height,
+            usage,
+        }
+    }
+
+    /// Bytes per texel of the formats penumbra uses.
+    pub fn texel_size(&self) -> Option<u64> {
+        Some(match self.format {
+            vk::Format::R32_SFLOAT | vk::Format::R32_UINT | vk::Format::D32_SFLOAT => 4,
+            vk::Format::R8G8B8A8_UNORM | vk::Format::R8G8B8A8_SRGB => 4,
+            vk::Format::R32G32_SFLOAT => 8,
+            vk::Format::R16G16B16A16_SFLOAT => 8,
+            vk::Format::R32G32B32A32_SFLOAT => 16,
+            _ => return None,
+        })
+    }
+
+    fn aspect(&self) -> vk::ImageAspectFlags {
+        match self.format {
+            vk::Format::D32_SFLOAT | vk::Format::D16_UNORM => vk::ImageAspectFlags::DEPTH,
+            _ => vk::ImageAspectFlags::COLOR,
+        }
+    }
+}
+
+/// A 2D image with one mip level, its memory and a view of the whole image.
+pub struct Image {
+    ctx: Context,
+    /// The Vulkan handle.
+    pub raw: vk::Image,
+    /// A view of the whole image.
+    pub view: vk::ImageView,
+    allocation: Option<Allocation>,
+    /// What it is.
+    pub desc: ImageDesc,
+    /// Debug name.
+    pub name: String,
+    pub(crate) tracker: Arc<Tracker>,
+}
+
+impl Image {
+    /// Creates a device-local 2D image.
+    pub fn new(ctx: &Context, name: &str, desc: ImageDesc) -> Result<Image> {
+        let limit = ctx.info().max_image_dimension_2d;
+        if desc.width == 0 || desc.height == 0 || desc.width > limit || desc.height > limit {
+            return Err(Error::Unsupported {
+                device: ctx.info().name.clone(),
+                feature: format!(
+                    "a {}x{} image '{name}' (maxImageDimension2D = {limit})",
+                    desc.width, desc.height
+                ),
+            });
+        }
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(desc.format)
+            .extent(vk::Extent3D {
+                width: desc.width,
+                height: desc.height,
+                depth: 1,
+            })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(desc.usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        let device = ctx.device();
+        let raw = unsafe { device.create_image(&info, None) }.vk("vkCreateImage")?;
+        let requirements = unsafe { device.get_image_memory_requirements(raw) };
+        let allocation = match allocate(ctx, name, requirements, MemoryLocation::GpuOnly, false) {
+            Ok(a) => a,
+            Err(e) => {
+                unsafe { device.destroy_image(raw, None) };
+                return Err(e);
+            }
+        };
+        let mut image = Image {
+            ctx: ctx.clone(),
+            raw,
+            view: vk::ImageView::null(),
+            allocation: Some(allocation),
+            desc,
+            name: name.to_string(),
+            tracker: Arc::new(Tracker::new()),
+        };
+        if let Some(a) = image.allocation.as_ref() {
+            unsafe { device.bind_image_memory(raw, a.memory(), a.offset()) }
+                .vk("vkBindImageMemory")?;
+        }
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(raw)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(desc.format)
+            .subresource_range(image.subresource_range());
+        image.view =
+            unsafe { device.create_image_view(&view_info, None) }.vk("vkCreateImageView")?;
+        ctx.set_name(raw, name);
+        ctx.set_name(image.view, name);
+        Ok(image)
+    }
+
+    /// The whole image.
+    pub fn subresource_range(&self) -> vk::ImageSubresourceRange {
+        vk::ImageSubresourceRange {
+            aspect_mask: self.desc.aspect(),
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: 1,
+        }
+    }
+
+    pub(crate) fn subresource_layers(&self) -> vk::ImageSubresourceLayers {
+        vk::ImageSubresourceLayers {
+            aspect_mask: self.desc.aspect(),
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        }
+    }
+
+    /// Width and height.
+    pub fn extent(&self) -> vk::Extent2D {
+        vk::Extent2D {
+            width: self.desc.width,
+            height: self.desc.height,
+        }
+    }
+
+    /// Size in bytes of a tightly packed copy.
+    pub fn byte_size(&self) -> Option<u64> {
+        self.desc
+            .texel_size()
+            .map(|t| t * self.desc.width as u64 * self.desc.height as u64)
+    }
+}
+
+impl Drop for Image {
+    fn drop(&mut self) {
+        let device = self.ctx.device();
+        unsafe { device.destroy_image_view(self.view, None) };
+        free(&self.ctx, self.allocation.take());
+        unsafe { device.destroy_image(self.raw, None) };
+    }
+}
+
+/// A sampler.
+pub struct Sampler {
+    ctx: Context,
+    /// The Vulkan handle.
+    pub raw: vk::Sampler,
+}
+
+impl Sampler {
+    /// Nearest filtering, clamped to an opaque white border: shadow-map lookups outside the map
+    /// read depth 1 (the far plane), i.e. lit. Depth formats cannot be linearly filtered on every
+    /// device (lavapipe), so filtering is done by hand in the shaders.
+    pub fn nearest_border_white(ctx: &Context, name: &str) -> Result<Sampler> {
+        let info = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::NEAREST)
+            .min_filter(vk::Filter::NEAREST)
+            .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+            .border_color(vk::BorderColor::FLOAT_OPAQUE_WHITE)
+            .max_lod(0.0);
+        let raw = unsafe { ctx.device().create_sampler(&info, None) }.vk("vkCreateSampler")?;
+        ctx.set_name(raw, name);
+        Ok(Sampler {
+            ctx: ctx.clone(),
+            raw,
+        })
+    }
+}
+
+impl Drop for Sampler {
+    fn drop(&mut self) {
+        unsafe { self.ctx.device().destroy_sampler(self.raw, None) };
+    }
+}

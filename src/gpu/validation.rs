@@ -1,0 +1,115 @@
+//! The validation canary: a debug messenger that counts errors and warnings and keeps their text.
+//!
+//! Validation is a test oracle here, not a log: every test ends by asserting that the counts are
+//! zero. The loader sends many informational "Loader Message"s through the same messenger, so only
+//! warning and error severities of the validation and performance types are subscribed to. The
+//! log lives behind an `Arc` that the caller may keep after the context is gone, so messages
+//! emitted while the instance is destroyed (leaked objects) are still counted.
+
+use std::ffi::{c_void, CStr};
+use std::sync::Mutex;
+
+use ash::vk;
+
+/// Counts and texts of the validation messages seen so far.
+#[derive(Debug, Default)]
+pub struct ValidationLog {
+    inner: Mutex<LogInner>,
+}
+
+#[derive(Debug, Default, Clone)]
+struct LogInner {
+    errors: u32,
+    warnings: u32,
+    messages: Vec<String>,
+}
+
+/// A snapshot of a [`ValidationLog`].
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct ValidationCounts {
+    /// Messages of error severity.
+    pub errors: u32,
+    /// Messages of warning severity.
+    pub warnings: u32,
+}
+
+/// Keeps at most this many message texts: a broken loop could otherwise log millions.
+const MAX_KEPT_MESSAGES: usize = 256;
+
+impl ValidationLog {
+    /// The error and warning counts so far.
+    pub fn counts(&self) -> ValidationCounts {
+        let inner = self.lock();
+        ValidationCounts {
+            errors: inner.errors,
+            warnings: inner.warnings,
+        }
+    }
+
+    /// The texts of the messages kept so far (the first [`MAX_KEPT_MESSAGES`]).
+    pub fn messages(&self) -> Vec<String> {
+        self.lock().messages.clone()
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, LogInner> {
+        // A poisoned lock only means another thread panicked while logging; the counts are
+        // still meaningful, so keep going rather than propagate the panic.
+        self.inner.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn record(&self, severity: vk::DebugUtilsMessageSeverityFlagsEXT, text: String) {
+        let mut inner = self.lock();
+        if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+            inner.errors += 1;
+        } else {
+            inner.warnings += 1;
+        }
+        if inner.messages.len() < MAX_KEPT_MESSAGES {
+            inner.messages.push(text);
+        }
+    }
+}
+
+/// The create-info for the messenger, also chained into `VkInstanceCreateInfo` so messages from
+/// `vkCreateInstance`/`vkDestroyInstance` are counted too. `log` must outlive the instance.
+pub(crate) fn messenger_info(log: &ValidationLog) -> vk::DebugUtilsMessengerCreateInfoEXT<'static> {
+    vk::DebugUtilsMessengerCreateInfoEXT::default()
+        .message_severity(
+            vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+        )
+        .message_type(
+            vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+        )
+        .pfn_user_callback(Some(callback))
+        .user_data(log as *const ValidationLog as *mut c_void)
+}
+
+unsafe extern "system" fn callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    kind: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user_data: *mut c_void,
+) -> vk::Bool32 {
+    if user_data.is_null() || data.is_null() {
+        return vk::FALSE;
+    }
+    // SAFETY: user_data is the `ValidationLog` the context keeps alive until after the instance
+    // is destroyed; data is valid for the duration of the callback per the spec.
+    let log = unsafe { &*(user_data as *const ValidationLog) };
+    let data = unsafe { &*data };
+    let message = if data.p_message.is_null() {
+        String::from("(no message)")
+    } else {
+        unsafe { CStr::from_ptr(data.p_message) }
+            .to_string_lossy()
+            .into_owned()
+    };
+    let text = format!("[{severity:?} {kind:?}] {message}");
+    if std::env::var_os("PENUMBRA_PRINT_VALIDATION").is_some() {
+        eprintln!("{text}");
+    }
+    log.record(severity, text);
+    vk::FALSE
+}

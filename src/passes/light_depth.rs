@@ -1,0 +1,113 @@
+//! The light-view depth pass: a D32 shadow map rendered from the fitted light view.
+//!
+//! Depth bias is the rasterizer's constant + slope-scaled bias (dynamic state, so a bias sweep
+//! reuses the pipeline), optionally clamped where the device supports `depthBiasClamp`. For a
+//! float depth format the constant unit is 2^(e−23) with e the exponent of the triangle's maximum
+//! depth, so useful constants differ from D16/D24 conventions: sweep them per scene.
+
+use ash::vk;
+
+use super::{LightView, SceneGeometry};
+use crate::error::{Error, Result};
+use crate::gpu::{Access, Context, GraphicsDesc, Image, ImageDesc, Pipeline, Recorder, Sampler};
+use crate::shader_types::LightDepthPush;
+
+/// Constant and slope-scaled depth bias, with an optional clamp (0: none).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct DepthBias {
+    /// `depthBiasConstantFactor`.
+    pub constant: f32,
+    /// `depthBiasSlopeFactor`.
+    pub slope: f32,
+    /// `depthBiasClamp` (0 disables clamping).
+    pub clamp: f32,
+}
+
+/// How to render a shadow map.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowMapDesc {
+    /// Width and height in texels.
+    pub size: u32,
+    /// Rasterizer depth bias.
+    pub bias: DepthBias,
+}
+
+/// A shadow map: the depth image, the pipeline that renders it, and the view it was fitted to.
+pub struct ShadowMap {
+    pipeline: Pipeline,
+    /// The D32 depth image.
+    pub depth: Image,
+    /// Nearest, border-white sampler for lookups.
+    pub sampler: Sampler,
+    /// The light view it is rendered from.
+    pub view: LightView,
+    /// Size and bias.
+    pub desc: ShadowMapDesc,
+}
+
+/// The depth format of every shadow map.
+pub const SHADOW_MAP_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+
+impl ShadowMap {
+    /// Creates the map's resources.
+    pub fn new(ctx: &Context, view: LightView, desc: ShadowMapDesc) -> Result<ShadowMap> {
+        if desc.bias.clamp != 0.0 && !ctx.info().depth_bias_clamp {
+            return Err(Error::Unsupported {
+                device: ctx.info().name.clone(),
+                feature: "depthBiasClamp (set bias_clamp = 0)".into(),
+            });
+        }
+        let pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsDesc {
+                vertex: "passes/light_depth.vert",
+                fragment: None,
+                color_formats: &[],
+                depth_format: SHADOW_MAP_FORMAT,
+                depth_bias: true,
+            },
+        )?;
+        let depth = Image::new(
+            ctx,
+            "shadow map",
+            ImageDesc::new_2d(
+                SHADOW_MAP_FORMAT,
+                desc.size,
+                desc.size,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                    | vk::ImageUsageFlags::SAMPLED
+                    | vk::ImageUsageFlags::TRANSFER_SRC,
+            ),
+        )?;
+        let sampler = Sampler::nearest_border_white(ctx, "shadow map sampler")?;
+        Ok(ShadowMap {
+            pipeline,
+            depth,
+            sampler,
+            view,
+            desc,
+        })
+    }
+
+    /// Records the depth pass (named `light-depth`).
+    pub fn record(&self, rec: &mut Recorder<'_>, geometry: &SceneGeometry) -> Result<()> {
+        rec.begin_pass("light-depth")?;
+        rec.use_buffer(&geometry.vertices, Access::VertexInput);
+        rec.use_buffer(&geometry.indices, Access::VertexInput);
+        rec.begin_rendering(&[], (&self.depth, 1.0));
+        let bias = self.desc.bias;
+        let result = rec.draw_indexed(
+            &self.pipeline,
+            &geometry.vertices,
+            &geometry.indices,
+            geometry.index_count,
+            &LightDepthPush {
+                light_view_proj: self.view.view_proj,
+            },
+            Some([bias.constant, bias.slope, bias.clamp]),
+        );
+        rec.end_rendering();
+        rec.end_pass();
+        result
+    }
+}

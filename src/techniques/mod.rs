@@ -1,0 +1,70 @@
+//! Shadow techniques: one module per technique behind one trait, all writing a visibility image
+//! V ∈ [0,1] for the same view samples.
+//!
+//! A technique is created once per scene with its knobs resolved (pipelines, shadow maps and
+//! descriptor sets live across frames), then recorded once per frame. It names its passes
+//! (timestamps and debug labels) and reports counters — what it measured and what it skipped —
+//! after each frame.
+
+mod params;
+pub mod pcf;
+
+pub use params::{Knob, KnobDefault, Params, SHADOW_MAP_KNOBS};
+
+use crate::error::{Error, Result};
+use crate::gpu::{Context, Image, Recorder};
+use crate::passes::{LightView, SceneGeometry, ViewSamples};
+use crate::scene::Light;
+
+/// What a technique is built against: the scene's GPU inputs and the output image.
+pub struct TechniqueSetup<'a> {
+    /// The device.
+    pub ctx: &'a Context,
+    /// The scene's triangles.
+    pub geometry: &'a SceneGeometry,
+    /// The view samples to shade.
+    pub view: &'a ViewSamples,
+    /// The scene's light.
+    pub light: &'a Light,
+    /// The light view fitted to the scene.
+    pub light_view: &'a LightView,
+    /// Where visibility goes (R32F, one texel per view sample).
+    pub visibility: &'a Image,
+}
+
+/// A technique instance, ready to record frames. It borrows the setup's resources (`'a`).
+pub trait Technique {
+    /// Records one frame: every pass the technique needs, ending with `visibility` written.
+    fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()>;
+
+    /// Counters of the last completed frame, by name.
+    fn counters(&self) -> Result<Vec<(String, u64)>>;
+}
+
+/// A registered technique: its stable name, knobs and constructor.
+pub struct TechniqueInfo {
+    /// Stable kebab-case name.
+    pub name: &'static str,
+    /// One line.
+    pub summary: &'static str,
+    /// Its knobs.
+    pub knobs: &'static [Knob],
+    /// Builds an instance.
+    pub create: for<'a> fn(&TechniqueSetup<'a>, &Params) -> Result<Box<dyn Technique + 'a>>,
+}
+
+/// Every technique, in the order `penumbra techniques` lists them.
+pub fn registry() -> &'static [TechniqueInfo] {
+    &[pcf::HARD, pcf::PCF]
+}
+
+/// Looks a technique up by name.
+pub fn find(name: &str) -> Result<&'static TechniqueInfo> {
+    registry()
+        .iter()
+        .find(|t| t.name == name)
+        .ok_or_else(|| Error::UnknownTechnique {
+            name: name.to_string(),
+            known: registry().iter().map(|t| t.name.to_string()).collect(),
+        })
+}

@@ -1,0 +1,142 @@
+//! `hard` and `pcf`: the standard shadow-map test and percentage-closer filtering.
+//!
+//! Both render one D32 shadow map from the light's centre and run `glsl/pcf/pcf.comp` over the
+//! view samples. `hard` tests the nearest texel: V ∈ {0, 1}. `pcf` averages a `kernel`×`kernel`
+//! box of bilinearly weighted 2×2 tests spaced one texel apart — the hardware 2×2 PCF of the
+//! book (§5.1.3) done by hand, because depth formats cannot be linearly filtered everywhere
+//! (lavapipe). The box convolved with the bilinear tent spans `kernel + 1` texels, so V takes
+//! continuous values without the n²+1-level banding of a plain box. Receivers outside the light
+//! frustum are lit and counted (`outside_light`). CPU twin: [`crate::cpu::pcf`].
+
+use glam::IVec2;
+
+use super::{
+    Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS,
+};
+use crate::cpu::pcf::COUNTER_NAMES;
+use crate::error::Result;
+use crate::gpu::{u32s, Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
+use crate::passes::{DepthBias, SceneGeometry, ShadowMap, ShadowMapDesc};
+use crate::shader_types::PcfPush;
+
+const KERNEL: Knob = Knob {
+    name: "kernel",
+    summary: "box width in texels (kernel x kernel bilinear taps)",
+    default: KnobDefault::Value(3.0),
+    min: 1.0,
+    max: 32.0,
+    integer: true,
+};
+
+/// `hard`: one nearest-texel shadow-map test.
+pub const HARD: TechniqueInfo = TechniqueInfo {
+    name: "hard",
+    summary: "standard shadow mapping: one nearest-texel depth test from the light centre",
+    knobs: &SHADOW_MAP_KNOBS,
+    create: |setup, params| Ok(Box::new(Pcf::new(setup, params, 0, 1)?)),
+};
+
+const PCF_KNOBS: [Knob; 5] = [
+    SHADOW_MAP_KNOBS[0],
+    SHADOW_MAP_KNOBS[1],
+    SHADOW_MAP_KNOBS[2],
+    SHADOW_MAP_KNOBS[3],
+    KERNEL,
+];
+
+/// `pcf`: a box of bilinear depth tests.
+pub const PCF: TechniqueInfo = TechniqueInfo {
+    name: "pcf",
+    summary: "percentage-closer filtering: kernel x kernel box of hand-made bilinear 2x2 tests",
+    knobs: &PCF_KNOBS,
+    create: |setup, params| {
+        let kernel = params.u32("kernel") as i32;
+        Ok(Box::new(Pcf::new(setup, params, 1, kernel)?))
+    },
+};
+
+/// Reads the shadow-map knobs shared by every shadow-map technique.
+pub fn shadow_map_desc(params: &Params) -> ShadowMapDesc {
+    ShadowMapDesc {
+        size: params.u32("map_size"),
+        bias: DepthBias {
+            constant: params.f32("bias_constant"),
+            slope: params.f32("bias_slope"),
+            clamp: params.f32("bias_clamp"),
+        },
+    }
+}
+
+struct Pcf<'a> {
+    ctx: Context,
+    shadow_map: ShadowMap,
+    pipeline: Pipeline,
+    set: DescriptorSet,
+    counters: Buffer,
+    push: PcfPush,
+    // The set refers to the setup's images, and each frame draws this geometry.
+    geometry: &'a SceneGeometry,
+}
+
+impl<'a> Pcf<'a> {
+    fn new(setup: &TechniqueSetup<'a>, params: &Params, mode: i32, kernel: i32) -> Result<Self> {
+        let ctx = setup.ctx;
+        let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params))?;
+        let pipeline = Pipeline::compute(ctx, "pcf/pcf.comp")?;
+        let counters = Buffer::storage(ctx, "pcf counters", (COUNTER_NAMES.len() * 4) as u64)?;
+        let set = DescriptorSet::new(
+            ctx,
+            &pipeline,
+            &[
+                Binding::Image(&setup.view.positions),
+                Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
+                Binding::Image(setup.visibility),
+                Binding::Buffer(&counters),
+            ],
+        )?;
+        let size = shadow_map.desc.size as i32;
+        let push = PcfPush {
+            light_view_proj: setup.light_view.view_proj,
+            view_size: IVec2::new(setup.view.width as i32, setup.view.height as i32),
+            map_size: IVec2::splat(size),
+            mode,
+            kernel,
+            pad: [0; 2],
+        };
+        Ok(Pcf {
+            ctx: ctx.clone(),
+            shadow_map,
+            pipeline,
+            set,
+            counters,
+            push,
+            geometry: setup.geometry,
+        })
+    }
+}
+
+impl Technique for Pcf<'_> {
+    fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
+        self.shadow_map.record(rec, self.geometry)?;
+        rec.begin_pass(if self.push.mode == 0 { "hard" } else { "pcf" })?;
+        rec.fill(&self.counters, 0);
+        let size = self.push.view_size;
+        rec.dispatch(
+            &self.pipeline,
+            &self.set,
+            &self.push,
+            [size.x as u32, size.y as u32, 1],
+        )?;
+        rec.end_pass();
+        Ok(())
+    }
+
+    fn counters(&self) -> Result<Vec<(String, u64)>> {
+        let values = u32s(&self.ctx.read_buffer(&self.counters)?);
+        Ok(COUNTER_NAMES
+            .iter()
+            .zip(values)
+            .map(|(n, v)| (n.to_string(), v as u64))
+            .collect())
+    }
+}

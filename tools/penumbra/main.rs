@@ -1,0 +1,306 @@
+//! `penumbra`: render a scene with a shadow technique, list devices and techniques.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{bail, Context as _};
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use penumbra::scene::Scene;
+use penumbra::techniques::{registry, KnobDefault};
+use penumbra::{output, ContextDesc, Engine};
+
+#[derive(Parser)]
+#[command(
+    name = "penumbra",
+    version,
+    about = "Shadow techniques on Vulkan, measured for time and error"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(clap::Args)]
+struct DeviceArgs {
+    /// Vulkan device: index or name substring (default: PENUMBRA_DEVICE, else discrete > integrated > CPU).
+    #[arg(long)]
+    device: Option<String>,
+    /// Run without the validation layers (faster; stats.json then reports null validation counts).
+    #[arg(long)]
+    no_validation: bool,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene with one technique and write images and stats.json.
+    Render {
+        /// A scene file (.toml) or a procedural scene (e.g. `plane-boxes`, `grid:1000000@rect`).
+        scene: String,
+        /// Technique name (see `penumbra techniques`).
+        #[arg(long, short)]
+        technique: String,
+        /// Knob values, `key=value`, repeatable.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// Output directory (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+        /// Timed frames after one warm-up frame; times are medians.
+        #[arg(long, default_value_t = 3)]
+        frames: u32,
+        #[command(flatten)]
+        device: DeviceArgs,
+    },
+    /// List Vulkan devices and the features that matter to penumbra.
+    Devices {
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// List techniques with their knobs, defaults and ranges.
+    Techniques {
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// List procedural scenes.
+    Scenes,
+}
+
+fn parse_sets(sets: &[String]) -> anyhow::Result<BTreeMap<String, String>> {
+    let mut map = BTreeMap::new();
+    for s in sets {
+        let Some((k, v)) = s.split_once('=') else {
+            bail!("--set '{s}': expected KEY=VALUE");
+        };
+        if map
+            .insert(k.trim().to_string(), v.trim().to_string())
+            .is_some()
+        {
+            bail!("--set: knob '{}' given twice", k.trim());
+        }
+    }
+    Ok(map)
+}
+
+fn progress(steps: u64) -> ProgressBar {
+    let bar = ProgressBar::new(steps);
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{bar:20}] {pos}/{len} {msg} ({elapsed})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar.enable_steady_tick(Duration::from_millis(120));
+    bar
+}
+
+#[allow(clippy::too_many_arguments, reason = "mirrors the subcommand's flags")]
+fn render(
+    scene_spec: &str,
+    technique: &str,
+    sets: &[String],
+    out: &Path,
+    frames: u32,
+    device: &DeviceArgs,
+) -> anyhow::Result<()> {
+    let overrides = parse_sets(sets)?;
+    // Fail on a bad technique or knob before any expensive work.
+    let info = penumbra::techniques::find(technique)?;
+    let bar = progress(5);
+    bar.set_message(format!("loading {scene_spec}"));
+    let scene = Scene::open(scene_spec)?;
+    penumbra::techniques::Params::resolve(info.name, info.knobs, &overrides, &scene.defaults)?;
+    bar.inc(1);
+    bar.set_message("creating the Vulkan device");
+    let engine = Engine::new(&ContextDesc {
+        validation: !device.no_validation,
+        device: device.device.clone(),
+    })?;
+    bar.inc(1);
+    bar.set_message(format!(
+        "view samples ({} triangles)",
+        scene.triangle_count()
+    ));
+    let prepared = engine.prepare(&scene)?;
+    bar.inc(1);
+    bar.set_message(format!("{technique}: 1 warm-up + {frames} frames"));
+    let frame = engine.render(&prepared, technique, &overrides, frames)?;
+    bar.inc(1);
+    bar.set_message(format!("writing {}", out.display()));
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let ctx = engine.context();
+    let positions = prepared.view.read_positions(ctx)?;
+    let normals = prepared.view.read_normals(ctx)?;
+    let (w, h) = (frame.width, frame.height);
+    output::write_visibility_png(&out.join("visibility.png"), w, h, &frame.visibility)?;
+    output::write_visibility_exr(&out.join("visibility.exr"), w, h, &frame.visibility)?;
+    output::write_positions_exr(&out.join("positions.exr"), w, h, &positions)?;
+    let shaded = output::shade(
+        &prepared.light,
+        w,
+        h,
+        &positions,
+        &normals,
+        &frame.visibility,
+    );
+    output::write_rgb_png(&out.join("shaded.png"), w, h, &shaded)?;
+    let validation = (!device.no_validation).then(|| ctx.validation().counts());
+    let stats = serde_json::json!({
+        "scene": prepared.name,
+        "scene_source": prepared.source,
+        "technique": frame.stats.technique,
+        "params": frame.stats.params,
+        "device": ctx.info().name,
+        "driver": ctx.info().driver,
+        "width": w,
+        "height": h,
+        "triangles": prepared.triangles,
+        "light": prepared.light.kind(),
+        "passes": frame.stats.passes,
+        "total_gpu_ms": frame.stats.total_gpu_ms,
+        "frames": frame.stats.frames,
+        "counters": frame.stats.counters,
+        "nan_count": frame.stats.nan_count,
+        "out_of_range_count": frame.stats.out_of_range_count,
+        "validation": validation,
+    });
+    let stats_path = out.join("stats.json");
+    std::fs::write(&stats_path, serde_json::to_string_pretty(&stats)? + "\n")
+        .with_context(|| format!("writing {}", stats_path.display()))?;
+    bar.inc(1);
+    bar.finish_and_clear();
+    drop(prepared);
+    let counts = ctx.validation().counts();
+    println!(
+        "{} on {}: {} in {} ({}x{}), validation errors {}, warnings {}",
+        technique,
+        prepared_name(&stats),
+        frame
+            .stats
+            .total_gpu_ms
+            .map(|ms| format!("{ms:.3} ms GPU"))
+            .unwrap_or_else(|| "untimed".into()),
+        out.display(),
+        w,
+        h,
+        counts.errors,
+        counts.warnings
+    );
+    if counts.errors > 0 {
+        for m in ctx.validation().messages().iter().take(5) {
+            eprintln!("{m}");
+        }
+        bail!("{} validation errors", counts.errors);
+    }
+    Ok(())
+}
+
+fn prepared_name(stats: &serde_json::Value) -> String {
+    stats["scene"].as_str().unwrap_or("?").to_string()
+}
+
+fn devices(json: bool) -> anyhow::Result<()> {
+    let list = penumbra::gpu::enumerate_devices()?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&list)?);
+        return Ok(());
+    }
+    for (i, d) in list.iter().enumerate() {
+        println!(
+            "{i}: {} ({}, Vulkan {})",
+            d.name, d.device_type, d.api_version
+        );
+        println!("   driver: {}", d.driver);
+        match &d.usable {
+            Ok(()) => println!("   usable by penumbra: yes"),
+            Err(why) => println!("   usable by penumbra: no ({why})"),
+        }
+        let yn = |b: bool| if b { "yes" } else { "no" };
+        println!(
+            "   timestamps: {} valid bits, {} ns/tick; subgroup size {}, arithmetic {}",
+            d.timestamp_valid_bits,
+            d.timestamp_period,
+            d.subgroup_size,
+            yn(d.subgroup_arithmetic)
+        );
+        println!(
+            "   float64 {}, int64 {}, int64 atomics {}, depth bias clamp {}, linear depth filtering {}",
+            yn(d.float64),
+            yn(d.int64),
+            yn(d.int64_atomics),
+            yn(d.depth_bias_clamp),
+            yn(d.depth_linear_filter)
+        );
+        println!(
+            "   conservative raster {}, fragment interlock {}, ray query {}",
+            yn(d.conservative_rasterization),
+            yn(d.fragment_shader_interlock),
+            yn(d.ray_query)
+        );
+        println!(
+            "   shared memory {} KiB, storage buffer range {} MiB, max 2D image {}",
+            d.max_shared_memory / 1024,
+            d.max_storage_buffer_range / (1024 * 1024),
+            d.max_image_dimension_2d
+        );
+    }
+    Ok(())
+}
+
+fn techniques(json: bool) -> anyhow::Result<()> {
+    if json {
+        let list: Vec<_> = registry()
+            .iter()
+            .map(|t| serde_json::json!({"name": t.name, "summary": t.summary, "knobs": t.knobs}))
+            .collect();
+        println!("{}", serde_json::to_string_pretty(&list)?);
+        return Ok(());
+    }
+    for t in registry() {
+        println!("{}: {}", t.name, t.summary);
+        for k in t.knobs {
+            let default = match k.default {
+                KnobDefault::Value(v) => format!("{v}"),
+                KnobDefault::Scene(key) => format!("scene's {key}"),
+            };
+            println!(
+                "    {:<14} default {:<24} range [{}, {}]{}  {}",
+                k.name,
+                default,
+                k.min,
+                k.max,
+                if k.integer { " integer" } else { "" },
+                k.summary
+            );
+        }
+    }
+    Ok(())
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Render {
+            scene,
+            technique,
+            set,
+            out,
+            frames,
+            device,
+        } => render(scene, technique, set, out, *frames, device),
+        Command::Devices { json } => devices(*json),
+        Command::Techniques { json } => techniques(*json),
+        Command::Scenes => {
+            for (name, summary) in Scene::list_procedural() {
+                println!("{name:<16} {summary}");
+            }
+            Ok(())
+        }
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}

@@ -15,7 +15,7 @@ use crate::error::Result;
 use crate::gpu::{f32s, Context, ContextDesc, Image, ImageDesc, PassTime, Timestamps};
 use crate::passes::{LightView, SceneGeometry, ViewSamples};
 use crate::scene::{Camera, Light, Scene, SceneDefaults};
-use crate::techniques::{self, Params, TechniqueSetup};
+use crate::techniques::{self, Params, Technique, TechniqueSetup};
 
 /// A Vulkan device ready to run techniques.
 pub struct Engine {
@@ -160,6 +160,19 @@ impl Engine {
         overrides: &BTreeMap<String, String>,
         frames: u32,
     ) -> Result<Frame> {
+        self.render_inspect(prepared, technique, overrides, frames, |_| Ok(()))
+    }
+
+    /// [`Engine::render`], calling `inspect` with the technique instance after the last frame,
+    /// while its intermediate resources (e.g. its shadow map) still exist.
+    pub fn render_inspect(
+        &self,
+        prepared: &PreparedScene,
+        technique: &str,
+        overrides: &BTreeMap<String, String>,
+        frames: u32,
+        inspect: impl FnOnce(&dyn Technique) -> Result<()>,
+    ) -> Result<Frame> {
         let ctx = &self.ctx;
         let info = techniques::find(technique)?;
         let params = Params::resolve(info.name, info.knobs, overrides, &prepared.defaults)?;
@@ -202,6 +215,7 @@ impl Engine {
         let mut passes = vec![prepared.view_pass.clone()];
         passes.extend(technique_passes);
         let counters = instance.counters()?.into_iter().collect();
+        inspect(instance.as_ref())?;
         drop(instance);
 
         let visibility = f32s(&ctx.read_image(&prepared.visibility)?);

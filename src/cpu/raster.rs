@@ -3,21 +3,24 @@
 //! Follows Vulkan's rules: texel centres at `.5`, the viewport maps NDC [-1,1] to [0,size],
 //! depth is NDC z interpolated affinely in screen space, fragments with z outside [0,1] are
 //! clipped, LESS_OR_EQUAL depth test against a clear value of 1. Triangles must lie in front of
-//! the light (w > 0 at every vertex); no near-plane clipping is done. Tolerance against the GPU:
-//! 1e-6 in depth, and texel centres within [`EDGE_EPSILON`] of a triangle edge are reported as
-//! uncertain (coverage there depends on the rasterizer's tie-breaking rule and rounding).
+//! the light (w > 0 at every vertex); no near-plane clipping is done.
+//!
+//! Tolerance against the GPU: the GPU snaps vertices to `1/2^subPixelPrecisionBits` of a texel
+//! before rasterizing, so an edge may move by `snap` texels and the interpolated depth by
+//! `snap · (|∂z/∂x| + |∂z/∂y|)`. Texel centres within `snap` of an edge are reported uncertain,
+//! and each texel carries the depth slope of the triangle that wrote it, so a test can allow
+//! `1e-6 + snap · slope`.
 
 use glam::{Mat4, Vec3};
-
-/// Edge-function distance (in texels) under which coverage is uncertain.
-pub const EDGE_EPSILON: f32 = 1e-3;
 
 /// A rasterized depth map with the texels whose coverage is uncertain.
 pub struct RasterDepth {
     /// Depth per texel, row-major.
     pub depth: Vec<f32>,
-    /// Whether a texel centre lies within [`EDGE_EPSILON`] of some covering triangle's edge.
+    /// Whether a texel centre lies within `snap` texels of some covering triangle's edge.
     pub uncertain: Vec<bool>,
+    /// |∂z/∂x| + |∂z/∂y| (per texel) of the triangle that wrote the texel.
+    pub slope: Vec<f32>,
 }
 
 /// Rasterizes `indices` over `positions` through `view_proj` into a `width`×`height` depth map.
@@ -28,11 +31,13 @@ pub fn rasterize_depth(
     view_proj: Mat4,
     width: u32,
     height: u32,
+    snap: f32,
 ) -> RasterDepth {
     let n = (width * height) as usize;
     let mut out = RasterDepth {
         depth: vec![1.0; n],
         uncertain: vec![false; n],
+        slope: vec![0.0; n],
     };
     for tri in indices.chunks_exact(3) {
         let v = [tri[0], tri[1], tri[2]].map(|i| {
@@ -51,6 +56,12 @@ pub fn rasterize_depth(
         if area == 0.0 || !area.is_finite() {
             continue;
         }
+        // Screen-space depth gradient of the plane through the three vertices.
+        let dzdx =
+            ((v[1].z - v[0].z) * (v[2].y - v[0].y) - (v[2].z - v[0].z) * (v[1].y - v[0].y)) / area;
+        let dzdy =
+            ((v[2].z - v[0].z) * (v[1].x - v[0].x) - (v[1].z - v[0].z) * (v[2].x - v[0].x)) / area;
+        let slope = dzdx.abs() + dzdy.abs();
         let min_x = v
             .iter()
             .map(|p| p.x)
@@ -86,9 +97,9 @@ pub fn rasterize_depth(
                 // Distance of the centre to each edge, in texels.
                 let dist =
                     |a: Vec3, b: Vec3, w: f32| (w * area).abs() / (b - a).truncate().length();
-                let near_edge = dist(v[1], v[2], w0) < EDGE_EPSILON
-                    || dist(v[2], v[0], w1) < EDGE_EPSILON
-                    || dist(v[0], v[1], w2) < EDGE_EPSILON;
+                let near_edge = dist(v[1], v[2], w0) < snap
+                    || dist(v[2], v[0], w1) < snap
+                    || dist(v[0], v[1], w2) < snap;
                 if !inside && !near_edge {
                     continue;
                 }
@@ -103,6 +114,7 @@ pub fn rasterize_depth(
                 }
                 if z <= out.depth[i] {
                     out.depth[i] = z;
+                    out.slope[i] = slope;
                 }
             }
         }

@@ -86,6 +86,8 @@ pub struct DeviceInfo {
     pub max_storage_buffer_range: u32,
     /// `maxImageDimension2D`.
     pub max_image_dimension_2d: u32,
+    /// `subPixelPrecisionBits`: vertices snap to 1/2^bits of a pixel before rasterization.
+    pub sub_pixel_precision_bits: u32,
     /// Whether penumbra can run on it (Vulkan 1.3, a graphics+compute queue); else why not.
     pub usable: Result<(), String>,
 }
@@ -325,6 +327,7 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceInfo {
         max_shared_memory: props.limits.max_compute_shared_memory_size,
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
         max_image_dimension_2d: props.limits.max_image_dimension2_d,
+        sub_pixel_precision_bits: props.limits.sub_pixel_precision_bits,
         usable,
     }
 }

@@ -497,10 +497,12 @@ impl DescriptorSet {
                         access: access(true),
                     });
                 }
-                _ => return Err(mismatch(format!(
+                _ => {
+                    return Err(mismatch(format!(
                     "binding {} is a {:?} in the shader; a different kind of resource was given",
                     b.binding, b.kind
-                ))),
+                )))
+                }
             }
         }
         let mut writes = Vec::new();

@@ -108,6 +108,18 @@ struct DefaultsDef {
     bias_slope: Option<Spanned<f32>>,
 }
 
+impl MeshDef {
+    /// The shape parameters given, with their spans.
+    fn shape_params(&self) -> [(&'static str, Option<Range<usize>>); 4] {
+        [
+            ("size", self.size.as_ref().map(|s| s.span())),
+            ("radius", self.radius.as_ref().map(|s| s.span())),
+            ("segments", self.segments.as_ref().map(|s| s.span())),
+            ("subdivisions", self.subdivisions.as_ref().map(|s| s.span())),
+        ]
+    }
+}
+
 /// `scale = 2.0` or `scale = [1, 2, 1]`. A hand-written visitor rather than an untagged enum,
 /// whose only error would be "data did not match any variant".
 struct Scale(Vec3);
@@ -181,6 +193,11 @@ pub fn parse(path: &Path, text: &str) -> Result<Scene> {
     })
 }
 
+/// Occurrences of `needle` in `bytes`.
+fn bytecount(bytes: &[u8], needle: u8) -> usize {
+    bytes.iter().filter(|&&b| b == needle).count()
+}
+
 /// The file being parsed, for turning spans into lines.
 struct Cx<'a> {
     path: &'a Path,
@@ -191,11 +208,7 @@ impl Cx<'_> {
     /// 1-based line of byte `offset`.
     fn line_at(&self, offset: usize) -> usize {
         let end = offset.min(self.text.len());
-        self.text.as_bytes()[..end]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count()
-            + 1
+        bytecount(&self.text.as_bytes()[..end], b'\n') + 1
     }
 
     fn line_of(&self, span: Range<usize>) -> usize {
@@ -457,13 +470,9 @@ impl Cx<'_> {
                 ))
             }
             (Some(rel), None) => {
-                let params = [
-                    ("size", m.size.as_ref().map(|s| s.span())),
-                    ("radius", m.radius.as_ref().map(|s| s.span())),
-                    ("segments", m.segments.as_ref().map(|s| s.span())),
-                    ("subdivisions", m.subdivisions.as_ref().map(|s| s.span())),
-                ];
-                if let Some((key, Some(span))) = params.into_iter().find(|(_, s)| s.is_some()) {
+                if let Some((key, Some(span))) =
+                    m.shape_params().into_iter().find(|p| p.1.is_some())
+                {
                     return Err(self.err(
                         Some(self.line_of(span)),
                         format!("`{key}` is a shape parameter, but this mesh loads an OBJ file"),
@@ -485,8 +494,10 @@ impl Cx<'_> {
                 (shape.get_ref().clone(), p, i, None)
             }
         };
-        let translate = m.translate.as_ref().map(|t| self.vec3(t, "translate"));
-        let rotate = m.rotate.as_ref().map(|r| self.vec3(r, "rotate"));
+        let vec3_or =
+            |v: &Option<V3>, what| v.as_ref().map_or(Ok(Vec3::ZERO), |v| self.vec3(v, what));
+        let translate = vec3_or(&m.translate, "translate")?;
+        let rotate = vec3_or(&m.rotate, "rotate")?;
         let scale = match &m.scale {
             Some(s) if !s.get_ref().0.is_finite() => {
                 return Err(self.at(s, format!("scale must be finite, got {}", s.get_ref().0)))
@@ -494,8 +505,6 @@ impl Cx<'_> {
             Some(s) => s.get_ref().0,
             None => Vec3::ONE,
         };
-        let translate = translate.transpose()?.unwrap_or(Vec3::ZERO);
-        let rotate = rotate.transpose()?.unwrap_or(Vec3::ZERO);
         let transform = Mat4::from_translation(translate)
             * Mat4::from_rotation_z(rotate.z.to_radians())
             * Mat4::from_rotation_y(rotate.y.to_radians())
@@ -518,13 +527,11 @@ impl Cx<'_> {
                 ),
             )),
             Some(GeometryFault::Degenerate { index }) => {
-                let source = match obj_lines {
-                    Some((p, lines)) => match lines.get(index) {
-                        Some(l) => format!(" ({}:{l})", p.display()),
-                        None => String::new(),
-                    },
-                    None => String::new(),
-                };
+                let source = obj_lines
+                    .and_then(|(p, lines)| {
+                        Some(format!(" ({}:{})", p.display(), lines.get(index)?))
+                    })
+                    .unwrap_or_default();
                 Err(self.err(
                     line,
                     format!(
@@ -538,87 +545,18 @@ impl Cx<'_> {
         }
     }
 
-    /// Builds a `shape = ...` mesh in local space, checking its parameters.
+    /// Builds a `shape = ...` mesh in local space; a bad parameter is reported at its key.
     fn shape(&self, shape: &Spanned<String>, m: &MeshDef) -> Result<shapes::Geometry> {
-        let kind = shape.get_ref().as_str();
-        let allowed: &[&str] = match kind {
-            "plane" => &["size", "subdivisions"],
-            "box" => &["size"],
-            "sphere" => &["radius", "segments"],
-            other => {
-                return Err(self.at(
-                    shape,
-                    format!("unknown shape \"{other}\"; expected \"plane\", \"box\" or \"sphere\""),
-                ))
-            }
+        let params = shapes::ShapeParams {
+            size: m.size.as_ref().map(|s| s.get_ref().clone()),
+            radius: m.radius.as_ref().map(|s| *s.get_ref()),
+            segments: m.segments.as_ref().map(|s| *s.get_ref()),
+            subdivisions: m.subdivisions.as_ref().map(|s| *s.get_ref()),
         };
-        let given = [
-            ("size", m.size.as_ref().map(|s| s.span())),
-            ("radius", m.radius.as_ref().map(|s| s.span())),
-            ("segments", m.segments.as_ref().map(|s| s.span())),
-            ("subdivisions", m.subdivisions.as_ref().map(|s| s.span())),
-        ];
-        for (key, span) in given {
-            if let Some(span) = span.filter(|_| !allowed.contains(&key)) {
-                return Err(self.err(
-                    Some(self.line_of(span)),
-                    format!(
-                        "`{key}` does not apply to a {kind} (it takes: {})",
-                        allowed.join(", ")
-                    ),
-                ));
-            }
-        }
-        let size = |n: usize, default: f32| -> Result<Vec<f32>> {
-            let Some(s) = &m.size else {
-                return Ok(vec![default; n]);
-            };
-            let v = s.get_ref();
-            if v.len() != n || v.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
-                return Err(self.at(
-                    s,
-                    format!("{kind} size = {v:?}; expected {n} positive finite numbers"),
-                ));
-            }
-            Ok(v.clone())
-        };
-        let count = |v: &Option<Spanned<u32>>, default: u32, lo: u32, hi: u32, key: &str| {
-            let n = v.as_ref().map_or(default, |s| *s.get_ref());
-            if !(lo..=hi).contains(&n) {
-                return Err(self.at_opt(v, format!("{key} = {n}; expected {lo}..={hi}")));
-            }
-            Ok(n)
-        };
-        Ok(match kind {
-            "plane" => {
-                let s = size(2, 10.0)?;
-                let n = count(
-                    &m.subdivisions,
-                    1,
-                    1,
-                    shapes::MAX_SUBDIVISIONS,
-                    "subdivisions",
-                )?;
-                shapes::plane(s[0], s[1], n)
-            }
-            "box" => {
-                let s = size(3, 1.0)?;
-                shapes::cuboid(Vec3::new(s[0], s[1], s[2]))
-            }
-            _ => {
-                let radius = self.opt_float(&m.radius, 1.0, "radius")?;
-                if radius <= 0.0 {
-                    return Err(self.at_opt(&m.radius, format!("radius = {radius}; expected > 0")));
-                }
-                let segments = count(
-                    &m.segments,
-                    shapes::DEFAULT_SEGMENTS,
-                    shapes::MIN_SEGMENTS,
-                    shapes::MAX_SEGMENTS,
-                    "segments",
-                )?;
-                shapes::sphere(radius, segments)
-            }
+        shapes::build(shape.get_ref(), &params).map_err(|e| {
+            let span = m.shape_params().into_iter().find(|p| p.0 == e.key);
+            let span = span.and_then(|p| p.1).unwrap_or_else(|| shape.span());
+            self.err(Some(self.line_of(span)), e.message)
         })
     }
 }

@@ -140,6 +140,101 @@ pub fn sphere(radius: f32, segments: u32) -> Geometry {
     (positions, indices)
 }
 
+/// Shape parameters as written in a scene file; `None` means the default.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ShapeParams {
+    /// Plane `[sx, sz]` (default `[10, 10]`) or box `[x, y, z]` (default `[1, 1, 1]`).
+    pub size: Option<Vec<f32>>,
+    /// Sphere radius (default 1).
+    pub radius: Option<f32>,
+    /// Sphere longitude segments (default [`DEFAULT_SEGMENTS`]).
+    pub segments: Option<u32>,
+    /// Plane cells per side (default 1).
+    pub subdivisions: Option<u32>,
+}
+
+/// Why [`build`] refused: the offending key (`"shape"` for an unknown shape) and what was
+/// expected. The scene-file parser turns the key into a line number.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShapeError {
+    /// `"shape"`, `"size"`, `"radius"`, `"segments"` or `"subdivisions"`.
+    pub key: &'static str,
+    /// What was wrong and what was expected.
+    pub message: String,
+}
+
+fn fail<T>(key: &'static str, message: String) -> Result<T, ShapeError> {
+    Err(ShapeError { key, message })
+}
+
+/// Builds `kind` (`"plane"`, `"box"` or `"sphere"`) from scene-file parameters, rejecting
+/// unknown shapes, parameters that do not apply to the shape and out-of-range values.
+pub fn build(kind: &str, p: &ShapeParams) -> Result<Geometry, ShapeError> {
+    let takes: &[&str] = match kind {
+        "plane" => &["size", "subdivisions"],
+        "box" => &["size"],
+        "sphere" => &["radius", "segments"],
+        other => {
+            let message =
+                format!("unknown shape \"{other}\"; expected \"plane\", \"box\" or \"sphere\"");
+            return fail("shape", message);
+        }
+    };
+    let given = [
+        ("size", p.size.is_some()),
+        ("radius", p.radius.is_some()),
+        ("segments", p.segments.is_some()),
+        ("subdivisions", p.subdivisions.is_some()),
+    ];
+    if let Some((key, _)) = given.iter().find(|(k, set)| *set && !takes.contains(k)) {
+        let message = format!(
+            "`{key}` does not apply to a {kind} (it takes: {})",
+            takes.join(", ")
+        );
+        return fail(key, message);
+    }
+    let size = |n: usize, default: f32| match &p.size {
+        None => Ok(vec![default; n]),
+        Some(v) if v.len() == n && v.iter().all(|x| x.is_finite() && *x > 0.0) => Ok(v.clone()),
+        Some(v) => fail(
+            "size",
+            format!("{kind} size = {v:?}; expected {n} positive finite numbers"),
+        ),
+    };
+    match kind {
+        "plane" => {
+            let s = size(2, 10.0)?;
+            let n = p.subdivisions.unwrap_or(1);
+            if !(1..=MAX_SUBDIVISIONS).contains(&n) {
+                return fail(
+                    "subdivisions",
+                    format!("subdivisions = {n}; expected 1..={MAX_SUBDIVISIONS}"),
+                );
+            }
+            Ok(plane(s[0], s[1], n))
+        }
+        "box" => {
+            let s = size(3, 1.0)?;
+            Ok(cuboid(Vec3::new(s[0], s[1], s[2])))
+        }
+        _ => {
+            let radius = p.radius.unwrap_or(1.0);
+            if !(radius.is_finite() && radius > 0.0) {
+                return fail(
+                    "radius",
+                    format!("radius = {radius}; expected a positive number"),
+                );
+            }
+            let n = p.segments.unwrap_or(DEFAULT_SEGMENTS);
+            if !(MIN_SEGMENTS..=MAX_SEGMENTS).contains(&n) {
+                let message = format!("segments = {n}; expected {MIN_SEGMENTS}..={MAX_SEGMENTS}");
+                return fail("segments", message);
+            }
+            Ok(sphere(radius, n))
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

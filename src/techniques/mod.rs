@@ -39,6 +39,11 @@ pub trait Technique {
 
     /// Counters of the last completed frame, by name.
     fn counters(&self) -> Result<Vec<(String, u64)>>;
+
+    /// The shadow map it renders, if any: for tests and debugging views.
+    fn shadow_map(&self) -> Option<&crate::passes::ShadowMap> {
+        None
+    }
 }
 
 /// A registered technique: its stable name, knobs and constructor.

@@ -139,4 +139,8 @@ impl Technique for Pcf<'_> {
             .map(|(n, v)| (n.to_string(), v as u64))
             .collect())
     }
+
+    fn shadow_map(&self) -> Option<&ShadowMap> {
+        Some(&self.shadow_map)
+    }
 }

@@ -9,7 +9,7 @@
 use std::collections::BTreeMap;
 
 use ash::vk;
-use glam::Vec4;
+use glam::{Vec3, Vec4};
 
 use crate::error::Result;
 use crate::gpu::{f32s, Context, ContextDesc, Image, ImageDesc, PassTime, Timestamps};
@@ -38,6 +38,10 @@ pub struct PreparedScene {
     pub light_view: LightView,
     /// Triangles on the GPU.
     pub geometry: SceneGeometry,
+    /// The same triangles on the CPU, world space.
+    pub positions: Vec<Vec3>,
+    /// Triangle-list indices into `positions`.
+    pub indices: Vec<u32>,
     /// The view samples.
     pub view: ViewSamples,
     /// The visibility target techniques write.
@@ -116,7 +120,8 @@ impl Engine {
     pub fn prepare(&self, scene: &Scene) -> Result<PreparedScene> {
         let ctx = &self.ctx;
         let light_view = LightView::fit(&scene.light, &scene.bounds())?;
-        let geometry = SceneGeometry::upload(ctx, scene)?;
+        let (positions, indices) = scene.merged();
+        let geometry = SceneGeometry::from_triangles(ctx, &positions, &indices)?;
         let view = ViewSamples::new(ctx, &scene.camera)?;
         let visibility = Image::new(
             ctx,
@@ -144,6 +149,8 @@ impl Engine {
             defaults: scene.defaults,
             light_view,
             geometry,
+            positions,
+            indices,
             view,
             visibility,
             view_pass,
@@ -179,6 +186,8 @@ impl Engine {
         let setup = TechniqueSetup {
             ctx,
             geometry: &prepared.geometry,
+            positions: &prepared.positions,
+            indices: &prepared.indices,
             view: &prepared.view,
             light: &prepared.light,
             light_view: &prepared.light_view,

@@ -15,13 +15,18 @@ use crate::error::{Error, Result};
 use crate::gpu::{Context, Image, Recorder};
 use crate::passes::{LightView, SceneGeometry, ViewSamples};
 use crate::scene::Light;
+use glam::Vec3;
 
 /// What a technique is built against: the scene's GPU inputs and the output image.
 pub struct TechniqueSetup<'a> {
     /// The device.
     pub ctx: &'a Context,
-    /// The scene's triangles.
+    /// The scene's triangles on the GPU.
     pub geometry: &'a SceneGeometry,
+    /// The same triangles on the CPU (world space): what CPU-side builds (a BVH) start from.
+    pub positions: &'a [Vec3],
+    /// Triangle-list indices into `positions`.
+    pub indices: &'a [u32],
     /// The view samples to shade.
     pub view: &'a ViewSamples,
     /// The scene's light.

@@ -144,7 +144,7 @@ impl Engine {
         Ok(PreparedScene {
             name: scene.name.clone(),
             source: scene.source.display().to_string(),
-            camera: scene.camera.clone(),
+            camera: scene.camera,
             light: scene.light,
             defaults: scene.defaults,
             light_view,

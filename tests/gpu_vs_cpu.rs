@@ -1,4 +1,8 @@
 //! GPU techniques against their CPU twins on small inputs, under validation.
+#![allow(
+    clippy::needless_range_loop,
+    reason = "compares several per-pixel arrays by index"
+)]
 
 mod common;
 

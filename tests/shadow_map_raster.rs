@@ -1,4 +1,8 @@
 //! The light-view depth pass against the CPU rasterizer, texel by texel, at small sizes.
+#![allow(
+    clippy::needless_range_loop,
+    reason = "compares several per-texel arrays by index"
+)]
 
 mod common;
 

@@ -35,6 +35,27 @@ impl SceneGeometry {
                 format!("{} indices is not a non-empty triangle list", indices.len()),
             ));
         }
+        // The GPU would read out of bounds on a bad index, and a NaN vertex poisons every depth
+        // test it touches: reject both here, for callers that bypass the scene loader.
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(Error::input(
+                "scene",
+                None,
+                format!("vertex {i} is not finite: {:?}", positions[i]),
+            ));
+        }
+        if let Some(i) = indices.iter().position(|&i| i as usize >= positions.len()) {
+            return Err(Error::input(
+                "scene",
+                None,
+                format!(
+                    "index {} (triangle {}) refers past the {} vertices",
+                    indices[i],
+                    i / 3,
+                    positions.len()
+                ),
+            ));
+        }
         let index_count = u32::try_from(indices.len())
             .map_err(|_| Error::input("scene", None, "more than 2^32 indices".to_string()))?;
         let flat: Vec<f32> = positions.iter().flat_map(|p| p.to_array()).collect();

@@ -45,6 +45,24 @@ pub struct PcfPush {
     pub pad: [i32; 2],
 }
 
+/// `glsl/average_maps/accumulate.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct AverageMapsPush {
+    /// World → this light sample's clip space.
+    pub light_view_proj: Mat4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// Shadow-map size.
+    pub map_size: IVec2,
+    /// 1/K.
+    pub weight: f32,
+    /// 1 for the first light sample (overwrite), 0 after (accumulate).
+    pub first: i32,
+    /// Padding to the block's declared size.
+    pub pad: [i32; 2],
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -81,6 +99,20 @@ mod tests {
         assert_eq!(
             declared("passes/view_samples.frag"),
             size_of::<ViewSamplesPush>()
+        );
+    }
+
+    #[test]
+    fn average_maps_push_layout() {
+        assert_eq!(offset_of!(AverageMapsPush, light_view_proj), 0);
+        assert_eq!(offset_of!(AverageMapsPush, view_size), 64);
+        assert_eq!(offset_of!(AverageMapsPush, map_size), 72);
+        assert_eq!(offset_of!(AverageMapsPush, weight), 80);
+        assert_eq!(offset_of!(AverageMapsPush, first), 84);
+        assert_eq!(size_of::<AverageMapsPush>(), 96);
+        assert_eq!(
+            declared("average_maps/accumulate.comp"),
+            size_of::<AverageMapsPush>()
         );
     }
 

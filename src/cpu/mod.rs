@@ -4,6 +4,7 @@
 //! Each twin states its tolerance against the GPU: exact for counts and binary tests away from
 //! depth ties, an absolute epsilon for filtered values (the GPU may contract `a*b+c` into an FMA).
 
+pub mod average_maps;
 pub mod pcf;
 pub mod raster;
 pub mod shadow_map;

@@ -89,9 +89,16 @@ impl ShadowMap {
         })
     }
 
-    /// Records the depth pass (named `light-depth`).
+    /// Records the depth pass as its own timed pass (named `light-depth`).
     pub fn record(&self, rec: &mut Recorder<'_>, geometry: &SceneGeometry) -> Result<()> {
         rec.begin_pass("light-depth")?;
+        let result = self.record_untimed(rec, geometry);
+        rec.end_pass();
+        result
+    }
+
+    /// Records the depth pass inside the caller's pass.
+    pub fn record_untimed(&self, rec: &mut Recorder<'_>, geometry: &SceneGeometry) -> Result<()> {
         rec.use_buffer(&geometry.vertices, Access::VertexInput);
         rec.use_buffer(&geometry.indices, Access::VertexInput);
         rec.begin_rendering(&[], (&self.depth, 1.0));
@@ -107,7 +114,6 @@ impl ShadowMap {
             Some([bias.constant, bias.slope, bias.clamp]),
         );
         rec.end_rendering();
-        rec.end_pass();
         result
     }
 }

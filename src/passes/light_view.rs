@@ -180,3 +180,137 @@ impl LightView {
         }
     }
 }
+
+/// Van der Corput radical inverse in base 2.
+fn radical_inverse(mut i: u32) -> f32 {
+    i = i.reverse_bits();
+    (i as f64 / 4_294_967_296.0) as f32
+}
+
+/// `k` point samples of `light`, each returned as a light of zero extent that keeps the original
+/// orientation (a rect sample stays a `Rect` with the same edges, so its view faces the same
+/// way). Rect samples form a shifted Hammersley set over the rectangle, stratified in both axes
+/// for any `k`; with `k = 1` it is the centre. Directional samples cover the sun's disk (a cone of
+/// half-angle `angular_diameter/2`) through the concentric map. A point light, or a light of zero
+/// extent, gives one sample: there is nothing to average (the hard path).
+pub fn light_samples(light: &Light, k: u32) -> Vec<Light> {
+    let k = k.max(1);
+    let unit = |i: u32| -> (f32, f32) {
+        let u = (i as f32 + 0.5) / k as f32;
+        let v = (radical_inverse(i) + 0.5 / k as f32).fract();
+        (u, v)
+    };
+    match *light {
+        Light::Point { .. } => vec![*light],
+        Light::Rect { position, u, v } => {
+            if u.cross(v).length_squared() == 0.0 {
+                return vec![Light::Point { position }];
+            }
+            (0..k)
+                .map(|i| {
+                    let (a, b) = unit(i);
+                    Light::Rect {
+                        position: position + u * (a - 0.5) + v * (b - 0.5),
+                        u,
+                        v,
+                    }
+                })
+                .collect()
+        }
+        Light::Directional {
+            direction,
+            angular_diameter_deg,
+        } => {
+            if angular_diameter_deg <= 0.0 {
+                return vec![*light];
+            }
+            let d = direction.normalize_or_zero();
+            let (t, b) = d.any_orthonormal_pair();
+            let tan_half = (angular_diameter_deg.to_radians() * 0.5).tan();
+            (0..k)
+                .map(|i| {
+                    let (a, c) = unit(i);
+                    let (x, y) = concentric_disk(2.0 * a - 1.0, 2.0 * c - 1.0);
+                    Light::Directional {
+                        direction: (d + (t * x + b * y) * tan_half).normalize(),
+                        angular_diameter_deg: 0.0,
+                    }
+                })
+                .collect()
+        }
+    }
+}
+
+/// Shirley–Chiu concentric map of the square [-1,1]² onto the unit disk (area-preserving).
+fn concentric_disk(a: f32, b: f32) -> (f32, f32) {
+    if a == 0.0 && b == 0.0 {
+        return (0.0, 0.0);
+    }
+    let (r, phi) = if a.abs() > b.abs() {
+        (a, std::f32::consts::FRAC_PI_4 * (b / a))
+    } else {
+        (
+            b,
+            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b),
+        )
+    };
+    (r * phi.cos(), r * phi.sin())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rect_samples_are_stratified_and_centred() {
+        let light = Light::Rect {
+            position: Vec3::new(1.0, 5.0, 2.0),
+            u: Vec3::new(2.0, 0.0, 0.0),
+            v: Vec3::new(0.0, 0.0, 4.0),
+        };
+        let one = light_samples(&light, 1);
+        assert_eq!(one[0].centre(), Some(Vec3::new(1.0, 5.0, 2.0)));
+        for k in [4u32, 16, 64, 100] {
+            let s = light_samples(&light, k);
+            assert_eq!(s.len(), k as usize);
+            // Each of the k strips in u and in v holds exactly one sample.
+            let mut u_hits = vec![0; k as usize];
+            let mut v_hits = vec![0; k as usize];
+            for l in &s {
+                let p = l.centre().expect("rect sample") - Vec3::new(1.0, 5.0, 2.0);
+                let (a, b) = (p.x / 2.0 + 0.5, p.z / 4.0 + 0.5);
+                assert!((0.0..1.0).contains(&a) && (0.0..1.0).contains(&b));
+                u_hits[((a * k as f32) as usize).min(k as usize - 1)] += 1;
+                v_hits[((b * k as f32) as usize).min(k as usize - 1)] += 1;
+            }
+            assert!(u_hits.iter().all(|&h| h == 1), "u strata for k = {k}");
+            assert!(v_hits.iter().all(|&h| h == 1), "v strata for k = {k}");
+        }
+    }
+
+    #[test]
+    fn point_and_zero_size_lights_take_the_hard_path() {
+        let p = Light::Point { position: Vec3::Y };
+        assert_eq!(light_samples(&p, 64).len(), 1);
+        let sun = Light::Directional {
+            direction: Vec3::NEG_Y,
+            angular_diameter_deg: 0.0,
+        };
+        assert_eq!(light_samples(&sun, 64).len(), 1);
+    }
+
+    #[test]
+    fn sun_samples_stay_inside_the_cone() {
+        let sun = Light::Directional {
+            direction: Vec3::new(0.3, -1.0, 0.1),
+            angular_diameter_deg: 10.0,
+        };
+        let axis = Vec3::new(0.3, -1.0, 0.1).normalize();
+        for l in light_samples(&sun, 64) {
+            let Light::Directional { direction, .. } = l else {
+                panic!("directional expected")
+            };
+            assert!(direction.angle_between(axis).to_degrees() <= 5.0 + 1e-3);
+        }
+    }
+}

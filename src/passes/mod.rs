@@ -8,5 +8,5 @@ mod view_samples;
 
 pub use geometry::SceneGeometry;
 pub use light_depth::{DepthBias, ShadowMap, ShadowMapDesc};
-pub use light_view::{LightProjection, LightView};
+pub use light_view::{light_samples, LightProjection, LightView};
 pub use view_samples::ViewSamples;

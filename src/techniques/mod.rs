@@ -6,6 +6,7 @@
 //! (timestamps and debug labels) and reports counters — what it measured and what it skipped —
 //! after each frame.
 
+pub mod average_maps;
 mod params;
 pub mod pcf;
 
@@ -65,7 +66,7 @@ pub struct TechniqueInfo {
 
 /// Every technique, in the order `penumbra techniques` lists them.
 pub fn registry() -> &'static [TechniqueInfo] {
-    &[pcf::HARD, pcf::PCF]
+    &[pcf::HARD, pcf::PCF, average_maps::AVERAGE_MAPS]
 }
 
 /// Looks a technique up by name.

@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 use ash::vk;
 use glam::{Vec3, Vec4};
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::gpu::{f32s, Context, ContextDesc, Image, ImageDesc, PassTime, Timestamps};
 use crate::passes::{LightView, SceneGeometry, ViewSamples};
 use crate::scene::{Camera, Light, Scene, SceneDefaults};
@@ -53,7 +53,7 @@ pub struct PreparedScene {
 }
 
 /// What one technique computed, and what it cost.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct FrameStats {
     /// Technique name.
     pub technique: String,
@@ -245,6 +245,83 @@ impl Engine {
                 frames,
             },
         })
+    }
+}
+
+/// Whether a frame came from the on-disk cache.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CacheUse {
+    /// Read from the cache: no GPU work, and the stats are those of the run that computed it.
+    Hit,
+    /// Computed now and stored.
+    Miss,
+    /// Not cached (the technique is not cacheable, or no cache directory).
+    Off,
+}
+
+impl Engine {
+    /// [`Engine::render`] through the on-disk cache in `cache_dir` for cacheable techniques
+    /// (the ray-cast references). The key covers the triangles, camera, light, technique,
+    /// resolved knobs and every embedded shader, so a change to any of them recomputes.
+    pub fn render_cached(
+        &self,
+        prepared: &PreparedScene,
+        technique: &str,
+        overrides: &BTreeMap<String, String>,
+        frames: u32,
+        cache_dir: Option<&std::path::Path>,
+    ) -> Result<(Frame, CacheUse)> {
+        let info = techniques::find(technique)?;
+        let Some(dir) = cache_dir.filter(|_| info.cacheable) else {
+            return Ok((
+                self.render(prepared, technique, overrides, frames)?,
+                CacheUse::Off,
+            ));
+        };
+        let params = Params::resolve(info.name, info.knobs, overrides, &prepared.defaults)?;
+        let mut h = crate::cache::Fnv64::default();
+        h.write(bytemuck::cast_slice(&prepared.positions));
+        h.write(bytemuck::cast_slice(&prepared.indices));
+        let c = &prepared.camera;
+        for v in [c.position, c.target, c.up] {
+            h.write(bytemuck::bytes_of(&v));
+        }
+        for x in [c.fov_y_deg, c.near, c.far] {
+            h.write(&x.to_le_bytes());
+        }
+        h.write(&c.width.to_le_bytes());
+        h.write(&c.height.to_le_bytes());
+        h.write_str(&format!("{:?}", prepared.light));
+        h.write_str(info.name);
+        for (k, v) in params.values() {
+            h.write_str(k);
+            h.write(&v.to_le_bytes());
+        }
+        for name in crate::gpu::shader_names() {
+            h.write_str(name);
+            h.write(crate::gpu::shader_spirv(name)?);
+        }
+        let key = h.finish();
+        let n = (c.width * c.height) as usize;
+        if let Some(entry) = crate::cache::load(dir, info.name, key, n)? {
+            if let Ok(stats) = serde_json::from_value::<FrameStats>(entry.header) {
+                let frame = Frame {
+                    width: c.width,
+                    height: c.height,
+                    visibility: entry.visibility,
+                    stats,
+                };
+                return Ok((frame, CacheUse::Hit));
+            }
+        }
+        let frame = self.render(prepared, technique, overrides, frames)?;
+        let header = serde_json::to_value(&frame.stats).map_err(|e| Error::Io {
+            path: dir.to_path_buf(),
+            source: std::io::Error::other(e),
+        })?;
+        crate::cache::store(dir, info.name, key, &header, &frame.visibility)?;
+        Ok((frame, CacheUse::Miss))
     }
 }
 

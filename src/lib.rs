@@ -7,12 +7,16 @@
 //! module per shadow algorithm, each with a CPU twin in [`cpu`]), and [`engine`] (the public
 //! entry point that runs a technique on a scene and reports [`engine::FrameStats`]).
 
+pub mod cache;
 pub mod cpu;
 pub mod engine;
 pub mod error;
+pub mod evaluate;
 pub mod gpu;
+pub mod metrics;
 pub mod output;
 pub mod passes;
+pub mod plots;
 pub mod scene;
 #[cfg(feature = "shader-compiler")]
 pub mod shader_compiler;

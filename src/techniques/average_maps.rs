@@ -43,6 +43,7 @@ pub const AVERAGE_MAPS: TechniqueInfo = TechniqueInfo {
     name: "average-maps",
     summary: "brute-force soft shadows: average of K hard shadow maps from light samples",
     knobs: &KNOBS,
+    cacheable: false,
     create: |setup, params| Ok(Box::new(AverageMaps::new(setup, params)?)),
 };
 

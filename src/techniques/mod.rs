@@ -60,6 +60,9 @@ pub struct TechniqueInfo {
     pub summary: &'static str,
     /// Its knobs.
     pub knobs: &'static [Knob],
+    /// Whether results are deterministic and expensive enough to cache on disk (the ray-cast
+    /// references: `true`); timed techniques are never cached.
+    pub cacheable: bool,
     /// Builds an instance.
     pub create: for<'a> fn(&TechniqueSetup<'a>, &Params) -> Result<Box<dyn Technique + 'a>>,
 }

@@ -33,6 +33,7 @@ pub const HARD: TechniqueInfo = TechniqueInfo {
     name: "hard",
     summary: "standard shadow mapping: one nearest-texel depth test from the light centre",
     knobs: &SHADOW_MAP_KNOBS,
+    cacheable: false,
     create: |setup, params| Ok(Box::new(Pcf::new(setup, params, 0, 1)?)),
 };
 
@@ -49,6 +50,7 @@ pub const PCF: TechniqueInfo = TechniqueInfo {
     name: "pcf",
     summary: "percentage-closer filtering: kernel x kernel box of hand-made bilinear 2x2 tests",
     knobs: &PCF_KNOBS,
+    cacheable: false,
     create: |setup, params| {
         let kernel = params.u32("kernel") as i32;
         Ok(Box::new(Pcf::new(setup, params, 1, kernel)?))

@@ -1,4 +1,7 @@
-//! `penumbra`: render a scene with a shadow technique, list devices and techniques.
+//! `penumbra`: render a scene with a shadow technique, compare it with the ground truth, run the
+//! bench, list devices and techniques.
+
+mod bench;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -32,6 +35,26 @@ struct DeviceArgs {
     no_validation: bool,
 }
 
+#[derive(clap::Args)]
+struct CacheArgs {
+    /// Reference cache directory (default: PENUMBRA_CACHE_DIR, XDG_CACHE_HOME/penumbra or ~/.cache/penumbra).
+    #[arg(long)]
+    cache_dir: Option<PathBuf>,
+    /// Do not read or write the reference cache.
+    #[arg(long)]
+    no_cache: bool,
+}
+
+impl CacheArgs {
+    fn dir(&self) -> Option<PathBuf> {
+        if self.no_cache {
+            None
+        } else {
+            self.cache_dir.clone().or_else(penumbra::cache::default_dir)
+        }
+    }
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene with one technique and write images and stats.json.
@@ -50,8 +73,46 @@ enum Command {
         /// Timed frames after one warm-up frame; times are medians.
         #[arg(long, default_value_t = 3)]
         frames: u32,
+        /// Compare with a ground truth (`reference` or `reference-single-layer`): adds `error` to
+        /// stats.json and writes reference.exr and error.png.
+        #[arg(long, value_name = "REFERENCE")]
+        compare_to: Option<String>,
+        /// Light samples per axis of the reference (N×N rays for area lights).
+        #[arg(long)]
+        reference_samples: Option<u32>,
         #[command(flatten)]
         device: DeviceArgs,
+        #[command(flatten)]
+        cache: CacheArgs,
+    },
+    /// Run techniques × knob sweeps × scenes against the reference; write bench.json, bench.csv
+    /// and Pareto charts.
+    Bench {
+        /// Scenes (files or procedural specs), comma-separated; default: every bundled scene.
+        #[arg(long, value_delimiter = ',')]
+        scenes: Vec<String>,
+        /// Techniques, comma-separated; default: every technique except the references.
+        #[arg(long, value_delimiter = ',')]
+        techniques: Vec<String>,
+        /// Sweep a knob: `key=v1,v2,...` (repeatable); replaces the default sweep of that knob.
+        #[arg(long = "set", value_name = "KEY=V1,V2")]
+        set: Vec<String>,
+        /// Small images, short sweeps, 8×8-sample references: a few minutes on lavapipe.
+        #[arg(long)]
+        quick: bool,
+        /// Timed frames per run (default 2 quick, 5 full).
+        #[arg(long)]
+        frames: Option<u32>,
+        /// The ground truth to measure against.
+        #[arg(long, default_value = "reference")]
+        reference: String,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        device: DeviceArgs,
+        #[command(flatten)]
+        cache: CacheArgs,
     },
     /// List Vulkan devices and the features that matter to penumbra.
     Devices {
@@ -96,6 +157,13 @@ fn progress(steps: u64) -> ProgressBar {
     bar
 }
 
+/// What `render` compares with.
+struct Comparison<'a> {
+    reference: &'a str,
+    samples: Option<u32>,
+    cache: Option<PathBuf>,
+}
+
 #[allow(clippy::too_many_arguments, reason = "mirrors the subcommand's flags")]
 fn render(
     scene_spec: &str,
@@ -104,11 +172,15 @@ fn render(
     out: &Path,
     frames: u32,
     device: &DeviceArgs,
+    compare: Option<Comparison<'_>>,
 ) -> anyhow::Result<()> {
     let overrides = parse_sets(sets)?;
     // Fail on a bad technique or knob before any expensive work.
     let info = penumbra::techniques::find(technique)?;
-    let bar = progress(5);
+    if let Some(c) = &compare {
+        penumbra::techniques::find(c.reference)?;
+    }
+    let bar = progress(if compare.is_some() { 6 } else { 5 });
     bar.set_message(format!("loading {scene_spec}"));
     let scene = Scene::open(scene_spec)?;
     penumbra::techniques::Params::resolve(info.name, info.knobs, &overrides, &scene.defaults)?;
@@ -146,8 +218,56 @@ fn render(
         &frame.visibility,
     );
     output::write_rgb_png(&out.join("shaded.png"), w, h, &shaded)?;
+    let mut comparison = None;
+    if let Some(c) = &compare {
+        bar.set_message(format!(
+            "{} (cache: {})",
+            c.reference,
+            c.cache
+                .as_ref()
+                .map(|p| p.display().to_string())
+                .unwrap_or_else(|| "off".into())
+        ));
+        let mut set = BTreeMap::new();
+        if let Some(n) = c.samples {
+            set.insert("samples".to_string(), n.to_string());
+        }
+        let (reference, cache) = penumbra::evaluate::reference_frame(
+            &engine,
+            &prepared,
+            c.reference,
+            &set,
+            c.cache.as_deref(),
+        )?;
+        let view = penumbra::evaluate::ViewData::read(&engine, &prepared)?;
+        let error = penumbra::evaluate::evaluate(
+            &prepared,
+            &view,
+            &reference.visibility,
+            &frame.visibility,
+        )?;
+        output::write_visibility_exr(&out.join("reference.exr"), w, h, &reference.visibility)?;
+        penumbra::plots::write_error_heatmap(
+            &out.join("error.png"),
+            w,
+            h,
+            &reference.visibility,
+            &frame.visibility,
+            &view.is_sample,
+        )?;
+        comparison = Some((
+            error,
+            serde_json::json!({
+                "technique": c.reference,
+                "params": reference.stats.params,
+                "cache": cache,
+                "total_gpu_ms": reference.stats.total_gpu_ms,
+            }),
+        ));
+        bar.inc(1);
+    }
     let validation = (!device.no_validation).then(|| ctx.validation().counts());
-    let stats = serde_json::json!({
+    let mut stats = serde_json::json!({
         "scene": prepared.name,
         "scene_source": prepared.source,
         "technique": frame.stats.technique,
@@ -166,6 +286,10 @@ fn render(
         "out_of_range_count": frame.stats.out_of_range_count,
         "validation": validation,
     });
+    if let Some((error, reference)) = comparison {
+        stats["error"] = serde_json::json!(error);
+        stats["reference"] = reference;
+    }
     let stats_path = out.join("stats.json");
     std::fs::write(&stats_path, serde_json::to_string_pretty(&stats)? + "\n")
         .with_context(|| format!("writing {}", stats_path.display()))?;
@@ -288,8 +412,45 @@ fn main() {
             set,
             out,
             frames,
+            compare_to,
+            reference_samples,
             device,
-        } => render(scene, technique, set, out, *frames, device),
+            cache,
+        } => render(
+            scene,
+            technique,
+            set,
+            out,
+            *frames,
+            device,
+            compare_to.as_deref().map(|r| Comparison {
+                reference: r,
+                samples: *reference_samples,
+                cache: cache.dir(),
+            }),
+        ),
+        Command::Bench {
+            scenes,
+            techniques,
+            set,
+            quick,
+            frames,
+            reference,
+            out,
+            device,
+            cache,
+        } => bench::run(&bench::BenchArgs {
+            scenes: scenes.clone(),
+            techniques: techniques.clone(),
+            sets: set.clone(),
+            quick: *quick,
+            out: out.clone(),
+            frames: *frames,
+            reference: reference.clone(),
+            device: device.device.clone(),
+            validation: !device.no_validation,
+            cache: cache.dir(),
+        }),
         Command::Devices { json } => devices(*json),
         Command::Techniques { json } => techniques(*json),
         Command::Scenes => {

@@ -13,6 +13,7 @@ pub mod engine;
 pub mod error;
 pub mod evaluate;
 pub mod gpu;
+pub mod kernels;
 pub mod metrics;
 pub mod output;
 pub mod passes;

@@ -1,0 +1,25 @@
+//! Compute primitives shared by the techniques: prefix sums, stream compaction, sorting,
+//! reductions, summed-area tables, N-buffers and min/max pyramids. Each has a CPU twin in
+//! `src/cpu/` and a row in `penumbra bench --suite kernels`.
+
+/// One timed primitive at one size, for `penumbra bench --suite kernels`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct KernelBenchRow {
+    /// The primitive, e.g. `exclusive-scan-u32`.
+    pub primitive: String,
+    /// The problem size, e.g. `1048576` or `4096x4096`.
+    pub size: String,
+    /// Median GPU time in milliseconds (`None` without timestamps).
+    pub gpu_ms: Option<f64>,
+    /// Bytes read plus bytes written by the primitive's passes (the minimum traffic).
+    pub bytes: u64,
+    /// Whether the GPU result matched the CPU twin on this run (checked on the first run).
+    pub verified: bool,
+}
+
+impl KernelBenchRow {
+    /// Effective bandwidth in GB/s: `bytes / time`.
+    pub fn gb_per_s(&self) -> Option<f64> {
+        self.gpu_ms.filter(|&ms| ms > 0.0).map(|ms| self.bytes as f64 / (ms * 1e-3) / 1e9)
+    }
+}

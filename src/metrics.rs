@@ -1,6 +1,6 @@
 //! Error metrics of a technique's visibility against the ray-cast reference.
 //!
-//! Both images hold one visibility V ∈ [0,1] per pixel, row-major, and only view samples count:
+//! Both images hold one visibility `V ∈ [0, 1]` per pixel, row-major, and only view samples count:
 //! background pixels are excluded by the caller's mask. The per-sample error is `e = V − V_ref`.
 //!
 //! Design notes:

@@ -20,7 +20,7 @@ fn image_error(path: &Path, e: impl std::fmt::Display) -> Error {
     }
 }
 
-/// Writes visibility as an 8-bit grey PNG (V clamped to [0,1]; NaN written as 0).
+/// Writes visibility as an 8-bit grey PNG (V clamped to `[0,1]`; NaN written as 0).
 pub fn write_visibility_png(path: &Path, width: u32, height: u32, v: &[f32]) -> Result<()> {
     let img = ImageBuffer::<Luma<u8>, _>::from_fn(width, height, |x, y| {
         let value = v[(y * width + x) as usize];

@@ -11,7 +11,8 @@
 //! - The heat map's pixels are written straight into that buffer (one per frame pixel, no
 //!   scaling, so a pixel in the map is a pixel in the frame); plotters then draws only the
 //!   title, frame and legend on top.
-//! - Every failure is an [`Error::Image`] naming the file; nothing here panics.
+//! - Slices that do not match the frame size are [`Error::Input`] (as in [`metrics::compare`]);
+//!   drawing and saving failures are [`Error::Image`] naming the file; nothing here panics.
 
 use std::ops::Range;
 use std::path::Path;
@@ -54,8 +55,15 @@ fn render(
     draw: impl FnOnce(&DrawingArea<BitMapBackend<'_, RGBPixel>, Shift>) -> Result<()>,
 ) -> Result<()> {
     ensure_font().map_err(|e| image_error(path, e))?;
-    let bytes = usize::try_from(u64::from(size.0) * u64::from(size.1) * 3)
-        .map_err(|_| image_error(path, "image too large"))?;
+    // plotters multiplies width × height in u32; refuse what would overflow there.
+    let pixels = u64::from(size.0) * u64::from(size.1);
+    if pixels > u64::from(u32::MAX) / 3 {
+        return Err(image_error(
+            path,
+            format!("{}×{} is too large", size.0, size.1),
+        ));
+    }
+    let bytes = usize::try_from(pixels * 3).map_err(|_| image_error(path, "image too large"))?;
     let mut buf = vec![255u8; bytes];
     prefill(&mut buf);
     {
@@ -217,8 +225,8 @@ pub fn write_error_heatmap(
         root.draw(&Text::new("too dark", (lx, top + bar_h + 5), text(12)))
             .map_err(err)?;
 
-        // Swatches for the two colours outside the scale.
-        // The count sits here rather than in the title, which narrow frames would clip.
+        // Swatches for the two colours outside the scale. The non-finite count sits here rather
+        // than in the title, which narrow frames would clip.
         let non_finite = format!("NaN / inf: {}", m.non_finite);
         for (k, (rgb, label)) in [(NOT_SAMPLE, "not a sample"), (NON_FINITE, &*non_finite)]
             .into_iter()
@@ -327,6 +335,11 @@ fn format_tick(v: f64) -> String {
     }
 }
 
+/// Whether two pixel boxes `[x0, y0, x1, y1]` overlap.
+fn overlaps(a: &[i32; 4], b: &[i32; 4]) -> bool {
+    a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3]
+}
+
 /// A log10 axis in milliseconds with our own ticks: bold at 1, 2, 5 × 10^k (only 1 × 10^k past
 /// three decades, so labels never crowd), light at every other integer multiple. plotters' own
 /// log axis crowds its labels, and its key-point override does not compose with `f64` labels.
@@ -393,7 +406,8 @@ impl Ranged for LogAxis {
 
 /// Writes a time/error scatter chart of [`PARETO_CHART_SIZE`]: GPU time in ms on a log x axis,
 /// penumbra MAE on y, one colour per technique with a legend, and the Pareto front (see
-/// [`pareto_front`]) as a staircase through its points, each front point labelled with its knobs.
+/// [`pareto_front`]) as a staircase through its points, each front point labelled with its knobs
+/// where the label finds room.
 /// Points that cannot be placed on a log axis are left out (as in [`pareto_front`]); with none
 /// left the chart is drawn empty. Failures are [`Error::Image`].
 pub fn write_pareto_chart(path: &Path, title: &str, points: &[ParetoPoint]) -> Result<()> {
@@ -498,14 +512,44 @@ pub fn write_pareto_chart(path: &Path, title: &str, points: &[ParetoPoint]) -> R
                 .legend(move |(x, y)| Circle::new((x + 9, y), 5, style));
         }
 
-        // Label the front's points with their knobs: the configurations worth choosing.
+        // Label the front's points with their knobs: the configurations worth choosing. Each
+        // label takes the first free spot around its point; one that fits nowhere is left out.
         let label_style = ("sans-serif", 12).into_font().color(&BLACK.mix(0.8));
-        chart
-            .draw_series(front_labels.iter().map(|(at, text)| {
-                // Anchored at the point, drawn up and to the right of the marker.
-                EmptyElement::at(*at) + Text::new(text.clone(), (7, -16), label_style.clone())
-            }))
-            .map_err(err)?;
+        let (xr, yr) = chart.plotting_area().get_pixel_range();
+        let mut taken: Vec<[i32; 4]> = valid
+            .iter()
+            .map(|p| {
+                let (x, y) = chart.backend_coord(&(p.time_ms, p.error));
+                [x - 6, y - 6, x + 6, y + 6]
+            })
+            .collect();
+        for (at, text) in &front_labels {
+            let (tw, th) = root.estimate_text_size(text, &label_style).map_err(err)?;
+            // A little air around each label so neighbours do not touch.
+            let (tw, th) = (tw as i32 + 2, th as i32 + 2);
+            let (px, py) = chart.backend_coord(at);
+            let spots = [
+                (px + 7, py - 7 - th),
+                (px + 7, py + 7),
+                (px - 7 - tw, py - 7 - th),
+                (px - 7 - tw, py + 7),
+            ];
+            let free = spots
+                .into_iter()
+                .map(|(x, y)| [x, y, x + tw, y + th])
+                .find(|b| {
+                    xr.contains(&b[0])
+                        && xr.contains(&b[2])
+                        && yr.contains(&b[1])
+                        && yr.contains(&b[3])
+                        && !taken.iter().any(|o| overlaps(b, o))
+                });
+            if let Some(b) = free {
+                root.draw(&Text::new(text.as_str(), (b[0], b[1]), label_style.clone()))
+                    .map_err(err)?;
+                taken.push(b);
+            }
+        }
 
         if valid.is_empty() {
             root.draw(&Text::new(

@@ -297,7 +297,10 @@ fn pareto_chart_png_has_expected_size() {
 #[test]
 fn pareto_chart_with_realistic_numbers() {
     let mut points = Vec::new();
-    for (k, technique) in ["hard", "pcf", "pcss", "vsm", "esm", "msm"].iter().enumerate() {
+    for (k, technique) in ["hard", "pcf", "pcss", "vsm", "esm", "msm"]
+        .iter()
+        .enumerate()
+    {
         for (j, size) in [512u32, 1024, 2048, 4096].iter().enumerate() {
             let time_ms = 0.08 * 2f64.powi(j as i32 * 2) * (1.0 + k as f64 * 0.7);
             let error = 0.06 / (1.0 + j as f64) / (1.0 + 0.3 * k as f64) + 0.001 * k as f64;

@@ -9,6 +9,7 @@ export PATH="$HOME/.cargo/bin:$PATH"
 
 cargo fmt --all --check
 cargo clippy --all-targets --features shader-compiler -- -D warnings
+RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --lib --quiet
 if command -v cargo-nextest >/dev/null 2>&1; then
   cargo nextest run --features shader-compiler --no-fail-fast
 else

@@ -1,7 +1,7 @@
 //! CPU twin of the light-view depth pass: a reference rasterizer for small maps.
 //!
-//! Follows Vulkan's rules: texel centres at `.5`, the viewport maps NDC [-1,1] to [0,size],
-//! depth is NDC z interpolated affinely in screen space, fragments with z outside [0,1] are
+//! Follows Vulkan's rules: texel centres at `.5`, the viewport maps NDC `[-1,1]` to `[0,size]`,
+//! depth is NDC z interpolated affinely in screen space, fragments with z outside `[0,1]` are
 //! clipped, LESS_OR_EQUAL depth test against a clear value of 1. Triangles must lie in front of
 //! the light (w > 0 at every vertex); no near-plane clipping is done.
 //!

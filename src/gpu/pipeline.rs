@@ -159,7 +159,7 @@ pub struct Pipeline {
     layout: Layout,
     /// The bind point (compute or graphics).
     pub bind_point: vk::PipelineBindPoint,
-    /// `local_size` of the compute shader ([1,1,1] for graphics).
+    /// `local_size` of the compute shader (`[1,1,1]` for graphics).
     pub local_size: [u32; 3],
     /// Name (the shader path): debug label and error context.
     pub name: String,

@@ -46,7 +46,7 @@ impl ValidationLog {
         }
     }
 
-    /// The texts of the messages kept so far (the first [`MAX_KEPT_MESSAGES`]).
+    /// The texts of the messages kept so far (the first 256).
     pub fn messages(&self) -> Vec<String> {
         self.lock().messages.clone()
     }

@@ -4,7 +4,7 @@
 //! data: positions and indices already in world space (transforms are applied on load), a
 //! pinhole camera and a single light. There are two sources:
 //!
-//! * a TOML scene file ([`Scene::load`], format in [`file`]) naming OBJ meshes or built-in
+//! * a TOML scene file ([`Scene::load`], format in [`file`](mod@file)) naming OBJ meshes or built-in
 //!   shapes, and
 //! * a procedural spec ([`Scene::procedural`], see [`procedural`]) such as `grid:1000000@rect`,
 //!   for stress cases and size sweeps that need no files.
@@ -237,7 +237,7 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Loads a TOML scene file (format in [`file`]); OBJ paths are relative to it.
+    /// Loads a TOML scene file (format in [`file`](mod@file)); OBJ paths are relative to it.
     pub fn load(path: &Path) -> Result<Scene> {
         file::load(path)
     }

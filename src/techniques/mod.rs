@@ -1,5 +1,5 @@
 //! Shadow techniques: one module per technique behind one trait, all writing a visibility image
-//! V ∈ [0,1] for the same view samples.
+//! V ∈ `[0,1]` for the same view samples.
 //!
 //! A technique is created once per scene with its knobs resolved (pipelines, shadow maps and
 //! descriptor sets live across frames), then recorded once per frame. It names its passes

@@ -1,0 +1,542 @@
+//! CPU twin of `glsl/reference/reference.comp` (`reference` and `reference-single-layer`): a
+//! brute-force ray caster that loops over every triangle, no BVH.
+//!
+//! It is written to read like the shader and to compute the same `f32` values in the same
+//! order: the same ray origin offset, the same light-sample pattern (an integer hash of
+//! (pixel, cell)), the same division-free watertight triangle test. The shader marks those
+//! computations `precise` (no fused multiply-add), and Rust never contracts, so on an IEEE
+//! device a hard ray gives the same answer on both sides, bit for bit.
+//!
+//! Where bit-exactness cannot be promised, the twin says so per ray with a *tie* flag: the ray
+//! passes within [`TIE_EPSILON`] (relative to the magnitudes involved) of a triangle edge, of its
+//! endpoints, of the receiver's tangent plane, or (single layer) the hit point's own visibility
+//! from the light centre is such a near case. Ties cover the soft directional light (the sun-disk
+//! mapping uses `sin`/`cos`, which the GPU evaluates to within a few ulps only) and the single
+//! layer's hit point (a division and a square root).
+//!
+//! Tolerance against the GPU: a pixel with no tie ray matches exactly (hard and soft, up to the
+//! division `visible / N²`, 1e-6); a pixel with `k` tie rays may differ by at most `k / N²`.
+//! Counters: `view_samples` exact; `lit`/`umbra`/`penumbra` and `rays` may move by the pixels with
+//! ties; `centre_rays` depends on the order hits are found (any-hit traversal versus triangle
+//! order) and is not compared.
+
+use glam::{Vec3, Vec4};
+
+use crate::reference::{ReferencePush, KIND_DIRECTIONAL, KIND_POINT, KIND_RECT};
+
+/// Relative distance under which a ray's outcome is a rounding tie, not a bug.
+pub const TIE_EPSILON: f32 = 1e-5;
+
+/// Counters in the shader's order (`rays` and `centre_rays` are 64-bit on the GPU).
+pub const COUNTER_NAMES: [&str; 6] = [
+    "view_samples",
+    "lit",
+    "umbra",
+    "penumbra",
+    "rays",
+    "centre_rays",
+];
+
+/// One triangle's three vertices.
+pub type Triangle = [[f32; 3]; 3];
+
+/// The triangles of an indexed mesh, in index order (incomplete or out-of-range triples are
+/// skipped; scenes are validated on load, so there are none).
+pub fn triangles(positions: &[Vec3], indices: &[u32]) -> Vec<Triangle> {
+    indices
+        .chunks_exact(3)
+        .filter_map(|t| {
+            let p = |i: u32| positions.get(i as usize).map(|v| v.to_array());
+            Some([p(t[0])?, p(t[1])?, p(t[2])?])
+        })
+        .collect()
+}
+
+/// A ray `origin + t·dir`, `t` in (0, `tmax`), with the axis permutation of the watertight test.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Origin.
+    pub origin: [f32; 3],
+    /// Direction (not normalised).
+    pub dir: [f32; 3],
+    /// Exclusive end of the parameter range.
+    pub tmax: f32,
+    /// `[kx, ky, kz]`: `kz` is the axis of the largest |dir| component (first on equality).
+    pub k: [usize; 3],
+}
+
+impl Ray {
+    /// `make_ray` of the shader.
+    pub fn new(origin: [f32; 3], dir: [f32; 3], tmax: f32) -> Ray {
+        let ad = dir.map(f32::abs);
+        let kz = if ad[0] >= ad[1] {
+            if ad[0] >= ad[2] {
+                0
+            } else {
+                2
+            }
+        } else if ad[1] >= ad[2] {
+            1
+        } else {
+            2
+        };
+        Ray {
+            origin,
+            dir,
+            tmax,
+            k: [(kz + 1) % 3, (kz + 2) % 3, kz],
+        }
+    }
+}
+
+/// How robust a decision is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Class {
+    /// Misses, and would under any perturbation below [`TIE_EPSILON`].
+    Miss,
+    /// Too close to call.
+    Tie,
+    /// Hits, and would under any perturbation below [`TIE_EPSILON`].
+    Hit,
+}
+
+/// The result of one ray–triangle test.
+#[derive(Clone, Copy, Debug)]
+pub struct TriangleTest {
+    /// The shader's answer.
+    pub hit: bool,
+    /// How robust it is.
+    pub class: Class,
+    /// `(U, V, W, det)`: unnormalised barycentric weights of vertices a, b, c and their sum.
+    pub weights: [f32; 4],
+}
+
+/// `hit_triangle` of the shader: Woop, Benthin and Wald's watertight test (JCGT 2013) with the
+/// shear scaled by `dir[kz]` instead of divided by it, so it takes only `+ − ×`. Edge functions
+/// of a shared edge are computed from the same sheared vertices in both triangles, so a ray can
+/// never slip between them; zero edge functions count as inside (closed meshes stay closed).
+pub fn intersect(ray: &Ray, tri: &Triangle) -> TriangleTest {
+    let [kx, ky, kz] = ray.k;
+    let o = ray.origin;
+    let rel = |v: [f32; 3]| [v[0] - o[0], v[1] - o[1], v[2] - o[2]];
+    let (a, b, c) = (rel(tri[0]), rel(tri[1]), rel(tri[2]));
+    let (dx, dy, dz) = (ray.dir[kx], ray.dir[ky], ray.dir[kz]);
+    let shear = |v: [f32; 3]| (v[kx] * dz - v[kz] * dx, v[ky] * dz - v[kz] * dy);
+    let (ax, ay) = shear(a);
+    let (bx, by) = shear(b);
+    let (cx, cy) = shear(c);
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    let det = u + v + w;
+    let mut t = u * a[kz] + v * b[kz] + w * c[kz];
+    let mut d = det * dz;
+    if d < 0.0 {
+        t = -t;
+        d = -d;
+    }
+    let inside = (u >= 0.0 && v >= 0.0 && w >= 0.0) || (u <= 0.0 && v <= 0.0 && w <= 0.0);
+    let limit = ray.tmax * d;
+    let hit = inside && d > 0.0 && t > 0.0 && t < limit;
+
+    // Error bounds: the sheared coordinates before cancellation, then the edge functions and
+    // t·D built from them.
+    let mag = |v: [f32; 3]| {
+        (
+            (v[kx] * dz).abs() + (v[kz] * dx).abs(),
+            (v[ky] * dz).abs() + (v[kz] * dy).abs(),
+        )
+    };
+    let (max, may) = mag(a);
+    let (mbx, mby) = mag(b);
+    let (mcx, mcy) = mag(c);
+    let me = TIE_EPSILON * 2.0 * max.max(mbx).max(mcx) * may.max(mby).max(mcy);
+    let edges_out = (u > me || v > me || w > me) && (u < -me || v < -me || w < -me);
+    let class = if edges_out {
+        Class::Miss
+    } else {
+        let edges_in =
+            (u > me && v > me && w > me) || (u < -me && v < -me && w < -me);
+        let zsum = a[kz].abs() + b[kz].abs() + c[kz].abs();
+        let mt = TIE_EPSILON * ((u * a[kz]).abs() + (v * b[kz]).abs() + (w * c[kz]).abs())
+            + me * zsum;
+        // |D| and the end of the range: their rounding errors.
+        let dd = 3.0 * me * dz.abs();
+        let md = dd * ray.tmax;
+        if edges_in && t > mt && t < limit - mt - md {
+            Class::Hit
+        } else if d > dd && (t < -mt || t > limit + md + mt) {
+            Class::Miss
+        } else {
+            Class::Tie
+        }
+    };
+    TriangleTest {
+        hit,
+        class,
+        weights: [u, v, w, det],
+    }
+}
+
+/// Whether a ray is blocked, and whether that is a tie.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Occlusion {
+    /// The shader's answer.
+    pub blocked: bool,
+    /// Too close to call.
+    pub tie: bool,
+}
+
+/// Any-hit test against every triangle (the shader's `occluded` without the BVH).
+pub fn occluded(ray: &Ray, triangles: &[Triangle]) -> Occlusion {
+    let mut blocked = false;
+    let mut tie = false;
+    for tri in triangles {
+        let r = intersect(ray, tri);
+        blocked |= r.hit;
+        match r.class {
+            Class::Hit => return Occlusion { blocked, tie: false },
+            Class::Tie => tie = true,
+            Class::Miss => {}
+        }
+    }
+    Occlusion { blocked, tie }
+}
+
+fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Rounding bound of [`dot3`].
+fn dot3_bound(a: [f32; 3], b: [f32; 3]) -> f32 {
+    TIE_EPSILON * ((a[0] * b[0]).abs() + (a[1] * b[1]).abs() + (a[2] * b[2]).abs())
+}
+
+fn sub3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// `visible_from_centre` of the shader: whether hit point H (weights `w` on `tri`) is directly
+/// visible from the light centre. H is offset by `push.offset` along the triangle's normal, on
+/// the centre's side, and a ray is cast from there to the centre (directional: towards the sun).
+fn visible_from_centre(
+    tri: &Triangle,
+    w: [f32; 4],
+    push: &ReferencePush,
+    triangles: &[Triangle],
+) -> Occlusion {
+    let inv = 1.0 / w[3];
+    let (wa, wb, wc) = (w[0] * inv, w[1] * inv, w[2] * inv);
+    let h: [f32; 3] = std::array::from_fn(|k| tri[0][k] * wa + tri[1][k] * wb + tri[2][k] * wc);
+    let e1 = sub3(tri[1], tri[0]);
+    let e2 = sub3(tri[2], tri[0]);
+    let nt = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
+    let centre = push.light_position.truncate().to_array();
+    let directional = push.kind == KIND_DIRECTIONAL;
+    let to_light = if directional { centre } else { sub3(centre, h) };
+    let side = dot3(nt, to_light);
+    let len = dot3(nt, nt).sqrt();
+    let s = if side >= 0.0 { push.offset } else { -push.offset } / len;
+    let ho: [f32; 3] = std::array::from_fn(|k| h[k] + nt[k] * s);
+    let (dir, tmax) = if directional {
+        (centre, push.t_far)
+    } else {
+        (sub3(centre, ho), 1.0)
+    };
+    let hidden = occluded(&Ray::new(ho, dir, tmax), triangles);
+    Occlusion {
+        blocked: !hidden.blocked,
+        tie: hidden.tie || side.abs() <= dot3_bound(nt, to_light),
+    }
+}
+
+/// The single-layer test of one light-sample ray: blocked iff some hit H along it is directly
+/// visible from the light centre. Also returns the centre rays cast for the shader's hits.
+fn occluded_single_layer(
+    ray: &Ray,
+    push: &ReferencePush,
+    triangles: &[Triangle],
+) -> (Occlusion, u32) {
+    let mut blocked = false;
+    let mut tie = false;
+    let mut centre_rays = 0;
+    for tri in triangles {
+        let r = intersect(ray, tri);
+        if r.class == Class::Miss {
+            continue;
+        }
+        if r.weights[3] == 0.0 {
+            tie = true;
+            continue;
+        }
+        // `seen.blocked` means "H is visible from the centre": H blocks the light sample.
+        let seen = visible_from_centre(tri, r.weights, push, triangles);
+        centre_rays += u32::from(r.hit);
+        blocked |= r.hit && seen.blocked;
+        if r.class == Class::Hit && seen.blocked && !seen.tie {
+            let robust = Occlusion {
+                blocked,
+                tie: false,
+            };
+            return (robust, centre_rays);
+        }
+        // Neither a robust block nor a robust non-block (a miss or a hidden H).
+        if !(seen.blocked || seen.tie) {
+            continue;
+        }
+        tie = true;
+    }
+    (Occlusion { blocked, tie }, centre_rays)
+}
+
+/// `pcg_hash` of the shader (Jarzynski and Olano, JCGT 2020).
+pub fn pcg(v: u32) -> u32 {
+    let state = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
+    (word >> 22) ^ word
+}
+
+/// A hash's top 24 bits as a float in [0, 1), exactly.
+fn unit(h: u32) -> f32 {
+    (h >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// `cell_point` of the shader: the sample of cell (i, j) in [0, 1)², jittered by a hash of the
+/// pixel's seed and the cell, or the cell centre without jitter.
+pub fn cell_point(push: &ReferencePush, seed: u32, i: u32, j: u32) -> [f32; 2] {
+    let cell = j * push.samples as u32 + i;
+    let jit = if push.jitter != 0 {
+        [
+            unit(pcg(seed.wrapping_add(2 * cell))),
+            unit(pcg(seed.wrapping_add(2 * cell + 1))),
+        ]
+    } else {
+        [0.5, 0.5]
+    };
+    [
+        (i as f32 + jit[0]) * push.inv_samples,
+        (j as f32 + jit[1]) * push.inv_samples,
+    ]
+}
+
+/// `concentric` of the shader: Shirley and Chiu's area-preserving square-to-disk map.
+pub fn concentric(x: [f32; 2]) -> [f32; 2] {
+    let a = [x[0] * 2.0 - 1.0, x[1] * 2.0 - 1.0];
+    if a[0] == 0.0 && a[1] == 0.0 {
+        return [0.0, 0.0];
+    }
+    let quarter = std::f32::consts::FRAC_PI_4;
+    let (r, phi) = if a[0].abs() > a[1].abs() {
+        (a[0], quarter * (a[1] / a[0]))
+    } else {
+        (a[1], std::f32::consts::FRAC_PI_2 - quarter * (a[0] / a[1]))
+    };
+    [r * phi.cos(), r * phi.sin()]
+}
+
+/// What one view sample got.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Shaded {
+    /// Visibility in [0, 1].
+    pub visibility: f32,
+    /// Light-sample rays traced (samples behind the tangent plane take none).
+    pub rays: u32,
+    /// Single layer: rays from hit points to the light centre.
+    pub centre_rays: u32,
+    /// Light samples whose outcome is a tie.
+    pub ties: u32,
+}
+
+/// Everything the shader reads.
+pub struct RayCastInput<'a> {
+    /// View-sample positions (w > 0 marks a sample), row-major.
+    pub positions: &'a [Vec4],
+    /// Camera-facing unit normals (xyz).
+    pub normals: &'a [Vec4],
+    /// Every triangle (original order).
+    pub triangles: &'a [Triangle],
+    /// The shader's push constants.
+    pub push: &'a ReferencePush,
+}
+
+/// Shades pixel `index`; `None` for background.
+pub fn shade(input: &RayCastInput<'_>, index: usize) -> Option<Shaded> {
+    let push = input.push;
+    let p4 = *input.positions.get(index)?;
+    if p4.w <= 0.0 {
+        return None;
+    }
+    let p = p4.truncate().to_array();
+    let n = input.normals.get(index)?.truncate().to_array();
+    let o: [f32; 3] = std::array::from_fn(|k| p[k] + n[k] * push.offset);
+    let side = push.samples.max(1) as u32;
+    let total = side * side;
+    let seed = pcg(index as u32);
+    let c = push.light_position.truncate().to_array();
+    let (u, v) = (
+        push.light_u.truncate().to_array(),
+        push.light_v.truncate().to_array(),
+    );
+    let mut out = Shaded::default();
+    let mut visible = 0;
+    for j in 0..side {
+        for i in 0..side {
+            let x = cell_point(push, seed, i, j);
+            let (dir, tmax, to_light) = match push.kind {
+                KIND_POINT => (sub3(c, o), 1.0, sub3(c, p)),
+                KIND_RECT => {
+                    let (sx, sy) = (x[0] - 0.5, x[1] - 0.5);
+                    let s: [f32; 3] = std::array::from_fn(|k| c[k] + u[k] * sx + v[k] * sy);
+                    (sub3(s, o), 1.0, sub3(s, p))
+                }
+                _ => {
+                    let disk = concentric(x);
+                    let d: [f32; 3] =
+                        std::array::from_fn(|k| c[k] + u[k] * disk[0] + v[k] * disk[1]);
+                    (d, push.t_far, d)
+                }
+            };
+            let facing = dot3(n, to_light);
+            let mut tie = facing.abs() <= dot3_bound(n, to_light);
+            if facing > 0.0 && push.triangle_count > 0 {
+                out.rays += 1;
+                let ray = Ray::new(o, dir, tmax);
+                let r = if push.single_layer != 0 {
+                    let (r, centre_rays) = occluded_single_layer(&ray, push, input.triangles);
+                    out.centre_rays += centre_rays;
+                    r
+                } else {
+                    occluded(&ray, input.triangles)
+                };
+                tie |= r.tie;
+                visible += u32::from(!r.blocked);
+            } else if facing > 0.0 {
+                visible += 1;
+            }
+            out.ties += u32::from(tie);
+        }
+    }
+    out.visibility = if visible == total {
+        1.0
+    } else if visible == 0 {
+        0.0
+    } else {
+        visible as f32 / total as f32
+    };
+    Some(out)
+}
+
+/// The result for every pixel plus the counters.
+pub struct RayCastOutput {
+    /// Visibility per pixel, row-major (1 for background).
+    pub visibility: Vec<f32>,
+    /// Tie rays per pixel (see the module doc for the tolerance).
+    pub ties: Vec<u32>,
+    /// Counters, see [`COUNTER_NAMES`].
+    pub counters: [u64; 6],
+}
+
+/// Runs the shader's computation for every pixel.
+pub fn ray_cast(input: &RayCastInput<'_>) -> RayCastOutput {
+    let n = (input.push.view_size.x.max(0) * input.push.view_size.y.max(0)) as usize;
+    let mut out = RayCastOutput {
+        visibility: vec![1.0; n],
+        ties: vec![0; n],
+        counters: [0; 6],
+    };
+    for i in 0..n {
+        let Some(s) = shade(input, i) else { continue };
+        out.visibility[i] = s.visibility;
+        out.ties[i] = s.ties;
+        out.counters[0] += 1;
+        out.counters[classify(s.visibility)] += 1;
+        out.counters[4] += u64::from(s.rays);
+        out.counters[5] += u64::from(s.centre_rays);
+    }
+    out
+}
+
+/// Counter index of a visibility: 1 lit, 2 umbra, 3 penumbra.
+pub fn classify(v: f32) -> usize {
+    if v >= 1.0 {
+        1
+    } else if v <= 0.0 {
+        2
+    } else {
+        3
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit cube's 12 triangles (two per face, sharing a diagonal).
+    fn cube() -> Vec<Triangle> {
+        let (p, i) = crate::scene::shapes::cuboid(Vec3::ONE);
+        triangles(&p, &i)
+    }
+
+    #[test]
+    fn rays_through_shared_edges_and_vertices_never_leak() {
+        let tris = cube();
+        // From the centre towards every vertex, edge midpoint and face-diagonal midpoint.
+        let mut targets = Vec::new();
+        for x in [-0.5f32, 0.0, 0.5] {
+            for y in [-0.5f32, 0.0, 0.5] {
+                for z in [-0.5f32, 0.0, 0.5] {
+                    if [x, y, z].iter().any(|c| c.abs() == 0.5) {
+                        targets.push([x * 3.0, y * 3.0, z * 3.0]);
+                    }
+                }
+            }
+        }
+        for origin in [[0.0f32, 0.0, 0.0], [0.1, -0.2, 0.05]] {
+            for t in &targets {
+                let ray = Ray::new(origin, sub3(*t, origin), 1.0);
+                assert!(occluded(&ray, &tris).blocked, "leak towards {t:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn ties_mark_edges_and_robust_cases_are_not_ties() {
+        let tri: Triangle = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let through = |x: f32, y: f32| {
+            intersect(&Ray::new([x, y, 1.0], [0.0, 0.0, -2.0], 1.0), &tri).class
+        };
+        assert_eq!(through(0.25, 0.25), Class::Hit);
+        assert_eq!(through(2.0, 2.0), Class::Miss);
+        assert_eq!(through(0.5, 0.0), Class::Tie);
+        assert_eq!(through(0.5, 0.5), Class::Tie);
+        // Beyond the segment's end, and behind its origin.
+        let short = Ray::new([0.25, 0.25, 1.0], [0.0, 0.0, -0.5], 1.0);
+        assert_eq!(intersect(&short, &tri).class, Class::Miss);
+        let behind = Ray::new([0.25, 0.25, 1.0], [0.0, 0.0, 1.0], 1.0);
+        assert_eq!(intersect(&behind, &tri).class, Class::Miss);
+        let ending_on_it = Ray::new([0.25, 0.25, 1.0], [0.0, 0.0, -1.0], 1.0);
+        assert_eq!(intersect(&ending_on_it, &tri).class, Class::Tie);
+    }
+
+    #[test]
+    fn sample_pattern_is_stratified_and_disk_is_inside() {
+        let mut push: ReferencePush = bytemuck::Zeroable::zeroed();
+        push.samples = 4;
+        push.inv_samples = 0.25;
+        push.jitter = 1;
+        for j in 0..4 {
+            for i in 0..4 {
+                let x = cell_point(&push, pcg(17), i, j);
+                assert!((x[0] * 4.0).floor() as u32 == i && (x[1] * 4.0).floor() as u32 == j);
+                let d = concentric(x);
+                assert!(d[0] * d[0] + d[1] * d[1] <= 1.0 + 1e-6);
+            }
+        }
+        push.jitter = 0;
+        assert_eq!(cell_point(&push, 5, 1, 2), [0.375, 0.625]);
+    }
+}

@@ -89,7 +89,19 @@ pub struct DeviceInfo {
     /// `subPixelPrecisionBits`: vertices snap to 1/2^bits of a pixel before rasterization.
     pub sub_pixel_precision_bits: u32,
     /// Whether penumbra can run on it (Vulkan 1.3, a graphics+compute queue); else why not.
+    #[serde(serialize_with = "serialize_usable")]
     pub usable: Result<(), String>,
+}
+
+/// `usable` as JSON: `true`, or the reason it is not.
+fn serialize_usable<S: serde::Serializer>(
+    usable: &Result<(), String>,
+    s: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    match usable {
+        Ok(()) => s.serialize_bool(true),
+        Err(why) => s.serialize_str(why),
+    }
 }
 
 pub(crate) struct DeviceShared {

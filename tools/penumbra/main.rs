@@ -172,6 +172,7 @@ fn render(
     out: &Path,
     frames: u32,
     device: &DeviceArgs,
+    cache_dir: Option<PathBuf>,
     compare: Option<Comparison<'_>>,
 ) -> anyhow::Result<()> {
     let overrides = parse_sets(sets)?;
@@ -198,7 +199,14 @@ fn render(
     let prepared = engine.prepare(&scene)?;
     bar.inc(1);
     bar.set_message(format!("{technique}: 1 warm-up + {frames} frames"));
-    let frame = engine.render(&prepared, technique, &overrides, frames)?;
+    // References are cached on disk (keyed by scene, view, light and knobs); others never are.
+    let (frame, cache_use) = engine.render_cached(
+        &prepared,
+        technique,
+        &overrides,
+        frames,
+        cache_dir.as_deref(),
+    )?;
     bar.inc(1);
     bar.set_message(format!("writing {}", out.display()));
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
@@ -285,6 +293,7 @@ fn render(
         "nan_count": frame.stats.nan_count,
         "out_of_range_count": frame.stats.out_of_range_count,
         "validation": validation,
+        "cache": cache_use,
     });
     if let Some((error, reference)) = comparison {
         stats["error"] = serde_json::json!(error);
@@ -423,6 +432,7 @@ fn main() {
             out,
             *frames,
             device,
+            cache.dir(),
             compare_to.as_deref().map(|r| Comparison {
                 reference: r,
                 samples: *reference_samples,

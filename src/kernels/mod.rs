@@ -2,6 +2,16 @@
 //! reductions, summed-area tables, N-buffers and min/max pyramids. Each has a CPU twin in
 //! `src/cpu/` and a row in `penumbra bench --suite kernels`.
 
+pub mod compact;
+pub mod minmax;
+pub mod nbuffer;
+pub mod reduce;
+pub mod sat;
+mod sat_bench;
+pub mod scan;
+mod scan_bench;
+pub mod sort;
+
 /// One timed primitive at one size, for `penumbra bench --suite kernels`.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct KernelBenchRow {
@@ -20,6 +30,16 @@ pub struct KernelBenchRow {
 impl KernelBenchRow {
     /// Effective bandwidth in GB/s: `bytes / time`.
     pub fn gb_per_s(&self) -> Option<f64> {
-        self.gpu_ms.filter(|&ms| ms > 0.0).map(|ms| self.bytes as f64 / (ms * 1e-3) / 1e9)
+        self.gpu_ms
+            .filter(|&ms| ms > 0.0)
+            .map(|ms| self.bytes as f64 / (ms * 1e-3) / 1e9)
     }
+}
+
+/// Every primitive's bench rows (`penumbra bench --suite kernels`): prefix sums, compaction,
+/// sorting and reductions, then summed-area tables, N-buffers and the min/max pyramid.
+pub fn bench_all(ctx: &crate::gpu::Context, quick: bool) -> crate::Result<Vec<KernelBenchRow>> {
+    let mut rows = scan::bench_rows(ctx, quick)?;
+    rows.extend(sat::bench_rows(ctx, quick)?);
+    Ok(rows)
 }

@@ -40,10 +40,71 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
             ("map_size", vec![1024.0, 2048.0]),
             ("kernel", vec![1.0, 3.0, 5.0, 9.0]),
         ],
+        // Wide kernels with one receiver depth are mostly acne (misclassified ~0.8 on
+        // plane-boxes), so the quick sweep measures the filters with receiver-plane bias on.
+        ("pcf-poisson", true) => vec![
+            ("map_size", vec![1024.0]),
+            ("taps", vec![8.0, 16.0, 32.0]),
+            ("receiver_plane_bias", vec![1.0]),
+        ],
+        ("pcf-poisson", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("taps", vec![8.0, 16.0, 32.0, 64.0]),
+            ("receiver_plane_bias", vec![0.0, 1.0]),
+        ],
+        ("pcf-coverage", true) => vec![
+            ("map_size", vec![1024.0]),
+            ("kernel", vec![1.5, 3.0, 5.0]),
+            ("receiver_plane_bias", vec![1.0]),
+        ],
+        ("pcf-coverage", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("kernel", vec![1.0, 2.5, 5.0, 9.0]),
+            ("receiver_plane_bias", vec![0.0, 1.0]),
+        ],
         ("average-maps", true) => vec![("map_size", vec![512.0]), ("samples", vec![16.0])],
         ("average-maps", false) => vec![
             ("map_size", vec![1024.0]),
             ("samples", vec![16.0, 64.0, 256.0]),
+        ],
+        // Filtered shadow maps: blur radius, and each technique's own axis (exponents, M).
+        ("vsm", true) => vec![
+            ("map_size", vec![1024.0]),
+            ("filter_radius", vec![1.0, 2.0]),
+        ],
+        ("vsm", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("filter_radius", vec![1.0, 2.0, 4.0]),
+            ("bleed_reduction", vec![0.0, 0.2]),
+        ],
+        ("esm", true) => vec![("map_size", vec![1024.0]), ("exponent", vec![40.0, 80.0])],
+        ("esm", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("filter_radius", vec![1.0, 2.0, 4.0]),
+            ("exponent", vec![40.0, 80.0, 200.0]),
+        ],
+        ("evsm", true) => vec![("map_size", vec![1024.0]), ("components", vec![2.0, 4.0])],
+        ("evsm", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("filter_radius", vec![1.0, 2.0, 4.0]),
+            ("components", vec![2.0, 4.0]),
+            ("exponent_positive", vec![20.0, 40.0]),
+        ],
+        ("msm", true) => vec![
+            ("map_size", vec![1024.0]),
+            ("filter_radius", vec![1.0, 2.0]),
+        ],
+        ("msm", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("filter_radius", vec![1.0, 2.0, 4.0]),
+            ("moment_bias", vec![3e-6, 3e-5]),
+        ],
+        ("csm", true) => vec![("map_size", vec![1024.0]), ("terms", vec![4.0, 8.0, 16.0])],
+        ("csm", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("filter_radius", vec![1.0, 2.0, 4.0]),
+            ("terms", vec![4.0, 8.0, 16.0]),
+            ("damping", vec![0.5, 1.0]),
         ],
         _ => Vec::new(),
     }
@@ -349,6 +410,89 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     if rows.iter().any(|r| r.get("failure").is_some()) {
         anyhow::bail!("some runs failed (see bench.json)");
+    }
+    Ok(())
+}
+
+/// `penumbra bench --suite kernels`: every compute primitive's time and effective bandwidth, and
+/// the SAT precision table; writes `kernels.json` and prints both tables.
+pub fn run_kernels(
+    out: &Path,
+    quick: bool,
+    device: Option<String>,
+    validation: bool,
+) -> anyhow::Result<()> {
+    let engine = Engine::new(&ContextDesc { validation, device })?;
+    let ctx = engine.context();
+    let bar = ProgressBar::new_spinner();
+    bar.enable_steady_tick(Duration::from_millis(200));
+    bar.set_message("timing primitives (each verified against its CPU twin)");
+    let rows = penumbra::kernels::bench_all(ctx, quick)?;
+    bar.set_message("SAT precision");
+    let precision = penumbra::kernels::sat::sat_precision_rows(ctx, quick)?;
+    bar.finish_and_clear();
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let json = serde_json::json!({
+        "device": ctx.info().name,
+        "quick": quick,
+        "primitives": rows.iter().map(|r| {
+            let mut v = serde_json::json!(r);
+            v["gb_per_s"] = serde_json::json!(r.gb_per_s());
+            v
+        }).collect::<Vec<_>>(),
+        "sat_precision": precision,
+        "validation": validation.then(|| ctx.validation().counts()),
+    });
+    let path = out.join("kernels.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&json)? + "\n")
+        .with_context(|| format!("writing {}", path.display()))?;
+    println!(
+        "{} — {}",
+        ctx.info().name,
+        if quick { "quick" } else { "full" }
+    );
+    println!(
+        "{:<36} {:>12} {:>10} {:>10} {:>9}",
+        "primitive", "size", "GPU ms", "GB/s", "verified"
+    );
+    for r in &rows {
+        println!(
+            "{:<36} {:>12} {:>10} {:>10} {:>9}",
+            r.primitive,
+            r.size,
+            r.gpu_ms
+                .map(|m| format!("{m:.3}"))
+                .unwrap_or_else(|| "-".into()),
+            r.gb_per_s()
+                .map(|g| format!("{g:.2}"))
+                .unwrap_or_else(|| "-".into()),
+            if r.verified { "yes" } else { "NO" }
+        );
+    }
+    println!();
+    println!("SAT precision: error of box-filter averages against the exact result");
+    println!(
+        "{:<12} {:>6} {:<16} {:>14} {:>14}",
+        "input", "size", "variant", "max |error|", "RMS error"
+    );
+    for r in &precision {
+        println!(
+            "{:<12} {:>6} {:<16} {:>14.3e} {:>14.3e}",
+            r.input, r.size, r.variant, r.max_abs_error_box, r.rms_error_box
+        );
+    }
+    let counts = ctx.validation().counts();
+    println!(
+        "wrote {}, validation errors {}, warnings {}",
+        path.display(),
+        counts.errors,
+        counts.warnings
+    );
+    if rows.iter().any(|r| !r.verified) {
+        anyhow::bail!("a primitive did not match its CPU twin");
+    }
+    if counts.errors > 0 {
+        anyhow::bail!("{} validation errors", counts.errors);
     }
     Ok(())
 }

@@ -88,6 +88,10 @@ enum Command {
     /// Run techniques × knob sweeps × scenes against the reference; write bench.json, bench.csv
     /// and Pareto charts.
     Bench {
+        /// `techniques` (time and error of every technique) or `kernels` (time and bandwidth of
+        /// every compute primitive, and the SAT precision table).
+        #[arg(long, default_value = "techniques")]
+        suite: String,
         /// Scenes (files or procedural specs), comma-separated; default: every bundled scene.
         #[arg(long, value_delimiter = ',')]
         scenes: Vec<String>,
@@ -440,6 +444,19 @@ fn main() {
             }),
         ),
         Command::Bench {
+            suite,
+            out,
+            quick,
+            device,
+            ..
+        } if suite == "kernels" => {
+            bench::run_kernels(out, *quick, device.device.clone(), !device.no_validation)
+        }
+        Command::Bench { suite, .. } if suite != "techniques" => Err(anyhow::anyhow!(
+            "unknown suite '{suite}': expected 'techniques' or 'kernels'"
+        )),
+        Command::Bench {
+            suite: _,
             scenes,
             techniques,
             set,

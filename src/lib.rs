@@ -18,6 +18,7 @@ pub mod metrics;
 pub mod output;
 pub mod passes;
 pub mod plots;
+pub mod reference;
 pub mod scene;
 #[cfg(feature = "shader-compiler")]
 pub mod shader_compiler;

@@ -41,6 +41,46 @@ pub struct PcfPush {
     pub mode: i32,
     /// Box width in texels (taps per axis).
     pub kernel: i32,
+    /// 1: receiver-plane depth bias per tap (mode 1 only); 0: one receiver depth.
+    pub receiver_plane: i32,
+    /// Padding to the block's declared size.
+    pub pad: i32,
+}
+
+/// `glsl/pcf_poisson/pcf_poisson.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct PcfPoissonPush {
+    /// World → light clip space.
+    pub light_view_proj: Mat4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// Shadow-map size.
+    pub map_size: IVec2,
+    /// Taps used from the pattern buffer.
+    pub taps: i32,
+    /// Disk radius in texels.
+    pub radius: f32,
+    /// 1: receiver-plane depth bias per tap; 0: one receiver depth.
+    pub receiver_plane: i32,
+    /// Padding to the block's declared size.
+    pub pad: i32,
+}
+
+/// `glsl/pcf_coverage/pcf_coverage.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct PcfCoveragePush {
+    /// World → light clip space.
+    pub light_view_proj: Mat4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// Shadow-map size.
+    pub map_size: IVec2,
+    /// Box width in texels (continuous).
+    pub kernel: f32,
+    /// 1: receiver-plane depth bias per texel; 0: one receiver depth.
+    pub receiver_plane: i32,
     /// Padding to the block's declared size.
     pub pad: [i32; 2],
 }
@@ -123,7 +163,37 @@ mod tests {
         assert_eq!(offset_of!(PcfPush, map_size), 72);
         assert_eq!(offset_of!(PcfPush, mode), 80);
         assert_eq!(offset_of!(PcfPush, kernel), 84);
+        assert_eq!(offset_of!(PcfPush, receiver_plane), 88);
         assert_eq!(size_of::<PcfPush>(), 96);
         assert_eq!(declared("pcf/pcf.comp"), size_of::<PcfPush>());
+    }
+
+    #[test]
+    fn pcf_poisson_push_layout() {
+        assert_eq!(offset_of!(PcfPoissonPush, light_view_proj), 0);
+        assert_eq!(offset_of!(PcfPoissonPush, view_size), 64);
+        assert_eq!(offset_of!(PcfPoissonPush, map_size), 72);
+        assert_eq!(offset_of!(PcfPoissonPush, taps), 80);
+        assert_eq!(offset_of!(PcfPoissonPush, radius), 84);
+        assert_eq!(offset_of!(PcfPoissonPush, receiver_plane), 88);
+        assert_eq!(size_of::<PcfPoissonPush>(), 96);
+        assert_eq!(
+            declared("pcf_poisson/pcf_poisson.comp"),
+            size_of::<PcfPoissonPush>()
+        );
+    }
+
+    #[test]
+    fn pcf_coverage_push_layout() {
+        assert_eq!(offset_of!(PcfCoveragePush, light_view_proj), 0);
+        assert_eq!(offset_of!(PcfCoveragePush, view_size), 64);
+        assert_eq!(offset_of!(PcfCoveragePush, map_size), 72);
+        assert_eq!(offset_of!(PcfCoveragePush, kernel), 80);
+        assert_eq!(offset_of!(PcfCoveragePush, receiver_plane), 84);
+        assert_eq!(size_of::<PcfCoveragePush>(), 96);
+        assert_eq!(
+            declared("pcf_coverage/pcf_coverage.comp"),
+            size_of::<PcfCoveragePush>()
+        );
     }
 }

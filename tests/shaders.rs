@@ -71,6 +71,7 @@ fn pcf_interface_reflects_as_declared() {
             (1, vk::DescriptorType::COMBINED_IMAGE_SAMPLER, true),
             (2, vk::DescriptorType::STORAGE_IMAGE, false),
             (3, vk::DescriptorType::STORAGE_BUFFER, false),
+            (4, vk::DescriptorType::STORAGE_IMAGE, true),
         ]
     );
     assert_eq!(i.push_constant_size, 96);

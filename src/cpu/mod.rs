@@ -5,6 +5,18 @@
 //! depth ties, an absolute epsilon for filtered values (the GPU may contract `a*b+c` into an FMA).
 
 pub mod average_maps;
+pub mod compact;
+pub mod filtered;
+pub mod minmax;
+pub mod nbuffer;
 pub mod pcf;
+pub mod pcf_coverage;
+pub mod pcf_poisson;
 pub mod raster;
+pub mod ray_cast;
+pub mod receiver_plane;
+pub mod reduce;
+pub mod sat;
+pub mod scan;
 pub mod shadow_map;
+pub mod sort;

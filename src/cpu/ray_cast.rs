@@ -8,7 +8,7 @@
 //! device a hard ray gives the same answer on both sides, bit for bit.
 //!
 //! Where bit-exactness cannot be promised, the twin says so per ray with a *tie* flag: the ray
-//! passes within [`TIE_EPSILON`] (relative to the magnitudes involved) of a triangle edge, of its
+//! passes within [`TIE_EPSILON`] (≈ 1e-6, relative to the magnitudes involved) of a triangle edge, of its
 //! endpoints, of the receiver's tangent plane, or (single layer) the hit point's own visibility
 //! from the light centre is such a near case. Ties cover the soft directional light (the sun-disk
 //! mapping uses `sin`/`cos`, which the GPU evaluates to within a few ulps only) and the single
@@ -24,8 +24,11 @@ use glam::{Vec3, Vec4};
 
 use crate::reference::{ReferencePush, KIND_DIRECTIONAL, KIND_POINT, KIND_RECT};
 
-/// Relative distance under which a ray's outcome is a rounding tie, not a bug.
-pub const TIE_EPSILON: f32 = 1e-5;
+/// Relative distance under which a ray's outcome is a rounding tie, not a bug: 2⁻²⁰ ≈ 8 ulps,
+/// well above the few ulps by which a GPU's `sin`/`cos`, division or square root may differ,
+/// and well below the ray offset (2⁻¹⁶ of the scene's scale), so that a ray leaving its own
+/// surface is not a tie.
+pub const TIE_EPSILON: f32 = 1.0 / 1_048_576.0;
 
 /// Counters in the shader's order (`rays` and `centre_rays` are 64-bit on the GPU).
 pub const COUNTER_NAMES: [&str; 6] = [
@@ -116,20 +119,35 @@ pub struct TriangleTest {
 /// of a shared edge are computed from the same sheared vertices in both triangles, so a ray can
 /// never slip between them; zero edge functions count as inside (closed meshes stay closed).
 pub fn intersect(ray: &Ray, tri: &Triangle) -> TriangleTest {
-    let [kx, ky, kz] = ray.k;
-    let o = ray.origin;
-    let rel = |v: [f32; 3]| [v[0] - o[0], v[1] - o[1], v[2] - o[2]];
-    let (a, b, c) = (rel(tri[0]), rel(tri[1]), rel(tri[2]));
-    let (dx, dy, dz) = (ray.dir[kx], ray.dir[ky], ray.dir[kz]);
-    let shear = |v: [f32; 3]| (v[kx] * dz - v[kz] * dx, v[ky] * dz - v[kz] * dy);
-    let (ax, ay) = shear(a);
-    let (bx, by) = shear(b);
-    let (cx, cy) = shear(c);
+    match ray.k[2] {
+        0 => intersect_axes::<1, 2, 0>(ray, tri),
+        1 => intersect_axes::<2, 0, 1>(ray, tri),
+        _ => intersect_axes::<0, 1, 2>(ray, tri),
+    }
+}
+
+/// [`intersect`] with the axis permutation as constants: the brute-force loops run it a
+/// billion times, and fixed indices spare the bounds checks.
+#[inline(always)]
+fn intersect_axes<const KX: usize, const KY: usize, const KZ: usize>(
+    ray: &Ray,
+    tri: &Triangle,
+) -> TriangleTest {
+    let o = &ray.origin;
+    let (dx, dy, dz) = (ray.dir[KX], ray.dir[KY], ray.dir[KZ]);
+    // Vertices relative to the origin (a - o in the shader), in permuted axis order.
+    let rel = |v: &[f32; 3]| (v[KX] - o[KX], v[KY] - o[KY], v[KZ] - o[KZ]);
+    let (a_x, a_y, a_z) = rel(&tri[0]);
+    let (b_x, b_y, b_z) = rel(&tri[1]);
+    let (c_x, c_y, c_z) = rel(&tri[2]);
+    let (ax, ay) = (a_x * dz - a_z * dx, a_y * dz - a_z * dy);
+    let (bx, by) = (b_x * dz - b_z * dx, b_y * dz - b_z * dy);
+    let (cx, cy) = (c_x * dz - c_z * dx, c_y * dz - c_z * dy);
     let u = cx * by - cy * bx;
     let v = ax * cy - ay * cx;
     let w = bx * ay - by * ax;
     let det = u + v + w;
-    let mut t = u * a[kz] + v * b[kz] + w * c[kz];
+    let mut t = u * a_z + v * b_z + w * c_z;
     let mut d = det * dz;
     if d < 0.0 {
         t = -t;
@@ -141,27 +159,23 @@ pub fn intersect(ray: &Ray, tri: &Triangle) -> TriangleTest {
 
     // Error bounds: the sheared coordinates before cancellation, then the edge functions and
     // t·D built from them.
-    let mag = |v: [f32; 3]| {
-        (
-            (v[kx] * dz).abs() + (v[kz] * dx).abs(),
-            (v[ky] * dz).abs() + (v[kz] * dy).abs(),
-        )
-    };
-    let (max, may) = mag(a);
-    let (mbx, mby) = mag(b);
-    let (mcx, mcy) = mag(c);
-    let me = TIE_EPSILON * 2.0 * max.max(mbx).max(mcx) * may.max(mby).max(mcy);
+    let (adx, ady, adz) = (dx.abs(), dy.abs(), dz.abs());
+    let mag_x = (a_x.abs() * adz + a_z.abs() * adx)
+        .max(b_x.abs() * adz + b_z.abs() * adx)
+        .max(c_x.abs() * adz + c_z.abs() * adx);
+    let mag_y = (a_y.abs() * adz + a_z.abs() * ady)
+        .max(b_y.abs() * adz + b_z.abs() * ady)
+        .max(c_y.abs() * adz + c_z.abs() * ady);
+    let me = TIE_EPSILON * 2.0 * mag_x * mag_y;
     let edges_out = (u > me || v > me || w > me) && (u < -me || v < -me || w < -me);
     let class = if edges_out {
         Class::Miss
     } else {
-        let edges_in =
-            (u > me && v > me && w > me) || (u < -me && v < -me && w < -me);
-        let zsum = a[kz].abs() + b[kz].abs() + c[kz].abs();
-        let mt = TIE_EPSILON * ((u * a[kz]).abs() + (v * b[kz]).abs() + (w * c[kz]).abs())
-            + me * zsum;
+        let edges_in = (u > me && v > me && w > me) || (u < -me && v < -me && w < -me);
+        let zsum = a_z.abs() + b_z.abs() + c_z.abs();
+        let mt = TIE_EPSILON * ((u * a_z).abs() + (v * b_z).abs() + (w * c_z).abs()) + me * zsum;
         // |D| and the end of the range: their rounding errors.
-        let dd = 3.0 * me * dz.abs();
+        let dd = 3.0 * me * adz;
         let md = dd * ray.tmax;
         if edges_in && t > mt && t < limit - mt - md {
             Class::Hit
@@ -189,10 +203,21 @@ pub struct Occlusion {
 
 /// Any-hit test against every triangle (the shader's `occluded` without the BVH).
 pub fn occluded(ray: &Ray, triangles: &[Triangle]) -> Occlusion {
+    match ray.k[2] {
+        0 => occluded_axes::<1, 2, 0>(ray, triangles),
+        1 => occluded_axes::<2, 0, 1>(ray, triangles),
+        _ => occluded_axes::<0, 1, 2>(ray, triangles),
+    }
+}
+
+fn occluded_axes<const KX: usize, const KY: usize, const KZ: usize>(
+    ray: &Ray,
+    triangles: &[Triangle],
+) -> Occlusion {
     let mut blocked = false;
     let mut tie = false;
     for tri in triangles {
-        let r = intersect(ray, tri);
+        let r = intersect_axes::<KX, KY, KZ>(ray, tri);
         blocked |= r.hit;
         match r.class {
             Class::Hit => return Occlusion { blocked, tie: false },
@@ -240,7 +265,7 @@ fn visible_from_centre(
     let to_light = if directional { centre } else { sub3(centre, h) };
     let side = dot3(nt, to_light);
     let len = dot3(nt, nt).sqrt();
-    let s = if side >= 0.0 { push.offset } else { -push.offset } / len;
+    let s = (if side >= 0.0 { push.offset } else { -push.offset }) / len;
     let ho: [f32; 3] = std::array::from_fn(|k| h[k] + nt[k] * s);
     let (dir, tmax) = if directional {
         (centre, push.t_far)

@@ -7,8 +7,11 @@
 //! after each frame.
 
 pub mod average_maps;
+pub mod filtered;
 mod params;
 pub mod pcf;
+pub mod pcf_coverage;
+pub mod pcf_poisson;
 
 pub use params::{Knob, KnobDefault, Params, SHADOW_MAP_KNOBS};
 
@@ -69,7 +72,20 @@ pub struct TechniqueInfo {
 
 /// Every technique, in the order `penumbra techniques` lists them.
 pub fn registry() -> &'static [TechniqueInfo] {
-    &[pcf::HARD, pcf::PCF, average_maps::AVERAGE_MAPS]
+    &[
+        pcf::HARD,
+        pcf::PCF,
+        average_maps::AVERAGE_MAPS,
+        crate::reference::REFERENCE,
+        crate::reference::REFERENCE_SINGLE_LAYER,
+        pcf_poisson::PCF_POISSON,
+        pcf_coverage::PCF_COVERAGE,
+        filtered::vsm::VSM,
+        filtered::esm::ESM,
+        filtered::evsm::EVSM,
+        filtered::msm::MSM,
+        filtered::csm::CSM,
+    ]
 }
 
 /// Looks a technique up by name.

@@ -6,7 +6,9 @@
 //! book (§5.1.3) done by hand, because depth formats cannot be linearly filtered everywhere
 //! (lavapipe). The box convolved with the bilinear tent spans `kernel + 1` texels, so V takes
 //! continuous values without the n²+1-level banding of a plain box. Receivers outside the light
-//! frustum are lit and counted (`outside_light`). CPU twin: [`crate::cpu::pcf`].
+//! frustum are lit and counted (`outside_light`). `pcf` takes the family's
+//! [`RECEIVER_PLANE_BIAS`] knob (per-tap receiver-plane depths, off by default: then the result
+//! is bit-for-bit what it was without the knob). CPU twin: [`crate::cpu::pcf`].
 
 use glam::IVec2;
 
@@ -28,21 +30,33 @@ const KERNEL: Knob = Knob {
     integer: true,
 };
 
+/// Receiver-plane depth bias (Isidoro06; book Eq. 5.3) for the PCF family: each tap compares the
+/// receiver plane's depth under it (see [`crate::cpu::receiver_plane`]).
+pub const RECEIVER_PLANE_BIAS: Knob = Knob {
+    name: "receiver_plane_bias",
+    summary: "1: per-tap receiver-plane depth from neighbouring view samples; 0: one depth",
+    default: KnobDefault::Value(0.0),
+    min: 0.0,
+    max: 1.0,
+    integer: true,
+};
+
 /// `hard`: one nearest-texel shadow-map test.
 pub const HARD: TechniqueInfo = TechniqueInfo {
     name: "hard",
     summary: "standard shadow mapping: one nearest-texel depth test from the light centre",
     knobs: &SHADOW_MAP_KNOBS,
     cacheable: false,
-    create: |setup, params| Ok(Box::new(Pcf::new(setup, params, 0, 1)?)),
+    create: |setup, params| Ok(Box::new(Pcf::new(setup, params, 0, 1, 0)?)),
 };
 
-const PCF_KNOBS: [Knob; 5] = [
+const PCF_KNOBS: [Knob; 6] = [
     SHADOW_MAP_KNOBS[0],
     SHADOW_MAP_KNOBS[1],
     SHADOW_MAP_KNOBS[2],
     SHADOW_MAP_KNOBS[3],
     KERNEL,
+    RECEIVER_PLANE_BIAS,
 ];
 
 /// `pcf`: a box of bilinear depth tests.
@@ -53,7 +67,14 @@ pub const PCF: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     create: |setup, params| {
         let kernel = params.u32("kernel") as i32;
-        Ok(Box::new(Pcf::new(setup, params, 1, kernel)?))
+        let receiver_plane = params.u32("receiver_plane_bias") as i32;
+        Ok(Box::new(Pcf::new(
+            setup,
+            params,
+            1,
+            kernel,
+            receiver_plane,
+        )?))
     },
 };
 
@@ -81,7 +102,13 @@ struct Pcf<'a> {
 }
 
 impl<'a> Pcf<'a> {
-    fn new(setup: &TechniqueSetup<'a>, params: &Params, mode: i32, kernel: i32) -> Result<Self> {
+    fn new(
+        setup: &TechniqueSetup<'a>,
+        params: &Params,
+        mode: i32,
+        kernel: i32,
+        receiver_plane: i32,
+    ) -> Result<Self> {
         let ctx = setup.ctx;
         let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params))?;
         let pipeline = Pipeline::compute(ctx, "pcf/pcf.comp")?;
@@ -94,6 +121,7 @@ impl<'a> Pcf<'a> {
                 Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&counters),
+                Binding::Image(&setup.view.normals),
             ],
         )?;
         let size = shadow_map.desc.size as i32;
@@ -103,7 +131,8 @@ impl<'a> Pcf<'a> {
             map_size: IVec2::splat(size),
             mode,
             kernel,
-            pad: [0; 2],
+            receiver_plane,
+            pad: 0,
         };
         Ok(Pcf {
             ctx: ctx.clone(),

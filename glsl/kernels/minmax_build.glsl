@@ -1,0 +1,56 @@
+// Min/max pyramid level l + 1 from level l: each texel the min and max of its 2 x 2 children,
+// ignoring children past the edge (odd sizes round up, so the last row and column have partial
+// children). MINMAX_FROM_SOURCE: level 0 is the source image (R32F or D32), read with texelFetch.
+// CPU twin: src/cpu/minmax.rs `build`.
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+#ifdef MINMAX_FROM_SOURCE
+layout(set = 0, binding = 0) uniform sampler2D source;
+layout(set = 0, binding = 1, r32f) uniform writeonly image2D dst_min;
+layout(set = 0, binding = 2, r32f) uniform writeonly image2D dst_max;
+
+vec2 fetch(ivec2 p) {
+    return vec2(texelFetch(source, p, 0).r);
+}
+#else
+layout(set = 0, binding = 0, r32f) uniform readonly image2D src_min;
+layout(set = 0, binding = 1, r32f) uniform readonly image2D src_max;
+layout(set = 0, binding = 2, r32f) uniform writeonly image2D dst_min;
+layout(set = 0, binding = 3, r32f) uniform writeonly image2D dst_max;
+
+vec2 fetch(ivec2 p) {
+    return vec2(imageLoad(src_min, p).r, imageLoad(src_max, p).r);
+}
+#endif
+
+layout(push_constant) uniform Push {
+    // Sizes of the level read and the level written.
+    ivec2 src_size;
+    ivec2 dst_size;
+} pc;
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(p, pc.dst_size))) {
+        return;
+    }
+    ivec2 c = 2 * p;
+    bool right = c.x + 1 < pc.src_size.x;
+    bool below = c.y + 1 < pc.src_size.y;
+    vec2 m = fetch(c);
+    if (right) {
+        vec2 v = fetch(c + ivec2(1, 0));
+        m = vec2(min(m.x, v.x), max(m.y, v.y));
+    }
+    if (below) {
+        vec2 v = fetch(c + ivec2(0, 1));
+        m = vec2(min(m.x, v.x), max(m.y, v.y));
+    }
+    if (right && below) {
+        vec2 v = fetch(c + ivec2(1, 1));
+        m = vec2(min(m.x, v.x), max(m.y, v.y));
+    }
+    imageStore(dst_min, p, vec4(m.x));
+    imageStore(dst_max, p, vec4(m.y));
+}

@@ -1,0 +1,5 @@
+#version 460
+// Summed-area table row pass, double entries (see sat_rows.glsl). Built by src/kernels/sat.rs.
+#extension GL_GOOGLE_include_directive : require
+#define SAT_T double
+#include "sat_rows.glsl"

@@ -1,0 +1,29 @@
+// Packed per-block digit counts for the radix sort (sort_histogram.glsl, sort_scatter.glsl).
+// The counts of the 16 digits live in two uvec4s, `low` (digits 0-7) and `high` (8-15): digit d
+// in component (d >> 1) & 3, in the low 16 bits when d is even, the high 16 bits when odd. A
+// block holds at most 1024 = 2^10 keys, so a half never carries into its neighbour, and one
+// workgroup scan of each uvec4 counts all 16 digits at once.
+//
+// Components are chosen with compares and selects, not by indexing with a per-invocation
+// value: lavapipe (and many GPU compilers) turn a dynamic index into a vector into per-lane
+// memory traffic, which made the scatter ~2x slower.
+
+#define RADIX 16
+
+uvec4 digit_slot(uint d) {
+    return uvec4(equal(uvec4((d >> 1) & 3u), uvec4(0u, 1u, 2u, 3u)));
+}
+
+// Adds `amount` (0 or 1) to digit d's count.
+void count_digit(inout uvec4 low, inout uvec4 high, uint d, uint amount) {
+    uvec4 add = digit_slot(d) * (amount << (16u * (d & 1u)));
+    low += d < 8u ? add : uvec4(0u);
+    high += d < 8u ? uvec4(0u) : add;
+}
+
+uint digit_count(uvec4 low, uvec4 high, uint d) {
+    uvec4 v = d < 8u ? low : high;
+    uint c = (d >> 1) & 3u;
+    uint packed = c == 0u ? v.x : (c == 1u ? v.y : (c == 2u ? v.z : v.w));
+    return (packed >> (16u * (d & 1u))) & 0xFFFFu;
+}

@@ -1,0 +1,5 @@
+#version 460
+// sort_histogram.glsl with subgroup arithmetic (needs ctx.info().subgroup_arithmetic).
+#extension GL_GOOGLE_include_directive : require
+#define SUBGROUP_SCAN 1
+#include "sort_histogram.glsl"

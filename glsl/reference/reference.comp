@@ -1,0 +1,297 @@
+#version 460
+// reference and reference-single-layer: per view sample, the fraction of N x N stratified light
+// samples that a shadow ray through the BVH reaches (one ray for a point light or a hard sun).
+// Design, offset scheme and the single-layer definition: src/reference/mod.rs.
+// CPU twin: src/cpu/ray_cast.rs, which computes the same values in the same order.
+#extension GL_GOOGLE_include_directive : require
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
+layout(set = 0, binding = 2, r32f) uniform writeonly image2D visibility;
+// [0] view samples, [1] lit, [2] umbra, [3] penumbra, [4..5] rays, [6..7] centre rays (lo, hi).
+layout(set = 0, binding = 3) buffer Counters { uint counters[]; };
+
+layout(push_constant) uniform Push {
+    vec4 light_position;  // point/rect: centre; directional: unit direction towards the sun
+    vec4 light_u;         // rect: full edge u; sun: tan(angular radius) * e1
+    vec4 light_v;         // rect: full edge v; sun: tan(angular radius) * e2
+    ivec2 view_size;
+    int kind;             // 0 point, 1 rect, 2 directional
+    int samples;          // N: N x N light samples
+    float inv_samples;    // 1 / N
+    float offset;         // ray-origin offset along the camera-facing normal (world units)
+    float t_far;          // ray extent towards the sun
+    int single_layer;
+    int jitter;
+    uint triangle_count;
+    int pad0;
+    int pad1;
+} pc;
+
+#include "trace.glsl"
+
+const int KIND_POINT = 0;
+const int KIND_RECT = 1;
+const int KIND_DIRECTIONAL = 2;
+const float QUARTER_PI = 0.78539816339744830962;
+const float HALF_PI = 1.57079632679489661923;
+
+shared uint group_counts[6];
+
+// Written out so that the order of the additions is the twin's.
+float dot3(vec3 a, vec3 b) {
+    precise float r = a.x * b.x + a.y * b.y + a.z * b.z;
+    return r;
+}
+
+// Jarzynski and Olano's PCG hash (JCGT 2020).
+uint pcg(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// The top 24 bits as a float in [0, 1), exactly.
+float unit_float(uint h) {
+    return float(h >> 8u) * (1.0 / 16777216.0);
+}
+
+// Sample of cell (i, j) in [0, 1)^2: jittered by a hash of (pixel seed, cell), or the centre.
+vec2 cell_point(uint seed, int i, int j) {
+    uint cell = uint(j * pc.samples + i);
+    vec2 jit = vec2(0.5);
+    if (pc.jitter != 0) {
+        jit = vec2(unit_float(pcg(seed + 2u * cell)), unit_float(pcg(seed + 2u * cell + 1u)));
+    }
+    precise vec2 x = (vec2(float(i), float(j)) + jit) * pc.inv_samples;
+    return x;
+}
+
+// Shirley and Chiu's concentric square-to-disk map (area-preserving).
+vec2 concentric(vec2 x) {
+    precise vec2 a = x * 2.0 - 1.0;
+    if (a.x == 0.0 && a.y == 0.0) {
+        return vec2(0.0);
+    }
+    precise float r;
+    precise float phi;
+    if (abs(a.x) > abs(a.y)) {
+        r = a.x;
+        phi = QUARTER_PI * (a.y / a.x);
+    } else {
+        r = a.y;
+        phi = HALF_PI - QUARTER_PI * (a.x / a.y);
+    }
+    precise vec2 disk = r * vec2(cos(phi), sin(phi));
+    return disk;
+}
+
+// The ray that decides whether hit point H (weights w on triangle t) is directly visible from the
+// light centre: from H offset by pc.offset along the triangle's normal, on the centre's side, to
+// the centre (towards the sun's centre direction for a directional light).
+Ray centre_ray(Tri t, vec4 w) {
+    precise float inv = 1.0 / w.w;
+    precise float wa = w.x * inv;
+    precise float wb = w.y * inv;
+    precise float wc = w.z * inv;
+    precise vec3 h = t.a * wa + t.b * wb + t.c * wc;
+    precise vec3 e1 = t.b - t.a;
+    precise vec3 e2 = t.c - t.a;
+    precise vec3 nt = vec3(e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z,
+                           e1.x * e2.y - e1.y * e2.x);
+    vec3 centre = pc.light_position.xyz;
+    bool directional = pc.kind == KIND_DIRECTIONAL;
+    precise vec3 to_light = directional ? centre : centre - h;
+    precise float side = dot3(nt, to_light);
+    precise float len = sqrt(dot3(nt, nt));
+    precise float s = (side >= 0.0 ? pc.offset : -pc.offset) / len;
+    precise vec3 ho = h + nt * s;
+    precise vec3 dir = directional ? centre : centre - ho;
+    return make_ray(ho, dir, directional ? pc.t_far : 1.0);
+}
+
+// Single layer: blocked iff some hit H along the ray is directly visible from the light centre,
+// i.e. H's centre ray hits nothing. One flat loop runs both traversals: at a primary hit the
+// primary's state is kept (its stack entries stay below `base`, its leaf's untested triangles in
+// [next, end)) while the centre ray is traced, then resumed. Nesting the centre traversal inside
+// the primary's loops instead miscompiles on lavapipe (Mesa 22.3): divergent SIMD lanes corrupt
+// each other's sample loops.
+bool occluded_single_layer(Ray primary, inout uint centre_rays) {
+    uint stack[STACK_SIZE];
+    Ray r = primary;
+    int sp = 0;
+    int base = 0;
+    uint index = 0u;
+    bool visit = true;
+    bool centre = false;
+    bool centre_hit = false;
+    uint next = 0u;
+    uint end = 0u;
+    bool blocked = false;
+    bool done = false;
+    while (!done) {
+        if (visit) {
+            // Visit node `index` with the current ray.
+            visit = false;
+            Node n = nodes[index];
+            if (hit_box(n, r)) {
+                if (n.count == 0u) {
+                    stack[sp++] = n.left_or_first + 1u;
+                    index = n.left_or_first;
+                    visit = true;
+                } else if (centre) {
+                    uint last = n.left_or_first + n.count;
+                    for (uint i = n.left_or_first; i < last && !centre_hit; ++i) {
+                        vec4 w;
+                        centre_hit = hit_triangle(r, tris[i].a, tris[i].b, tris[i].c, w);
+                    }
+                } else {
+                    next = n.left_or_first;
+                    end = next + n.count;
+                }
+            }
+        } else if (centre) {
+            if (centre_hit || sp == base) {
+                // H is visible iff its centre ray hit nothing; else resume the primary.
+                blocked = !centre_hit;
+                done = blocked;
+                centre = false;
+                sp = base;
+                r = primary;
+            } else {
+                index = stack[--sp];
+                visit = true;
+            }
+        } else if (next < end) {
+            Tri t = tris[next];
+            next += 1u;
+            vec4 w;
+            if (hit_triangle(r, t.a, t.b, t.c, w)) {
+                centre_rays += 1u;
+                r = centre_ray(t, w);
+                centre = true;
+                centre_hit = false;
+                base = sp;
+                index = 0u;
+                visit = true;
+            }
+        } else if (sp == 0) {
+            done = true;
+        } else {
+            index = stack[--sp];
+            visit = true;
+        }
+    }
+    return blocked;
+}
+
+// Visibility of view sample p with camera-facing normal n.
+float shade(vec3 p, vec3 n, uint pixel_index, inout uint rays, inout uint centre_rays) {
+    precise vec3 o = p + n * pc.offset;
+    int side = max(pc.samples, 1);
+    uint total = uint(side * side);
+    uint seed = pcg(pixel_index);
+    vec3 c = pc.light_position.xyz;
+    vec3 u = pc.light_u.xyz;
+    vec3 v = pc.light_v.xyz;
+    uint visible = 0u;
+    for (int j = 0; j < side; ++j) {
+        for (int i = 0; i < side; ++i) {
+            vec2 x = cell_point(seed, i, j);
+            precise vec3 dir;
+            precise vec3 to_light;
+            float tmax = 1.0;
+            if (pc.kind == KIND_POINT) {
+                dir = c - o;
+                to_light = c - p;
+            } else if (pc.kind == KIND_RECT) {
+                precise float sx = x.x - 0.5;
+                precise float sy = x.y - 0.5;
+                precise vec3 s = c + u * sx + v * sy;
+                dir = s - o;
+                to_light = s - p;
+            } else {
+                vec2 disk = concentric(x);
+                dir = c + u * disk.x + v * disk.y;
+                to_light = dir;
+                tmax = pc.t_far;
+            }
+            // Behind the receiver's tangent plane: the surface itself blocks it.
+            precise float facing = dot3(n, to_light);
+            if (facing <= 0.0) {
+                continue;
+            }
+            if (pc.triangle_count == 0u) {
+                visible += 1u;
+                continue;
+            }
+            rays += 1u;
+            Ray r = make_ray(o, dir, tmax);
+            bool blocked = occluded(r);
+            // Only a ray with some hit can be blocked in the single layer: most rays stop here.
+            if (blocked && pc.single_layer != 0) {
+                blocked = occluded_single_layer(r, centre_rays);
+            }
+            if (!blocked) {
+                visible += 1u;
+            }
+        }
+    }
+    if (visible == total) {
+        return 1.0;
+    }
+    if (visible == 0u) {
+        return 0.0;
+    }
+    return float(visible) / float(total);
+}
+
+// Adds to a 64-bit counter (lo, hi): the carry goes to hi.
+void add64(uint lo, uint value) {
+    if (value == 0u) {
+        return;
+    }
+    uint old = atomicAdd(counters[lo], value);
+    if (old + value < old) {
+        atomicAdd(counters[lo + 1u], 1u);
+    }
+}
+
+void main() {
+    uint li = gl_LocalInvocationIndex;
+    if (li < 6u) {
+        group_counts[li] = 0u;
+    }
+    barrier();
+
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (all(lessThan(pixel, pc.view_size))) {
+        vec4 p = imageLoad(positions, pixel);
+        float v = 1.0;
+        if (p.w > 0.0) {
+            uint rays = 0u;
+            uint centre_rays = 0u;
+            vec3 n = imageLoad(normals, pixel).xyz;
+            uint index = uint(pixel.y * pc.view_size.x + pixel.x);
+            v = shade(p.xyz, n, index, rays, centre_rays);
+            atomicAdd(group_counts[0], 1u);
+            atomicAdd(group_counts[v >= 1.0 ? 1 : (v <= 0.0 ? 2 : 3)], 1u);
+            if (rays > 0u) {
+                atomicAdd(group_counts[4], rays);
+            }
+            if (centre_rays > 0u) {
+                atomicAdd(group_counts[5], centre_rays);
+            }
+        }
+        imageStore(visibility, pixel, vec4(v));
+    }
+
+    barrier();
+    if (li < 4u && group_counts[li] > 0u) {
+        atomicAdd(counters[li], group_counts[li]);
+    } else if (li == 4u || li == 5u) {
+        add64(4u + 2u * (li - 4u), group_counts[li]);
+    }
+}

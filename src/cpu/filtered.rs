@@ -1,0 +1,460 @@
+//! CPU twin of the filtered shadow maps (`glsl/filtered/`: `filtered.glsl`, `encode.comp`,
+//! `blur.comp`, `reconstruct.comp`) for `vsm`, `esm`, `evsm`, `msm` and `csm`.
+//!
+//! It reads the same push constants ([`FilteredPush`], built by the same
+//! [`push_constants`]) and does the same arithmetic in the same order: linearise, encode, blur
+//! rows then columns with the same unnormalised weights divided by their sum at the end, ESM in
+//! log space, the hand-made bilinear fetch, the formulas, and CSM's group loop.
+//!
+//! Tolerance against the GPU (declared per technique in `tests/filtered.rs`): `exp`, `log`,
+//! `sin` and `cos` differ between the shader compiler's and Rust's libm by a few ulp, and the GPU
+//! may fuse `a*b+c`. Those differences are amplified where a formula is steep in its input —
+//! Chebyshev's bound where the variance is at its floor, EVSM's warps at c = 40, CSM's highest
+//! terms — so the tolerances differ by technique.
+
+use glam::{IVec2, Vec2, Vec4};
+
+use super::shadow_map::{inside_map, shadow_coord};
+use crate::passes::LightView;
+use crate::techniques::filtered::{push_constants, FilterConfig, FilteredPush, MAX_RADIUS};
+
+/// Counters in the shader's order: view samples, outside the light frustum, lit, umbra, penumbra.
+pub const COUNTER_NAMES: [&str; 5] = ["view_samples", "outside_light", "lit", "umbra", "penumbra"];
+
+const MODE_VSM: i32 = 0;
+const MODE_ESM: i32 = 1;
+const MODE_EVSM: i32 = 2;
+const MODE_MSM: i32 = 3;
+const MODE_CSM: i32 = 4;
+const FLAG_FIRST: i32 = 1;
+const FLAG_LAST: i32 = 2;
+const PI: f32 = std::f32::consts::PI;
+
+/// Linear depth in [0,1] from stored ndc depth (`linear_depth` in `filtered.glsl`).
+pub fn linear_depth(ndc: f32, pc: &FilteredPush) -> f32 {
+    let mut z = ndc;
+    if pc.perspective != 0 {
+        z = pc.near * ndc / (pc.far * (1.0 - ndc) + pc.near * ndc);
+    }
+    z.clamp(0.0, 1.0)
+}
+
+fn reduce_pi(x: f32) -> f32 {
+    x - 2.0 * (0.5 * x + 0.5).floor()
+}
+
+/// sin(πx), argument reduced to [−π, π] first.
+pub fn sin_pi(x: f32) -> f32 {
+    (PI * reduce_pi(x)).sin()
+}
+
+/// cos(πx), argument reduced to [−π, π] first.
+pub fn cos_pi(x: f32) -> f32 {
+    (PI * reduce_pi(x)).cos()
+}
+
+/// EVSM's channels (w₊, w₊², w₋, w₋²) of depth `z`.
+pub fn encode_evsm(z: f32, c_plus: f32, c_minus: f32) -> Vec4 {
+    let p = (c_plus * z).exp();
+    let n = -(-c_minus * z).exp();
+    Vec4::new(p, p * p, n, n * n)
+}
+
+/// MSM's four moments of depth `z`.
+pub fn encode_msm(z: f32) -> Vec4 {
+    let z2 = z * z;
+    Vec4::new(z, z2, z2 * z, z2 * z2)
+}
+
+/// The channels one depth contributes (`encode` in `filtered.glsl`).
+pub fn encode(z: f32, pc: &FilteredPush) -> Vec4 {
+    match pc.mode {
+        MODE_VSM => Vec4::new(z, z * z, 0.0, 0.0),
+        MODE_ESM => Vec4::new(pc.params.x * z, 0.0, 0.0, 0.0),
+        MODE_EVSM => encode_evsm(z, pc.params.x, pc.params.y),
+        MODE_MSM => encode_msm(z),
+        _ => {
+            let t = pc.params.x * z;
+            let k = pc.channel_info;
+            let a = (2 * k - 1) as f32 * t;
+            let b = (2 * k + 1) as f32 * t;
+            let mut v = Vec4::new(sin_pi(a), cos_pi(a), 0.0, 0.0);
+            if k < pc.terms {
+                v.z = sin_pi(b);
+                v.w = cos_pi(b);
+            }
+            v
+        }
+    }
+}
+
+/// The unnormalised blur weights for offsets −r..=r (`blur_weight`).
+pub fn blur_weights(pc: &FilteredPush) -> Vec<f32> {
+    let r = pc.radius.clamp(0, MAX_RADIUS as i32);
+    (-r..=r)
+        .map(|k| {
+            if pc.box_filter != 0 || r == 0 {
+                1.0
+            } else {
+                let sigma = 0.5 * r as f32;
+                (-((k * k) as f32) / (2.0 * sigma * sigma)).exp()
+            }
+        })
+        .collect()
+}
+
+/// m + ln(Σ wᵢ exp(vᵢ − m) / Σ wᵢ) with m the largest value: a weighted mean in log space that
+/// cannot overflow (the blur passes' ESM branch).
+pub fn log_sum_exp(values: &[f32], weights: &[f32]) -> f32 {
+    let total: f32 = weights.iter().sum();
+    let m = values.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let mut sum = 0.0f32;
+    for (v, w) in values.iter().zip(weights) {
+        sum += w * (v - m).exp();
+    }
+    m + (sum / total).ln()
+}
+
+/// One line (row or column) of the separable blur; samples beyond the ends read `outside`.
+pub fn blur_line(line: &[Vec4], weights: &[f32], log_space: bool, outside: Vec4) -> Vec<Vec4> {
+    let r = (weights.len() / 2) as i64;
+    let n = line.len() as i64;
+    let total: f32 = weights.iter().sum();
+    let at = |i: i64| {
+        if i < 0 || i >= n {
+            outside
+        } else {
+            line[i as usize]
+        }
+    };
+    (0..n)
+        .map(|x| {
+            if log_space {
+                let values: Vec<f32> = (-r..=r).map(|k| at(x + k).x).collect();
+                Vec4::new(log_sum_exp(&values, weights), 0.0, 0.0, 0.0)
+            } else {
+                let mut sum = Vec4::ZERO;
+                for (i, k) in (-r..=r).enumerate() {
+                    sum += weights[i] * at(x + k);
+                }
+                sum / total
+            }
+        })
+        .collect()
+}
+
+/// The filtered map of one group: encode every texel, blur rows, then columns (radius > 0).
+pub fn filter_map(depth: &[f32], pc: &FilteredPush) -> Vec<Vec4> {
+    let n = pc.map_size.max(0) as usize;
+    let weights = blur_weights(pc);
+    let log_space = pc.mode == MODE_ESM;
+    let outside = encode(1.0, pc);
+    let mut map = vec![Vec4::ZERO; n * n];
+    for y in 0..n {
+        let row: Vec<Vec4> = (0..n)
+            .map(|x| encode(linear_depth(depth[y * n + x], pc), pc))
+            .collect();
+        let row = blur_line(&row, &weights, log_space, outside);
+        map[y * n..(y + 1) * n].copy_from_slice(&row);
+    }
+    if pc.radius > 0 {
+        for x in 0..n {
+            let column: Vec<Vec4> = (0..n).map(|y| map[y * n + x]).collect();
+            for (y, v) in blur_line(&column, &weights, log_space, outside)
+                .into_iter()
+                .enumerate()
+            {
+                map[y * n + x] = v;
+            }
+        }
+    }
+    map
+}
+
+/// Clamped linear ramp from `lo` (0) to `hi` (1).
+pub fn linstep(lo: f32, hi: f32, v: f32) -> f32 {
+    ((v - lo) / (hi - lo)).clamp(0.0, 1.0)
+}
+
+/// Chebyshev's one-sided bound for moments (`mean`, `second`) at `d`.
+pub fn chebyshev(mean: f32, second: f32, d: f32, min_variance: f32) -> f32 {
+    let variance = (second - mean * mean).max(min_variance);
+    let diff = d - mean;
+    if diff <= 0.0 {
+        return 1.0;
+    }
+    variance / (variance + diff * diff).max(1e-30)
+}
+
+/// VSM: params (min variance, bleed reduction).
+pub fn vsm_visibility(m: Vec4, d: f32, params: [f32; 4]) -> f32 {
+    linstep(params[1], 1.0, chebyshev(m.x, m.y, d, params[0]))
+}
+
+/// ESM from the log-space filtered value `l`: exp(min(0, l − c·d)).
+pub fn esm_visibility(l: f32, d: f32, c: f32) -> f32 {
+    (l - c * d).min(0.0).exp()
+}
+
+/// EVSM's two bounds (p₊, p₋) before the min and the bleed reduction; params (c₊, c₋, min
+/// variance, bleed reduction).
+pub fn evsm_bounds(m: Vec4, d: f32, params: [f32; 4]) -> (f32, f32) {
+    let (cp, cn) = (params[0], params[1]);
+    let dp = (cp * d).exp();
+    let dn = -(-cn * d).exp();
+    let sv = params[2].sqrt();
+    let p = chebyshev(m.x, m.y, dp, (sv * cp * dp) * (sv * cp * dp));
+    let n = chebyshev(m.z, m.w, dn, (sv * cn * dn) * (sv * cn * dn));
+    (p, n)
+}
+
+/// EVSM with 2 or 4 components.
+pub fn evsm_visibility(m: Vec4, d: f32, params: [f32; 4], components: i32) -> f32 {
+    let (p, n) = evsm_bounds(m, d, params);
+    let v = if components == 4 { p.min(n) } else { p };
+    linstep(params[3], 1.0, v)
+}
+
+fn safe_div(a: f32, b: f32) -> f32 {
+    let floor_b = if b < 0.0 { b.min(-1e-15) } else { b.max(1e-15) };
+    a / floor_b
+}
+
+fn mix(a: f32, b: f32, t: f32) -> f32 {
+    a + (b - a) * t
+}
+
+/// Hamburger 4MSM visibility (`msm_hamburger` in `reconstruct.comp`).
+pub fn msm_hamburger(moments: Vec4, depth: f32, moment_bias: f32, depth_bias: f32) -> f32 {
+    let b = Vec4::new(
+        mix(moments.x, 0.5, moment_bias),
+        mix(moments.y, 0.5, moment_bias),
+        mix(moments.z, 0.5, moment_bias),
+        mix(moments.w, 0.5, moment_bias),
+    );
+    let z0 = depth - depth_bias;
+    let l32_d22 = -b.x * b.y + b.z;
+    let d22 = (-b.x * b.x + b.y).max(1e-12);
+    let squared_variance = -b.y * b.y + b.w;
+    let d33_d22 = (squared_variance * d22 - l32_d22 * l32_d22).max(1e-24);
+    let l32 = l32_d22 / d22;
+    let (mut c0, mut c1, mut c2) = (1.0f32, z0, z0 * z0);
+    c1 -= b.x;
+    c2 -= b.y + l32 * c1;
+    c1 /= d22;
+    c2 *= d22 / d33_d22;
+    c1 -= l32 * c2;
+    c0 -= c1 * b.x + c2 * b.y;
+    let p = safe_div(c1, c2).clamp(-1e8, 1e8);
+    let q = safe_div(c0, c2).clamp(-1e8, 1e8);
+    let r = (p * p * 0.25 - q).max(0.0).sqrt();
+    let z1 = -p * 0.5 - r;
+    let z2 = -p * 0.5 + r;
+    let s = if z2 < z0 {
+        Vec4::new(z1, z0, 1.0, 1.0)
+    } else if z1 < z0 {
+        Vec4::new(z0, z1, 0.0, 1.0)
+    } else {
+        Vec4::ZERO
+    };
+    let quotient = safe_div(s.x * z2 - b.x * (s.x + z2) + b.y, (z2 - s.y) * (z0 - z1));
+    let shadow = (s.z + s.w * quotient).clamp(0.0, 1.0);
+    1.0 - shadow
+}
+
+/// One CSM group's terms at receiver depth `d`: Σ σ_k (2/c_k)(cos(c_k d′) S̄_k − sin(c_k d′) C̄_k).
+pub fn csm_terms(m: Vec4, d: f32, pc: &FilteredPush) -> f32 {
+    let t = pc.params.x * d - pc.params.y;
+    let alpha = pc.params.w;
+    let m_terms = pc.terms as f32;
+    let mut sum = 0.0f32;
+    for j in 0..2 {
+        let k = pc.channel_info + j;
+        if k > pc.terms {
+            break;
+        }
+        let odd = (2 * k - 1) as f32;
+        let a = odd * t;
+        let damping = (-alpha * (k as f32 / m_terms) * (k as f32 / m_terms)).exp();
+        let (s, c) = if j == 0 { (m.x, m.y) } else { (m.z, m.w) };
+        let term = cos_pi(a) * s - sin_pi(a) * c;
+        sum += damping * (2.0 / (PI * odd)) * term;
+    }
+    sum
+}
+
+/// The formula of `pc.mode` on filtered channels `m` at receiver depth `d`.
+pub fn visibility_of(m: Vec4, d: f32, pc: &FilteredPush) -> f32 {
+    let params = pc.params.to_array();
+    match pc.mode {
+        MODE_VSM => vsm_visibility(m, d, params),
+        MODE_ESM => esm_visibility(m.x, d, params[0]),
+        MODE_EVSM => evsm_visibility(m, d, params, pc.channel_info),
+        MODE_MSM => msm_hamburger(m, d, params[0], params[1]),
+        _ => csm_terms(m, d, pc),
+    }
+}
+
+/// Bilinear fetch at continuous texel position `p`; ESM combines its taps with log-sum-exp
+/// over the taps of nonzero weight.
+pub fn bilinear(map: &[Vec4], p: Vec2, pc: &FilteredPush) -> Vec4 {
+    let n = pc.map_size;
+    let outside = encode(1.0, pc);
+    let fetch = |t: IVec2| {
+        if t.x < 0 || t.y < 0 || t.x >= n || t.y >= n {
+            outside
+        } else {
+            map[(t.y * n + t.x) as usize]
+        }
+    };
+    let t = p - 0.5;
+    let base = t.floor();
+    let f = t - base;
+    let b = base.as_ivec2();
+    let v = [
+        fetch(b),
+        fetch(b + IVec2::new(1, 0)),
+        fetch(b + IVec2::new(0, 1)),
+        fetch(b + IVec2::new(1, 1)),
+    ];
+    let w = [
+        (1.0 - f.x) * (1.0 - f.y),
+        f.x * (1.0 - f.y),
+        (1.0 - f.x) * f.y,
+        f.x * f.y,
+    ];
+    if pc.mode == MODE_ESM {
+        let mut m = -3.0e38f32;
+        for i in 0..4 {
+            if w[i] > 0.0 {
+                m = m.max(v[i].x);
+            }
+        }
+        let mut sum = 0.0f32;
+        for i in 0..4 {
+            if w[i] > 0.0 {
+                sum += w[i] * (v[i].x - m).exp();
+            }
+        }
+        return Vec4::new(m + sum.ln(), 0.0, 0.0, 0.0);
+    }
+    let lerp = |a: Vec4, b: Vec4, t: f32| a + (b - a) * t;
+    lerp(lerp(v[0], v[1], f.x), lerp(v[2], v[3], f.x), f.y)
+}
+
+/// The result for every pixel plus the counters.
+pub struct FilteredOutput {
+    /// Visibility per pixel, row-major (1 for background).
+    pub visibility: Vec<f32>,
+    /// Counters, see [`COUNTER_NAMES`].
+    pub counters: [u64; 5],
+    /// Per pixel: how far the result moves when its inputs move by a rounding error (see
+    /// [`sensitivity`]); 0 for background, outside samples and CSM.
+    pub sensitivity: Vec<f32>,
+}
+
+/// Relative perturbation of the fetched channels and of d: a few fp32 ulp.
+pub const PERTURBATION: f32 = 5e-7;
+
+/// The largest change of the result when the fetch position moves by 1e-3 texel or the fetched
+/// channels or the receiver depth by [`PERTURBATION`] (relative): what GPU/CPU rounding
+/// differences (fused multiply-adds, libm ulps) can do to this pixel. MSM's solve, with its
+/// near-singular biased Hankel matrix on flat regions, is where this is large.
+pub fn sensitivity(map: &[Vec4], p: Vec2, d: f32, pc: &FilteredPush) -> f32 {
+    let m = bilinear(map, p, pc);
+    let base = visibility_of(m, d, pc);
+    let mut worst = 0.0f32;
+    let mut check = |v: f32| worst = worst.max((v - base).abs());
+    for offset in [Vec2::X, Vec2::NEG_X, Vec2::Y, Vec2::NEG_Y] {
+        check(visibility_of(bilinear(map, p + 1e-3 * offset, pc), d, pc));
+    }
+    // First order in the channels: the sum of each channel's own effect bounds any
+    // combination of small per-channel errors.
+    let e = PERTURBATION;
+    let mut channels = 0.0f32;
+    for i in 0..4 {
+        let mut up = m;
+        up[i] *= 1.0 + e;
+        let mut down = m;
+        down[i] *= 1.0 - e;
+        let (a, b) = (visibility_of(up, d, pc), visibility_of(down, d, pc));
+        channels += (a - base).abs().max((b - base).abs());
+    }
+    check(base + channels);
+    check(visibility_of(m, d * (1.0 + e), pc));
+    check(visibility_of(m, d * (1.0 - e), pc));
+    worst
+}
+
+/// Runs the whole technique on the CPU: every group's filtered map from the GPU's `depth`
+/// (the D32 map, row-major, `map_size`²), then the reconstruction of every view sample.
+pub fn filtered(
+    positions: &[Vec4],
+    view_size: IVec2,
+    depth: &[f32],
+    map_size: u32,
+    config: &FilterConfig,
+    view: &LightView,
+) -> FilteredOutput {
+    let n = (view_size.x * view_size.y) as usize;
+    let mut out = FilteredOutput {
+        visibility: vec![0.0; n],
+        counters: [0; 5],
+        sensitivity: vec![0.0; n],
+    };
+    let size = IVec2::splat(map_size as i32);
+    for group in 0..config.groups() {
+        let pc = push_constants(config, view, view_size, map_size, group);
+        let map = filter_map(depth, &pc);
+        let last = pc.flags & FLAG_LAST != 0;
+        for (i, p) in positions.iter().enumerate().take(n) {
+            let sample = p.w > 0.0;
+            let mut inside = false;
+            let mut v = 0.0;
+            if sample {
+                let c = shadow_coord(pc.light_view_proj, p.truncate(), size);
+                inside = inside_map(c, size);
+                if inside {
+                    let (xy, d) = (Vec2::new(c.x, c.y), linear_depth(c.z, &pc));
+                    v = visibility_of(bilinear(&map, xy, &pc), d, &pc);
+                    if pc.mode != MODE_CSM {
+                        out.sensitivity[i] = sensitivity(&map, xy, d, &pc);
+                    }
+                }
+            }
+            if pc.mode == MODE_CSM {
+                let prev = if pc.flags & FLAG_FIRST != 0 {
+                    0.5
+                } else {
+                    out.visibility[i]
+                };
+                let sum = prev + v;
+                v = if last {
+                    linstep(pc.params.z, 1.0 - pc.params.z, sum)
+                } else {
+                    sum
+                };
+            }
+            if last {
+                if !inside {
+                    v = 1.0;
+                }
+                if sample {
+                    out.counters[0] += 1;
+                    if !inside {
+                        out.counters[1] += 1;
+                    }
+                    out.counters[if v >= 1.0 {
+                        2
+                    } else if v <= 0.0 {
+                        3
+                    } else {
+                        4
+                    }] += 1;
+                }
+            }
+            out.visibility[i] = v;
+        }
+    }
+    out
+}

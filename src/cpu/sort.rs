@@ -1,0 +1,116 @@
+//! CPU twin of the LSD radix sort by key (`glsl/kernels/sort_histogram.comp`,
+//! `sort_scatter.glsl`), with a `u32` payload.
+//!
+//! Each pass sorts by one 4-bit digit: per-block digit counts stored digit-major, an exclusive
+//! scan of them (so each (digit, block) knows where its run starts), then a scatter in which an
+//! element's rank among its block's equal digits follows input order. Every pass is stable,
+//! so the sort is: equal keys keep their input order, as `slice::sort_by_key` does. The pass
+//! count is rounded up to an even number so that the result ends where it started (a pass on
+//! digits that are all zero is a stable copy). Tolerance against the GPU: exact.
+
+use super::scan::{scan, BLOCK};
+
+/// Bits per digit.
+pub const RADIX_BITS: u32 = 4;
+/// Digits per pass (buckets).
+pub const RADIX: usize = 1 << RADIX_BITS;
+
+/// Passes for keys of `key_bits` significant low bits: one per digit, rounded up to even.
+pub fn passes(key_bits: u32) -> u32 {
+    let digits = key_bits.min(32).div_ceil(RADIX_BITS);
+    digits + digits % 2
+}
+
+/// `sort_histogram.comp`: counts of digit `(key >> shift) & 15` per block, digit-major:
+/// `hist[digit * blocks + block]`.
+pub fn histogram(keys: &[u32], shift: u32) -> Vec<u32> {
+    let blocks = keys.len().div_ceil(BLOCK).max(1);
+    let mut hist = vec![0u32; RADIX * blocks];
+    for (b, block) in keys.chunks(BLOCK).enumerate() {
+        for &k in block {
+            hist[((k >> shift) as usize & (RADIX - 1)) * blocks + b] += 1;
+        }
+    }
+    hist
+}
+
+/// `sort_scatter.glsl`: moves each element to `offsets[digit * blocks + block]` plus its rank
+/// among the earlier elements of its block with the same digit.
+pub fn scatter(
+    keys: &[u32],
+    values: &[u32],
+    offsets: &[u32],
+    shift: u32,
+    keys_out: &mut [u32],
+    values_out: &mut [u32],
+) {
+    let blocks = keys.len().div_ceil(BLOCK).max(1);
+    for (b, block) in keys.chunks(BLOCK).enumerate() {
+        let mut seen = [0u32; RADIX];
+        for (i, &k) in block.iter().enumerate() {
+            let d = (k >> shift) as usize & (RADIX - 1);
+            let dst = (offsets[d * blocks + b] + seen[d]) as usize;
+            seen[d] += 1;
+            keys_out[dst] = k;
+            values_out[dst] = values[b * BLOCK + i];
+        }
+    }
+}
+
+/// Sorts `(key, value)` pairs by the low `key_bits` bits of the key, stably.
+pub fn sort_by_key(keys: &[u32], values: &[u32], key_bits: u32) -> (Vec<u32>, Vec<u32>) {
+    let mut keys = keys.to_vec();
+    let mut values = values.to_vec();
+    let mut keys_tmp = vec![0; keys.len()];
+    let mut values_tmp = vec![0; keys.len()];
+    for pass in 0..passes(key_bits) {
+        let shift = pass * RADIX_BITS;
+        let offsets = scan(&histogram(&keys, shift), false);
+        scatter(
+            &keys,
+            &values,
+            &offsets,
+            shift,
+            &mut keys_tmp,
+            &mut values_tmp,
+        );
+        std::mem::swap(&mut keys, &mut keys_tmp);
+        std::mem::swap(&mut values, &mut values_tmp);
+    }
+    (keys, values)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pass_counts() {
+        assert_eq!(passes(0), 0);
+        assert_eq!(passes(1), 2);
+        assert_eq!(passes(12), 4);
+        assert_eq!(passes(28), 8);
+        assert_eq!(passes(32), 8);
+    }
+
+    #[test]
+    fn equals_a_stable_std_sort() {
+        let mut x = 99u32;
+        for n in [0usize, 1, 2, 1023, 1025, 5000] {
+            let keys: Vec<u32> = (0..n)
+                .map(|_| {
+                    x ^= x << 13;
+                    x ^= x >> 17;
+                    x ^= x << 5;
+                    x % 97 // many duplicates
+                })
+                .collect();
+            let values: Vec<u32> = (0..n as u32).collect();
+            let mut expected: Vec<(u32, u32)> = keys.iter().copied().zip(values.clone()).collect();
+            expected.sort_by_key(|p| p.0);
+            let (k, v) = sort_by_key(&keys, &values, 7);
+            let got: Vec<(u32, u32)> = k.into_iter().zip(v).collect();
+            assert_eq!(got, expected, "n = {n}");
+        }
+    }
+}

@@ -1,0 +1,168 @@
+//! Stream compaction: the indices of the nonzero entries of a `u32` flag buffer, in input order,
+//! and their count, both left in GPU buffers so later passes can use them without a readback
+//! (e.g. as the element count of the next dispatch, or to gather the kept items).
+//!
+//! Design: a flag is "keep" when nonzero, so producers can write any predicate result (a
+//! comparison's `uint(b)`, a bit mask) without normalizing it. The scan's first pass reads the
+//! flags as 0/1 (`flags` mode of `scan_block`) and keeps block-local exclusive offsets; the block
+//! totals are scanned completely; then `compact_scatter` writes index `i` to its block's offset
+//! plus its local offset, and the last element's invocation writes the count. Fusing the
+//! propagation into the scatter saves a read and a write of every offset compared with a full
+//! scan followed by a scatter. Stable by construction: offsets increase with the index.
+//! Traffic ≈ 5 × 4 bytes per element plus 4 per kept element.
+//!
+//! Use: [`Compact::new`] once, [`Compact::bind`] to the flags and the output buffers, then
+//! [`Compact::record`] as often as needed; [`Compact::run`] is the upload/run/readback
+//! convenience. The scan variant follows [`ScanVariant::best`] unless forced.
+//! CPU twin: [`crate::cpu::compact`].
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+
+use super::scan::{check_buffer, check_len, Scan, ScanBinding, ScanKind, ScanVariant, SCAN_BLOCK};
+use crate::error::Result;
+use crate::gpu::{u32s, Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
+
+/// Push constants of `kernels/compact_scatter.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct CompactPush {
+    /// Elements in the flag buffer.
+    pub n: u32,
+}
+
+/// A [`Compact`] bound to flags and outputs, with the scan's scratch. The bound buffers must
+/// stay alive while recordings that use the binding execute.
+pub struct CompactBinding {
+    len: u32,
+    scan: ScanBinding,
+    scatter_set: DescriptorSet,
+    /// Block-local exclusive offsets of the kept elements.
+    _local: Buffer,
+}
+
+impl CompactBinding {
+    /// Elements of the flag buffer.
+    pub fn len(&self) -> u32 {
+        self.len
+    }
+
+    /// Whether the flag buffer is empty.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Bytes read and written by [`Compact::record`] when `kept` elements are kept.
+    pub fn traffic_bytes(&self, kept: u64) -> u64 {
+        let blocks = (self.len as u64).div_ceil(SCAN_BLOCK as u64);
+        // Scan without level-0 propagation, then the scatter: read flags and local offsets,
+        // one block offset per block, write the kept indices and the count.
+        self.scan.traffic_bytes(false) + 8 * self.len as u64 + 4 * blocks + 4 * kept + 4
+    }
+}
+
+/// The compaction pipelines. Create once per context.
+pub struct Compact {
+    ctx: Context,
+    scan: Scan,
+    scatter: Pipeline,
+}
+
+impl Compact {
+    /// Pipelines with the best scan variant for the device.
+    pub fn new(ctx: &Context) -> Result<Compact> {
+        Compact::with_variant(ctx, ScanVariant::best(ctx))
+    }
+
+    /// Pipelines with the given scan variant.
+    pub fn with_variant(ctx: &Context, variant: ScanVariant) -> Result<Compact> {
+        Ok(Compact {
+            ctx: ctx.clone(),
+            scan: Scan::with_variant(ctx, variant)?,
+            scatter: Pipeline::compute(ctx, "kernels/compact_scatter.comp")?,
+        })
+    }
+
+    /// Binds `len` flags (keep where nonzero) to `indices` (at least 4 × `len` bytes: every
+    /// element may be kept) and `count` (at least 4 bytes; the first `u32` is written).
+    pub fn bind(
+        &self,
+        flags: &Buffer,
+        indices: &Buffer,
+        count: &Buffer,
+        len: u32,
+    ) -> Result<CompactBinding> {
+        check_len(&self.ctx, "compact", len as u64, SCAN_BLOCK)?;
+        check_buffer("compact", flags, 4 * len as u64)?;
+        check_buffer("compact", indices, 4 * len as u64)?;
+        check_buffer("compact", count, 4)?;
+        let local = Buffer::storage(&self.ctx, "compact local offsets", 4 * len as u64)?;
+        let scan = self.scan.bind(flags, &local, len)?;
+        let scatter_set = DescriptorSet::new(
+            &self.ctx,
+            &self.scatter,
+            &[
+                Binding::Buffer(flags),
+                Binding::Buffer(&local),
+                Binding::Buffer(scan.block_offsets()),
+                Binding::Buffer(indices),
+                Binding::Buffer(count),
+            ],
+        )?;
+        Ok(CompactBinding {
+            len,
+            scan,
+            scatter_set,
+            _local: local,
+        })
+    }
+
+    /// Records the compaction: afterwards `indices[0..count]` are the kept indices, ascending.
+    /// Entries past the count are left as they were.
+    pub fn record(&self, rec: &mut Recorder<'_>, binding: &CompactBinding) -> Result<()> {
+        self.scan
+            .record_blocks(rec, &binding.scan, ScanKind::Exclusive, true, false)?;
+        let push = CompactPush { n: binding.len };
+        // With no flags one invocation still runs, to write a count of 0.
+        let threads = binding.len.max(1);
+        rec.dispatch(&self.scatter, &binding.scatter_set, &push, [threads, 1, 1])
+    }
+
+    /// Uploads `flags`, compacts them and reads back the count the GPU wrote and the kept
+    /// indices (as many as the count says, at most `flags.len()`). One submission; for tests.
+    pub fn run(&self, flags: &[u32]) -> Result<(Vec<u32>, u32)> {
+        let len = check_len(&self.ctx, "compact", flags.len() as u64, SCAN_BLOCK)?;
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let input = self.ctx.buffer_with("compact flags", usage, flags)?;
+        let indices = Buffer::storage(&self.ctx, "compact indices", 4 * len as u64)?;
+        let count = Buffer::storage(&self.ctx, "compact count", 4)?;
+        let binding = self.bind(&input, &indices, &count, len)?;
+        self.ctx.submit(None, |rec| self.record(rec, &binding))?;
+        let n = u32s(&self.ctx.read_buffer(&count)?)
+            .first()
+            .copied()
+            .unwrap_or(0);
+        let mut out = u32s(&self.ctx.read_buffer(&indices)?);
+        out.truncate((n as usize).min(flags.len()));
+        Ok((out, n))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::shader_interface;
+    use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn compact_push_layout() {
+        assert_eq!(offset_of!(CompactPush, n), 0);
+        let declared = shader_interface("kernels/compact_scatter.comp")
+            .expect("embedded shader")
+            .1;
+        assert_eq!(
+            declared.push_constant_size as usize,
+            size_of::<CompactPush>()
+        );
+    }
+}

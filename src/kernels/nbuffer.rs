@@ -1,0 +1,272 @@
+//! N-buffers (Décoret 2005; book App. D.2): exact min and max of depth over any square in four
+//! lookups, with GPU queries in `glsl/include/nbuffer.glsl`. CPU twin: [`crate::cpu::nbuffer`].
+//!
+//! Level l holds, at every texel p, (min, max) over the 2^l × 2^l window with top-left texel p,
+//! clipped to the image: full resolution at every level. Level 0 is the source itself (a D32
+//! shadow map or an R32F image, read with `texelFetch`), so it is not copied; levels 1 ..= L
+//! are pairs of R32F storage images (min, max). R32F rather than one RG32F image because RG32F
+//! storage needs `shaderStorageImageExtendedFormats`; images rather than buffers because a
+//! level of a 8192² map (512 MiB) exceeds one buffer binding. Level l + 1 combines four level-l
+//! windows d = 2^l apart (one dispatch per level, reading the level below: ping-pong).
+//!
+//! Memory is L × w × h × 8 bytes — 13 levels of a 4096² map are 1.6 GiB — so
+//! [`NBuffer::new`] takes the highest level wanted: queries on larger squares stay exact, they
+//! just take more lookups (ceil(side / 2^L) per axis).
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+
+use crate::cpu::nbuffer::full_levels;
+use crate::error::{Error, Result};
+use crate::gpu::{f32s, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline};
+use crate::gpu::{Recorder, Sampler};
+
+/// The highest level `glsl/include/nbuffer.glsl` binds (2^14 = 16384, the largest image side).
+pub const MAX_LEVEL: u32 = 14;
+
+/// `nbuffer_build.glsl` push constants.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct NBufferBuildPush {
+    /// Image width and height.
+    pub size: [i32; 2],
+    /// 2^l for the level l read.
+    pub step: i32,
+    /// Padding to the block's size.
+    pub pad: i32,
+}
+
+/// `nbuffer_query.comp` push constants.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct NBufferQueryPush {
+    /// Image width and height.
+    pub size: [i32; 2],
+    /// The highest level built.
+    pub max_level: i32,
+    /// Squares to query.
+    pub count: i32,
+}
+
+/// A pair of R32F images (min, max) the size of `width × height`, written by compute shaders.
+pub(crate) fn minmax_images(
+    ctx: &Context,
+    name: &str,
+    width: u32,
+    height: u32,
+) -> Result<(Image, Image)> {
+    let usage = vk::ImageUsageFlags::STORAGE
+        | vk::ImageUsageFlags::SAMPLED
+        | vk::ImageUsageFlags::TRANSFER_SRC;
+    let desc = ImageDesc::new_2d(vk::Format::R32_SFLOAT, width, height, usage);
+    Ok((
+        Image::new(ctx, &format!("{name} min"), desc)?,
+        Image::new(ctx, &format!("{name} max"), desc)?,
+    ))
+}
+
+/// Reads a (min, max) image pair back as pairs.
+pub(crate) fn read_minmax(ctx: &Context, images: &(Image, Image)) -> Result<Vec<[f32; 2]>> {
+    let min = f32s(&ctx.read_image(&images.0)?);
+    let max = f32s(&ctx.read_image(&images.1)?);
+    Ok(min.into_iter().zip(max).map(|(a, b)| [a, b]).collect())
+}
+
+/// Checks that `source` is a sampled R32F or D32 image.
+pub(crate) fn check_source(ctx: &Context, source: &Image, what: &str) -> Result<()> {
+    let ok = matches!(
+        source.desc.format,
+        vk::Format::R32_SFLOAT | vk::Format::D32_SFLOAT
+    ) && source.desc.usage.contains(vk::ImageUsageFlags::SAMPLED);
+    ctx.require(
+        ok,
+        &format!(
+            "{what} of a {:?} image (needs sampled R32F or D32)",
+            source.desc.format
+        ),
+    )
+}
+
+/// An N-buffer of a source image and the passes that build it. Borrows the source: level 0.
+pub struct NBuffer<'a> {
+    ctx: Context,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// The highest level built (0: the source only).
+    pub max_level: u32,
+    levels: Vec<(Image, Image)>,
+    first: Pipeline,
+    next: Pipeline,
+    sets: Vec<DescriptorSet>,
+    sampler: Sampler,
+    source: &'a Image,
+}
+
+impl<'a> NBuffer<'a> {
+    /// Creates levels 1 ..= `max_level` (`None`: every level a query can use, 1 + floor(log2 of
+    /// the shorter side)) for `source`, a sampled R32F or D32 image.
+    pub fn new(ctx: &Context, source: &'a Image, max_level: Option<u32>) -> Result<NBuffer<'a>> {
+        check_source(ctx, source, "an N-buffer")?;
+        let (width, height) = (source.desc.width, source.desc.height);
+        let useful = full_levels(width, height) - 1;
+        let max_level = max_level.unwrap_or(useful).min(useful);
+        if max_level > MAX_LEVEL {
+            return Err(Error::Parameter {
+                technique: "nbuffer".into(),
+                message: format!("level {max_level} > {MAX_LEVEL}"),
+            });
+        }
+        let levels = (1..=max_level)
+            .map(|l| minmax_images(ctx, &format!("nbuffer level {l}"), width, height))
+            .collect::<Result<Vec<_>>>()?;
+        let first = Pipeline::compute(ctx, "kernels/nbuffer_first.comp")?;
+        let next = Pipeline::compute(ctx, "kernels/nbuffer_next.comp")?;
+        let sampler = Sampler::nearest_border_white(ctx, "nbuffer source")?;
+        let mut sets = Vec::new();
+        for (l, (min, max)) in levels.iter().enumerate() {
+            sets.push(if l == 0 {
+                DescriptorSet::new(
+                    ctx,
+                    &first,
+                    &[
+                        Binding::Sampled(source, &sampler),
+                        Binding::Image(min),
+                        Binding::Image(max),
+                    ],
+                )?
+            } else {
+                let (pmin, pmax) = &levels[l - 1];
+                DescriptorSet::new(
+                    ctx,
+                    &next,
+                    &[
+                        Binding::Image(pmin),
+                        Binding::Image(pmax),
+                        Binding::Image(min),
+                        Binding::Image(max),
+                    ],
+                )?
+            });
+        }
+        Ok(NBuffer {
+            ctx: ctx.clone(),
+            width,
+            height,
+            max_level,
+            levels,
+            first,
+            next,
+            sets,
+            sampler,
+            source,
+        })
+    }
+
+    /// Records the build: one dispatch per level (no pass of its own).
+    pub fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        for (l, set) in self.sets.iter().enumerate() {
+            // Level l + 1 reads level l's windows, 2^l apart.
+            let push = NBufferBuildPush {
+                size: [self.width as i32, self.height as i32],
+                step: 1 << l,
+                pad: 0,
+            };
+            let pipeline = if l == 0 { &self.first } else { &self.next };
+            rec.dispatch(pipeline, set, &push, [self.width, self.height, 1])?;
+        }
+        Ok(())
+    }
+
+    /// The (min, max) images of level `l` in 1 ..= max_level.
+    pub fn level(&self, l: u32) -> Option<&(Image, Image)> {
+        self.levels.get((l as usize).wrapping_sub(1))
+    }
+
+    /// Reads level `l` ≥ 1 back as (min, max) pairs, row-major.
+    pub fn read_level(&self, l: u32) -> Result<Vec<[f32; 2]>> {
+        let images = self.level(l).ok_or_else(|| Error::Parameter {
+            technique: "nbuffer".into(),
+            message: format!("no level {l} (levels 1..={})", self.max_level),
+        })?;
+        read_minmax(&self.ctx, images)
+    }
+
+    /// Bytes the build reads and writes at least: level 1 reads the source (4 B/texel), later
+    /// levels the level below (8 B); each writes 8 B per texel.
+    pub fn traffic(&self) -> u64 {
+        let texels = self.width as u64 * self.height as u64;
+        (0..self.max_level as u64)
+            .map(|l| texels * if l == 0 { 12 } else { 16 })
+            .sum()
+    }
+
+    /// Runs `nbuffer_minmax_square` of `glsl/include/nbuffer.glsl` on the GPU for each
+    /// (corner x, corner y, side) (after a build has completed).
+    pub fn query(&self, squares: &[[i32; 3]]) -> Result<Vec<[f32; 2]>> {
+        let ctx = &self.ctx;
+        let pipeline = Pipeline::compute(ctx, "kernels/nbuffer_query.comp")?;
+        let packed: Vec<[i32; 4]> = squares.iter().map(|s| [s[0], s[1], s[2], 0]).collect();
+        let input = ctx.buffer_with(
+            "nbuffer squares",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            &packed,
+        )?;
+        let results = Buffer::storage(ctx, "nbuffer results", squares.len() as u64 * 8)?;
+        // Unbuilt levels are never read (the query caps its level), but must be bound.
+        let dummy = if self.levels.is_empty() {
+            Some(minmax_images(ctx, "nbuffer unused", 1, 1)?)
+        } else {
+            None
+        };
+        let filler = match &dummy {
+            Some(d) => d,
+            None => &self.levels[0],
+        };
+        let mut bindings = vec![Binding::Sampled(self.source, &self.sampler)];
+        for l in 1..=MAX_LEVEL as usize {
+            let (min, max) = self.levels.get(l - 1).unwrap_or(filler);
+            bindings.extend([Binding::Image(min), Binding::Image(max)]);
+        }
+        bindings.extend([Binding::Buffer(&input), Binding::Buffer(&results)]);
+        let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
+        let push = NBufferQueryPush {
+            size: [self.width as i32, self.height as i32],
+            max_level: self.max_level as i32,
+            count: squares.len() as i32,
+        };
+        ctx.submit(None, |rec| {
+            rec.dispatch(&pipeline, &set, &push, [squares.len() as u32, 1, 1])
+        })?;
+        let bytes = ctx.read_buffer(&results)?;
+        Ok(f32s(&bytes)
+            .chunks_exact(2)
+            .take(squares.len())
+            .map(|c| [c[0], c[1]])
+            .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::mem::{offset_of, size_of};
+
+    use super::*;
+    use crate::gpu::shader_interface;
+
+    #[test]
+    fn push_constants_match_the_shaders() {
+        assert_eq!(offset_of!(NBufferBuildPush, step), 8);
+        assert_eq!(offset_of!(NBufferQueryPush, max_level), 8);
+        assert_eq!(offset_of!(NBufferQueryPush, count), 12);
+        for (name, size) in [
+            ("kernels/nbuffer_first.comp", size_of::<NBufferBuildPush>()),
+            ("kernels/nbuffer_next.comp", size_of::<NBufferBuildPush>()),
+            ("kernels/nbuffer_query.comp", size_of::<NBufferQueryPush>()),
+        ] {
+            let (_, i) = shader_interface(name).expect("reflect");
+            assert_eq!(i.push_constant_size as usize, size, "{name}");
+        }
+    }
+}

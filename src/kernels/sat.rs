@@ -1,0 +1,631 @@
+//! Summed-area tables (Crow 1984; book App. D.3) of any size, in u32, u64, fixed point, f32,
+//! centred f32 and f64, with GPU queries in `glsl/include/sat.glsl`. CPU twin:
+//! [`crate::cpu::sat`].
+//!
+//! **Layout.** Row-major buffers holding the inclusive prefix S(x, y) = Σ I(i, j), i ≤ x, j ≤ y.
+//! One binding may hold at most `maxStorageBufferRange` bytes (128 MiB on lavapipe, less than an
+//! 8192² table of u32), so the table is split into *bands* of whole rows, each its own buffer.
+//!
+//! **Build.** Two passes per band, both serial along one axis with one invocation per row or
+//! column: rows left to right (`sat_rows_*`), then columns top to bottom (`sat_cols_*`),
+//! continuing each column from the band above through a carry row. It reads the source once and
+//! each entry three times and does no redundant work (the book's recursive doubling, errata 4
+//! applied, reads every entry 2·log2 n times in as many dispatches). Integer tables are exact;
+//! float tables are deterministic, the additions happening in a fixed order — the CPU twin's,
+//! so even f32 tables are bit-equal to it. Serial rows read with a stride, which costs on
+//! discrete GPUs; on lavapipe 8 neighbouring rows share their cache lines, and the column pass
+//! (contiguous) is the slower one.
+//!
+//! **Precision: which variant when.** Max |error| of 5×5 and 33×33 box averages over the whole
+//! image (depth-like input in [0, 1] with edges; moment-like = depth² is similar), measured on
+//! lavapipe by [`sat_precision_rows`]:
+//!
+//! | size  | f32    | f32-centred | u32-fixed16 | u64-fixed24, f64 |
+//! |-------|--------|-------------|-------------|------------------|
+//! | 1024² | 5.1e-3 | 5.8e-4      | 4.7e-6      | 0                |
+//! | 4096² | 8.7e-2 | 1.0e-2      | 7.1e-6      | 0                |
+//! | 8192² | 3.8e-1 | 3.5e-2      | 7.1e-6      | 0                |
+//!
+//! - `u32-fixed16` ([`SatPrecision::U32Fixed`]): the default for data in [0, 1] (depth, its
+//!   moments, visibility): 4 bytes, and its error is the rounding of each texel to 2^-16 alone,
+//!   at any size. Sums wrap around mod 2^32, and a window's sum is still exact whenever the
+//!   *window's* true sum is below 2^32: the four-corner rule only adds and subtracts, and
+//!   reduction mod 2^32 commutes with both, so the true sum's residue comes out, and a number
+//!   below 2^32 is its own residue — however many times the image total wrapped. With 16
+//!   fractional bits that allows windows of 65 536 texels of 1.0; take fewer bits for larger
+//!   windows (texels · 2^bits < 2^32).
+//! - `u32`/`u64`: integer data (masks, counts), from an R32_UINT image; same argument.
+//! - `u64-fixed24` (needs `shaderInt64`): exact for [0, 1] data on the 2^-24 grid at any size;
+//!   `f64` (needs `shaderFloat64`) likewise up to 2^29 texels, and needs no scale. The
+//!   references, at twice the memory.
+//! - `f32`: only for small maps with a loose budget: S grows to w·h·mean, a window's sum is a
+//!   difference of such values, and the error grows toward the bottom-right, ~2^-24·w·h·mean.
+//!   At 4096² box averages are off by 0.09 — unusable for VSM moments.
+//! - `f32-centred`: subtracts the image mean (computed on the GPU) before summing and adds
+//!   area × mean back at query time. That gains ~10×, not more: a global mean does not centre
+//!   each region of an image with edges and gradients.
+//!
+//! **Limits.** Width × element size ≤ `maxStorageBufferRange` (one row per band at least), at
+//! most [`MAX_BANDS`] bands (the query include binds eight): 8 × 128 MiB = 1 GiB per table on
+//! lavapipe, i.e. 16384 × 16384 for 4-byte and 16384 × 8192 (or 11585²) for 8-byte entries;
+//! the source image (≤ 16384², 4 bytes per texel) shares lavapipe's 2 GiB heap, so 4-byte
+//! tables top out somewhat below 16384² there. 8192² fits in every precision.
+
+use std::marker::PhantomData;
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+
+use crate::cpu::sat::{SatTable, SatValue};
+use crate::error::{Error, Result};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, DeviceInfo, Image, ImageDesc, Pipeline};
+use crate::gpu::{Recorder, Sampler};
+
+pub use super::sat_bench::{bench_rows, sat_precision_rows, SatPrecisionRow};
+
+/// Bands the query include (`glsl/include/sat.glsl`) binds.
+pub const MAX_BANDS: usize = 8;
+
+/// The element type of a summed-area table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SatPrecision {
+    /// u32, wrap-around; from an R32_UINT source.
+    U32,
+    /// u64, wrap-around; from an R32_UINT source. Needs `shaderInt64`.
+    U64,
+    /// u32, wrap-around, of a float source (R32_SFLOAT or D32_SFLOAT) in fixed point with this
+    /// many fractional bits: each texel becomes v · 2^bits rounded half to even, clamped to
+    /// [0, 2^32).
+    U32Fixed(u32),
+    /// u64 of a float source in fixed point with this many fractional bits. Needs `shaderInt64`.
+    U64Fixed(u32),
+    /// f32; from an R32_SFLOAT or D32_SFLOAT source.
+    F32,
+    /// f32 with the image mean subtracted before summing; from a float source.
+    F32Centred,
+    /// f64; from a float source. Needs `shaderFloat64`.
+    F64,
+}
+
+impl SatPrecision {
+    /// Every variant (fixed point with 16 and 24 fractional bits).
+    pub const ALL: [SatPrecision; 7] = [
+        Self::U32,
+        Self::U64,
+        Self::U32Fixed(16),
+        Self::U64Fixed(24),
+        Self::F32,
+        Self::F32Centred,
+        Self::F64,
+    ];
+
+    /// Name for tables and bench rows, e.g. `u32`, `u32-fixed16`, `f32-centred`.
+    pub fn name(self) -> String {
+        match self {
+            Self::U32 => "u32".into(),
+            Self::U64 => "u64".into(),
+            Self::U32Fixed(bits) => format!("u32-fixed{bits}"),
+            Self::U64Fixed(bits) => format!("u64-fixed{bits}"),
+            Self::F32 => "f32".into(),
+            Self::F32Centred => "f32-centred".into(),
+            Self::F64 => "f64".into(),
+        }
+    }
+
+    /// Bytes per entry.
+    pub fn element_size(self) -> u64 {
+        match self {
+            Self::U32 | Self::U32Fixed(_) | Self::F32 | Self::F32Centred => 4,
+            Self::U64 | Self::U64Fixed(_) | Self::F64 => 8,
+        }
+    }
+
+    /// Whether entries are wrap-around integers (read back as u32 or u64).
+    pub fn integer(self) -> bool {
+        !matches!(self, Self::F32 | Self::F32Centred | Self::F64)
+    }
+
+    /// Whether the source is an R32_UINT image (else R32_SFLOAT or D32_SFLOAT).
+    pub fn uint_source(self) -> bool {
+        matches!(self, Self::U32 | Self::U64)
+    }
+
+    /// The fixed-point scale 2^bits the source is multiplied by (1 unless fixed point): table
+    /// sums divided by it are in the source's units.
+    pub fn scale(self) -> f64 {
+        match self {
+            Self::U32Fixed(bits) | Self::U64Fixed(bits) => (bits as f64).exp2(),
+            _ => 1.0,
+        }
+    }
+
+    /// Whether the device can build it.
+    pub fn supported(self, info: &DeviceInfo) -> bool {
+        match self {
+            Self::U64 | Self::U64Fixed(_) => info.int64,
+            Self::F64 => info.float64,
+            _ => true,
+        }
+    }
+
+    /// Whether the device can run [`Sat::query`] on it (fractional sums of 64-bit tables are
+    /// computed in double).
+    pub fn query_supported(self, info: &DeviceInfo) -> bool {
+        match self {
+            Self::U64 | Self::U64Fixed(_) => info.int64 && info.float64,
+            _ => self.supported(info),
+        }
+    }
+
+    /// (row pass, column and query passes) shader suffixes.
+    fn shader_suffixes(self) -> (&'static str, &'static str) {
+        match self {
+            Self::U32 => ("u32", "u32"),
+            Self::U64 => ("u64", "u64"),
+            Self::U32Fixed(_) => ("u32_fixed", "u32"),
+            Self::U64Fixed(_) => ("u64_fixed", "u64"),
+            Self::F32 | Self::F32Centred => ("f32", "f32"),
+            Self::F64 => ("f64", "f64"),
+        }
+    }
+
+    fn require(self, ctx: &Context, query: bool) -> Result<()> {
+        let ok = if query {
+            self.query_supported(ctx.info())
+        } else {
+            self.supported(ctx.info())
+        };
+        let what = format!(
+            "{} summed-area tables (shaderInt64/shaderFloat64)",
+            self.name()
+        );
+        ctx.require(ok, &what)?;
+        match self {
+            Self::U32Fixed(bits) | Self::U64Fixed(bits) if bits > 31 => Err(Error::Parameter {
+                technique: "sat".into(),
+                message: format!("{bits} fractional bits (at most 31)"),
+            }),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// `sat_rows.glsl` push constants.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct SatRowsPush {
+    /// Image width and height.
+    pub size: [i32; 2],
+    /// First image row of the band.
+    pub row0: i32,
+    /// Rows in the band.
+    pub rows: i32,
+    /// Fixed-point tables: 2^bits, the factor each texel is multiplied by before rounding.
+    pub scale: f32,
+    /// Padding to the block's size.
+    pub pad: i32,
+}
+
+/// `sat_cols.glsl` push constants.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct SatColsPush {
+    /// Image width and height.
+    pub size: [i32; 2],
+    /// Rows in the band.
+    pub rows: i32,
+    /// 1 for the first band (columns start from 0, not the carry).
+    pub first: i32,
+}
+
+/// `sat_row_sums.comp` and `sat_mean.comp` push constants.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct SatSizePush {
+    /// Image width and height.
+    pub size: [i32; 2],
+}
+
+/// `sat_query.glsl` push constants.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct SatQueryPush {
+    /// Image width and height.
+    pub size: [i32; 2],
+    /// Rows per band.
+    pub rows_per_band: i32,
+    /// Rectangles to query.
+    pub count: i32,
+}
+
+/// One query of [`Sat::query`] (the shader's `Rect`, std430).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SatRect {
+    /// Inclusive texel bounds (lo.x, lo.y, hi.x, hi.y) for `sat_rect_sum`.
+    pub bounds: [i32; 4],
+    /// Continuous bounds (lo.x, lo.y, hi.x, hi.y) for `sat_box_sum`.
+    pub fractional: [f32; 4],
+}
+
+/// Rows per band for a `width`-wide table of `precision` on this device.
+pub fn rows_per_band(
+    ctx: &Context,
+    width: u32,
+    height: u32,
+    precision: SatPrecision,
+) -> Result<u32> {
+    let row = width as u64 * precision.element_size();
+    let rows = (ctx.info().max_storage_buffer_range as u64 / row.max(1)).min(height as u64) as u32;
+    let bands = height.div_ceil(rows.max(1)) as usize;
+    if rows == 0 || bands > MAX_BANDS {
+        return Err(Error::Unsupported {
+            device: ctx.info().name.clone(),
+            feature: format!(
+                "a {width}x{height} {} summed-area table ({bands} bands of maxStorageBufferRange \
+                 = {} bytes; at most {MAX_BANDS})",
+                precision.name(),
+                ctx.info().max_storage_buffer_range
+            ),
+        });
+    }
+    Ok(rows)
+}
+
+/// A summed-area table of a source image, and the passes that build it. Borrows the source,
+/// which its descriptor sets refer to.
+pub struct Sat<'a> {
+    ctx: Context,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Element type.
+    pub precision: SatPrecision,
+    /// Rows per band (the last band may hold fewer).
+    pub rows_per_band: u32,
+    bands: Vec<Buffer>,
+    offset: Buffer,
+    // The column sets use it: it must live as long as they do.
+    _carry: Buffer,
+    rows: Pipeline,
+    cols: Pipeline,
+    row_sets: Vec<DescriptorSet>,
+    col_sets: Vec<DescriptorSet>,
+    // Centred tables: row sums and the mean pass.
+    mean: Option<(Buffer, Pipeline, DescriptorSet, Pipeline, DescriptorSet)>,
+    // The sets use it: it must live as long as they do.
+    _sampler: Sampler,
+    source: PhantomData<&'a Image>,
+}
+
+impl<'a> Sat<'a> {
+    /// Creates the table's buffers and passes for `source`, a sampled image: R32_UINT for `U32`
+    /// and `U64`, R32_SFLOAT or D32_SFLOAT (e.g. a shadow map) for the others.
+    pub fn new(ctx: &Context, source: &'a Image, precision: SatPrecision) -> Result<Sat<'a>> {
+        let rows = rows_per_band(ctx, source.desc.width, source.desc.height, precision)?;
+        Self::with_band_rows(ctx, source, precision, rows)
+    }
+
+    /// [`Sat::new`] with at most `band_rows` rows per band instead of as many as one binding
+    /// holds (tests use it to cover several bands on small images).
+    pub fn with_band_rows(
+        ctx: &Context,
+        source: &'a Image,
+        precision: SatPrecision,
+        band_rows: u32,
+    ) -> Result<Sat<'a>> {
+        precision.require(ctx, false)?;
+        let (width, height) = (source.desc.width, source.desc.height);
+        let format_ok = match source.desc.format {
+            vk::Format::R32_UINT => precision.uint_source(),
+            vk::Format::R32_SFLOAT | vk::Format::D32_SFLOAT => !precision.uint_source(),
+            _ => false,
+        };
+        if !format_ok || !source.desc.usage.contains(vk::ImageUsageFlags::SAMPLED) {
+            return Err(Error::Unsupported {
+                device: ctx.info().name.clone(),
+                feature: format!(
+                    "a {} summed-area table of a {:?} image (usage {:?})",
+                    precision.name(),
+                    source.desc.format,
+                    source.desc.usage
+                ),
+            });
+        }
+        let rows_per_band = rows_per_band(ctx, width, height, precision)?.min(band_rows.max(1));
+        let size = precision.element_size();
+        let band_count = height.div_ceil(rows_per_band);
+        if band_count as usize > MAX_BANDS {
+            return Err(Error::Parameter {
+                technique: "sat".into(),
+                message: format!(
+                    "{band_count} bands of {rows_per_band} rows (at most {MAX_BANDS})"
+                ),
+            });
+        }
+        let bands = (0..band_count)
+            .map(|k| {
+                let rows = rows_per_band.min(height - k * rows_per_band) as u64;
+                Buffer::storage(ctx, &format!("sat band {k}"), rows * width as u64 * size)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let offset = Buffer::storage(ctx, "sat offset", 4)?;
+        let carry = Buffer::storage(ctx, "sat carry", width as u64 * size)?;
+        let (row_suffix, suffix) = precision.shader_suffixes();
+        let rows = Pipeline::compute(ctx, &format!("kernels/sat_rows_{row_suffix}.comp"))?;
+        let cols = Pipeline::compute(ctx, &format!("kernels/sat_cols_{suffix}.comp"))?;
+        let sampler = Sampler::nearest_border_white(ctx, "sat source")?;
+        let row_sets = bands
+            .iter()
+            .map(|band| {
+                let mut b = vec![Binding::Sampled(source, &sampler), Binding::Buffer(band)];
+                if !precision.integer() {
+                    b.push(Binding::Buffer(&offset));
+                }
+                DescriptorSet::new(ctx, &rows, &b)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let col_sets = bands
+            .iter()
+            .map(|band| {
+                DescriptorSet::new(
+                    ctx,
+                    &cols,
+                    &[Binding::Buffer(band), Binding::Buffer(&carry)],
+                )
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let mean = if precision == SatPrecision::F32Centred {
+            let sums = Buffer::storage(ctx, "sat row sums", height as u64 * 4)?;
+            let p1 = Pipeline::compute(ctx, "kernels/sat_row_sums.comp")?;
+            let s1 = DescriptorSet::new(
+                ctx,
+                &p1,
+                &[Binding::Sampled(source, &sampler), Binding::Buffer(&sums)],
+            )?;
+            let p2 = Pipeline::compute(ctx, "kernels/sat_mean.comp")?;
+            let s2 = DescriptorSet::new(
+                ctx,
+                &p2,
+                &[Binding::Buffer(&sums), Binding::Buffer(&offset)],
+            )?;
+            Some((sums, p1, s1, p2, s2))
+        } else {
+            None
+        };
+        Ok(Sat {
+            ctx: ctx.clone(),
+            width,
+            height,
+            precision,
+            rows_per_band,
+            bands,
+            offset,
+            _carry: carry,
+            rows,
+            cols,
+            row_sets,
+            col_sets,
+            mean,
+            _sampler: sampler,
+            source: PhantomData,
+        })
+    }
+
+    /// Records the build (no pass of its own: wrap it in one to time it).
+    pub fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        let size = [self.width as i32, self.height as i32];
+        if let Some((_, p1, s1, p2, s2)) = &self.mean {
+            rec.dispatch(p1, s1, &SatSizePush { size }, [self.height, 1, 1])?;
+            rec.dispatch(p2, s2, &SatSizePush { size }, [64, 1, 1])?;
+        } else if !self.precision.integer() {
+            rec.fill(&self.offset, 0);
+        }
+        for (k, set) in self.row_sets.iter().enumerate() {
+            let (row0, rows) = self.band_rows(k);
+            let push = SatRowsPush {
+                size,
+                row0: row0 as i32,
+                rows: rows as i32,
+                scale: self.precision.scale() as f32,
+                pad: 0,
+            };
+            rec.dispatch(&self.rows, set, &push, [rows, 1, 1])?;
+        }
+        for (k, set) in self.col_sets.iter().enumerate() {
+            let push = SatColsPush {
+                size,
+                rows: self.band_rows(k).1 as i32,
+                first: (k == 0) as i32,
+            };
+            rec.dispatch(&self.cols, set, &push, [self.width, 1, 1])?;
+        }
+        Ok(())
+    }
+
+    /// First image row and row count of band `k`.
+    pub fn band_rows(&self, k: usize) -> (u32, u32) {
+        let row0 = k as u32 * self.rows_per_band;
+        (row0, self.rows_per_band.min(self.height - row0))
+    }
+
+    /// The band buffers, top to bottom.
+    pub fn bands(&self) -> &[Buffer] {
+        &self.bands
+    }
+
+    /// The buffer holding the centring offset (one f32; 0 unless centred; unused by integer
+    /// tables), for shaders that include `sat.glsl`.
+    pub fn offset_buffer(&self) -> &Buffer {
+        &self.offset
+    }
+
+    /// Bytes the build reads and writes at least: the source once (twice when centred: the
+    /// mean), each entry written by the row pass, then read and written by the column pass.
+    pub fn traffic(&self) -> u64 {
+        let texels = self.width as u64 * self.height as u64;
+        let reads = if self.mean.is_some() { 8 } else { 4 };
+        texels * (reads + 3 * self.precision.element_size())
+    }
+
+    fn check_type<T: SatValue>(&self) -> Result<()> {
+        if std::mem::size_of::<T>() as u64 != self.precision.element_size()
+            || T::INTEGER != self.precision.integer()
+        {
+            return Err(Error::Parameter {
+                technique: "sat".into(),
+                message: format!(
+                    "a {} table read as {}",
+                    self.precision.name(),
+                    std::any::type_name::<T>()
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// Reads the table back (after a build has completed). `T` must match the precision.
+    pub fn read<T: SatValue>(&self) -> Result<SatTable<T>> {
+        self.check_type::<T>()?;
+        let mut data = Vec::with_capacity(self.width as usize * self.height as usize);
+        for band in &self.bands {
+            let bytes = self.ctx.read_buffer(band)?;
+            data.extend_from_slice(&bytemuck::pod_collect_to_vec::<u8, T>(&bytes));
+        }
+        data.truncate(self.width as usize * self.height as usize);
+        let offset = if self.precision.integer() {
+            0.0
+        } else {
+            crate::gpu::f32s(&self.ctx.read_buffer(&self.offset)?)[0]
+        };
+        Ok(SatTable {
+            width: self.width,
+            height: self.height,
+            data,
+            offset,
+            scale: self.precision.scale(),
+        })
+    }
+
+    /// Runs `sat_rect_sum` and `sat_box_sum` of `glsl/include/sat.glsl` on the GPU for each
+    /// rectangle (after a build has completed): the integer-bounds sums in the table's type and
+    /// the fractional sums (computed in float for 32-bit tables, double for 64-bit ones).
+    pub fn query<T: SatValue>(&self, rects: &[SatRect]) -> Result<(Vec<T>, Vec<f64>)> {
+        self.check_type::<T>()?;
+        self.precision.require(&self.ctx, true)?;
+        let ctx = &self.ctx;
+        let name = format!(
+            "kernels/sat_query_{}.comp",
+            self.precision.shader_suffixes().1
+        );
+        let pipeline = Pipeline::compute(ctx, &name)?;
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let input = ctx.buffer_with("sat rects", usage, rects)?;
+        let n = rects.len() as u64;
+        let size = self.precision.element_size();
+        let sums = Buffer::storage(ctx, "sat sums", n * size)?;
+        let boxes = Buffer::storage(ctx, "sat boxes", n * size)?;
+        let mut bindings: Vec<Binding<'_>> = (0..MAX_BANDS)
+            .map(|k| Binding::Buffer(&self.bands[k.min(self.bands.len() - 1)]))
+            .collect();
+        if !self.precision.integer() {
+            bindings.push(Binding::Buffer(&self.offset));
+        }
+        bindings.extend([
+            Binding::Buffer(&input),
+            Binding::Buffer(&sums),
+            Binding::Buffer(&boxes),
+        ]);
+        let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
+        let push = SatQueryPush {
+            size: [self.width as i32, self.height as i32],
+            rows_per_band: self.rows_per_band as i32,
+            count: rects.len() as i32,
+        };
+        ctx.submit(None, |rec| {
+            rec.dispatch(&pipeline, &set, &push, [rects.len() as u32, 1, 1])
+        })?;
+        let sums: Vec<T> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&sums)?);
+        let bytes = ctx.read_buffer(&boxes)?;
+        let boxes: Vec<f64> = if size == 8 {
+            bytemuck::pod_collect_to_vec::<u8, f64>(&bytes)
+        } else {
+            crate::gpu::f32s(&bytes)
+                .into_iter()
+                .map(f64::from)
+                .collect()
+        };
+        Ok((sums[..rects.len()].to_vec(), boxes[..rects.len()].to_vec()))
+    }
+}
+
+/// A sampled (and transfer-destination) image of `format` holding `texels` (4 bytes each,
+/// row-major), uploaded: a summed-area table's, N-buffer's or pyramid's source.
+pub fn source_image(
+    ctx: &Context,
+    name: &str,
+    format: vk::Format,
+    width: u32,
+    height: u32,
+    texels: &[u8],
+) -> Result<Image> {
+    let usage = vk::ImageUsageFlags::SAMPLED
+        | vk::ImageUsageFlags::TRANSFER_DST
+        | vk::ImageUsageFlags::TRANSFER_SRC;
+    let image = Image::new(ctx, name, ImageDesc::new_2d(format, width, height, usage))?;
+    ctx.submit(None, |rec| rec.upload_image(&image, texels))?;
+    Ok(image)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::mem::{offset_of, size_of};
+
+    use super::*;
+    use crate::gpu::shader_interface;
+
+    fn push_size(name: &str) -> usize {
+        shader_interface(name)
+            .expect("reflect")
+            .1
+            .push_constant_size as usize
+    }
+
+    #[test]
+    fn push_constants_match_the_shaders() {
+        assert_eq!(offset_of!(SatRowsPush, size), 0);
+        assert_eq!(offset_of!(SatRowsPush, row0), 8);
+        assert_eq!(offset_of!(SatRowsPush, rows), 12);
+        assert_eq!(offset_of!(SatRowsPush, scale), 16);
+        assert_eq!(offset_of!(SatColsPush, rows), 8);
+        assert_eq!(offset_of!(SatColsPush, first), 12);
+        assert_eq!(offset_of!(SatQueryPush, rows_per_band), 8);
+        assert_eq!(offset_of!(SatQueryPush, count), 12);
+        assert_eq!(offset_of!(SatRect, fractional), 16);
+        assert_eq!(size_of::<SatRect>(), 32);
+        for t in ["u32_fixed", "u64_fixed"] {
+            let name = format!("kernels/sat_rows_{t}.comp");
+            assert_eq!(push_size(&name), size_of::<SatRowsPush>());
+        }
+        for t in ["u32", "u64", "f32", "f64"] {
+            assert_eq!(
+                push_size(&format!("kernels/sat_rows_{t}.comp")),
+                size_of::<SatRowsPush>()
+            );
+            assert_eq!(
+                push_size(&format!("kernels/sat_cols_{t}.comp")),
+                size_of::<SatColsPush>()
+            );
+            assert_eq!(
+                push_size(&format!("kernels/sat_query_{t}.comp")),
+                size_of::<SatQueryPush>()
+            );
+        }
+        assert_eq!(
+            push_size("kernels/sat_row_sums.comp"),
+            size_of::<SatSizePush>()
+        );
+        assert_eq!(push_size("kernels/sat_mean.comp"), size_of::<SatSizePush>());
+    }
+}

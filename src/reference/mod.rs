@@ -1,0 +1,414 @@
+//! `reference` and `reference-single-layer`: the ray-cast ground truth every technique is
+//! measured against.
+//!
+//! For each view sample, `glsl/reference/reference.comp` casts shadow rays through a BVH built
+//! on the CPU ([`bvh`]) and writes the visible fraction of the light:
+//!
+//! * **Point light**: one ray to the position. **Directional**, `angular_diameter_deg == 0`: one
+//!   ray along `-direction`.
+//! * **Rect light**: an N×N stratified grid over the rectangle (`samples` = N). **Sun disk**:
+//!   N×N strata of the unit square mapped to the disk with Shirley and Chiu's concentric map
+//!   (area-preserving), scaled by tan(angular radius) around the sun's centre direction.
+//! * **Sample pattern**: with `jitter` = 1 each sample sits at a point of its cell given by a PCG
+//!   hash of (pixel, cell) (24 bits → an exact float), which the CPU twin reproduces bit for
+//!   bit; neighbouring pixels get independent patterns, so a regular grid's banding becomes
+//!   noise. `jitter` = 0 takes the cell centres (a deterministic staircase of N² + 1 levels).
+//!
+//! **Ray offset.** A shadow ray starts at `o = p + δ·n`, where `n` is the view sample's
+//! camera-facing unit normal and `δ = ray_offset × R`, R being the scene's largest absolute
+//! coordinate (default δ = 2⁻¹⁶·R ≈ 128 ulps of R), and covers `t ∈ (0, 1)` of the segment from
+//! `o` to the light sample (`(0, t_far)` along a sun direction). `p` comes from rasterisation, so
+//! it is off its triangle's plane by a few ulps of that *triangle's* coordinates (≤ R), not by
+//! the few ulps of |p| that Wächter and Binder's integer-ulp offset assumes for ray-traced hit
+//! points; hence a scene-scaled δ. Offsetting towards the camera keeps the origin on the side of
+//! the surface the camera sees, which is open space: the origin is never pushed into a closed
+//! mesh (except within δ of a concave corner), so nothing leaks. A light sample behind the
+//! receiver's tangent plane (`n·(s − p) ≤ 0`) counts as blocked without a ray: an opaque surface
+//! does not see light from behind, and such rays would start by grazing their own triangle. For
+//! every other sample the segment stays at least δ above the receiver's own plane, so in exact
+//! arithmetic its own triangle, and on a convex surface every neighbour, lies behind it: no acne
+//! on flat or curved (tessellated) surfaces; the triangle test's rounding is far below δ.
+//!
+//! **Triangle test.** Woop, Benthin and Wald's watertight test, with the shear multiplied by
+//! `d[kz]` rather than divided by it, so every decision takes only `+ − ×`; the shader marks it
+//! `precise` (no fused multiply-add). Shared edges give bit-identical edge functions in both
+//! triangles and zero counts as inside, so no ray slips through a closed mesh.
+//!
+//! **Single layer** (`reference-single-layer`): only occluders seen from the light centre count,
+//! which is what image-based methods (a shadow map from the centre, back-projected) converge to.
+//! Definition implemented: a light-sample ray from `p` is blocked iff it hits some surface point
+//! H that is itself directly visible from the light centre — H is offset by δ along its
+//! triangle's normal towards the centre, and the ray from there to the centre (towards the sun's
+//! centre direction for a directional light) hits nothing. Every hit along the ray is tried, not
+//! only the first. So `V_single ≥ V_full` ray by ray, and for a point light the two agree.
+//!
+//! **Counters**: `view_samples`, `lit`, `umbra`, `penumbra`, `rays` (light-sample rays traced;
+//! samples behind the tangent plane take none) and, single layer only, `centre_rays` (rays from
+//! hit points to the light centre). `rays` and `centre_rays` are 64-bit. CPU twin:
+//! [`crate::cpu::ray_cast`], which states the tolerance.
+
+pub mod bvh;
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::{IVec2, Vec3, Vec4};
+
+use crate::cpu::ray_cast::COUNTER_NAMES;
+use crate::error::{Error, Result};
+use crate::gpu::{u32s, Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
+use crate::passes::ViewSamples;
+use crate::scene::Light;
+use crate::techniques::{Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup};
+use bvh::{scene_scale, Bvh, BvhTriangle};
+
+/// `ReferencePush::kind` of a point light.
+pub const KIND_POINT: i32 = 0;
+/// `ReferencePush::kind` of a rect light.
+pub const KIND_RECT: i32 = 1;
+/// `ReferencePush::kind` of a directional light.
+pub const KIND_DIRECTIONAL: i32 = 2;
+
+const KNOBS: [Knob; 3] = [
+    Knob {
+        name: "samples",
+        summary: "light samples per side: N x N over a rect light or the sun's disk (point \
+                  lights and hard suns take one ray)",
+        default: KnobDefault::Value(32.0),
+        min: 1.0,
+        max: 64.0,
+        integer: true,
+    },
+    Knob {
+        name: "jitter",
+        summary: "1: each light sample jittered in its cell by a hash of (pixel, cell); 0: cell \
+                  centres",
+        default: KnobDefault::Value(1.0),
+        min: 0.0,
+        max: 1.0,
+        integer: true,
+    },
+    Knob {
+        name: "ray_offset",
+        summary: "shadow-ray origin offset along the receiver's camera-facing normal, as a \
+                  fraction of the scene's largest coordinate",
+        default: KnobDefault::Value(1.0 / 65536.0),
+        min: 0.0,
+        max: 0.01,
+        integer: false,
+    },
+];
+
+/// `reference`: every occluder counts.
+pub const REFERENCE: TechniqueInfo = TechniqueInfo {
+    name: "reference",
+    summary: "ground truth: shadow rays through a BVH, N x N stratified light samples",
+    knobs: &KNOBS,
+    cacheable: true,
+    create: |setup, params| {
+        let settings = Settings::from_params(params, false);
+        Ok(Box::new(Reference::new(setup, &settings, "reference")?))
+    },
+};
+
+/// `reference-single-layer`: only occluders visible from the light centre count.
+pub const REFERENCE_SINGLE_LAYER: TechniqueInfo = TechniqueInfo {
+    name: "reference-single-layer",
+    summary: "ground truth with only the occluders seen from the light centre (what image-based \
+              methods converge to)",
+    knobs: &KNOBS,
+    cacheable: true,
+    create: |setup, params| {
+        let settings = Settings::from_params(params, true);
+        Ok(Box::new(Reference::new(
+            setup,
+            &settings,
+            "reference-single-layer",
+        )?))
+    },
+};
+
+/// The push constants of `glsl/reference/reference.comp` (std430, 96 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ReferencePush {
+    /// Point/rect: the light's centre. Directional: the unit direction towards the sun.
+    pub light_position: Vec4,
+    /// Rect: first full edge vector. Sun: tan(angular radius) × a unit vector ⊥ the direction.
+    pub light_u: Vec4,
+    /// Rect: second full edge vector. Sun: tan(angular radius) × the third basis vector.
+    pub light_v: Vec4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// [`KIND_POINT`], [`KIND_RECT`] or [`KIND_DIRECTIONAL`].
+    pub kind: i32,
+    /// Light samples per side N (1 for point lights and hard suns).
+    pub samples: i32,
+    /// 1 / N, so the shader and the twin multiply by the same rounded value.
+    pub inv_samples: f32,
+    /// Ray-origin offset δ in world units.
+    pub offset: f32,
+    /// Ray extent along a sun direction (longer than any segment in the scene).
+    pub t_far: f32,
+    /// 1 for the single-layer reference.
+    pub single_layer: i32,
+    /// 1: hashed jitter in each cell; 0: cell centres.
+    pub jitter: i32,
+    /// Number of triangles (0: nothing to trace).
+    pub triangle_count: u32,
+    /// Padding to the block's size.
+    pub pad: [i32; 2],
+}
+
+/// The reference's knobs, resolved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// Light samples per side.
+    pub samples: u32,
+    /// Hashed jitter (`true`) or cell centres.
+    pub jitter: bool,
+    /// Ray offset as a fraction of the scene's largest coordinate.
+    pub ray_offset: f32,
+    /// Single-layer variant.
+    pub single_layer: bool,
+}
+
+impl Settings {
+    /// Reads the knobs.
+    pub fn from_params(params: &Params, single_layer: bool) -> Settings {
+        Settings {
+            samples: params.u32("samples").max(1),
+            jitter: params.u32("jitter") != 0,
+            ray_offset: params.f32("ray_offset"),
+            single_layer,
+        }
+    }
+}
+
+/// The push constants for `light` on a scene with `positions` and `triangle_count` triangles:
+/// shared by the technique and the tests that run the CPU twin.
+pub fn push_constants(
+    light: &Light,
+    positions: &[Vec3],
+    triangle_count: usize,
+    view_size: [u32; 2],
+    settings: &Settings,
+) -> Result<ReferencePush> {
+    let technique = if settings.single_layer {
+        REFERENCE_SINGLE_LAYER.name
+    } else {
+        REFERENCE.name
+    };
+    let bad = |message: String| Error::Parameter {
+        technique: technique.to_string(),
+        message,
+    };
+    let n = settings.samples.clamp(1, 64) as i32;
+    let (kind, samples, position, u, v) = match *light {
+        Light::Point { position } => (KIND_POINT, 1, position, Vec3::ZERO, Vec3::ZERO),
+        Light::Rect { position, u, v } => (KIND_RECT, n, position, u, v),
+        Light::Directional {
+            direction,
+            angular_diameter_deg,
+        } => {
+            let to_sun = (-direction)
+                .try_normalize()
+                .ok_or_else(|| bad(format!("directional light direction {direction} is not a direction")))?;
+            if !(angular_diameter_deg.is_finite() && (0.0..180.0).contains(&angular_diameter_deg)) {
+                return Err(bad(format!(
+                    "sun angular diameter {angular_diameter_deg}° is outside [0, 180)"
+                )));
+            }
+            if angular_diameter_deg == 0.0 {
+                (KIND_DIRECTIONAL, 1, to_sun, Vec3::ZERO, Vec3::ZERO)
+            } else {
+                let tan_radius = (0.5 * angular_diameter_deg).to_radians().tan();
+                let (e1, e2) = to_sun.any_orthonormal_pair();
+                (KIND_DIRECTIONAL, n, to_sun, e1 * tan_radius, e2 * tan_radius)
+            }
+        }
+    };
+    let scale = scene_scale(positions);
+    Ok(ReferencePush {
+        light_position: position.extend(1.0),
+        light_u: u.extend(0.0),
+        light_v: v.extend(0.0),
+        view_size: IVec2::new(view_size[0] as i32, view_size[1] as i32),
+        kind,
+        samples,
+        inv_samples: 1.0 / samples as f32,
+        offset: settings.ray_offset * scale,
+        t_far: 4.0 * scale + 1.0,
+        single_layer: i32::from(settings.single_layer),
+        jitter: i32::from(settings.jitter),
+        triangle_count: u32::try_from(triangle_count)
+            .map_err(|_| bad(format!("{triangle_count} triangles do not fit 32 bits")))?,
+        pad: [0; 2],
+    })
+}
+
+/// Counter words: view_samples, lit, umbra, penumbra, rays (lo, hi), centre_rays (lo, hi).
+const COUNTER_WORDS: usize = 8;
+
+struct Reference<'a> {
+    ctx: Context,
+    name: &'static str,
+    pipeline: Pipeline,
+    set: DescriptorSet,
+    counters: Buffer,
+    // Bound in `set`; kept alive with it.
+    _nodes: Buffer,
+    _triangles: Buffer,
+    push: ReferencePush,
+    // The set refers to the setup's view-sample and visibility images.
+    _view: &'a ViewSamples,
+}
+
+impl<'a> Reference<'a> {
+    fn new(setup: &TechniqueSetup<'a>, settings: &Settings, name: &'static str) -> Result<Self> {
+        let ctx = setup.ctx;
+        let bvh = Bvh::build(setup.positions, setup.indices)?;
+        let push = push_constants(
+            setup.light,
+            setup.positions,
+            bvh.triangles.len(),
+            [setup.view.width, setup.view.height],
+            settings,
+        )?;
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let nodes = ctx.buffer_with("reference BVH nodes", usage, &bvh.nodes)?;
+        // A buffer cannot be empty: with no triangles one zeroed placeholder (never read).
+        let placeholder = [BvhTriangle::default()];
+        let tris: &[BvhTriangle] = if bvh.triangles.is_empty() {
+            &placeholder
+        } else {
+            &bvh.triangles
+        };
+        let triangles = ctx.buffer_with("reference BVH triangles", usage, tris)?;
+        let counters = Buffer::storage(ctx, "reference counters", (COUNTER_WORDS * 4) as u64)?;
+        let pipeline = Pipeline::compute(ctx, "reference/reference.comp")?;
+        let set = DescriptorSet::new(
+            ctx,
+            &pipeline,
+            &[
+                Binding::Image(&setup.view.positions),
+                Binding::Image(&setup.view.normals),
+                Binding::Image(setup.visibility),
+                Binding::Buffer(&counters),
+                Binding::Buffer(&nodes),
+                Binding::Buffer(&triangles),
+            ],
+        )?;
+        Ok(Reference {
+            ctx: ctx.clone(),
+            name,
+            pipeline,
+            set,
+            counters,
+            _nodes: nodes,
+            _triangles: triangles,
+            push,
+            _view: setup.view,
+        })
+    }
+}
+
+impl Technique for Reference<'_> {
+    fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
+        rec.begin_pass(self.name)?;
+        rec.fill(&self.counters, 0);
+        let size = self.push.view_size;
+        rec.dispatch(
+            &self.pipeline,
+            &self.set,
+            &self.push,
+            [size.x as u32, size.y as u32, 1],
+        )?;
+        rec.end_pass();
+        Ok(())
+    }
+
+    fn counters(&self) -> Result<Vec<(String, u64)>> {
+        let w = u32s(&self.ctx.read_buffer(&self.counters)?);
+        let word = |i: usize| u64::from(w.get(i).copied().unwrap_or(0));
+        let values = [
+            word(0),
+            word(1),
+            word(2),
+            word(3),
+            word(4) | word(5) << 32,
+            word(6) | word(7) << 32,
+        ];
+        let kept = if self.push.single_layer != 0 { 6 } else { 5 };
+        Ok(COUNTER_NAMES
+            .iter()
+            .zip(values)
+            .take(kept)
+            .map(|(n, v)| (n.to_string(), v))
+            .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::shader_interface;
+    use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn push_layout_matches_the_shader() {
+        assert_eq!(offset_of!(ReferencePush, light_position), 0);
+        assert_eq!(offset_of!(ReferencePush, light_u), 16);
+        assert_eq!(offset_of!(ReferencePush, light_v), 32);
+        assert_eq!(offset_of!(ReferencePush, view_size), 48);
+        assert_eq!(offset_of!(ReferencePush, kind), 56);
+        assert_eq!(offset_of!(ReferencePush, samples), 60);
+        assert_eq!(offset_of!(ReferencePush, inv_samples), 64);
+        assert_eq!(offset_of!(ReferencePush, offset), 68);
+        assert_eq!(offset_of!(ReferencePush, t_far), 72);
+        assert_eq!(offset_of!(ReferencePush, single_layer), 76);
+        assert_eq!(offset_of!(ReferencePush, jitter), 80);
+        assert_eq!(offset_of!(ReferencePush, triangle_count), 84);
+        assert_eq!(size_of::<ReferencePush>(), 96);
+        let (_, interface) = shader_interface("reference/reference.comp").expect("embedded");
+        assert_eq!(interface.push_constant_size as usize, size_of::<ReferencePush>());
+        assert_eq!(interface.local_size, [8, 8, 1]);
+        assert_eq!(interface.bindings.len(), 6);
+    }
+
+    #[test]
+    fn lights_map_to_push_constants() {
+        let settings = Settings {
+            samples: 8,
+            jitter: true,
+            ray_offset: 1.0 / 65536.0,
+            single_layer: false,
+        };
+        let positions = [Vec3::new(-4.0, 0.0, 2.0), Vec3::new(1.0, 8.0, 0.0)];
+        let point = Light::Point {
+            position: Vec3::ONE,
+        };
+        let p = push_constants(&point, &positions, 1, [4, 4], &settings).expect("point");
+        assert_eq!((p.kind, p.samples, p.offset), (KIND_POINT, 1, 8.0 / 65536.0));
+        let sun = Light::Directional {
+            direction: Vec3::new(0.0, -2.0, 0.0),
+            angular_diameter_deg: 0.5,
+        };
+        let s = push_constants(&sun, &positions, 1, [4, 4], &settings).expect("sun");
+        assert_eq!((s.kind, s.samples), (KIND_DIRECTIONAL, 8));
+        assert_eq!(s.light_position, Vec4::new(0.0, 1.0, 0.0, 1.0));
+        let tan = 0.25f32.to_radians().tan();
+        assert!((s.light_u.length() - tan).abs() < 1e-7);
+        assert!(s.light_u.truncate().dot(Vec3::Y).abs() < 1e-7);
+        let hard = Light::Directional {
+            direction: Vec3::NEG_Y,
+            angular_diameter_deg: 0.0,
+        };
+        let h = push_constants(&hard, &positions, 1, [4, 4], &settings).expect("hard sun");
+        assert_eq!((h.samples, h.light_u), (1, Vec4::ZERO));
+        let broken = Light::Directional {
+            direction: Vec3::ZERO,
+            angular_diameter_deg: 0.5,
+        };
+        assert!(push_constants(&broken, &positions, 1, [4, 4], &settings).is_err());
+    }
+}

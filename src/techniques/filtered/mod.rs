@@ -1,0 +1,445 @@
+//! The filtered (pre-filterable) shadow maps of the book's chapter 5.3: `vsm`, `esm`, `evsm`,
+//! `msm` and `csm`, one shared driver with one file per technique for its knobs and constants.
+//!
+//! Every technique renders the same D32 [`ShadowMap`] (knobs [`SHADOW_MAP_KNOBS`]) and runs
+//! three compute passes over it (`glsl/filtered/`):
+//!
+//! 1. `encode.comp` linearises each depth into z ∈ [0,1] between the light view's near and far
+//!    planes, encodes it into up to four channels of one RGBA32F storage image (moments, warped
+//!    moments, c·z, or Fourier basis values) and blurs each row horizontally — fused, so the D32
+//!    map is read once and each texel encoded once per workgroup.
+//! 2. `blur.comp` blurs the columns **in place** (skipped at `filter_radius` 0): a workgroup owns
+//!    whole columns and walks down them through a ring of rows in shared memory, writing only rows
+//!    it has already read. A ping-pong pair would double the resident image; this keeps it at one
+//!    image. The blur is a separable Gaussian (σ = radius/2, taps to ±radius) or, with
+//!    `filter_shape = 1`, a box of width 2·radius+1 — the box convolved with the bilinear fetch
+//!    is exactly `pcf`'s window at `kernel = 2·radius+1`, so filtered techniques and PCF can be
+//!    compared on identical windows. ESM filters c·z in log space (log-sum-exp).
+//! 3. `reconstruct.comp` computes each view sample's receiver depth d in the same light view,
+//!    fetches the filtered channels bilinearly by hand (depth formats cannot be filtered on
+//!    lavapipe, and storage images never are) and applies the technique's formula.
+//!
+//! Texels outside the map read as the far plane (z = 1) in the blur and the fetch alike, the
+//! convention of `shadow_map.glsl`: receivers near the map's edge are lit, as with `pcf`.
+//! Receivers outside the light frustum are lit and counted (`outside_light`).
+//!
+//! `csm` needs 2M basis images. Rather than hold them all, it processes two terms (four
+//! channels) at a time — encode, blur, add their contribution into the visibility image — so
+//! memory stays at one RGBA32F image whatever M is, and only the M terms asked for are computed.
+//!
+//! **Memory per shadow-map texel** while running, every technique: 4 B (D32) + 16 B (the RGBA32F
+//! image) = 20 B. The classic stored sizes (Table 5.1 of the book) are in each technique's
+//! module: they are what a renderer that keeps the filtered map would hold.
+//!
+//! CPU twin: [`crate::cpu::filtered`].
+
+pub mod csm;
+pub mod esm;
+pub mod evsm;
+pub mod msm;
+pub mod vsm;
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::{IVec2, Mat4, Vec4};
+
+use super::pcf::shadow_map_desc;
+use super::{Knob, KnobDefault, Params, Technique, TechniqueSetup, SHADOW_MAP_KNOBS};
+use crate::cpu::filtered::COUNTER_NAMES;
+use crate::error::{Error, Result};
+use crate::gpu::{
+    u32s, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder,
+};
+use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
+
+/// The widest blur (`MAX_RADIUS` in `filtered.glsl`: the shared-memory aprons are sized for it).
+pub const MAX_RADIUS: u32 = 16;
+
+/// Rows one `encode.comp` workgroup walks through (`ROWS` there).
+const ENCODE_ROWS: u32 = 4;
+
+/// The format of the filtered image.
+pub const FILTERED_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
+/// Which formula the shaders apply (`MODE_*` in `filtered.glsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Variance shadow maps.
+    Vsm = 0,
+    /// Exponential shadow maps (log-space filtering).
+    Esm = 1,
+    /// Exponential variance shadow maps.
+    Evsm = 2,
+    /// Moment shadow maps (Hamburger 4MSM).
+    Msm = 3,
+    /// Convolution shadow maps.
+    Csm = 4,
+}
+
+/// A technique's resolved filtering setup: what the push constants carry besides the views.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilterConfig {
+    /// The formula.
+    pub mode: Mode,
+    /// Blur radius in texels (0: no blur).
+    pub radius: u32,
+    /// Box instead of Gaussian.
+    pub box_filter: bool,
+    /// EVSM: 2 or 4 components; otherwise unused.
+    pub components: u32,
+    /// CSM: the number of terms M; otherwise 0.
+    pub terms: u32,
+    /// The technique's constants, in the order `filtered.glsl` documents.
+    pub params: [f32; 4],
+}
+
+impl FilterConfig {
+    /// Dispatch groups of the encode–blur–reconstruct chain: ⌈M/2⌉ for CSM, else 1.
+    pub fn groups(&self) -> u32 {
+        if self.mode == Mode::Csm {
+            self.terms.div_ceil(2).max(1)
+        } else {
+            1
+        }
+    }
+}
+
+/// The push-constant block of `glsl/filtered/filtered.glsl`, shared by its three shaders.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct FilteredPush {
+    /// World → light clip space.
+    pub light_view_proj: Mat4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// Shadow-map width and height.
+    pub map_size: i32,
+    /// [`Mode`] as an integer.
+    pub mode: i32,
+    /// Light view near plane.
+    pub near: f32,
+    /// Light view far plane.
+    pub far: f32,
+    /// 1 for a perspective light view (depth is linearised), 0 for orthographic.
+    pub perspective: i32,
+    /// Blur radius in texels.
+    pub radius: i32,
+    /// 1: box blur; 0: Gaussian.
+    pub box_filter: i32,
+    /// EVSM: components; CSM: the 1-based index of this group's first term.
+    pub channel_info: i32,
+    /// CSM: the number of terms M.
+    pub terms: i32,
+    /// `FLAG_FIRST` (1) and `FLAG_LAST` (2): where this dispatch sits in the CSM group loop.
+    pub flags: i32,
+    /// The technique's constants ([`FilterConfig::params`]).
+    pub params: Vec4,
+}
+
+/// `FLAG_FIRST | FLAG_LAST`: a single-group technique.
+pub const FLAGS_ONLY_GROUP: i32 = 3;
+
+/// The push constants of group `group` (0-based) of `config` for `view`.
+pub fn push_constants(
+    config: &FilterConfig,
+    view: &LightView,
+    view_size: IVec2,
+    map_size: u32,
+    group: u32,
+) -> FilteredPush {
+    let groups = config.groups();
+    let first = (group == 0) as i32;
+    let last = ((group + 1 >= groups) as i32) << 1;
+    FilteredPush {
+        light_view_proj: view.view_proj,
+        view_size,
+        map_size: map_size as i32,
+        mode: config.mode as i32,
+        near: view.near,
+        far: view.far,
+        perspective: matches!(view.projection, LightProjection::Perspective { .. }) as i32,
+        radius: config.radius.min(MAX_RADIUS) as i32,
+        box_filter: config.box_filter as i32,
+        channel_info: match config.mode {
+            Mode::Csm => (2 * group + 1) as i32,
+            _ => config.components as i32,
+        },
+        terms: config.terms as i32,
+        flags: first | last,
+        params: Vec4::from_array(config.params),
+    }
+}
+
+/// `filter_radius`: the blur's reach.
+pub const FILTER_RADIUS: Knob = Knob {
+    name: "filter_radius",
+    summary: "blur radius in texels (0: none; Gaussian sigma = radius/2, box width 2r+1)",
+    default: KnobDefault::Value(2.0),
+    min: 0.0,
+    max: MAX_RADIUS as f64,
+    integer: true,
+};
+
+/// `filter_shape`: Gaussian or box.
+pub const FILTER_SHAPE: Knob = Knob {
+    name: "filter_shape",
+    summary: "0: Gaussian; 1: box (with the bilinear fetch, pcf's window at kernel = 2r+1)",
+    default: KnobDefault::Value(0.0),
+    min: 0.0,
+    max: 1.0,
+    integer: true,
+};
+
+/// The knobs every filtered technique starts with: the shadow map's, then the blur's.
+pub const COMMON_KNOBS: [Knob; 6] = [
+    SHADOW_MAP_KNOBS[0],
+    SHADOW_MAP_KNOBS[1],
+    SHADOW_MAP_KNOBS[2],
+    SHADOW_MAP_KNOBS[3],
+    FILTER_RADIUS,
+    FILTER_SHAPE,
+];
+
+/// A [`FilterConfig`] with the blur knobs read and everything else zero.
+fn base_config(mode: Mode, params: &Params) -> FilterConfig {
+    FilterConfig {
+        mode,
+        radius: params.u32("filter_radius").min(MAX_RADIUS),
+        box_filter: params.u32("filter_shape") == 1,
+        components: 4,
+        terms: 0,
+        params: [0.0; 4],
+    }
+}
+
+/// The resolved setup of filtered technique `name` (for tests and CPU twins).
+pub fn config(name: &str, params: &Params) -> Result<FilterConfig> {
+    match name {
+        "vsm" => Ok(vsm::config(params)),
+        "esm" => Ok(esm::config(params)),
+        "evsm" => Ok(evsm::config(params)),
+        "msm" => Ok(msm::config(params)),
+        "csm" => Ok(csm::config(params)),
+        other => Err(Error::Parameter {
+            technique: other.to_string(),
+            message: "not a filtered shadow-map technique".into(),
+        }),
+    }
+}
+
+/// A filtered technique instance: the map, the filtered image and the three pipelines.
+struct Filtered<'a> {
+    ctx: Context,
+    name: &'static str,
+    config: FilterConfig,
+    shadow_map: ShadowMap,
+    // Only the descriptor sets use it; held so it lives as long as they do.
+    _filtered: Image,
+    encode: Pipeline,
+    blur: Pipeline,
+    reconstruct: Pipeline,
+    encode_set: DescriptorSet,
+    blur_set: DescriptorSet,
+    reconstruct_set: DescriptorSet,
+    counters: Buffer,
+    view_size: IVec2,
+    geometry: &'a SceneGeometry,
+}
+
+/// Builds filtered technique `name` with `config`.
+pub fn create<'a>(
+    setup: &TechniqueSetup<'a>,
+    params: &Params,
+    name: &'static str,
+    config: FilterConfig,
+) -> Result<Box<dyn Technique + 'a>> {
+    let ctx = setup.ctx;
+    let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params))?;
+    let size = shadow_map.desc.size;
+    let filtered = Image::new(
+        ctx,
+        &format!("{name} filtered map"),
+        ImageDesc::new_2d(
+            FILTERED_FORMAT,
+            size,
+            size,
+            vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
+        ),
+    )?;
+    let encode = Pipeline::compute(ctx, "filtered/encode.comp")?;
+    let blur = Pipeline::compute(ctx, "filtered/blur.comp")?;
+    let reconstruct = Pipeline::compute(ctx, "filtered/reconstruct.comp")?;
+    let counters = Buffer::storage(
+        ctx,
+        &format!("{name} counters"),
+        (COUNTER_NAMES.len() * 4) as u64,
+    )?;
+    let encode_set = DescriptorSet::new(
+        ctx,
+        &encode,
+        &[
+            Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
+            Binding::Image(&filtered),
+        ],
+    )?;
+    let blur_set = DescriptorSet::new(ctx, &blur, &[Binding::Image(&filtered)])?;
+    let reconstruct_set = DescriptorSet::new(
+        ctx,
+        &reconstruct,
+        &[
+            Binding::Image(&setup.view.positions),
+            Binding::Image(&filtered),
+            Binding::Image(setup.visibility),
+            Binding::Buffer(&counters),
+        ],
+    )?;
+    Ok(Box::new(Filtered {
+        ctx: ctx.clone(),
+        name,
+        config,
+        shadow_map,
+        _filtered: filtered,
+        encode,
+        blur,
+        reconstruct,
+        encode_set,
+        blur_set,
+        reconstruct_set,
+        counters,
+        view_size: IVec2::new(setup.view.width as i32, setup.view.height as i32),
+        geometry: setup.geometry,
+    }))
+}
+
+impl Filtered<'_> {
+    /// Encode + horizontal blur, then the in-place vertical blur, for one group.
+    fn record_filter(&self, rec: &mut Recorder<'_>, push: &FilteredPush) -> Result<()> {
+        let size = self.shadow_map.desc.size;
+        let rows = size.div_ceil(ENCODE_ROWS);
+        rec.dispatch(&self.encode, &self.encode_set, push, [size, rows, 1])?;
+        if self.config.radius > 0 {
+            // One workgroup per strip of columns: local_size.y threads cover it vertically.
+            let rows = self.blur.local_size[1];
+            rec.dispatch(&self.blur, &self.blur_set, push, [size, rows, 1])?;
+        }
+        Ok(())
+    }
+
+    fn record_reconstruct(&self, rec: &mut Recorder<'_>, push: &FilteredPush) -> Result<()> {
+        let threads = [self.view_size.x as u32, self.view_size.y as u32, 1];
+        rec.dispatch(&self.reconstruct, &self.reconstruct_set, push, threads)
+    }
+}
+
+impl Technique for Filtered<'_> {
+    fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
+        self.shadow_map.record(rec, self.geometry)?;
+        let size = self.shadow_map.desc.size;
+        let view = self.shadow_map.view;
+        let groups = self.config.groups();
+        if groups == 1 {
+            let push = push_constants(&self.config, &view, self.view_size, size, 0);
+            rec.begin_pass(&format!("{}-filter", self.name))?;
+            self.record_filter(rec, &push)?;
+            rec.begin_pass(&format!("{}-reconstruct", self.name))?;
+            rec.fill(&self.counters, 0);
+            self.record_reconstruct(rec, &push)?;
+        } else {
+            // One timed pass for the loop over term groups: its total is the technique's cost.
+            rec.begin_pass(&format!("{}-terms", self.name))?;
+            rec.fill(&self.counters, 0);
+            for group in 0..groups {
+                let push = push_constants(&self.config, &view, self.view_size, size, group);
+                self.record_filter(rec, &push)?;
+                self.record_reconstruct(rec, &push)?;
+            }
+        }
+        rec.end_pass();
+        Ok(())
+    }
+
+    fn counters(&self) -> Result<Vec<(String, u64)>> {
+        let values = u32s(&self.ctx.read_buffer(&self.counters)?);
+        let mut out: Vec<(String, u64)> = COUNTER_NAMES
+            .iter()
+            .zip(values)
+            .map(|(n, v)| (n.to_string(), v as u64))
+            .collect();
+        if self.config.mode == Mode::Csm {
+            out.push(("terms".to_string(), self.config.terms as u64));
+        }
+        Ok(out)
+    }
+
+    fn shadow_map(&self) -> Option<&ShadowMap> {
+        Some(&self.shadow_map)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::shader_interface;
+    use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn push_layout_matches_every_shader() {
+        assert_eq!(offset_of!(FilteredPush, light_view_proj), 0);
+        assert_eq!(offset_of!(FilteredPush, view_size), 64);
+        assert_eq!(offset_of!(FilteredPush, map_size), 72);
+        assert_eq!(offset_of!(FilteredPush, mode), 76);
+        assert_eq!(offset_of!(FilteredPush, near), 80);
+        assert_eq!(offset_of!(FilteredPush, far), 84);
+        assert_eq!(offset_of!(FilteredPush, perspective), 88);
+        assert_eq!(offset_of!(FilteredPush, radius), 92);
+        assert_eq!(offset_of!(FilteredPush, box_filter), 96);
+        assert_eq!(offset_of!(FilteredPush, channel_info), 100);
+        assert_eq!(offset_of!(FilteredPush, terms), 104);
+        assert_eq!(offset_of!(FilteredPush, flags), 108);
+        assert_eq!(offset_of!(FilteredPush, params), 112);
+        // 128 bytes: the smallest maxPushConstantsSize Vulkan guarantees.
+        assert_eq!(size_of::<FilteredPush>(), 128);
+        for shader in [
+            "filtered/encode.comp",
+            "filtered/blur.comp",
+            "filtered/reconstruct.comp",
+        ] {
+            let declared = shader_interface(shader).expect("embedded").1;
+            assert_eq!(
+                declared.push_constant_size as usize,
+                size_of::<FilteredPush>()
+            );
+        }
+    }
+
+    #[test]
+    fn groups_and_flags_cover_the_terms() {
+        let view = LightView {
+            view: Mat4::IDENTITY,
+            proj: Mat4::IDENTITY,
+            view_proj: Mat4::IDENTITY,
+            projection: LightProjection::Orthographic { half_extent: 1.0 },
+            near: 0.0,
+            far: 1.0,
+            origin: glam::Vec3::ZERO,
+            direction: glam::Vec3::NEG_Z,
+        };
+        let mut config = FilterConfig {
+            mode: Mode::Csm,
+            radius: 1,
+            box_filter: false,
+            components: 4,
+            terms: 5,
+            params: [0.5, 0.0, 0.0, 1.0],
+        };
+        assert_eq!(config.groups(), 3);
+        let flags: Vec<_> = (0..3)
+            .map(|g| push_constants(&config, &view, IVec2::ONE, 16, g))
+            .map(|p| (p.channel_info, p.flags))
+            .collect();
+        assert_eq!(flags, vec![(1, 1), (3, 0), (5, 2)]);
+        config.mode = Mode::Vsm;
+        let p = push_constants(&config, &view, IVec2::ONE, 16, 0);
+        assert_eq!((p.flags, p.perspective), (FLAGS_ONLY_GROUP, 0));
+    }
+}

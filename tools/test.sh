@@ -15,8 +15,16 @@ if command -v cargo-nextest >/dev/null 2>&1; then
 else
   cargo test --features shader-compiler --no-fail-fast
 fi
-# A short smoke run of the CLI on a bundled scene, as a user would.
+# Smoke runs of the CLI as a user would: a render compared with the ground truth, and the quick
+# benches (every technique on every bundled scene against the reference; every compute
+# primitive), all under validation.
 out="$(mktemp -d)"
-cargo run --quiet --features shader-compiler --bin penumbra -- render scenes/teapot-rect.toml --technique pcf --frames 1 --out "$out"
-test -s "$out/stats.json"
+penumbra() { cargo run --quiet --features shader-compiler --bin penumbra -- "$@"; }
+penumbra render scenes/teapot-rect.toml --technique pcf --frames 1 --compare-to reference \
+  --reference-samples 4 --cache-dir "$out/cache" --out "$out/render"
+test -s "$out/render/stats.json" && test -s "$out/render/error.png"
+penumbra bench --quick --cache-dir "$out/cache" --out "$out/bench"
+test -s "$out/bench/bench.csv" && test -s "$out/bench/pareto.png"
+penumbra bench --suite kernels --quick --out "$out/kernels"
+test -s "$out/kernels/kernels.json"
 rm -rf "$out"

@@ -403,7 +403,7 @@ fn techniques(json: bool) -> anyhow::Result<()> {
                 KnobDefault::Scene(key) => format!("scene's {key}"),
             };
             println!(
-                "    {:<14} default {:<24} range [{}, {}]{}  {}",
+                "    {:<20} default {:<24} range [{}, {}]{}  {}",
                 k.name,
                 default,
                 k.min,

@@ -224,6 +224,17 @@ fn csm_matches_cpu_with_an_odd_number_of_terms() {
     compare("plane-boxes", "csm", &[("terms", "5")], "256", 1e-4, 0.01);
 }
 
+/// `pcf` with `kernel` on a 256 map and one receiver depth per sample — the comparison the
+/// filtered techniques make — whatever its receiver-plane knob defaults to.
+fn pcf_knobs(kernel: &str) -> BTreeMap<String, String> {
+    let mut knobs = set(&[("map_size", "256"), ("kernel", kernel)]);
+    let info = find("pcf").expect("pcf");
+    if info.knobs.iter().any(|k| k.name == "receiver_plane_bias") {
+        knobs.insert("receiver_plane_bias".into(), "0".into());
+    }
+    knobs
+}
+
 /// Mean |a − b| over view samples.
 fn mean_abs_diff(a: &Frame, b: &Frame, prepared: &PreparedScene, engine: &Engine) -> f64 {
     let positions = prepared
@@ -251,12 +262,7 @@ fn csm_converges_to_pcf_as_terms_grow() {
         .prepare(&small(&path.display().to_string()))
         .expect("prepare");
     let pcf = engine
-        .render(
-            &prepared,
-            "pcf",
-            &set(&[("map_size", "256"), ("kernel", "3")]),
-            1,
-        )
+        .render(&prepared, "pcf", &pcf_knobs("3"), 1)
         .expect("pcf");
     let mut errors = Vec::new();
     for m in [1, 2, 4, 8, 16] {
@@ -289,12 +295,7 @@ fn vsm_and_evsm_bound_pcf_from_above() {
     let engine = common::engine();
     let prepared = engine.prepare(&small("plane-boxes")).expect("prepare");
     let pcf = engine
-        .render(
-            &prepared,
-            "pcf",
-            &set(&[("map_size", "256"), ("kernel", "5")]),
-            1,
-        )
+        .render(&prepared, "pcf", &pcf_knobs("5"), 1)
         .expect("pcf");
     let window = [
         ("map_size", "256"),

@@ -8,10 +8,8 @@ use std::collections::BTreeMap;
 
 use glam::{Mat4, Vec3, Vec4};
 use penumbra::cpu::ray_cast::{self, RayCastInput, RayCastOutput};
-use penumbra::reference::bvh::{Bvh, MAX_DEPTH};
-use penumbra::reference::{push_constants, Settings, REFERENCE};
+use penumbra::reference::{push_constants, Settings};
 use penumbra::scene::{shapes, Camera, Light, Mesh, Scene, SceneDefaults};
-use penumbra::techniques::Params;
 use penumbra::{Engine, Frame, PreparedScene};
 
 fn knobs(samples: u32, jitter: u32) -> BTreeMap<String, String> {
@@ -31,9 +29,7 @@ fn render(engine: &Engine, prepared: &PreparedScene, technique: &str, samples: u
 
 /// The CPU twin on the GPU's own view samples.
 fn twin(engine: &Engine, prepared: &PreparedScene, samples: u32, single: bool) -> RayCastOutput {
-    let ctx = engine.context();
-    let positions = prepared.view.read_positions(ctx).expect("positions");
-    let normals = prepared.view.read_normals(ctx).expect("normals");
+    let (positions, normals) = samples_of(engine, prepared);
     let triangles = ray_cast::triangles(&prepared.positions, &prepared.indices);
     let settings = Settings {
         samples,
@@ -42,8 +38,8 @@ fn twin(engine: &Engine, prepared: &PreparedScene, samples: u32, single: bool) -
         single_layer: single,
     };
     let size = [prepared.view.width, prepared.view.height];
-    let push = push_constants(&prepared.light, &prepared.positions, triangles.len(), size, &settings)
-        .expect("push constants");
+    let (light, n) = (&prepared.light, triangles.len());
+    let push = push_constants(light, &prepared.positions, n, size, &settings).expect("push");
     ray_cast::ray_cast(&RayCastInput {
         positions: &positions,
         normals: &normals,
@@ -64,7 +60,13 @@ fn compare(name: &str, frame: &Frame, cpu: &RayCastOutput, side: u32) -> usize {
         }
     }
     if worst.0 > 0.0 {
-        let dir = common::write_diff(name, frame.width, frame.height, &cpu.visibility, &frame.visibility);
+        let dir = common::write_diff(
+            name,
+            frame.width,
+            frame.height,
+            &cpu.visibility,
+            &frame.visibility,
+        );
         let i = worst.1;
         panic!(
             "{name}: pixel {i}: GPU {} CPU {} with {} tie rays; images in {}",
@@ -84,12 +86,18 @@ fn compare(name: &str, frame: &Frame, cpu: &RayCastOutput, side: u32) -> usize {
     );
     for (k, counter) in ["lit", "umbra", "penumbra"].iter().enumerate() {
         let (gpu, twin) = (c[*counter], cpu.counters[k + 1]);
-        assert!(gpu.abs_diff(twin) <= tie_pixels as u64, "{name}: {counter} GPU {gpu} CPU {twin}");
+        assert!(
+            gpu.abs_diff(twin) <= tie_pixels as u64,
+            "{name}: {counter} GPU {gpu} CPU {twin}"
+        );
     }
     let ties: u64 = cpu.ties.iter().map(|&t| u64::from(t)).sum();
     assert!(c["rays"].abs_diff(cpu.counters[4]) <= ties, "{name}: rays");
     // A scene without shadows would prove nothing.
-    assert!(cpu.counters[2] + cpu.counters[3] > 50, "{name}: no shadow in view");
+    assert!(
+        cpu.counters[2] + cpu.counters[3] > 50,
+        "{name}: no shadow in view"
+    );
     tie_pixels
 }
 
@@ -103,15 +111,34 @@ fn open(spec: &str, width: u32, height: u32) -> Scene {
 #[test]
 fn point_light_matches_cpu_and_single_layer_agrees() {
     let engine = common::engine();
-    let prepared = engine.prepare(&open("plane-boxes", 96, 64)).expect("prepare");
+    let prepared = engine
+        .prepare(&open("plane-boxes", 96, 64))
+        .expect("prepare");
     let full = render(&engine, &prepared, "reference", 1);
-    let ties = compare("reference-point", &full, &twin(&engine, &prepared, 1, false), 1);
+    let ties = compare(
+        "reference-point",
+        &full,
+        &twin(&engine, &prepared, 1, false),
+        1,
+    );
     eprintln!("point: {ties} tie pixels");
     // For a point light only the first hit from the light matters: single layer = full.
     let single = render(&engine, &prepared, "reference-single-layer", 1);
-    compare("single-layer-point", &single, &twin(&engine, &prepared, 1, true), 1);
-    let differ = full.visibility.iter().zip(&single.visibility).filter(|(a, b)| a != b);
-    assert!(differ.count() <= ties, "single layer differs from full for a point light");
+    compare(
+        "single-layer-point",
+        &single,
+        &twin(&engine, &prepared, 1, true),
+        1,
+    );
+    let differ = full
+        .visibility
+        .iter()
+        .zip(&single.visibility)
+        .filter(|(a, b)| a != b);
+    assert!(
+        differ.count() <= ties,
+        "single layer differs from full for a point light"
+    );
     drop(prepared);
     common::assert_clean(&engine.context().validation());
 }
@@ -119,15 +146,44 @@ fn point_light_matches_cpu_and_single_layer_agrees() {
 #[test]
 fn rect_light_matches_cpu_and_single_layer_bounds_full() {
     let engine = common::engine();
-    let prepared = engine.prepare(&open("plane-boxes@rect", 64, 48)).expect("prepare");
+    let prepared = engine
+        .prepare(&open("plane-boxes@rect", 64, 48))
+        .expect("prepare");
     let full = render(&engine, &prepared, "reference", 4);
-    compare("reference-rect", &full, &twin(&engine, &prepared, 4, false), 4);
+    compare(
+        "reference-rect",
+        &full,
+        &twin(&engine, &prepared, 4, false),
+        4,
+    );
     let single = render(&engine, &prepared, "reference-single-layer", 4);
-    compare("single-layer-rect", &single, &twin(&engine, &prepared, 4, true), 4);
+    compare(
+        "single-layer-rect",
+        &single,
+        &twin(&engine, &prepared, 4, true),
+        4,
+    );
     // Same rays, fewer occluders: never darker, ray by ray.
     for (f, s) in full.visibility.iter().zip(&single.visibility) {
         assert!(s >= f, "single layer {s} < full {f}");
     }
+    drop(prepared);
+
+    // Larger, GPU only: enough divergence between SIMD lanes to catch a single-layer shader that
+    // a driver miscompiles (nested traversals did on lavapipe: the sample loops of neighbouring
+    // lanes were corrupted, so `rays` dropped and pixels came out darker than the full reference).
+    let prepared = engine
+        .prepare(&open("plane-boxes@rect", 256, 192))
+        .expect("prepare");
+    let full = render(&engine, &prepared, "reference", 8);
+    let single = render(&engine, &prepared, "reference-single-layer", 8);
+    assert_eq!(full.stats.counters["rays"], single.stats.counters["rays"]);
+    let darker = full
+        .visibility
+        .iter()
+        .zip(&single.visibility)
+        .filter(|(f, s)| s < f);
+    assert_eq!(darker.count(), 0, "single layer darker than full");
     drop(prepared);
     common::assert_clean(&engine.context().validation());
 }
@@ -135,11 +191,21 @@ fn rect_light_matches_cpu_and_single_layer_bounds_full() {
 #[test]
 fn directional_lights_match_cpu() {
     let engine = common::engine();
-    let mut prepared = engine.prepare(&open("plane-boxes@directional", 64, 48)).expect("prepare");
+    let mut prepared = engine
+        .prepare(&open("plane-boxes@directional", 64, 48))
+        .expect("prepare");
     // The scene's sun (0.5°): soft, with the disk mapping's sin and cos.
     let soft = render(&engine, &prepared, "reference", 3);
-    compare("reference-sun", &soft, &twin(&engine, &prepared, 3, false), 3);
-    assert!(soft.stats.counters["penumbra"] > 0, "a 0.5° sun casts penumbrae");
+    compare(
+        "reference-sun",
+        &soft,
+        &twin(&engine, &prepared, 3, false),
+        3,
+    );
+    assert!(
+        soft.stats.counters["penumbra"] > 0,
+        "a 0.5° sun casts penumbrae"
+    );
     // A hard sun: one ray along the direction.
     if let Light::Directional { direction, .. } = prepared.light {
         prepared.light = Light::Directional {
@@ -148,7 +214,12 @@ fn directional_lights_match_cpu() {
         };
     }
     let hard = render(&engine, &prepared, "reference", 3);
-    compare("reference-hard-sun", &hard, &twin(&engine, &prepared, 1, false), 1);
+    compare(
+        "reference-hard-sun",
+        &hard,
+        &twin(&engine, &prepared, 1, false),
+        1,
+    );
     assert_eq!(hard.stats.counters["penumbra"], 0);
     drop(prepared);
     common::assert_clean(&engine.context().validation());
@@ -160,7 +231,12 @@ fn mesh_scene_matches_cpu() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/spot-point.toml");
     let prepared = engine.prepare(&open(path, 96, 72)).expect("prepare");
     let frame = render(&engine, &prepared, "reference", 1);
-    compare("reference-spot", &frame, &twin(&engine, &prepared, 1, false), 1);
+    compare(
+        "reference-spot",
+        &frame,
+        &twin(&engine, &prepared, 1, false),
+        1,
+    );
     drop(prepared);
     common::assert_clean(&engine.context().validation());
 }
@@ -169,7 +245,10 @@ fn mesh_scene_matches_cpu() {
 fn mesh(name: &str, (positions, indices): shapes::Geometry, transform: Mat4) -> Mesh {
     Mesh {
         name: name.to_string(),
-        positions: positions.iter().map(|p| transform.transform_point3(*p)).collect(),
+        positions: positions
+            .iter()
+            .map(|p| transform.transform_point3(*p))
+            .collect(),
         indices,
     }
 }
@@ -185,10 +264,11 @@ fn scene(name: &str, meshes: Vec<Mesh>, camera: Camera, light: Light) -> Scene {
     }
 }
 
-fn camera(position: Vec3, target: Vec3, up: Vec3, fov_y_deg: f32) -> Camera {
+/// A 96 × 64 camera at `eye` looking at `target`.
+fn camera(eye: [f32; 3], target: [f32; 3], up: Vec3, fov_y_deg: f32) -> Camera {
     Camera {
-        position,
-        target,
+        position: Vec3::from(eye),
+        target: Vec3::from(target),
         up,
         fov_y_deg,
         width: 96,
@@ -203,7 +283,7 @@ fn at(x: f32, y: f32, z: f32) -> Mat4 {
 }
 
 /// The view samples' positions and normals, read back.
-fn samples(engine: &Engine, prepared: &PreparedScene) -> (Vec<Vec4>, Vec<Vec4>) {
+fn samples_of(engine: &Engine, prepared: &PreparedScene) -> (Vec<Vec4>, Vec<Vec4>) {
     let ctx = engine.context();
     (
         prepared.view.read_positions(ctx).expect("positions"),
@@ -227,7 +307,7 @@ fn parallel_planes_match_the_closed_form() {
             mesh("receiver", shapes::plane(20.0, 20.0, 1), Mat4::IDENTITY),
             mesh("occluder", shapes::plane(4.0, 4.0, 1), at(0.0, h_occ, 0.0)),
         ],
-        camera(Vec3::new(centre, 0.5, 0.0), Vec3::new(centre, 0.0, 0.0), Vec3::Z, 60.0),
+        camera([centre, 0.5, 0.0], [centre, 0.0, 0.0], Vec3::Z, 60.0),
         Light::Rect {
             position: Vec3::new(0.0, h_light, 0.0),
             u: Vec3::X * size,
@@ -236,7 +316,7 @@ fn parallel_planes_match_the_closed_form() {
     );
     let engine = common::engine();
     let prepared = engine.prepare(&s).expect("prepare");
-    let (positions, _) = samples(&engine, &prepared);
+    let (positions, _) = samples_of(&engine, &prepared);
     let n = 8u32;
     for jitter in [1, 0] {
         let frame = engine
@@ -244,7 +324,11 @@ fn parallel_planes_match_the_closed_form() {
             .expect("render");
         // Jittered, the one column of light cells that straddles the edge is off by up to N
         // cells (1/N); at cell centres the staircase is off by at most half a column (1/2N).
-        let bound = if jitter == 1 { 1.0 / n as f32 } else { 0.5 / n as f32 } + 1e-3;
+        let bound = if jitter == 1 {
+            1.0 / n as f32
+        } else {
+            0.5 / n as f32
+        } + 1e-3;
         let (mut worst, mut sum_err, mut count) = (0.0f32, 0.0f32, 0);
         // Least-squares slope of V against x over the inner penumbra: 1 / width.
         let (mut m, mut sx, mut sv, mut sxx, mut sxv) = (0.0f64, 0.0, 0.0, 0.0, 0.0);
@@ -268,13 +352,19 @@ fn parallel_planes_match_the_closed_form() {
         let slope = (m * sxv - sx * sv) / (m * sxx - sx * sx);
         let fitted = (1.0 / slope) as f32;
         eprintln!(
-            "jitter {jitter}: max |V − exact| {worst}, mean in penumbra {}, width {fitted} vs {width}",
+            "jitter {jitter}: max |V − exact| {worst}, mean {}, width {fitted} vs {width}",
             sum_err / count as f32
         );
         assert!(worst <= bound, "max error {worst} > {bound}");
-        assert!((fitted - width).abs() < 0.03 * width, "penumbra width {fitted} ≠ {width}");
+        assert!(
+            (fitted - width).abs() < 0.03 * width,
+            "penumbra width {fitted} ≠ {width}"
+        );
         if jitter == 1 {
-            assert!(sum_err / (count as f32) < 0.3 / n as f32, "jitter does not average");
+            assert!(
+                sum_err / (count as f32) < 0.3 / n as f32,
+                "jitter does not average"
+            );
         }
     }
     drop(prepared);
@@ -288,7 +378,7 @@ fn unoccluded_plane_and_sphere_are_fully_lit() {
     let plane = scene(
         "plane",
         vec![mesh("plane", shapes::plane(16.0, 16.0, 8), Mat4::IDENTITY)],
-        camera(Vec3::new(1.0, 6.0, 9.0), Vec3::ZERO, Vec3::Y, 50.0),
+        camera([1.0, 6.0, 9.0], [0.0; 3], Vec3::Y, 50.0),
         Light::Point {
             position: Vec3::new(-3.0, 5.0, 2.0),
         },
@@ -317,11 +407,17 @@ fn unoccluded_plane_and_sphere_are_fully_lit() {
     for light in lights {
         prepared.light = light;
         let frame = render(&engine, &prepared, "reference", 4);
-        let (positions, _) = samples(&engine, &prepared);
+        let (positions, _) = samples_of(&engine, &prepared);
         for (p, v) in positions.iter().zip(&frame.visibility) {
-            assert!(p.w <= 0.0 || *v == 1.0, "acne on the plane under {light:?}: V = {v} at {p}");
+            assert!(
+                p.w <= 0.0 || *v == 1.0,
+                "acne on the plane under {light:?}: V = {v} at {p}"
+            );
         }
-        assert_eq!(frame.stats.counters["lit"], frame.stats.counters["view_samples"]);
+        assert_eq!(
+            frame.stats.counters["lit"],
+            frame.stats.counters["view_samples"]
+        );
     }
     drop(prepared);
 
@@ -330,14 +426,21 @@ fn unoccluded_plane_and_sphere_are_fully_lit() {
     let sphere = scene(
         "sphere",
         vec![mesh("sphere", shapes::sphere(1.0, 48), Mat4::IDENTITY)],
-        camera(Vec3::new(0.5, 0.8, 4.0), Vec3::ZERO, Vec3::Y, 40.0),
+        camera([0.5, 0.8, 4.0], [0.0; 3], Vec3::Y, 40.0),
         Light::Point { position: centre },
     );
     let mut prepared = engine.prepare(&sphere).expect("prepare");
-    let (positions, normals) = samples(&engine, &prepared);
+    let (positions, normals) = samples_of(&engine, &prepared);
     let corners = [(-0.5f32, -0.5f32), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
     let (u, v) = (Vec3::new(0.6, 0.0, -0.3), Vec3::new(0.0, 0.6, 0.0));
-    for light in [sphere.light, Light::Rect { position: centre, u, v }] {
+    for light in [
+        sphere.light,
+        Light::Rect {
+            position: centre,
+            u,
+            v,
+        },
+    ] {
         prepared.light = light;
         let frame = render(&engine, &prepared, "reference", 4);
         let mut lit = 0;
@@ -371,8 +474,12 @@ fn closed_boxes_do_not_leak() {
     // Inside a closed box nothing is lit, whatever the light outside.
     let inside = scene(
         "inside-box",
-        vec![mesh("box", shapes::cuboid(Vec3::splat(4.0)), Mat4::IDENTITY)],
-        camera(Vec3::new(-0.5, -0.3, -0.4), Vec3::new(1.0, 0.6, 1.5), Vec3::Y, 100.0),
+        vec![mesh(
+            "box",
+            shapes::cuboid(Vec3::splat(4.0)),
+            Mat4::IDENTITY,
+        )],
+        camera([-0.5, -0.3, -0.4], [1.0, 0.6, 1.5], Vec3::Y, 100.0),
         Light::Point {
             position: Vec3::new(3.0, 8.0, 5.0),
         },
@@ -393,8 +500,16 @@ fn closed_boxes_do_not_leak() {
     for light in lights {
         prepared.light = light;
         let frame = render(&engine, &prepared, "reference", 4);
-        assert_eq!(frame.stats.counters["view_samples"], 96 * 64, "the walls fill the view");
-        assert_eq!(frame.stats.counters["umbra"], 96 * 64, "light leaks in under {light:?}");
+        assert_eq!(
+            frame.stats.counters["view_samples"],
+            96 * 64,
+            "the walls fill the view"
+        );
+        assert_eq!(
+            frame.stats.counters["umbra"],
+            96 * 64,
+            "light leaks in under {light:?}"
+        );
     }
     drop(prepared);
 
@@ -404,16 +519,20 @@ fn closed_boxes_do_not_leak() {
         "box-on-ground",
         vec![
             mesh("ground", shapes::plane(10.0, 10.0, 1), Mat4::IDENTITY),
-            mesh("box", shapes::cuboid(Vec3::new(2.0, 1.0, 2.0)), at(0.0, 0.5, 0.0)),
+            mesh(
+                "box",
+                shapes::cuboid(Vec3::new(2.0, 1.0, 2.0)),
+                at(0.0, 0.5, 0.0),
+            ),
         ],
-        camera(Vec3::new(0.4, 6.0, 3.0), Vec3::ZERO, Vec3::Y, 45.0),
+        camera([0.4, 6.0, 3.0], [0.0; 3], Vec3::Y, 45.0),
         Light::Point {
             position: Vec3::new(0.0, 5.0, 0.0),
         },
     );
     let prepared = engine.prepare(&on_ground).expect("prepare");
     let frame = render(&engine, &prepared, "reference", 1);
-    let (positions, _) = samples(&engine, &prepared);
+    let (positions, _) = samples_of(&engine, &prepared);
     let (mut umbra, mut lit) = (0, 0);
     for (p, &v) in positions.iter().zip(&frame.visibility) {
         if p.w <= 0.0 || p.y.abs() > 1e-4 {
@@ -445,7 +564,7 @@ fn single_layer_drops_occluders_hidden_from_the_light_centre() {
             mesh("low", shapes::plane(3.0, 3.0, 1), at(0.0, 1.5, 0.0)),
             mesh("high", shapes::plane(1.0, 1.0, 1), at(0.0, 3.0, 0.0)),
         ],
-        camera(Vec3::new(0.9, 1.0, 0.0), Vec3::new(0.9, 0.0, 0.0), Vec3::Z, 70.0),
+        camera([0.9, 1.0, 0.0], [0.9, 0.0, 0.0], Vec3::Z, 70.0),
         Light::Rect {
             position: Vec3::new(0.0, 6.0, 0.0),
             u: Vec3::X * 2.0,
@@ -456,63 +575,22 @@ fn single_layer_drops_occluders_hidden_from_the_light_centre() {
     let prepared = engine.prepare(&s).expect("prepare");
     let full = render(&engine, &prepared, "reference", 6);
     let single = render(&engine, &prepared, "reference-single-layer", 6);
-    compare("single-layer-stacked", &single, &twin(&engine, &prepared, 6, true), 6);
+    compare(
+        "single-layer-stacked",
+        &single,
+        &twin(&engine, &prepared, 6, true),
+        6,
+    );
     let mut brighter = 0;
     for (f, s) in full.visibility.iter().zip(&single.visibility) {
         assert!(s >= f, "single layer {s} < full {f}");
         brighter += usize::from(*s > *f + 0.05);
     }
-    assert!(brighter > 500, "hidden occluders still count: {brighter} brighter samples");
+    assert!(
+        brighter > 500,
+        "hidden occluders still count: {brighter} brighter samples"
+    );
     assert!(single.stats.counters["centre_rays"] > 0);
     drop(prepared);
     common::assert_clean(&engine.context().validation());
-}
-
-#[test]
-fn knobs_are_validated() {
-    let defaults = SceneDefaults::default();
-    let resolve = |k: &str, v: &str| {
-        let mut o = BTreeMap::new();
-        o.insert(k.to_string(), v.to_string());
-        Params::resolve(REFERENCE.name, REFERENCE.knobs, &o, &defaults)
-    };
-    assert!(resolve("samples", "0").is_err());
-    assert!(resolve("samples", "65").is_err());
-    assert!(resolve("samples", "2.5").is_err());
-    assert!(resolve("jitter", "2").is_err());
-    assert!(resolve("ray_offset", "-1").is_err());
-    let p = resolve("samples", "64").expect("in range");
-    assert_eq!(Settings::from_params(&p, false).samples, 64);
-    let p = Params::resolve(REFERENCE.name, REFERENCE.knobs, &BTreeMap::new(), &defaults)
-        .expect("defaults");
-    let s = Settings::from_params(&p, true);
-    assert_eq!((s.samples, s.jitter, s.single_layer), (32, true, true));
-}
-
-#[test]
-fn bvh_of_a_million_triangles_builds_and_traverses() {
-    let scene = Scene::open("grid:1000000").expect("scene");
-    let (positions, indices) = scene.merged();
-    let start = std::time::Instant::now();
-    let bvh = Bvh::build(&positions, &indices).expect("build");
-    eprintln!(
-        "{} triangles: {} nodes, depth {}, built in {:?}",
-        bvh.triangles.len(),
-        bvh.nodes.len(),
-        bvh.depth,
-        start.elapsed()
-    );
-    assert_eq!(bvh.triangles.len(), indices.len() / 3);
-    assert!(bvh.triangles.len() >= 1_000_000 && bvh.depth <= MAX_DEPTH);
-    // A few rays through the sheet and its holes, against brute force.
-    let triangles = ray_cast::triangles(&positions, &indices);
-    let mut blocked = 0;
-    for k in 0..8 {
-        let x = -5.0 + 1.37 * k as f32;
-        let ray = ray_cast::Ray::new([x, 0.01, 0.3 * k as f32], [0.4, 8.0, -0.2], 1.0);
-        let brute = ray_cast::occluded(&ray, &triangles).blocked;
-        assert_eq!(bvh.occluded(&ray), brute, "ray {k}");
-        blocked += u32::from(brute);
-    }
-    assert!(blocked > 0 && blocked < 8, "rays should both hit the sheet and pass its holes");
 }

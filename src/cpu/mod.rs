@@ -17,6 +17,7 @@ pub mod ray_cast;
 pub mod receiver_plane;
 pub mod reduce;
 pub mod sat;
+pub mod savsm;
 pub mod scan;
 pub mod shadow_map;
 pub mod sort;

@@ -8,9 +8,9 @@
 //! device a hard ray gives the same answer on both sides, bit for bit.
 //!
 //! Where bit-exactness cannot be promised, the twin says so per ray with a *tie* flag: the ray
-//! passes within [`TIE_EPSILON`] (≈ 1e-6, relative to the magnitudes involved) of a triangle edge, of its
-//! endpoints, of the receiver's tangent plane, or (single layer) the hit point's own visibility
-//! from the light centre is such a near case. Ties cover the soft directional light (the sun-disk
+//! passes within [`TIE_EPSILON`] (≈ 1e-6, relative to the magnitudes involved) of a triangle
+//! edge, of its endpoints, of the receiver's tangent plane, or (single layer) the hit point's
+//! own visibility from the light centre is such a near case. Ties cover the soft directional light (the sun-disk
 //! mapping uses `sin`/`cos`, which the GPU evaluates to within a few ulps only) and the single
 //! layer's hit point (a division and a square root).
 //!
@@ -220,7 +220,12 @@ fn occluded_axes<const KX: usize, const KY: usize, const KZ: usize>(
         let r = intersect_axes::<KX, KY, KZ>(ray, tri);
         blocked |= r.hit;
         match r.class {
-            Class::Hit => return Occlusion { blocked, tie: false },
+            Class::Hit => {
+                return Occlusion {
+                    blocked,
+                    tie: false,
+                }
+            }
             Class::Tie => tie = true,
             Class::Miss => {}
         }
@@ -241,9 +246,10 @@ fn sub3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-/// `visible_from_centre` of the shader: whether hit point H (weights `w` on `tri`) is directly
-/// visible from the light centre. H is offset by `push.offset` along the triangle's normal, on
-/// the centre's side, and a ray is cast from there to the centre (directional: towards the sun).
+/// `centre_ray` of the shader, then `occluded`: whether hit point H (weights `w` on `tri`) is
+/// directly visible from the light centre, as `blocked` (H blocks the light-sample ray). H is
+/// offset by `push.offset` along the triangle's normal, on the centre's side, and a ray is cast
+/// from there to the centre (directional: towards the sun).
 fn visible_from_centre(
     tri: &Triangle,
     w: [f32; 4],
@@ -265,7 +271,11 @@ fn visible_from_centre(
     let to_light = if directional { centre } else { sub3(centre, h) };
     let side = dot3(nt, to_light);
     let len = dot3(nt, nt).sqrt();
-    let s = (if side >= 0.0 { push.offset } else { -push.offset }) / len;
+    let s = (if side >= 0.0 {
+        push.offset
+    } else {
+        -push.offset
+    }) / len;
     let ho: [f32; 3] = std::array::from_fn(|k| h[k] + nt[k] * s);
     let (dir, tmax) = if directional {
         (centre, push.t_far)
@@ -318,7 +328,7 @@ fn occluded_single_layer(
     (Occlusion { blocked, tie }, centre_rays)
 }
 
-/// `pcg_hash` of the shader (Jarzynski and Olano, JCGT 2020).
+/// `pcg` of the shader (Jarzynski and Olano, JCGT 2020).
 pub fn pcg(v: u32) -> u32 {
     let state = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
     let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
@@ -531,9 +541,8 @@ mod tests {
     #[test]
     fn ties_mark_edges_and_robust_cases_are_not_ties() {
         let tri: Triangle = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-        let through = |x: f32, y: f32| {
-            intersect(&Ray::new([x, y, 1.0], [0.0, 0.0, -2.0], 1.0), &tri).class
-        };
+        let through =
+            |x: f32, y: f32| intersect(&Ray::new([x, y, 1.0], [0.0, 0.0, -2.0], 1.0), &tri).class;
         assert_eq!(through(0.25, 0.25), Class::Hit);
         assert_eq!(through(2.0, 2.0), Class::Miss);
         assert_eq!(through(0.5, 0.0), Class::Tie);

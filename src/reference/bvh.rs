@@ -111,7 +111,12 @@ fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
 
 /// The best binned-SAH split of `order` as `(axis, last bin of the left side)`, if any split
 /// beats a leaf (or the node is too big to be one).
-fn best_split(order: &[u32], prims: &[Prim], bounds: &Aabb, centroids: &Aabb) -> Option<(usize, f32, f32, usize)> {
+fn best_split(
+    order: &[u32],
+    prims: &[Prim],
+    bounds: &Aabb,
+    centroids: &Aabb,
+) -> Option<(usize, f32, f32, usize)> {
     let count = order.len();
     let parent_area = area(bounds).max(f32::MIN_POSITIVE);
     let mut best: Option<(f32, usize, f32, f32, usize)> = None;
@@ -182,7 +187,10 @@ impl Bvh {
     pub fn build(positions: &[Vec3], indices: &[u32]) -> Result<Bvh> {
         let bad = |message: String| Error::input("reference BVH", None, message);
         if indices.len() % 3 != 0 {
-            return Err(bad(format!("{} indices is not a whole number of triangles", indices.len())));
+            return Err(bad(format!(
+                "{} indices is not a whole number of triangles",
+                indices.len()
+            )));
         }
         let n = indices.len() / 3;
         if n >= (u32::MAX / 2) as usize {
@@ -193,7 +201,10 @@ impl Bvh {
             let mut v = [[0.0; 3]; 3];
             for (k, &i) in tri.iter().enumerate() {
                 let p = positions.get(i as usize).ok_or_else(|| {
-                    bad(format!("triangle {t} uses vertex {i}; there are {}", positions.len()))
+                    bad(format!(
+                        "triangle {t} uses vertex {i}; there are {}",
+                        positions.len()
+                    ))
                 })?;
                 v[k] = p.to_array();
             }
@@ -367,7 +378,10 @@ mod tests {
                 let l = node.left_or_first as usize;
                 for c in [l, l + 1] {
                     let child = bvh.nodes[c];
-                    assert!(contains(&node, child.min, child.max), "node {i} ⊉ child {c}");
+                    assert!(
+                        contains(&node, child.min, child.max),
+                        "node {i} ⊉ child {c}"
+                    );
                     work.push(c);
                 }
             } else {
@@ -380,15 +394,24 @@ mod tests {
                 }
             }
         }
-        assert!(seen.iter().all(|&s| s == 1), "a triangle is missing or repeated");
-        assert!(visits.iter().all(|&v| v == 1), "a node is unreachable or shared");
+        assert!(
+            seen.iter().all(|&s| s == 1),
+            "a triangle is missing or repeated"
+        );
+        assert!(
+            visits.iter().all(|&v| v == 1),
+            "a node is unreachable or shared"
+        );
     }
 
     /// A small LCG in [0, 1).
     struct Lcg(u64);
     impl Lcg {
         fn next(&mut self) -> f32 {
-            self.0 = self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            self.0 = self
+                .0
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
             (self.0 >> 40) as f32 / (1u64 << 24) as f32
         }
     }
@@ -404,7 +427,13 @@ mod tests {
         let mut rng = Lcg(7);
         let mut blocked = 0;
         for k in 0..3000 {
-            let mut point = || [rng.next() * 16.0 - 8.0, rng.next() * 4.0, rng.next() * 16.0 - 8.0];
+            let mut point = || {
+                [
+                    rng.next() * 16.0 - 8.0,
+                    rng.next() * 4.0,
+                    rng.next() * 16.0 - 8.0,
+                ]
+            };
             let o = point();
             let t = point();
             let d = [t[0] - o[0], t[1] - o[1], t[2] - o[2]];
@@ -415,7 +444,10 @@ mod tests {
             assert_eq!(bvh.occluded(&ray), brute, "ray {k}: {ray:?}");
             blocked += u32::from(brute);
         }
-        assert!(blocked > 300 && blocked < 2700, "rays should both hit and miss: {blocked}");
+        assert!(
+            blocked > 300 && blocked < 2700,
+            "rays should both hit and miss: {blocked}"
+        );
     }
 
     #[test]
@@ -432,7 +464,11 @@ mod tests {
         for k in 0..200u32 {
             let x = 2f32.powi(-(k as i32 % 120));
             let base = p.len() as u32;
-            p.extend([Vec3::new(x, 0.0, 0.0), Vec3::new(x * 1.5, 0.0, 0.0), Vec3::new(x, 0.0, x)]);
+            p.extend([
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x * 1.5, 0.0, 0.0),
+                Vec3::new(x, 0.0, x),
+            ]);
             i.extend([base, base + 1, base + 2]);
         }
         let bvh = Bvh::build(&p, &i).expect("build");
@@ -445,5 +481,35 @@ mod tests {
         // Bad indices are an error, not a panic.
         assert!(Bvh::build(&[Vec3::ZERO], &[0, 1, 2]).is_err());
         assert!(Bvh::build(&[Vec3::ZERO], &[0, 0]).is_err());
+    }
+
+    #[test]
+    fn a_million_triangles_build_within_the_depth_limit() {
+        let scene = crate::scene::Scene::procedural("grid:1000000").expect("scene");
+        let (p, i) = scene.merged();
+        let start = std::time::Instant::now();
+        let bvh = Bvh::build(&p, &i).expect("build");
+        let n = i.len() / 3;
+        eprintln!(
+            "{n} triangles, depth {}, built in {:?}",
+            bvh.depth,
+            start.elapsed()
+        );
+        assert!(n >= 1_000_000);
+        check_structure(&bvh, n);
+        // A few rays through the sheet and its holes, against brute force.
+        let tris = triangles(&p, &i);
+        let mut blocked = 0;
+        for k in 0..8 {
+            let x = -5.0 + 1.37 * k as f32;
+            let ray = Ray::new([x, 0.01, 0.3 * k as f32], [0.4, 8.0, -0.2], 1.0);
+            let brute = occluded(&ray, &tris).blocked;
+            assert_eq!(bvh.occluded(&ray), brute, "ray {k}");
+            blocked += u32::from(brute);
+        }
+        assert!(
+            blocked > 0 && blocked < 8,
+            "rays both hit the sheet and pass its holes"
+        );
     }
 }

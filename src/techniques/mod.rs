@@ -12,6 +12,7 @@ mod params;
 pub mod pcf;
 pub mod pcf_coverage;
 pub mod pcf_poisson;
+pub mod savsm;
 
 pub use params::{Knob, KnobDefault, Params, SHADOW_MAP_KNOBS};
 
@@ -85,6 +86,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         filtered::evsm::EVSM,
         filtered::msm::MSM,
         filtered::csm::CSM,
+        savsm::SAVSM,
     ]
 }
 

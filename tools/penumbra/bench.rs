@@ -106,6 +106,12 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
             ("terms", vec![4.0, 8.0, 16.0]),
             ("damping", vec![0.5, 1.0]),
         ],
+        // Summed-area VSM: the cost should not grow with the kernel.
+        ("savsm", true) => vec![("map_size", vec![1024.0]), ("kernel", vec![3.0, 9.0])],
+        ("savsm", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("kernel", vec![3.0, 9.0, 17.0, 33.0]),
+        ],
         _ => Vec::new(),
     }
 }

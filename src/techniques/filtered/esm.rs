@@ -94,4 +94,20 @@ mod tests {
         let s = esm_visibility(1000.0 * 0.3, 0.4, 1000.0);
         assert!((0.0..1e-30).contains(&s));
     }
+
+    /// The book's ESM properties: a receiver at or in front of every occluder is exactly lit,
+    /// and behind one the result falls towards the step's 0 as c grows.
+    #[test]
+    fn approaches_the_step_as_c_grows() {
+        let (occluder, receiver) = (0.3f32, 0.4f32);
+        let mut last = 1.0f32;
+        for c in [10.0f32, 40.0, 80.0, 200.0, 1000.0] {
+            assert_eq!(esm_visibility(c * occluder, occluder, c), 1.0);
+            assert_eq!(esm_visibility(c * occluder, 0.2, c), 1.0);
+            let s = esm_visibility(c * occluder, receiver, c);
+            assert!(s < last, "c {c}: {s}");
+            last = s;
+        }
+        assert!(last < 1e-40, "{last}");
+    }
 }

@@ -19,6 +19,13 @@
 //!    fetches the filtered channels bilinearly by hand (depth formats cannot be filtered on
 //!    lavapipe, and storage images never are) and applies the technique's formula.
 //!
+//! The filtered map is an image, not a storage buffer: lavapipe's image loads and stores cost
+//! about 1.5× its buffer accesses here, but its `maxStorageBufferRange` is 128 MiB, which a
+//! buffer of 16 B per texel would hit at 2896² — images go to `maxImageDimension2D`.
+//!
+//! Timed passes: `light-depth`, `<name>-encode` (encode + horizontal blur), `<name>-blur`
+//! (vertical), `<name>-reconstruct`; CSM times its whole group loop as `csm-terms`.
+//!
 //! Texels outside the map read as the far plane (z = 1) in the blur and the fetch alike, the
 //! convention of `shadow_map.glsl`: receivers near the map's edge are lit, as with `pcf`.
 //! Receivers outside the light frustum are lit and counted (`outside_light`).
@@ -312,12 +319,24 @@ pub fn create<'a>(
 }
 
 impl Filtered<'_> {
-    /// Encode + horizontal blur, then the in-place vertical blur, for one group.
-    fn record_filter(&self, rec: &mut Recorder<'_>, push: &FilteredPush) -> Result<()> {
+    /// Encode + horizontal blur, then the in-place vertical blur, for one group; with `timed`,
+    /// each as its own timed pass.
+    fn record_filter(
+        &self,
+        rec: &mut Recorder<'_>,
+        push: &FilteredPush,
+        timed: bool,
+    ) -> Result<()> {
         let size = self.shadow_map.desc.size;
+        if timed {
+            rec.begin_pass(&format!("{}-encode", self.name))?;
+        }
         let rows = size.div_ceil(ENCODE_ROWS);
         rec.dispatch(&self.encode, &self.encode_set, push, [size, rows, 1])?;
         if self.config.radius > 0 {
+            if timed {
+                rec.begin_pass(&format!("{}-blur", self.name))?;
+            }
             // One workgroup per strip of columns: local_size.y threads cover it vertically.
             let rows = self.blur.local_size[1];
             rec.dispatch(&self.blur, &self.blur_set, push, [size, rows, 1])?;
@@ -339,8 +358,7 @@ impl Technique for Filtered<'_> {
         let groups = self.config.groups();
         if groups == 1 {
             let push = push_constants(&self.config, &view, self.view_size, size, 0);
-            rec.begin_pass(&format!("{}-filter", self.name))?;
-            self.record_filter(rec, &push)?;
+            self.record_filter(rec, &push, true)?;
             rec.begin_pass(&format!("{}-reconstruct", self.name))?;
             rec.fill(&self.counters, 0);
             self.record_reconstruct(rec, &push)?;
@@ -350,7 +368,7 @@ impl Technique for Filtered<'_> {
             rec.fill(&self.counters, 0);
             for group in 0..groups {
                 let push = push_constants(&self.config, &view, self.view_size, size, group);
-                self.record_filter(rec, &push)?;
+                self.record_filter(rec, &push, false)?;
                 self.record_reconstruct(rec, &push)?;
             }
         }

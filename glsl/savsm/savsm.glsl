@@ -1,0 +1,34 @@
+// Summed-area variance shadow maps: the push-constant block and depth linearisation shared by
+// moments.comp and lookup.comp. Rust block: SavsmPush in src/techniques/savsm.rs; CPU twin:
+// src/cpu/savsm.rs. Keep the three in step.
+
+#ifndef PENUMBRA_SAVSM_GLSL
+#define PENUMBRA_SAVSM_GLSL
+
+layout(push_constant) uniform Push {
+    mat4 light_view_proj;
+    ivec2 view_size;
+    int map_size;
+    int rows_per_band;
+    float near;
+    float far;
+    int perspective;
+    // Box width in texels (continuous).
+    float kernel;
+    float min_variance;
+    float bleed_reduction;
+    int pad0;
+    int pad1;
+} pc;
+
+// The VSM module's linearisation (glsl/filtered/filtered.glsl, linear_depth): z = (dist - near)
+// / (far - near), in a form with no cancellation; orthographic ndc is already linear.
+float linear_depth(float ndc) {
+    float z = ndc;
+    if (pc.perspective != 0) {
+        z = pc.near * ndc / (pc.far * (1.0 - ndc) + pc.near * ndc);
+    }
+    return clamp(z, 0.0, 1.0);
+}
+
+#endif

@@ -39,7 +39,10 @@ fn average_maps_converges_to_the_reference() {
     // Penumbra error halves from 1 to 64 samples. It does not go to zero: what remains is
     // resolution, bias, and self-shadowing near the terminator that a biased shadow map cannot
     // see (the reference ray casts the mesh's own facets).
-    let pmae: Vec<f64> = errors.iter().map(|e| e.2.expect("a rect light has a penumbra")).collect();
+    let pmae: Vec<f64> = errors
+        .iter()
+        .map(|e| e.2.expect("a rect light has a penumbra"))
+        .collect();
     assert!(pmae.windows(2).all(|w| w[1] < w[0]), "{errors:?}");
     assert!(pmae[3] < 0.5 * pmae[0], "{errors:?}");
     drop(prepared);

@@ -30,7 +30,7 @@ const FLAG_FIRST: i32 = 1;
 const FLAG_LAST: i32 = 2;
 const PI: f32 = std::f32::consts::PI;
 
-/// Linear depth in [0,1] from stored ndc depth (`linear_depth` in `filtered.glsl`).
+/// Linear depth in `[0,1]` from stored ndc depth (`linear_depth` in `filtered.glsl`).
 pub fn linear_depth(ndc: f32, pc: &FilteredPush) -> f32 {
     let mut z = ndc;
     if pc.perspective != 0 {

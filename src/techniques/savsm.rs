@@ -22,7 +22,7 @@
 //! **Why fixed point, not fp32 tables.** Box means from a table are differences of prefix
 //! sums that grow to w·h·mean; the fp32 rows of the measured table in [`crate::kernels::sat`]
 //! give errors of 5.1e-3 (f32) / 5.8e-4 (f32-centred) at 1024² and 8.7e-2 / 1.0e-2 at 4096².
-//! VSM then forms σ² = E[z²] − E[z]², a difference of two such means, whose meaningful values
+//! VSM then forms σ² = `E[z²] − E[z]²`, a difference of two such means, whose meaningful values
 //! are ~1e-5 (the default `min_variance`): an error of 1e-3 in either moment swamps the
 //! variance, turning penumbrae into noise and lit surfaces into acne. `u32-fixed16` measures
 //! 4.7e-6–7.1e-6 at every size: each window sum is **exact** (wrap-around arithmetic, see

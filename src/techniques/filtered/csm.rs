@@ -20,7 +20,7 @@
 //!   taken; ε = 1 − F is the series' own ripple depth, and t₀ is the smallest t > 0 with
 //!   f̂(t) ≥ 1 − ε, refined by bisection.
 //! - Reconstruction: s = linstep(ε', 1 − ε', f̂(t + t₀)) with ε' = ε + 1e-4, which is the clamp to
-//!   [0,1] after remapping the plateaus: with damping they ripple around 1 − O(ε) and O(ε), so a
+//!   `[0,1]` after remapping the plateaus: with damping they ripple around 1 − O(ε) and O(ε), so a
 //!   bare clamp would leave lit surfaces at 0.97–0.99 and umbrae at 0.01–0.03. With this
 //!   remap every receiver with 0 ≤ t ≤ 1 − t_p − t₀ reads exactly 1 (a lit plane does) and every
 //!   one with t ≤ −2t₀ exactly 0; the 1e-4 margin covers fp32 rounding in the shader. Between,

@@ -6,7 +6,7 @@
 //! filtered s = exp(−c·d) · Σ w_i exp(c·z_i).
 //!
 //! **Log space.** Stored linearly, exp(c·z) overflows: fp32 holds exp(88.7), so linear storage is
-//! safe only for c·z ≤ 88 — c ≤ 88 with z ∈ [0,1] — and fp16 (max 65504) only for c ≤ 11. Here
+//! safe only for c·z ≤ 88 — c ≤ 88 with z ∈ `[0,1]` — and fp16 (max 65504) only for c ≤ 11. Here
 //! the map stores L = c·z, both blurs and the bilinear fetch combine texels with log-sum-exp,
 //! L = m + log Σ w_i exp(L_i − m) with m the window maximum (every exponential ≤ 1, and the
 //! sum ≥ the largest tap's weight > 0), and the reconstruction is s = exp(min(0, L − c·d)).
@@ -60,7 +60,7 @@ pub fn config(params: &Params) -> FilterConfig {
     }
 }
 
-/// The largest c for which exp(c·z), z ∈ [0,1], fits a float of largest finite value `max`:
+/// The largest c for which exp(c·z), z ∈ `[0,1]`, fits a float of largest finite value `max`:
 /// ln(max). 88.72 for fp32, 11.09 for fp16 — what linear-space storage would allow.
 pub fn max_linear_exponent(max: f64) -> f64 {
     max.ln()

@@ -4,7 +4,7 @@
 //! Every technique renders the same D32 [`ShadowMap`] (knobs [`SHADOW_MAP_KNOBS`]) and runs
 //! three compute passes over it (`glsl/filtered/`):
 //!
-//! 1. `encode.comp` linearises each depth into z ∈ [0,1] between the light view's near and far
+//! 1. `encode.comp` linearises each depth into z ∈ `[0,1]` between the light view's near and far
 //!    planes, encodes it into up to four channels of one RGBA32F storage image (moments, warped
 //!    moments, c·z, or Fourier basis values) and blurs each row horizontally — fused, so the D32
 //!    map is read once and each texel encoded once per workgroup.

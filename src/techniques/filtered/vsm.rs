@@ -1,13 +1,13 @@
 //! `vsm`: variance shadow maps (Donnelly & Lauritzen 2006; book §5.3.2).
 //!
 //! Stores the moments (z, z²) of linear depth, filters them, and bounds the lit fraction with
-//! Chebyshev's one-sided inequality: μ = E[z], σ² = max(E[z²] − μ², `min_variance`), and for
+//! Chebyshev's one-sided inequality: μ = E\[z\], σ² = max(E\[z²\] − μ², `min_variance`), and for
 //! d > μ, p = σ² / (σ² + (d − μ)²), else 1. p is an **upper bound** on the filtered test
 //! Pr(z ≥ d) — the PCF value over the same window — so VSM never shadows more than PCF; it is
 //! exact for one planar occluder over a parallel receiver and leaks light (bleeds) where a
 //! window mixes several occluder depths.
 //!
-//! - `min_variance` floors σ²: E[z²] − μ² cancels catastrophically in fp32 and can come out
+//! - `min_variance` floors σ²: E\[z²\] − μ² cancels catastrophically in fp32 and can come out
 //!   negative, and a floor above zero keeps slightly curved lit surfaces from self-shadowing.
 //!   Units: linear depth² over the light's [near, far]. Raising it only raises p.
 //! - `bleed_reduction` ε remaps p with linstep(ε, 1, p): bounds below ε (the bleeding) become

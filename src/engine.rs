@@ -72,6 +72,10 @@ pub struct FrameStats {
     pub out_of_range_count: u64,
     /// Timed frames (after one warm-up frame, except for the cached references).
     pub frames: u32,
+    /// Device memory the technique instance holds (its maps, images and buffers; the shared view
+    /// samples and visibility target excluded), measured from the allocations it made.
+    #[serde(default)]
+    pub memory_bytes: u64,
 }
 
 /// A rendered frame.
@@ -193,7 +197,10 @@ impl Engine {
             light_view: &prepared.light_view,
             visibility: &prepared.visibility,
         };
+        let before = ctx.live_bytes();
         let mut instance = (info.create)(&setup, &params)?;
+        // What the technique holds across frames, measured rather than declared.
+        let memory_bytes = ctx.live_bytes().saturating_sub(before);
         let mut timestamps = Timestamps::new(ctx, 16)?;
         let frames = frames.max(1);
         let mut samples: Vec<(String, Vec<f64>)> = Vec::new();
@@ -246,6 +253,7 @@ impl Engine {
                 nan_count,
                 out_of_range_count,
                 frames,
+                memory_bytes,
             },
         })
     }

@@ -117,6 +117,9 @@ pub(crate) struct DeviceShared {
     pub(crate) command_pool: Mutex<vk::CommandPool>,
     pub(crate) info: DeviceInfo,
     owned: bool,
+    /// Bytes of device memory held by live buffers and images made through penumbra: lets the
+    /// engine measure what a technique allocates instead of each technique declaring it.
+    pub(crate) live_bytes: std::sync::atomic::AtomicU64,
     // Dropped last: the messenger's user data points into it.
     log: Arc<ValidationLog>,
 }
@@ -471,6 +474,12 @@ impl Context {
     /// objects. The device must have been created with Vulkan 1.3's `dynamicRendering` and
     /// `synchronization2` enabled and a queue from `queue_family` supporting graphics and compute.
     ///
+    /// penumbra cannot see which optional features the caller enabled, so it assumes none:
+    /// float64/int64 shader variants, 64-bit atomics and depth-bias clamping are reported as
+    /// absent (techniques then take their portable paths or say the feature is unsupported), and
+    /// debug labels and object names are off (`VK_EXT_debug_utils` may not be enabled).
+    /// Validation messages go to the caller's own messenger.
+    ///
     /// # Safety
     /// The handles must be valid, from `entry`/`instance`, and outlive the returned context and
     /// every resource made from it. The caller must not use the queue from another thread while
@@ -482,14 +491,19 @@ impl Context {
         device: ash::Device,
         queue_family: u32,
     ) -> Result<Context> {
-        let info = query_info(&instance, physical_device);
+        let mut info = query_info(&instance, physical_device);
         if let Err(why) = &info.usable {
             return Err(Error::Unsupported {
                 device: info.name.clone(),
                 feature: why.clone(),
             });
         }
-        let debug_utils = has_instance_extension(&entry, ash::ext::debug_utils::NAME)?;
+        info.float64 = false;
+        info.int64 = false;
+        info.int64_atomics = false;
+        info.subgroup_extended_types = false;
+        info.depth_bias_clamp = false;
+        let debug_utils = false;
         let shared = Self::assemble(
             entry,
             instance,
@@ -554,6 +568,7 @@ impl Context {
             command_pool: Mutex::new(command_pool),
             info,
             owned,
+            live_bytes: std::sync::atomic::AtomicU64::new(0),
             log,
         })
     }
@@ -592,6 +607,13 @@ impl Context {
     /// drop to see what teardown reported.
     pub fn validation(&self) -> Arc<ValidationLog> {
         self.shared.log.clone()
+    }
+
+    /// Bytes of device memory held right now by buffers and images created through penumbra.
+    pub fn live_bytes(&self) -> u64 {
+        self.shared
+            .live_bytes
+            .load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Fails with [`Error::Unsupported`] unless `present`.

@@ -22,7 +22,8 @@ fn allocate(
     location: MemoryLocation,
     linear: bool,
 ) -> Result<Allocation> {
-    ctx.allocator()
+    let allocation = ctx
+        .allocator()
         .allocate(&AllocationCreateDesc {
             name,
             requirements,
@@ -33,11 +34,18 @@ fn allocate(
         .map_err(|source| Error::Allocation {
             name: name.to_string(),
             source,
-        })
+        })?;
+    ctx.shared
+        .live_bytes
+        .fetch_add(allocation.size(), std::sync::atomic::Ordering::Relaxed);
+    Ok(allocation)
 }
 
 fn free(ctx: &Context, allocation: Option<Allocation>) {
     if let Some(a) = allocation {
+        ctx.shared
+            .live_bytes
+            .fetch_sub(a.size(), std::sync::atomic::Ordering::Relaxed);
         // Freeing only fails for an allocation from another allocator, which cannot happen here.
         let _ = ctx.allocator().free(a);
     }

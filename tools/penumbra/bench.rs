@@ -280,6 +280,12 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                     row["passes"] = serde_json::json!(frame.stats.passes);
                     row["total_gpu_ms"] = serde_json::json!(frame.stats.total_gpu_ms);
                     row["frames"] = serde_json::json!(frame.stats.frames);
+                    row["memory_bytes"] = serde_json::json!(frame.stats.memory_bytes);
+                    // Per shadow-map texel, for techniques with a map (the README's unit).
+                    if let Some(size) = frame.stats.params.get("map_size") {
+                        row["memory_bytes_per_texel"] =
+                            serde_json::json!(frame.stats.memory_bytes as f64 / (size * size));
+                    }
                     row["counters"] = serde_json::json!(frame.stats.counters);
                     row["nan_count"] = serde_json::json!(frame.stats.nan_count);
                     row["error"] = serde_json::json!(error);
@@ -319,6 +325,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "light_leak",
         "flip",
         "nan_count",
+        "memory_bytes_per_texel",
         "failure",
     ];
     let mut csv = columns.join(",") + "\n";

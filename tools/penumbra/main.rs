@@ -293,6 +293,7 @@ fn render(
         "passes": frame.stats.passes,
         "total_gpu_ms": frame.stats.total_gpu_ms,
         "frames": frame.stats.frames,
+        "memory_bytes": frame.stats.memory_bytes,
         "counters": frame.stats.counters,
         "nan_count": frame.stats.nan_count,
         "out_of_range_count": frame.stats.out_of_range_count,

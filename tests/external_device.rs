@@ -1,0 +1,117 @@
+//! penumbra on a device the caller owns (`Context::from_raw`): a host engine creates the
+//! instance (with its own validation messenger) and the device, penumbra renders on it and
+//! destroys only its own objects, and the host tears down last with nothing reported.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::ffi::c_void;
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use ash::vk;
+use penumbra::scene::Scene;
+use penumbra::{Context, Engine};
+
+static ERRORS: AtomicU32 = AtomicU32::new(0);
+
+unsafe extern "system" fn count(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _kind: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    _user: *mut c_void,
+) -> vk::Bool32 {
+    if severity.intersects(
+        vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+            | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+    ) {
+        ERRORS.fetch_add(1, Ordering::SeqCst);
+        if let Some(d) = unsafe { data.as_ref() } {
+            if let Some(m) = unsafe { d.message_as_c_str() } {
+                eprintln!("{}", m.to_string_lossy());
+            }
+        }
+    }
+    vk::FALSE
+}
+
+#[test]
+fn renders_on_a_device_the_host_owns() {
+    let entry = unsafe { ash::Entry::load() }.expect("Vulkan loader");
+    let layers = [c"VK_LAYER_KHRONOS_validation".as_ptr()];
+    let exts = [ash::ext::debug_utils::NAME.as_ptr()];
+    let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
+    let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
+    let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+        .message_severity(
+            vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+        )
+        .message_type(
+            vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+        )
+        .pfn_user_callback(Some(count));
+    let info = vk::InstanceCreateInfo::default()
+        .application_info(&app)
+        .enabled_layer_names(&layers)
+        .enabled_extension_names(&exts)
+        .push_next(&mut features)
+        .push_next(&mut messenger_info);
+    let instance = unsafe { entry.create_instance(&info, None) }.expect("instance");
+    let pd = unsafe { instance.enumerate_physical_devices() }.expect("devices")[0];
+    let family = unsafe { instance.get_physical_device_queue_family_properties(pd) }
+        .iter()
+        .position(|f| {
+            f.queue_flags
+                .contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
+        })
+        .expect("a graphics+compute family") as u32;
+    let priorities = [1.0];
+    let queues = [vk::DeviceQueueCreateInfo::default()
+        .queue_family_index(family)
+        .queue_priorities(&priorities)];
+    let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
+        .dynamic_rendering(true)
+        .synchronization2(true);
+    let device_info = vk::DeviceCreateInfo::default()
+        .queue_create_infos(&queues)
+        .push_next(&mut f13);
+    let device = unsafe { instance.create_device(pd, &device_info, None) }.expect("device");
+
+    {
+        let ctx = unsafe {
+            Context::from_raw(entry.clone(), instance.clone(), pd, device.clone(), family)
+        }
+        .expect("wrap the host's device");
+        assert!(
+            !ctx.info().float64,
+            "optional features are assumed off on a borrowed device"
+        );
+        let engine = Engine::from_context(ctx);
+        let mut scene = Scene::open("plane-boxes").expect("scene");
+        scene.camera.width = 96;
+        scene.camera.height = 64;
+        let prepared = engine.prepare(&scene).expect("prepare");
+        let mut set = BTreeMap::new();
+        set.insert("map_size".to_string(), "256".to_string());
+        for technique in ["pcf", "vsm"] {
+            let frame = engine
+                .render(&prepared, technique, &set, 1)
+                .expect("render");
+            assert_eq!(frame.stats.nan_count, 0);
+            assert!(frame.stats.counters["umbra"] + frame.stats.counters["penumbra"] > 0);
+        }
+    }
+    // penumbra is gone; the host's device and instance are still valid and are destroyed now:
+    // any object penumbra leaked would be reported here.
+    unsafe {
+        device.destroy_device(None);
+        instance.destroy_instance(None);
+    }
+    assert_eq!(
+        ERRORS.load(Ordering::SeqCst),
+        0,
+        "validation reported errors or warnings"
+    );
+}

@@ -104,7 +104,7 @@ enum Command {
         /// Small images, short sweeps, 8×8-sample references: a few minutes on lavapipe.
         #[arg(long)]
         quick: bool,
-        /// Timed frames per run (default 2 quick, 5 full).
+        /// Timed frames per run, after one warm-up frame (medians are reported).
         #[arg(long)]
         frames: Option<u32>,
         /// The ground truth to measure against.

@@ -26,9 +26,13 @@ layout(push_constant) uniform Push {
     int single_layer;
     int jitter;
     uint triangle_count;
-    int pad0;
-    int pad1;
+    int first_cell;       // this dispatch's light-sample cells: [first_cell, first_cell + cell_count)
+    int cell_count;
 } pc;
+
+// Light-sample cells seen so far per pixel, summed over the dispatches of one frame (see
+// CELLS_PER_DISPATCH in src/reference/mod.rs for why a frame takes several dispatches).
+layout(set = 0, binding = 6) buffer Visible { uint visible_count[]; };
 
 #include "trace.glsl"
 
@@ -197,8 +201,11 @@ float shade(vec3 p, vec3 n, uint pixel_index, inout uint rays, inout uint centre
     vec3 u = pc.light_u.xyz;
     vec3 v = pc.light_v.xyz;
     uint visible = 0u;
-    for (int j = 0; j < side; ++j) {
-        for (int i = 0; i < side; ++i) {
+    int last = min(side * side, pc.first_cell + pc.cell_count);
+    for (int k = pc.first_cell; k < last; ++k) {
+        {
+            int j = k / side;
+            int i = k - j * side;
             vec2 x = cell_point(seed, i, j);
             precise vec3 dir;
             precise vec3 to_light;
@@ -239,6 +246,8 @@ float shade(vec3 p, vec3 n, uint pixel_index, inout uint rays, inout uint centre
             }
         }
     }
+    visible += visible_count[pixel_index];
+    visible_count[pixel_index] = visible;
     if (visible == total) {
         return 1.0;
     }
@@ -276,8 +285,11 @@ void main() {
             vec3 n = imageLoad(normals, pixel).xyz;
             uint index = uint(pixel.y * pc.view_size.x + pixel.x);
             v = shade(p.xyz, n, index, rays, centre_rays);
-            atomicAdd(group_counts[0], 1u);
-            atomicAdd(group_counts[v >= 1.0 ? 1 : (v <= 0.0 ? 2 : 3)], 1u);
+            // The classes are final only after the last dispatch of the frame.
+            if (pc.first_cell + pc.cell_count >= max(pc.samples, 1) * max(pc.samples, 1)) {
+                atomicAdd(group_counts[0], 1u);
+                atomicAdd(group_counts[v >= 1.0 ? 1 : (v <= 0.0 ? 2 : 3)], 1u);
+            }
             if (rays > 0u) {
                 atomicAdd(group_counts[4], rays);
             }

@@ -65,21 +65,4 @@ impl DepthMap<'_> {
         let mix = |a: f32, b: f32, t: f32| a + (b - a) * t;
         mix(mix(s00, s10, f.x), mix(s01, s11, f.x), f.y)
     }
-
-    /// The smallest |z − texel depth| over the texels a bilinear box lookup touches: below a
-    /// tolerance, the GPU and CPU may round the comparison differently.
-    pub fn min_tie_distance(&self, p: Vec2, z: f32, kernel: i32) -> f32 {
-        let first = -0.5 * (kernel - 1) as f32;
-        let mut best = f32::INFINITY;
-        for j in 0..kernel {
-            for i in 0..kernel {
-                let q = p + Vec2::new(first + i as f32, first + j as f32) - 0.5;
-                let b = q.floor().as_ivec2();
-                for d in [IVec2::ZERO, IVec2::X, IVec2::Y, IVec2::ONE] {
-                    best = best.min((z - self.fetch(b + d)).abs());
-                }
-            }
-        }
-        best
-    }
 }

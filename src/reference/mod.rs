@@ -165,9 +165,17 @@ pub struct ReferencePush {
     pub jitter: i32,
     /// Number of triangles (0: nothing to trace).
     pub triangle_count: u32,
-    /// Padding to the block's size.
-    pub pad: [i32; 2],
+    /// First light-sample cell of this dispatch.
+    pub first_cell: i32,
+    /// Light-sample cells in this dispatch.
+    pub cell_count: i32,
 }
+
+/// Light-sample cells per dispatch. lavapipe (Mesa 22.3) computed wrong visibilities for whole
+/// SIMD rows once one invocation traced more than ~350 rays in a dispatch (N ≥ 20 in one go;
+/// the CPU twin and N ≤ 18 agreed); splitting the N×N cells into dispatches of at most 256 keeps
+/// every N exact, and costs nothing measurable. The per-pixel count carries over between them.
+pub const CELLS_PER_DISPATCH: i32 = 256;
 
 /// The reference's knobs, resolved.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -260,7 +268,8 @@ pub fn push_constants(
         jitter: i32::from(settings.jitter),
         triangle_count: u32::try_from(triangle_count)
             .map_err(|_| bad(format!("{triangle_count} triangles do not fit 32 bits")))?,
-        pad: [0; 2],
+        first_cell: 0,
+        cell_count: samples * samples,
     })
 }
 
@@ -273,6 +282,8 @@ struct Reference<'a> {
     pipeline: Pipeline,
     set: DescriptorSet,
     counters: Buffer,
+    // Per-pixel visible-cell counts, carried across the dispatches of a frame.
+    visible: Buffer,
     // Bound in `set`; kept alive with it.
     _nodes: Buffer,
     _triangles: Buffer,
@@ -303,6 +314,8 @@ impl<'a> Reference<'a> {
         };
         let triangles = ctx.buffer_with("reference BVH triangles", usage, tris)?;
         let counters = Buffer::storage(ctx, "reference counters", (COUNTER_WORDS * 4) as u64)?;
+        let pixels = u64::from(setup.view.width) * u64::from(setup.view.height);
+        let visible = Buffer::storage(ctx, "reference visible cells", pixels * 4)?;
         let pipeline = Pipeline::compute(ctx, "reference/reference.comp")?;
         let set = DescriptorSet::new(
             ctx,
@@ -314,6 +327,7 @@ impl<'a> Reference<'a> {
                 Binding::Buffer(&counters),
                 Binding::Buffer(&nodes),
                 Binding::Buffer(&triangles),
+                Binding::Buffer(&visible),
             ],
         )?;
         Ok(Reference {
@@ -322,6 +336,7 @@ impl<'a> Reference<'a> {
             pipeline,
             set,
             counters,
+            visible,
             _nodes: nodes,
             _triangles: triangles,
             push,
@@ -334,13 +349,21 @@ impl Technique for Reference<'_> {
     fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
         rec.begin_pass(self.name)?;
         rec.fill(&self.counters, 0);
+        rec.fill(&self.visible, 0);
         let size = self.push.view_size;
-        rec.dispatch(
-            &self.pipeline,
-            &self.set,
-            &self.push,
-            [size.x as u32, size.y as u32, 1],
-        )?;
+        let cells = self.push.samples.max(1) * self.push.samples.max(1);
+        let mut push = self.push;
+        push.first_cell = 0;
+        while push.first_cell < cells {
+            push.cell_count = CELLS_PER_DISPATCH.min(cells - push.first_cell);
+            rec.dispatch(
+                &self.pipeline,
+                &self.set,
+                &push,
+                [size.x as u32, size.y as u32, 1],
+            )?;
+            push.first_cell += push.cell_count;
+        }
         rec.end_pass();
         Ok(())
     }
@@ -393,7 +416,7 @@ mod tests {
             size_of::<ReferencePush>()
         );
         assert_eq!(interface.local_size, [8, 8, 1]);
-        assert_eq!(interface.bindings.len(), 6);
+        assert_eq!(interface.bindings.len(), 7);
     }
 
     #[test]

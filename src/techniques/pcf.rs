@@ -146,29 +146,55 @@ impl<'a> Pcf<'a> {
     }
 }
 
+/// Records one shadow-map compute pass over every view sample, named `name`: zero the counters,
+/// dispatch one invocation per pixel. Shared by the PCF family.
+pub(crate) fn record_view_pass<P: bytemuck::Pod>(
+    rec: &mut Recorder<'_>,
+    name: &str,
+    pipeline: &Pipeline,
+    set: &DescriptorSet,
+    counters: &Buffer,
+    push: &P,
+    view_size: IVec2,
+) -> Result<()> {
+    rec.begin_pass(name)?;
+    rec.fill(counters, 0);
+    rec.dispatch(
+        pipeline,
+        set,
+        push,
+        [view_size.x as u32, view_size.y as u32, 1],
+    )?;
+    rec.end_pass();
+    Ok(())
+}
+
+/// Reads the PCF family's counters (see [`COUNTER_NAMES`]).
+pub(crate) fn read_counters(ctx: &Context, counters: &Buffer) -> Result<Vec<(String, u64)>> {
+    let values = u32s(&ctx.read_buffer(counters)?);
+    Ok(COUNTER_NAMES
+        .iter()
+        .zip(values)
+        .map(|(n, v)| (n.to_string(), v as u64))
+        .collect())
+}
+
 impl Technique for Pcf<'_> {
     fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
         self.shadow_map.record(rec, self.geometry)?;
-        rec.begin_pass(if self.push.mode == 0 { "hard" } else { "pcf" })?;
-        rec.fill(&self.counters, 0);
-        let size = self.push.view_size;
-        rec.dispatch(
+        record_view_pass(
+            rec,
+            if self.push.mode == 0 { "hard" } else { "pcf" },
             &self.pipeline,
             &self.set,
+            &self.counters,
             &self.push,
-            [size.x as u32, size.y as u32, 1],
-        )?;
-        rec.end_pass();
-        Ok(())
+            self.push.view_size,
+        )
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        let values = u32s(&self.ctx.read_buffer(&self.counters)?);
-        Ok(COUNTER_NAMES
-            .iter()
-            .zip(values)
-            .map(|(n, v)| (n.to_string(), v as u64))
-            .collect())
+        read_counters(&self.ctx, &self.counters)
     }
 
     fn shadow_map(&self) -> Option<&ShadowMap> {

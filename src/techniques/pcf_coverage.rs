@@ -15,13 +15,13 @@
 
 use glam::IVec2;
 
-use super::pcf::{shadow_map_desc, RECEIVER_PLANE_BIAS};
+use super::pcf::{read_counters, record_view_pass, shadow_map_desc, RECEIVER_PLANE_BIAS};
 use super::{
     Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS,
 };
 use crate::cpu::pcf::COUNTER_NAMES;
 use crate::error::Result;
-use crate::gpu::{u32s, Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
 use crate::passes::{SceneGeometry, ShadowMap};
 use crate::shader_types::PcfCoveragePush;
 
@@ -104,26 +104,19 @@ impl<'a> PcfCoverage<'a> {
 impl Technique for PcfCoverage<'_> {
     fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
         self.shadow_map.record(rec, self.geometry)?;
-        rec.begin_pass("pcf-coverage")?;
-        rec.fill(&self.counters, 0);
-        let size = self.push.view_size;
-        rec.dispatch(
+        record_view_pass(
+            rec,
+            "pcf-coverage",
             &self.pipeline,
             &self.set,
+            &self.counters,
             &self.push,
-            [size.x as u32, size.y as u32, 1],
-        )?;
-        rec.end_pass();
-        Ok(())
+            self.push.view_size,
+        )
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        let values = u32s(&self.ctx.read_buffer(&self.counters)?);
-        Ok(COUNTER_NAMES
-            .iter()
-            .zip(values)
-            .map(|(n, v)| (n.to_string(), v as u64))
-            .collect())
+        read_counters(&self.ctx, &self.counters)
     }
 
     fn shadow_map(&self) -> Option<&ShadowMap> {

@@ -47,7 +47,7 @@ pub const HARD: TechniqueInfo = TechniqueInfo {
     summary: "standard shadow mapping: one nearest-texel depth test from the light centre",
     knobs: &SHADOW_MAP_KNOBS,
     cacheable: false,
-    create: |setup, params| Ok(Box::new(Pcf::new(setup, params, 0, 1, 0)?)),
+    create: |setup, params| Ok(Box::new(pcf(setup, params, 0, 1, 0)?)),
 };
 
 const PCF_KNOBS: [Knob; 6] = [
@@ -68,13 +68,7 @@ pub const PCF: TechniqueInfo = TechniqueInfo {
     create: |setup, params| {
         let kernel = params.u32("kernel") as i32;
         let receiver_plane = params.u32("receiver_plane_bias") as i32;
-        Ok(Box::new(Pcf::new(
-            setup,
-            params,
-            1,
-            kernel,
-            receiver_plane,
-        )?))
+        Ok(Box::new(pcf(setup, params, 1, kernel, receiver_plane)?))
     },
 };
 
@@ -90,111 +84,110 @@ pub fn shadow_map_desc(params: &Params) -> ShadowMapDesc {
     }
 }
 
-struct Pcf<'a> {
+/// A shadow-map technique made of one D32 map and one compute pass over the view samples: `hard`,
+/// `pcf`, `pcf-poisson` and `pcf-coverage`. Their shaders share the binding prefix (positions,
+/// shadow map, visibility, counters, normals), then any `inputs` the technique uploads once.
+pub(crate) struct ViewPass<'a, P> {
+    name: &'static str,
     ctx: Context,
     shadow_map: ShadowMap,
     pipeline: Pipeline,
     set: DescriptorSet,
     counters: Buffer,
-    push: PcfPush,
+    // Read by the set every frame (e.g. a Poisson disk).
+    _inputs: Vec<Buffer>,
+    push: P,
+    view_size: IVec2,
     // The set refers to the setup's images, and each frame draws this geometry.
     geometry: &'a SceneGeometry,
 }
 
-impl<'a> Pcf<'a> {
-    fn new(
+impl<'a, P: bytemuck::Pod> ViewPass<'a, P> {
+    /// Builds the map, the pipeline of `shader` and its bindings; `push` gets the built map.
+    pub(crate) fn new(
         setup: &TechniqueSetup<'a>,
         params: &Params,
-        mode: i32,
-        kernel: i32,
-        receiver_plane: i32,
+        name: &'static str,
+        shader: &str,
+        inputs: Vec<Buffer>,
+        push: impl FnOnce(&ShadowMap) -> P,
     ) -> Result<Self> {
         let ctx = setup.ctx;
         let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params))?;
-        let pipeline = Pipeline::compute(ctx, "pcf/pcf.comp")?;
-        let counters = Buffer::storage(ctx, "pcf counters", (COUNTER_NAMES.len() * 4) as u64)?;
-        let set = DescriptorSet::new(
+        let pipeline = Pipeline::compute(ctx, shader)?;
+        let counters = Buffer::storage(
             ctx,
-            &pipeline,
-            &[
-                Binding::Image(&setup.view.positions),
-                Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
-                Binding::Image(setup.visibility),
-                Binding::Buffer(&counters),
-                Binding::Image(&setup.view.normals),
-            ],
+            &format!("{name} counters"),
+            (COUNTER_NAMES.len() * 4) as u64,
         )?;
-        let size = shadow_map.desc.size as i32;
-        let push = PcfPush {
-            light_view_proj: setup.light_view.view_proj,
-            view_size: IVec2::new(setup.view.width as i32, setup.view.height as i32),
-            map_size: IVec2::splat(size),
-            mode,
-            kernel,
-            receiver_plane,
-            pad: 0,
-        };
-        Ok(Pcf {
+        let mut bindings = vec![
+            Binding::Image(&setup.view.positions),
+            Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
+            Binding::Image(setup.visibility),
+            Binding::Buffer(&counters),
+            Binding::Image(&setup.view.normals),
+        ];
+        bindings.extend(inputs.iter().map(Binding::Buffer));
+        let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
+        let push = push(&shadow_map);
+        Ok(ViewPass {
+            name,
             ctx: ctx.clone(),
             shadow_map,
             pipeline,
             set,
             counters,
+            _inputs: inputs,
             push,
+            view_size: IVec2::new(setup.view.width as i32, setup.view.height as i32),
             geometry: setup.geometry,
         })
     }
 }
 
-/// Records one shadow-map compute pass over every view sample, named `name`: zero the counters,
-/// dispatch one invocation per pixel. Shared by the PCF family.
-pub(crate) fn record_view_pass<P: bytemuck::Pod>(
-    rec: &mut Recorder<'_>,
-    name: &str,
-    pipeline: &Pipeline,
-    set: &DescriptorSet,
-    counters: &Buffer,
-    push: &P,
-    view_size: IVec2,
-) -> Result<()> {
-    rec.begin_pass(name)?;
-    rec.fill(counters, 0);
-    rec.dispatch(
-        pipeline,
-        set,
-        push,
-        [view_size.x as u32, view_size.y as u32, 1],
-    )?;
-    rec.end_pass();
-    Ok(())
+fn pcf<'a>(
+    setup: &TechniqueSetup<'a>,
+    params: &Params,
+    mode: i32,
+    kernel: i32,
+    receiver_plane: i32,
+) -> Result<ViewPass<'a, PcfPush>> {
+    let name = if mode == 0 { "hard" } else { "pcf" };
+    ViewPass::new(setup, params, name, "pcf/pcf.comp", Vec::new(), |map| {
+        PcfPush {
+            light_view_proj: setup.light_view.view_proj,
+            view_size: IVec2::new(setup.view.width as i32, setup.view.height as i32),
+            map_size: IVec2::splat(map.desc.size as i32),
+            mode,
+            kernel,
+            receiver_plane,
+            pad: 0,
+        }
+    })
 }
 
-/// Reads the PCF family's counters (see [`COUNTER_NAMES`]).
-pub(crate) fn read_counters(ctx: &Context, counters: &Buffer) -> Result<Vec<(String, u64)>> {
-    let values = u32s(&ctx.read_buffer(counters)?);
-    Ok(COUNTER_NAMES
-        .iter()
-        .zip(values)
-        .map(|(n, v)| (n.to_string(), v as u64))
-        .collect())
-}
-
-impl Technique for Pcf<'_> {
+impl<P: bytemuck::Pod> Technique for ViewPass<'_, P> {
     fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
         self.shadow_map.record(rec, self.geometry)?;
-        record_view_pass(
-            rec,
-            if self.push.mode == 0 { "hard" } else { "pcf" },
+        rec.begin_pass(self.name)?;
+        rec.fill(&self.counters, 0);
+        rec.dispatch(
             &self.pipeline,
             &self.set,
-            &self.counters,
             &self.push,
-            self.push.view_size,
-        )
+            [self.view_size.x as u32, self.view_size.y as u32, 1],
+        )?;
+        rec.end_pass();
+        Ok(())
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        read_counters(&self.ctx, &self.counters)
+        let values = u32s(&self.ctx.read_buffer(&self.counters)?);
+        Ok(COUNTER_NAMES
+            .iter()
+            .zip(values)
+            .map(|(n, v)| (n.to_string(), v as u64))
+            .collect())
     }
 
     fn shadow_map(&self) -> Option<&ShadowMap> {

@@ -15,14 +15,9 @@
 
 use glam::IVec2;
 
-use super::pcf::{read_counters, record_view_pass, shadow_map_desc, RECEIVER_PLANE_BIAS};
-use super::{
-    Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS,
-};
-use crate::cpu::pcf::COUNTER_NAMES;
+use super::pcf::{ViewPass, RECEIVER_PLANE_BIAS};
+use super::{Knob, KnobDefault, Params, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS};
 use crate::error::Result;
-use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
-use crate::passes::{SceneGeometry, ShadowMap};
 use crate::shader_types::PcfCoveragePush;
 
 const KNOBS: [Knob; 6] = [
@@ -47,79 +42,26 @@ pub const PCF_COVERAGE: TechniqueInfo = TechniqueInfo {
     summary: "exact texel-coverage box PCF (PVSSM Eq. 2): continuous in the kernel width",
     knobs: &KNOBS,
     cacheable: false,
-    create: |setup, params| Ok(Box::new(PcfCoverage::new(setup, params)?)),
+    create: |setup, params| Ok(Box::new(pcf_coverage(setup, params)?)),
 };
 
-struct PcfCoverage<'a> {
-    ctx: Context,
-    shadow_map: ShadowMap,
-    pipeline: Pipeline,
-    set: DescriptorSet,
-    counters: Buffer,
-    push: PcfCoveragePush,
-    geometry: &'a SceneGeometry,
-}
-
-impl<'a> PcfCoverage<'a> {
-    fn new(setup: &TechniqueSetup<'a>, params: &Params) -> Result<Self> {
-        let ctx = setup.ctx;
-        let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params))?;
-        let pipeline = Pipeline::compute(ctx, "pcf_coverage/pcf_coverage.comp")?;
-        let counters = Buffer::storage(
-            ctx,
-            "pcf-coverage counters",
-            (COUNTER_NAMES.len() * 4) as u64,
-        )?;
-        let set = DescriptorSet::new(
-            ctx,
-            &pipeline,
-            &[
-                Binding::Image(&setup.view.positions),
-                Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
-                Binding::Image(setup.visibility),
-                Binding::Buffer(&counters),
-                Binding::Image(&setup.view.normals),
-            ],
-        )?;
-        let push = PcfCoveragePush {
+fn pcf_coverage<'a>(
+    setup: &TechniqueSetup<'a>,
+    params: &Params,
+) -> Result<ViewPass<'a, PcfCoveragePush>> {
+    ViewPass::new(
+        setup,
+        params,
+        "pcf-coverage",
+        "pcf_coverage/pcf_coverage.comp",
+        Vec::new(),
+        |map| PcfCoveragePush {
             light_view_proj: setup.light_view.view_proj,
             view_size: IVec2::new(setup.view.width as i32, setup.view.height as i32),
-            map_size: IVec2::splat(shadow_map.desc.size as i32),
+            map_size: IVec2::splat(map.desc.size as i32),
             kernel: params.f32("kernel"),
             receiver_plane: params.u32("receiver_plane_bias") as i32,
             pad: [0; 2],
-        };
-        Ok(PcfCoverage {
-            ctx: ctx.clone(),
-            shadow_map,
-            pipeline,
-            set,
-            counters,
-            push,
-            geometry: setup.geometry,
-        })
-    }
-}
-
-impl Technique for PcfCoverage<'_> {
-    fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
-        self.shadow_map.record(rec, self.geometry)?;
-        record_view_pass(
-            rec,
-            "pcf-coverage",
-            &self.pipeline,
-            &self.set,
-            &self.counters,
-            &self.push,
-            self.push.view_size,
-        )
-    }
-
-    fn counters(&self) -> Result<Vec<(String, u64)>> {
-        read_counters(&self.ctx, &self.counters)
-    }
-
-    fn shadow_map(&self) -> Option<&ShadowMap> {
-        Some(&self.shadow_map)
-    }
+        },
+    )
 }

@@ -8,10 +8,10 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use super::nbuffer::{check_source, minmax_images, read_minmax};
+use super::nbuffer::{chain_sets, check_source, minmax_images, read_minmax};
 use crate::cpu::minmax::level_sizes;
 use crate::error::{Error, Result};
-use crate::gpu::{Binding, Context, DescriptorSet, Image, Pipeline, Recorder, Sampler};
+use crate::gpu::{Context, DescriptorSet, Image, Pipeline, Recorder, Sampler};
 
 /// `minmax_build.glsl` push constants.
 #[repr(C)]
@@ -49,32 +49,7 @@ impl<'a> MinMaxPyramid<'a> {
         let first = Pipeline::compute(ctx, "kernels/minmax_first.comp")?;
         let next = Pipeline::compute(ctx, "kernels/minmax_next.comp")?;
         let sampler = Sampler::nearest_border_white(ctx, "minmax source")?;
-        let mut sets = Vec::new();
-        for (i, (min, max)) in levels.iter().enumerate() {
-            sets.push(if i == 0 {
-                DescriptorSet::new(
-                    ctx,
-                    &first,
-                    &[
-                        Binding::Sampled(source, &sampler),
-                        Binding::Image(min),
-                        Binding::Image(max),
-                    ],
-                )?
-            } else {
-                let (pmin, pmax) = &levels[i - 1];
-                DescriptorSet::new(
-                    ctx,
-                    &next,
-                    &[
-                        Binding::Image(pmin),
-                        Binding::Image(pmax),
-                        Binding::Image(min),
-                        Binding::Image(max),
-                    ],
-                )?
-            });
-        }
+        let sets = chain_sets(ctx, &first, &next, source, &sampler, &levels)?;
         Ok(MinMaxPyramid {
             ctx: ctx.clone(),
             sizes,

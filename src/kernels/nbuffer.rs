@@ -72,6 +72,46 @@ pub(crate) fn read_minmax(ctx: &Context, images: &(Image, Image)) -> Result<Vec<
     Ok(min.into_iter().zip(max).map(|(a, b)| [a, b]).collect())
 }
 
+/// The descriptor sets of a chain of min/max levels: level 0 reads `source` through `first`,
+/// every later level reads the one before it through `next`. Shared by the N-buffer and the
+/// pyramid, whose builds differ only in their shaders and level sizes.
+pub(crate) fn chain_sets(
+    ctx: &Context,
+    first: &Pipeline,
+    next: &Pipeline,
+    source: &Image,
+    sampler: &Sampler,
+    levels: &[(Image, Image)],
+) -> Result<Vec<DescriptorSet>> {
+    levels
+        .iter()
+        .enumerate()
+        .map(
+            |(i, (min, max))| match i.checked_sub(1).map(|p| &levels[p]) {
+                None => DescriptorSet::new(
+                    ctx,
+                    first,
+                    &[
+                        Binding::Sampled(source, sampler),
+                        Binding::Image(min),
+                        Binding::Image(max),
+                    ],
+                ),
+                Some((pmin, pmax)) => DescriptorSet::new(
+                    ctx,
+                    next,
+                    &[
+                        Binding::Image(pmin),
+                        Binding::Image(pmax),
+                        Binding::Image(min),
+                        Binding::Image(max),
+                    ],
+                ),
+            },
+        )
+        .collect()
+}
+
 /// Checks that `source` is a sampled R32F or D32 image.
 pub(crate) fn check_source(ctx: &Context, source: &Image, what: &str) -> Result<()> {
     let ok = matches!(
@@ -124,32 +164,7 @@ impl<'a> NBuffer<'a> {
         let first = Pipeline::compute(ctx, "kernels/nbuffer_first.comp")?;
         let next = Pipeline::compute(ctx, "kernels/nbuffer_next.comp")?;
         let sampler = Sampler::nearest_border_white(ctx, "nbuffer source")?;
-        let mut sets = Vec::new();
-        for (l, (min, max)) in levels.iter().enumerate() {
-            sets.push(if l == 0 {
-                DescriptorSet::new(
-                    ctx,
-                    &first,
-                    &[
-                        Binding::Sampled(source, &sampler),
-                        Binding::Image(min),
-                        Binding::Image(max),
-                    ],
-                )?
-            } else {
-                let (pmin, pmax) = &levels[l - 1];
-                DescriptorSet::new(
-                    ctx,
-                    &next,
-                    &[
-                        Binding::Image(pmin),
-                        Binding::Image(pmax),
-                        Binding::Image(min),
-                        Binding::Image(max),
-                    ],
-                )?
-            });
-        }
+        let sets = chain_sets(ctx, &first, &next, source, &sampler, &levels)?;
         Ok(NBuffer {
             ctx: ctx.clone(),
             width,

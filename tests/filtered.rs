@@ -19,13 +19,6 @@ use penumbra::{Engine, PreparedScene};
 
 const TECHNIQUES: [&str; 5] = ["vsm", "esm", "evsm", "msm", "csm"];
 
-fn set(pairs: &[(&str, &str)]) -> BTreeMap<String, String> {
-    pairs
-        .iter()
-        .map(|(k, v)| (k.to_string(), v.to_string()))
-        .collect()
-}
-
 fn small(spec: &str) -> Scene {
     let mut scene = Scene::open(spec).expect("scene");
     scene.camera.width = 128;
@@ -79,8 +72,8 @@ fn compare(
 ) {
     let engine = common::engine();
     let prepared = engine.prepare(&small(spec)).expect("prepare");
-    let mut overrides = set(&[("map_size", map)]);
-    overrides.extend(set(knobs));
+    let mut overrides = common::knobs(&[("map_size", map)]);
+    overrides.extend(common::knobs(knobs));
     let (frame, cpu) = render_with_twin(&engine, &prepared, technique, &overrides);
     // A pixel fails when it differs by more than the tolerance plus what a rounding-sized
     // change of its inputs can explain (four times the twin's `sensitivity`): conditioning,
@@ -227,7 +220,7 @@ fn csm_matches_cpu_with_an_odd_number_of_terms() {
 /// `pcf` with `kernel` on a 256 map and one receiver depth per sample — the comparison the
 /// filtered techniques make — whatever its receiver-plane knob defaults to.
 fn pcf_knobs(kernel: &str) -> BTreeMap<String, String> {
-    let mut knobs = set(&[("map_size", "256"), ("kernel", kernel)]);
+    let mut knobs = common::knobs(&[("map_size", "256"), ("kernel", kernel)]);
     let info = find("pcf").expect("pcf");
     if info.knobs.iter().any(|k| k.name == "receiver_plane_bias") {
         knobs.insert("receiver_plane_bias".into(), "0".into());
@@ -267,7 +260,7 @@ fn csm_converges_to_pcf_as_terms_grow() {
     let mut errors = Vec::new();
     for m in [1, 2, 4, 8, 16] {
         let m = m.to_string();
-        let knobs = set(&[
+        let knobs = common::knobs(&[
             ("map_size", "256"),
             ("filter_radius", "1"),
             ("filter_shape", "1"),
@@ -309,7 +302,7 @@ fn vsm_and_evsm_bound_pcf_from_above() {
         .expect("positions");
     for technique in ["vsm", "evsm"] {
         let frame = engine
-            .render(&prepared, technique, &set(&window), 1)
+            .render(&prepared, technique, &common::knobs(&window), 1)
             .expect("render");
         let mut below = 0;
         let mut above = 0;
@@ -395,11 +388,17 @@ fn extreme_exponents_and_depth_ranges_stay_finite() {
     let engine = common::engine();
     let mut prepared = engine.prepare(&box_on_plane()).expect("prepare");
     let extreme = [
-        ("esm", set(&[("exponent", "1000"), ("filter_radius", "0")])),
-        ("esm", set(&[("exponent", "1000"), ("filter_radius", "4")])),
+        (
+            "esm",
+            common::knobs(&[("exponent", "1000"), ("filter_radius", "0")]),
+        ),
+        (
+            "esm",
+            common::knobs(&[("exponent", "1000"), ("filter_radius", "4")]),
+        ),
         (
             "evsm",
-            set(&[
+            common::knobs(&[
                 ("exponent_positive", "42"),
                 ("exponent_negative", "42"),
                 ("min_variance", "1e-3"),
@@ -407,11 +406,11 @@ fn extreme_exponents_and_depth_ranges_stay_finite() {
         ),
         (
             "evsm",
-            set(&[("exponent_positive", "42"), ("min_variance", "0")]),
+            common::knobs(&[("exponent_positive", "42"), ("min_variance", "0")]),
         ),
-        ("vsm", set(&[("min_variance", "0")])),
-        ("msm", set(&[("moment_bias", "0")])),
-        ("csm", set(&[("terms", "16"), ("damping", "0")])),
+        ("vsm", common::knobs(&[("min_variance", "0")])),
+        ("msm", common::knobs(&[("moment_bias", "0")])),
+        ("csm", common::knobs(&[("terms", "16"), ("damping", "0")])),
     ];
     let check = |prepared: &PreparedScene, what: &str| {
         for (technique, knobs) in &extreme {
@@ -483,7 +482,7 @@ fn flat_unoccluded_plane_is_exactly_one() {
     ];
     for light in lights {
         let prepared = engine.prepare(&bare_plane(light)).expect("prepare");
-        let knobs = set(&[("map_size", "256"), ("bias_constant", "5000")]);
+        let knobs = common::knobs(&[("map_size", "256"), ("bias_constant", "5000")]);
         let mut techniques = vec!["hard"];
         techniques.extend(TECHNIQUES);
         for technique in techniques {

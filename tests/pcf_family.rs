@@ -41,14 +41,6 @@ fn coverage_tolerance(w: f32) -> f32 {
     TOLERANCE.max(3e-5 / w)
 }
 
-/// `spec` at 128×96.
-fn small(spec: &str) -> Scene {
-    let mut scene = Scene::open(spec).expect("procedural scene");
-    scene.camera.width = 128;
-    scene.camera.height = 96;
-    scene
-}
-
 /// A 12×12 plane with nothing above it, lit by a point light at `light`, seen from above so that
 /// it fills the 128×96 view.
 fn lone_plane(light: Vec3) -> Scene {
@@ -210,7 +202,9 @@ fn check(name: &str, run: &Run, cpu: &PcfOutput, tolerance: f32) {
 #[test]
 fn poisson_matches_cpu() {
     let engine = common::engine();
-    let prepared = engine.prepare(&small("plane-boxes")).expect("prepare");
+    let prepared = engine
+        .prepare(&common::small("plane-boxes"))
+        .expect("prepare");
     let disk = poisson_disk(16);
     let table = rotations();
     let kernel = PoissonKernel {
@@ -240,7 +234,9 @@ fn poisson_matches_cpu() {
 #[test]
 fn coverage_matches_cpu() {
     let engine = common::engine();
-    let prepared = engine.prepare(&small("plane-boxes")).expect("prepare");
+    let prepared = engine
+        .prepare(&common::small("plane-boxes"))
+        .expect("prepare");
     for (kernel, rpb) in [(3.37f32, false), (3.37, true), (0.6, false), (6.5, false)] {
         let (k, flag) = (kernel.to_string(), if rpb { "1" } else { "0" });
         let r = run(
@@ -264,7 +260,9 @@ fn coverage_matches_cpu() {
 #[test]
 fn pcf_receiver_plane_matches_cpu() {
     let engine = common::engine();
-    let prepared = engine.prepare(&small("plane-boxes")).expect("prepare");
+    let prepared = engine
+        .prepare(&common::small("plane-boxes"))
+        .expect("prepare");
     let r = run(
         &engine,
         &prepared,
@@ -289,7 +287,9 @@ fn pcf_receiver_plane_matches_cpu() {
 #[test]
 fn receiver_plane_bias_on_the_grazing_plane() {
     let engine = common::engine();
-    let prepared = engine.prepare(&small("grazing-plane")).expect("prepare");
+    let prepared = engine
+        .prepare(&common::small("grazing-plane"))
+        .expect("prepare");
     let mut unlit = [0usize; 2];
     for rpb in [0, 1] {
         let flag = rpb.to_string();
@@ -315,7 +315,9 @@ fn receiver_plane_bias_on_the_grazing_plane() {
 #[test]
 fn coverage_is_continuous_in_the_kernel_width() {
     let engine = common::engine();
-    let prepared = engine.prepare(&small("plane-boxes")).expect("prepare");
+    let prepared = engine
+        .prepare(&common::small("plane-boxes"))
+        .expect("prepare");
     let mut previous: Option<(f32, Frame)> = None;
     let mut worst_ratio = 0.0f32;
     let mut moved = 0usize;
@@ -364,7 +366,9 @@ fn coverage_is_continuous_in_the_kernel_width() {
 #[test]
 fn one_tap_kernels_are_the_standard_lookups() {
     let engine = common::engine();
-    let prepared = engine.prepare(&small("plane-boxes")).expect("prepare");
+    let prepared = engine
+        .prepare(&common::small("plane-boxes"))
+        .expect("prepare");
     let bilinear = render(&engine, &prepared, "pcf", &[("kernel", "1")]);
     let hard = render(&engine, &prepared, "hard", &[]);
     let one_tap = render(&engine, &prepared, "pcf-poisson", &[("taps", "1")]);
@@ -515,7 +519,9 @@ fn deeper(lvp: Mat4, dz: f32) -> Mat4 {
 #[test]
 fn twins_are_non_increasing_in_receiver_depth() {
     let engine = common::engine();
-    let prepared = engine.prepare(&small("plane-boxes")).expect("prepare");
+    let prepared = engine
+        .prepare(&common::small("plane-boxes"))
+        .expect("prepare");
     let r = run(&engine, &prepared, "pcf-coverage", &[]);
     let (view, map) = (r.view(), r.map());
     let disk = poisson_disk(16);

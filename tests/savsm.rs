@@ -4,8 +4,6 @@
 
 mod common;
 
-use std::collections::BTreeMap;
-
 use glam::{IVec2, Vec3};
 use penumbra::cpu::savsm::{savsm, COUNTER_NAMES};
 use penumbra::gpu::f32s;
@@ -13,28 +11,14 @@ use penumbra::scene::{shapes, Camera, Light, Mesh, Scene, SceneDefaults};
 use penumbra::techniques::savsm::SavsmPush;
 use penumbra::techniques::{find, Params};
 
-fn set(pairs: &[(&str, &str)]) -> BTreeMap<String, String> {
-    pairs
-        .iter()
-        .map(|(k, v)| (k.to_string(), v.to_string()))
-        .collect()
-}
-
-fn small(spec: &str) -> Scene {
-    let mut scene = Scene::open(spec).expect("scene");
-    scene.camera.width = 128;
-    scene.camera.height = 96;
-    scene
-}
-
 /// GPU against the CPU twin, run on the GPU's own shadow map and view samples. A pixel may differ
 /// by 1e-5 plus its sensitivity: what moving both window means by the twin's `mean_tolerance`
 /// (2^-16 of fixed-point rounding + fp32 weighting + an ulp of shadow coordinate) and the
 /// receiver depth by 1e-6 does to V.
 fn compare(spec: &str, kernel: &str) {
     let engine = common::engine();
-    let prepared = engine.prepare(&small(spec)).expect("prepare");
-    let overrides = set(&[("map_size", "256"), ("kernel", kernel)]);
+    let prepared = engine.prepare(&common::small(spec)).expect("prepare");
+    let overrides = common::knobs(&[("map_size", "256"), ("kernel", kernel)]);
     let ctx = engine.context().clone();
     let mut depth = Vec::new();
     let frame = engine
@@ -160,7 +144,7 @@ fn flat_unoccluded_plane_is_exactly_one() {
     for light in lights {
         let prepared = engine.prepare(&bare_plane(light)).expect("prepare");
         for kernel in ["1", "5", "13.5", "64"] {
-            let knobs = set(&[
+            let knobs = common::knobs(&[
                 ("map_size", "256"),
                 ("bias_constant", "5000"),
                 ("kernel", kernel),
@@ -192,7 +176,9 @@ fn flat_unoccluded_plane_is_exactly_one() {
 #[test]
 fn bounds_pcf_coverage_from_above() {
     let engine = common::engine();
-    let prepared = engine.prepare(&small("plane-boxes")).expect("prepare");
+    let prepared = engine
+        .prepare(&common::small("plane-boxes"))
+        .expect("prepare");
     let positions = prepared
         .view
         .read_positions(engine.context())
@@ -202,7 +188,7 @@ fn bounds_pcf_coverage_from_above() {
             .render(
                 &prepared,
                 "pcf-coverage",
-                &set(&[("map_size", "256"), ("kernel", kernel)]),
+                &common::knobs(&[("map_size", "256"), ("kernel", kernel)]),
                 1,
             )
             .expect("pcf-coverage");
@@ -210,7 +196,7 @@ fn bounds_pcf_coverage_from_above() {
             .render(
                 &prepared,
                 "savsm",
-                &set(&[
+                &common::knobs(&[
                     ("map_size", "256"),
                     ("kernel", kernel),
                     ("bleed_reduction", "0"),

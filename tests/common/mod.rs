@@ -83,3 +83,19 @@ pub fn write_diff(
     save("diff", diff, 3);
     dir
 }
+
+/// Knob overrides from `(key, value)` pairs.
+pub fn knobs(pairs: &[(&str, &str)]) -> std::collections::BTreeMap<String, String> {
+    pairs
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect()
+}
+
+/// A scene (file or procedural spec) with its camera shrunk to 128×96 for fast tests.
+pub fn small(spec: &str) -> penumbra::scene::Scene {
+    let mut scene = penumbra::scene::Scene::open(spec).expect("scene");
+    scene.camera.width = 128;
+    scene.camera.height = 96;
+    scene
+}

@@ -150,7 +150,8 @@ fn average_maps_matches_cpu() {
     let mut views = Vec::new();
     for light in light_samples(&scene.light, 5) {
         let view = LightView::fit(&light, &bounds).expect("view");
-        let map = ShadowMap::new(&ctx, view, shadow_map_desc(&params)).expect("map");
+        let map =
+            ShadowMap::new(&ctx, view, shadow_map_desc(&params).expect("knobs")).expect("map");
         ctx.submit(None, |rec| map.record(rec, &prepared.geometry))
             .expect("render map");
         depths.push(f32s(&ctx.read_image(&map.depth).expect("read")));

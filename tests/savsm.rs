@@ -5,19 +5,22 @@
 mod common;
 
 use glam::{IVec2, Vec3};
-use penumbra::cpu::savsm::{savsm, COUNTER_NAMES};
+use penumbra::cpu::savsm::{savsm, twin_push};
 use penumbra::gpu::f32s;
-use penumbra::scene::{shapes, Camera, Light, Mesh, Scene, SceneDefaults};
-use penumbra::techniques::savsm::SavsmPush;
+use penumbra::scene::Light;
 use penumbra::techniques::{find, Params};
 
-/// GPU against the CPU twin, run on the GPU's own shadow map and view samples. A pixel may differ
-/// by 1e-5 plus its sensitivity: what moving both window means by the twin's `mean_tolerance`
-/// (2^-16 of fixed-point rounding + fp32 weighting + an ulp of shadow coordinate) and the
-/// receiver depth by 1e-6 does to V.
+/// GPU against the CPU twin, run on the GPU's own shadow map and view samples with the twin's
+/// own push block ([`twin_push`]). A pixel may differ by 1e-5 plus its sensitivity: what moving
+/// both window means by the twin's `mean_tolerance` (2^-16 of fixed-point rounding + fp32
+/// weighting + an ulp of shadow coordinate) and the receiver depth by 1e-6 does to V. That
+/// allowance reaches ~0.3 in steep penumbrae, so the samples that need more than 1e-5 are capped:
+/// lavapipe needs it on at most 0.34 % of the samples (32 of 9523, all within 3.5e-5 of the
+/// twin), the cap is 1 %.
 fn compare(spec: &str, kernel: &str) {
     let engine = common::engine();
-    let prepared = engine.prepare(&common::small(spec)).expect("prepare");
+    let scene = common::small(spec);
+    let prepared = engine.prepare(&scene).expect("prepare");
     let overrides = common::knobs(&[("map_size", "256"), ("kernel", kernel)]);
     let ctx = engine.context().clone();
     let mut depth = Vec::new();
@@ -32,23 +35,20 @@ fn compare(spec: &str, kernel: &str) {
     let params =
         Params::resolve(info.name, info.knobs, &overrides, &prepared.defaults).expect("knobs");
     let size = IVec2::new(frame.width as i32, frame.height as i32);
-    // rows_per_band does not matter on the CPU.
-    let pc = SavsmPush::new(&prepared.light_view, size, 256, 256, &params);
+    let pc = twin_push(&params, &scene.light, &prepared.light_view, size).expect("twin push");
     let positions = prepared.view.read_positions(&ctx).expect("positions");
     let cpu = savsm(&positions, size, &depth, &pc);
     let mut failing = 0;
+    let mut explained = 0u64;
     let mut worst = 0.0f32;
-    let mut near_class_edge = 0u64;
     for (i, (g, c)) in frame.visibility.iter().zip(&cpu.visibility).enumerate() {
         let diff = (g - c).abs();
         let allowed = 1e-5 + cpu.sensitivity[i];
         worst = worst.max(diff);
         if diff > allowed {
             failing += 1;
-        }
-        let class = |v: f32| (v >= 1.0) as u8 * 2 + (v <= 0.0) as u8;
-        if class(*g) != class(*c) {
-            near_class_edge += 1;
+        } else if diff > 1e-5 {
+            explained += 1;
         }
     }
     if failing > 0 {
@@ -66,24 +66,38 @@ fn compare(spec: &str, kernel: &str) {
         );
     }
     let counters = &frame.stats.counters;
-    eprintln!("{spec} kernel {kernel}: max |GPU − CPU| = {worst}, counters {counters:?}");
-    assert!(counters["view_samples"] > 5000, "too few view samples");
+    let samples = counters["view_samples"];
+    eprintln!(
+        "{spec} kernel {kernel}: max |GPU − CPU| = {worst}, {explained} of {samples} samples \
+         beyond 1e-5, counters {counters:?}"
+    );
+    assert!(
+        explained as f64 <= MAX_EXPLAINED * samples as f64,
+        "savsm on {spec}, kernel {kernel}: {explained} of {samples} samples need the \
+         rounding allowance"
+    );
+    assert!(samples > 5000, "too few view samples");
     assert!(counters["penumbra"] > 100, "no penumbra to compare");
-    assert_eq!(counters["view_samples"], cpu.counters[0]);
+    // Chebyshev rarely reaches 0: these scenes show ~30 umbra samples.
+    assert!(counters["umbra"] > 10, "no umbra to compare");
+    assert_eq!(samples, cpu.counters[0]);
     assert_eq!(counters["outside_light"], cpu.counters[1]);
-    for (k, name) in COUNTER_NAMES.iter().enumerate().skip(2) {
-        assert!(
-            counters[*name].abs_diff(cpu.counters[k]) <= near_class_edge,
-            "{name}: GPU {}, CPU {}",
-            counters[*name],
-            cpu.counters[k]
-        );
-    }
+    common::check_class_counters(
+        &format!("savsm on {spec}, kernel {kernel}"),
+        counters,
+        &frame.visibility,
+        &positions,
+        [cpu.counters[2], cpu.counters[3], cpu.counters[4]],
+        0.005,
+    );
     assert_eq!(frame.stats.nan_count, 0);
     assert_eq!(frame.stats.out_of_range_count, 0);
     drop(prepared);
     common::assert_clean(&engine.context().validation());
 }
+
+/// The largest fraction of view samples that may use the rounding allowance (see `compare`).
+const MAX_EXPLAINED: f64 = 0.01;
 
 #[test]
 fn matches_cpu_twin_perspective_fractional_kernel() {
@@ -95,42 +109,15 @@ fn matches_cpu_twin_directional_wide_kernel() {
     compare("plane-boxes@directional", "17");
 }
 
-/// A bare plane perpendicular to the light's axis, in code (as `tests/filtered.rs`).
-fn bare_plane(light: Light) -> Scene {
-    let (positions, indices) = shapes::plane(10.0, 10.0, 1);
-    Scene {
-        name: "bare-plane".into(),
-        source: "bare-plane".into(),
-        meshes: vec![Mesh {
-            name: "plane".into(),
-            positions,
-            indices,
-        }],
-        camera: Camera {
-            position: Vec3::new(0.0, 6.0, 2.0),
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            fov_y_deg: 45.0,
-            width: 128,
-            height: 96,
-            near: 0.1,
-            far: 100.0,
-        },
-        light,
-        defaults: SceneDefaults {
-            shadow_map_size: 256,
-            ..SceneDefaults::default()
-        },
-    }
-}
-
-/// Every window holds only the plane's own depth (or the far plane past the map's edge), which
-/// is at or behind the receiver: the mean is too, so Chebyshev returns exactly 1. As in
-/// `tests/filtered.rs`, the depth bias is raised to 5000 units so that the test is about the
-/// filter, not the receiver's projected-depth rounding on a map hugging the plane; the means' own
-/// error (≤ 2^-17) is far below that margin.
+/// A flat unoccluded plane: every window holds only the plane's own depth (or the far plane past
+/// the map's edge). Measured on lavapipe at the scene's default bias (constant 1.5, slope 2), the
+/// lowest visibility is 1 − 2.4e-6 (point light) and 1 − 1e-7 (sun): the fixed-point means
+/// carry up to 2^-17 of rounding, which can put a mean that much in front of its own receiver,
+/// where Chebyshev with σ² at `min_variance` (1e-5) is just below 1. Asserted: ≥ 1 − 1e-5 at
+/// the default bias for every kernel, and exactly 1 everywhere once the constant bias (5000
+/// units, ~3e-4 of the depth range) exceeds that rounding.
 #[test]
-fn flat_unoccluded_plane_is_exactly_one() {
+fn flat_unoccluded_plane_is_one() {
     let engine = common::engine();
     let lights = [
         Light::Point {
@@ -142,24 +129,30 @@ fn flat_unoccluded_plane_is_exactly_one() {
         },
     ];
     for light in lights {
-        let prepared = engine.prepare(&bare_plane(light)).expect("prepare");
+        let prepared = engine.prepare(&common::bare_plane(light)).expect("prepare");
         for kernel in ["1", "5", "13.5", "64"] {
-            let knobs = common::knobs(&[
-                ("map_size", "256"),
-                ("bias_constant", "5000"),
-                ("kernel", kernel),
-            ]);
-            let frame = engine
-                .render(&prepared, "savsm", &knobs, 1)
-                .expect("render");
-            let c = &frame.stats.counters;
-            assert!(c["view_samples"] > 5000);
-            let lowest = frame.visibility.iter().copied().fold(1.0f32, f32::min);
-            assert_eq!(lowest, 1.0, "kernel {kernel} under {light:?}");
-            assert_eq!(
-                c["lit"], c["view_samples"],
-                "kernel {kernel} under {light:?}"
-            );
+            for bias in ["default", "5000"] {
+                let mut knobs = common::knobs(&[("map_size", "256"), ("kernel", kernel)]);
+                if bias != "default" {
+                    knobs.insert("bias_constant".into(), bias.into());
+                }
+                let frame = engine
+                    .render(&prepared, "savsm", &knobs, 1)
+                    .expect("render");
+                let c = &frame.stats.counters;
+                assert!(c["view_samples"] > 5000);
+                let lowest = frame.visibility.iter().copied().fold(1.0f32, f32::min);
+                eprintln!("kernel {kernel}, bias {bias}, {light:?}: lowest {lowest}");
+                if bias == "default" {
+                    assert!(lowest >= 1.0 - 1e-5, "kernel {kernel} under {light:?}");
+                } else {
+                    assert_eq!(
+                        (c["lit"], lowest),
+                        (c["view_samples"], 1.0),
+                        "kernel {kernel} under {light:?}"
+                    );
+                }
+            }
         }
         drop(prepared);
     }
@@ -239,4 +232,45 @@ fn bounds_pcf_coverage_from_above() {
     }
     drop(prepared);
     common::assert_clean(&engine.context().validation());
+}
+
+/// The GPU path's push block (`SavsmPush::new`) against values worked out by hand: the twin builds
+/// its own, so this is where the shared builder is checked. The bare plane 6 units below a point
+/// light fits near = 6 · 0.999 and far = 6 · 1.001; the sun's view is orthographic.
+#[test]
+fn push_block_matches_hand_computed_values() {
+    use penumbra::passes::LightView;
+    use penumbra::techniques::savsm::SavsmPush;
+    let block = |light: Light| {
+        let scene = common::bare_plane(light);
+        let view = LightView::fit(&scene.light, &scene.bounds()).expect("fit");
+        let overrides = common::knobs(&[
+            ("kernel", "4.5"),
+            ("min_variance", "2e-5"),
+            ("bleed_reduction", "0.25"),
+        ]);
+        let info = find("savsm").expect("registered");
+        let params =
+            Params::resolve(info.name, info.knobs, &overrides, &scene.defaults).expect("knobs");
+        let pc = SavsmPush::new(&view, IVec2::new(128, 96), 256, 37, &params).expect("push");
+        (pc, view)
+    };
+    let (pc, view) = block(Light::Point {
+        position: Vec3::new(0.0, 6.0, 0.0),
+    });
+    assert_eq!(pc.light_view_proj, view.view_proj);
+    assert_eq!(
+        (pc.view_size, pc.map_size, pc.rows_per_band, pc.perspective),
+        (IVec2::new(128, 96), 256, 37, 1)
+    );
+    assert!((pc.near - 5.994).abs() < 1e-5 && (pc.far - 6.006).abs() < 1e-5);
+    assert_eq!(
+        (pc.kernel, pc.min_variance, pc.bleed_reduction),
+        (4.5, 2e-5, 0.25)
+    );
+    let (pc, _) = block(Light::Directional {
+        direction: Vec3::NEG_Y,
+        angular_diameter_deg: 0.0,
+    });
+    assert_eq!(pc.perspective, 0);
 }

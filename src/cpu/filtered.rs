@@ -1,10 +1,14 @@
 //! CPU twin of the filtered shadow maps (`glsl/filtered/`: `filtered.glsl`, `encode.comp`,
 //! `blur.comp`, `reconstruct.comp`) for `vsm`, `esm`, `evsm`, `msm` and `csm`.
 //!
-//! It reads the same push constants ([`FilteredPush`], built by the same
-//! [`push_constants`]) and does the same arithmetic in the same order: linearise, encode, blur
-//! rows then columns with the same unnormalised weights divided by their sum at the end, ESM in
-//! log space, the hand-made bilinear fetch, the formulas, and CSM's group loop.
+//! It does the same arithmetic as the shaders in the same order: linearise, encode, blur rows then
+//! columns with the same unnormalised weights divided by their sum at the end, ESM in log space,
+//! the hand-made bilinear fetch, the formulas, and CSM's group loop. Its inputs are its own: a
+//! [`TwinSetup`] derives every constant the shaders take — mode, clamped radius, EVSM
+//! components, CSM's terms, offset and remap, the perspective flag, near and far — from the
+//! knobs, the scene's light and the light view with plain code here, never through
+//! `techniques::filtered::config` or `push_constants`, so a wrong constant in the GPU path's
+//! set-up shows up as a GPU/CPU difference instead of being shared by both.
 //!
 //! Tolerance against the GPU (declared per technique in `tests/filtered.rs`): `exp`, `log`,
 //! `sin` and `cos` differ between the shader compiler's and Rust's libm by a few ulp, and the GPU
@@ -15,8 +19,11 @@
 use glam::{IVec2, Vec2, Vec4};
 
 use super::shadow_map::{inside_map, shadow_coord};
+use crate::error::{Error, Result};
 use crate::passes::LightView;
-use crate::techniques::filtered::{push_constants, FilterConfig, FilteredPush, MAX_RADIUS};
+use crate::scene::Light;
+use crate::techniques::filtered::FilteredPush;
+use crate::techniques::Params;
 
 /// Counters in the shader's order: view samples, outside the light frustum, lit, umbra, penumbra.
 pub const COUNTER_NAMES: [&str; 5] = ["view_samples", "outside_light", "lit", "umbra", "penumbra"];
@@ -29,6 +36,187 @@ const MODE_CSM: i32 = 4;
 const FLAG_FIRST: i32 = 1;
 const FLAG_LAST: i32 = 2;
 const PI: f32 = std::f32::consts::PI;
+/// `MAX_RADIUS` of `filtered.glsl`: the widest blur its shared-memory aprons hold.
+const MAX_RADIUS: i32 = 16;
+/// CSM's largest M (`csm::MAX_TERMS`, the paper's).
+const CSM_MAX_TERMS: u32 = 16;
+/// Margin added to CSM's ripple depth for the final remap (`csm::REMAP_MARGIN`).
+const CSM_REMAP_MARGIN: f64 = 1e-4;
+
+/// Everything the shaders take besides the maps, derived by the twin itself (see the module doc).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TwinSetup {
+    /// `MODE_*` of `filtered.glsl`.
+    pub mode: i32,
+    /// Blur radius in texels, clamped to the shader's limit.
+    pub radius: i32,
+    /// Box instead of Gaussian.
+    pub box_filter: bool,
+    /// EVSM: 2 or 4.
+    pub components: i32,
+    /// CSM: M; otherwise 0.
+    pub terms: i32,
+    /// The technique's constants in `filtered.glsl`'s order.
+    pub params: [f32; 4],
+    /// World → light clip.
+    pub view_proj: glam::Mat4,
+    /// Light view near and far planes.
+    pub near: f32,
+    /// See `near`.
+    pub far: f32,
+    /// Point and rect lights are seen through a perspective frustum, the sun through a box.
+    pub perspective: bool,
+    /// Shadow-map side in texels.
+    pub map_size: i32,
+}
+
+impl TwinSetup {
+    /// The setup of `technique` (`vsm`, `esm`, `evsm`, `msm`, `csm`) with resolved `knobs`, for
+    /// `light` seen through `view`.
+    pub fn new(technique: &str, knobs: &Params, light: &Light, view: &LightView) -> Result<Self> {
+        let k = |name: &str| knobs.get(name);
+        let (mode, params, components, terms) = match technique {
+            "vsm" => (
+                MODE_VSM,
+                [k("min_variance")?, k("bleed_reduction")?, 0.0, 0.0],
+                4,
+                0,
+            ),
+            "esm" => (MODE_ESM, [k("exponent")?, 0.0, 0.0, 0.0], 4, 0),
+            "evsm" => (
+                MODE_EVSM,
+                [
+                    k("exponent_positive")?,
+                    k("exponent_negative")?,
+                    k("min_variance")?,
+                    k("bleed_reduction")?,
+                ],
+                if k("components")? <= 2.0 { 2 } else { 4 },
+                0,
+            ),
+            "msm" => (
+                MODE_MSM,
+                [k("moment_bias")?, k("depth_bias")?, 0.0, 0.0],
+                4,
+                0,
+            ),
+            "csm" => {
+                let m = (k("terms")? as u32).clamp(1, CSM_MAX_TERMS);
+                let alpha = k("damping")?;
+                let (offset, epsilon) = csm_offset_and_ripple(m, alpha);
+                let offset = if k("offset")? < 0.0 {
+                    offset
+                } else {
+                    k("offset")?
+                };
+                let remap = (epsilon + CSM_REMAP_MARGIN).min(0.499);
+                (
+                    MODE_CSM,
+                    [k("depth_range")?, offset, remap, alpha],
+                    4,
+                    m as i32,
+                )
+            }
+            other => {
+                return Err(Error::Parameter {
+                    technique: other.to_string(),
+                    message: "the filtered twin knows vsm, esm, evsm, msm and csm".into(),
+                })
+            }
+        };
+        Ok(TwinSetup {
+            mode,
+            radius: (k("filter_radius")? as i32).min(MAX_RADIUS),
+            box_filter: k("filter_shape")? == 1.0,
+            components,
+            terms,
+            params: params.map(|v| v as f32),
+            view_proj: view.view_proj,
+            near: view.near,
+            far: view.far,
+            perspective: !matches!(light, Light::Directional { .. }),
+            map_size: k("map_size")? as i32,
+        })
+    }
+
+    /// Dispatch groups: CSM takes its terms two at a time.
+    pub fn groups(&self) -> i32 {
+        if self.mode == MODE_CSM {
+            (self.terms + 1) / 2
+        } else {
+            1
+        }
+    }
+
+    /// The block the shaders would read in group `group` (0-based).
+    fn push(&self, view_size: IVec2, group: i32) -> FilteredPush {
+        let mut flags = 0;
+        if group == 0 {
+            flags |= FLAG_FIRST;
+        }
+        if group == self.groups() - 1 {
+            flags |= FLAG_LAST;
+        }
+        FilteredPush {
+            light_view_proj: self.view_proj,
+            view_size,
+            map_size: self.map_size,
+            mode: self.mode,
+            near: self.near,
+            far: self.far,
+            perspective: self.perspective as i32,
+            radius: self.radius,
+            box_filter: self.box_filter as i32,
+            // CSM: the 1-based index of the group's first term; EVSM: its components.
+            channel_info: if self.mode == MODE_CSM {
+                2 * group + 1
+            } else {
+                self.components
+            },
+            terms: self.terms,
+            flags,
+            params: Vec4::from_array(self.params),
+        }
+    }
+}
+
+/// CSM's automatic offset t₀ and ripple depth ε for M terms and damping α, by a plain scan: the
+/// damped series f̂(t) = ½ + Σ exp(−α(k/M)²)·2/(π(2k−1))·sin(π(2k−1)t) on a grid of 2¹⁶ steps
+/// over [0, ½]; its first local maximum; the plateau floor F = min f̂ past it; ε = 1 − F; t₀ the
+/// first t where f̂ reaches F, narrowed by halving the bracketing step 40 times.
+fn csm_offset_and_ripple(terms: u32, alpha: f64) -> (f64, f64) {
+    let f = |t: f64| -> f64 {
+        let mut sum = 0.5;
+        for k in 1..=terms {
+            let c = std::f64::consts::PI * (2 * k - 1) as f64;
+            let w = (k as f64 / terms as f64).powi(2);
+            sum += (-alpha * w).exp() * 2.0 / c * (c * t).sin();
+        }
+        sum
+    };
+    let steps = 1usize << 16;
+    let at = |j: usize| 0.5 * j as f64 / steps as f64;
+    let values: Vec<f64> = (0..=steps).map(|j| f(at(j))).collect();
+    let mut peak = steps;
+    for j in 1..steps {
+        if values[j + 1] < values[j] {
+            peak = j;
+            break;
+        }
+    }
+    let floor = values[peak..].iter().fold(f64::INFINITY, |a, &b| a.min(b));
+    let first = (1..=peak).find(|&j| values[j] >= floor).unwrap_or(peak);
+    let (mut below, mut above) = (at(first - 1), at(first));
+    for _ in 0..40 {
+        let mid = 0.5 * (below + above);
+        if f(mid) >= floor {
+            above = mid;
+        } else {
+            below = mid;
+        }
+    }
+    (above, 1.0 - floor)
+}
 
 /// Linear depth in `[0,1]` from stored ndc depth (`linear_depth` in `filtered.glsl`).
 pub fn linear_depth(ndc: f32, pc: &FilteredPush) -> f32 {
@@ -90,7 +278,7 @@ pub fn encode(z: f32, pc: &FilteredPush) -> Vec4 {
 
 /// The unnormalised blur weights for offsets −r..=r (`blur_weight`).
 pub fn blur_weights(pc: &FilteredPush) -> Vec<f32> {
-    let r = pc.radius.clamp(0, MAX_RADIUS as i32);
+    let r = pc.radius.clamp(0, MAX_RADIUS);
     (-r..=r)
         .map(|k| {
             if pc.box_filter != 0 || r == 0 {
@@ -392,9 +580,7 @@ pub fn filtered(
     positions: &[Vec4],
     view_size: IVec2,
     depth: &[f32],
-    map_size: u32,
-    config: &FilterConfig,
-    view: &LightView,
+    setup: &TwinSetup,
 ) -> FilteredOutput {
     let n = (view_size.x * view_size.y) as usize;
     let mut out = FilteredOutput {
@@ -402,9 +588,9 @@ pub fn filtered(
         counters: [0; 5],
         sensitivity: vec![0.0; n],
     };
-    let size = IVec2::splat(map_size as i32);
-    for group in 0..config.groups() {
-        let pc = push_constants(config, view, view_size, map_size, group);
+    let size = IVec2::splat(setup.map_size);
+    for group in 0..setup.groups() {
+        let pc = setup.push(view_size, group);
         let map = filter_map(depth, &pc);
         let last = pc.flags & FLAG_LAST != 0;
         for (i, p) in positions.iter().enumerate().take(n) {

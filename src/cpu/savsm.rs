@@ -18,10 +18,39 @@ use glam::{IVec2, Vec2, Vec4};
 use super::filtered::COUNTER_NAMES as FILTERED_COUNTERS;
 use super::sat::{build_u32_fixed, SatTable};
 use super::shadow_map::{inside_map, shadow_coord};
+use crate::error::Result;
+use crate::passes::LightView;
+use crate::scene::Light;
 use crate::techniques::savsm::{SavsmPush, FIXED_BITS};
+use crate::techniques::Params;
 
 /// Counters in the shader's order: view samples, outside the light frustum, lit, umbra, penumbra.
 pub const COUNTER_NAMES: [&str; 5] = FILTERED_COUNTERS;
+
+/// The push block the twin runs with, derived by the twin itself from the knobs, the scene's
+/// light and the light view (never through `SavsmPush::new`, the GPU path's set-up): point and
+/// rect lights are perspective, the sun orthographic; near and far are the view's planes.
+/// `rows_per_band` only matters to the GPU's banded tables and is left 0.
+pub fn twin_push(
+    knobs: &Params,
+    light: &Light,
+    view: &LightView,
+    view_size: IVec2,
+) -> Result<SavsmPush> {
+    Ok(SavsmPush {
+        light_view_proj: view.view_proj,
+        view_size,
+        map_size: knobs.get("map_size")? as i32,
+        rows_per_band: 0,
+        near: view.near,
+        far: view.far,
+        perspective: !matches!(light, Light::Directional { .. }) as i32,
+        kernel: knobs.get("kernel")? as f32,
+        min_variance: knobs.get("min_variance")? as f32,
+        bleed_reduction: knobs.get("bleed_reduction")? as f32,
+        pad: [0; 2],
+    })
+}
 
 /// Receiver-depth rounding allowed between GPU and CPU.
 pub const DEPTH_TOLERANCE: f32 = 1e-6;

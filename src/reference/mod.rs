@@ -115,7 +115,7 @@ pub const REFERENCE: TechniqueInfo = TechniqueInfo {
     knobs: &KNOBS,
     cacheable: true,
     create: |setup, params| {
-        let settings = Settings::from_params(params, false);
+        let settings = Settings::from_params(params, false)?;
         Ok(Box::new(Reference::new(setup, &settings, "reference")?))
     },
 };
@@ -128,7 +128,7 @@ pub const REFERENCE_SINGLE_LAYER: TechniqueInfo = TechniqueInfo {
     knobs: &KNOBS,
     cacheable: true,
     create: |setup, params| {
-        let settings = Settings::from_params(params, true);
+        let settings = Settings::from_params(params, true)?;
         Ok(Box::new(Reference::new(
             setup,
             &settings,
@@ -192,13 +192,13 @@ pub struct Settings {
 
 impl Settings {
     /// Reads the knobs.
-    pub fn from_params(params: &Params, single_layer: bool) -> Settings {
-        Settings {
-            samples: params.u32("samples").max(1),
-            jitter: params.u32("jitter") != 0,
-            ray_offset: params.f32("ray_offset"),
+    pub fn from_params(params: &Params, single_layer: bool) -> Result<Settings> {
+        Ok(Settings {
+            samples: params.u32("samples")?.max(1),
+            jitter: params.u32("jitter")? != 0,
+            ray_offset: params.f32("ray_offset")?,
             single_layer,
-        }
+        })
     }
 }
 
@@ -473,9 +473,12 @@ mod tests {
         assert!(resolve("jitter", "2").is_err());
         assert!(resolve("ray_offset", "-1").is_err());
         let p = resolve("samples", "64").expect("in range");
-        assert_eq!(Settings::from_params(&p, false).samples, 64);
+        assert_eq!(
+            Settings::from_params(&p, false).expect("declared").samples,
+            64
+        );
         let p = resolve("jitter", "1").expect("defaults");
-        let s = Settings::from_params(&p, true);
+        let s = Settings::from_params(&p, true).expect("declared");
         assert_eq!((s.samples, s.jitter, s.single_layer), (32, true, true));
     }
 }

@@ -69,11 +69,11 @@ impl<'a> AverageMaps<'a> {
             bounds.min = bounds.min.min(*p);
             bounds.max = bounds.max.max(*p);
         }
-        let views = light_samples(setup.light, params.u32("samples"))
+        let views = light_samples(setup.light, params.u32("samples")?)
             .iter()
             .map(|l| LightView::fit(l, &bounds))
             .collect::<Result<Vec<_>>>()?;
-        let shadow_map = ShadowMap::new(ctx, views[0], shadow_map_desc(params))?;
+        let shadow_map = ShadowMap::new(ctx, views[0], shadow_map_desc(params)?)?;
         let pipeline = Pipeline::compute(ctx, "average_maps/accumulate.comp")?;
         let counters = Buffer::storage(ctx, "average-maps counters", 4)?;
         let set = DescriptorSet::new(

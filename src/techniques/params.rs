@@ -72,6 +72,9 @@ pub const SHADOW_MAP_KNOBS: [Knob; 4] = [
 /// Resolved knob values of one technique instance.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Params {
+    /// The technique the knobs were resolved for (named in errors).
+    #[serde(skip)]
+    technique: String,
     values: BTreeMap<String, f64>,
 }
 
@@ -137,26 +140,58 @@ impl Params {
             }
             values.insert(k.name.to_string(), value);
         }
-        Ok(Params { values })
+        Ok(Params {
+            technique: technique.to_string(),
+            values,
+        })
     }
 
-    /// A knob's value (0 for a name the technique does not declare).
-    pub fn get(&self, name: &str) -> f64 {
-        self.values.get(name).copied().unwrap_or(0.0)
+    /// A knob's value. A name the technique does not declare is an error, not a silent 0: a
+    /// technique reading a knob it forgot to declare would otherwise run with a wrong constant.
+    pub fn get(&self, name: &str) -> Result<f64> {
+        self.values
+            .get(name)
+            .copied()
+            .ok_or_else(|| Error::Parameter {
+                technique: self.technique.clone(),
+                message: format!("knob '{name}' is read but not declared by the technique"),
+            })
     }
 
     /// A knob's value as `f32`.
-    pub fn f32(&self, name: &str) -> f32 {
-        self.get(name) as f32
+    pub fn f32(&self, name: &str) -> Result<f32> {
+        Ok(self.get(name)? as f32)
     }
 
-    /// An integer knob's value.
-    pub fn u32(&self, name: &str) -> u32 {
-        self.get(name) as u32
+    /// An integer knob's value (declared integer knobs are whole and within `[min, max]`).
+    pub fn u32(&self, name: &str) -> Result<u32> {
+        Ok(self.get(name)? as u32)
     }
 
     /// Every resolved value.
     pub fn values(&self) -> &BTreeMap<String, f64> {
         &self.values
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A declared knob reads its value; an undeclared one is an error naming the technique and
+    /// the knob, never a silent 0.
+    #[test]
+    fn undeclared_knob_is_an_error() {
+        let params = Params::resolve(
+            "pcf",
+            &SHADOW_MAP_KNOBS,
+            &BTreeMap::from([("map_size".to_string(), "512".to_string())]),
+            &SceneDefaults::default(),
+        )
+        .expect("declared knobs");
+        assert_eq!(params.u32("map_size").expect("declared"), 512);
+        assert_eq!(params.f32("bias_clamp").expect("declared"), 0.0);
+        let err = params.get("kernel").expect_err("not declared").to_string();
+        assert!(err.contains("pcf") && err.contains("kernel"), "{err}");
     }
 }

@@ -66,22 +66,22 @@ pub const PCF: TechniqueInfo = TechniqueInfo {
     knobs: &PCF_KNOBS,
     cacheable: false,
     create: |setup, params| {
-        let kernel = params.u32("kernel") as i32;
-        let receiver_plane = params.u32("receiver_plane_bias") as i32;
+        let kernel = params.u32("kernel")? as i32;
+        let receiver_plane = params.u32("receiver_plane_bias")? as i32;
         Ok(Box::new(pcf(setup, params, 1, kernel, receiver_plane)?))
     },
 };
 
 /// Reads the shadow-map knobs shared by every shadow-map technique.
-pub fn shadow_map_desc(params: &Params) -> ShadowMapDesc {
-    ShadowMapDesc {
-        size: params.u32("map_size"),
+pub fn shadow_map_desc(params: &Params) -> Result<ShadowMapDesc> {
+    Ok(ShadowMapDesc {
+        size: params.u32("map_size")?,
         bias: DepthBias {
-            constant: params.f32("bias_constant"),
-            slope: params.f32("bias_slope"),
-            clamp: params.f32("bias_clamp"),
+            constant: params.f32("bias_constant")?,
+            slope: params.f32("bias_slope")?,
+            clamp: params.f32("bias_clamp")?,
         },
-    }
+    })
 }
 
 /// A shadow-map technique made of one D32 map and one compute pass over the view samples: `hard`,
@@ -113,7 +113,7 @@ impl<'a, P: bytemuck::Pod> ViewPass<'a, P> {
         push: impl FnOnce(&ShadowMap) -> P,
     ) -> Result<Self> {
         let ctx = setup.ctx;
-        let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params))?;
+        let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params)?)?;
         let pipeline = Pipeline::compute(ctx, shader)?;
         let counters = Buffer::storage(
             ctx,

@@ -49,6 +49,8 @@ fn pcf_coverage<'a>(
     setup: &TechniqueSetup<'a>,
     params: &Params,
 ) -> Result<ViewPass<'a, PcfCoveragePush>> {
+    let kernel = params.f32("kernel")?;
+    let receiver_plane = params.u32("receiver_plane_bias")? as i32;
     ViewPass::new(
         setup,
         params,
@@ -59,8 +61,8 @@ fn pcf_coverage<'a>(
             light_view_proj: setup.light_view.view_proj,
             view_size: IVec2::new(setup.view.width as i32, setup.view.height as i32),
             map_size: IVec2::splat(map.desc.size as i32),
-            kernel: params.f32("kernel"),
-            receiver_plane: params.u32("receiver_plane_bias") as i32,
+            kernel,
+            receiver_plane,
             pad: [0; 2],
         },
     )

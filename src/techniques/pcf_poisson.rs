@@ -58,7 +58,9 @@ fn pcf_poisson<'a>(
     params: &Params,
 ) -> Result<ViewPass<'a, PcfPoissonPush>> {
     let ctx = setup.ctx;
-    let disk_points = poisson_disk(params.u32("taps") as usize);
+    let disk_points = poisson_disk(params.u32("taps")? as usize);
+    let radius = params.f32("radius")?;
+    let receiver_plane = params.u32("receiver_plane_bias")? as i32;
     let disk = ctx.buffer_with(
         "poisson disk",
         vk::BufferUsageFlags::STORAGE_BUFFER,
@@ -80,8 +82,8 @@ fn pcf_poisson<'a>(
             view_size: IVec2::new(setup.view.width as i32, setup.view.height as i32),
             map_size: IVec2::splat(map.desc.size as i32),
             taps: disk_points.len() as i32,
-            radius: params.f32("radius"),
-            receiver_plane: params.u32("receiver_plane_bias") as i32,
+            radius,
+            receiver_plane,
             pad: 0,
         },
     )

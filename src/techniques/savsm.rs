@@ -128,8 +128,8 @@ impl SavsmPush {
         map_size: u32,
         rows_per_band: u32,
         params: &Params,
-    ) -> SavsmPush {
-        SavsmPush {
+    ) -> Result<SavsmPush> {
+        Ok(SavsmPush {
             light_view_proj: view.view_proj,
             view_size,
             map_size: map_size as i32,
@@ -137,11 +137,11 @@ impl SavsmPush {
             near: view.near,
             far: view.far,
             perspective: matches!(view.projection, LightProjection::Perspective { .. }) as i32,
-            kernel: params.f32("kernel"),
-            min_variance: params.f32("min_variance"),
-            bleed_reduction: params.f32("bleed_reduction"),
+            kernel: params.f32("kernel")?,
+            min_variance: params.f32("min_variance")?,
+            bleed_reduction: params.f32("bleed_reduction")?,
             pad: [0; 2],
-        }
+        })
     }
 }
 
@@ -164,7 +164,7 @@ struct Savsm<'a> {
 impl<'a> Savsm<'a> {
     fn new(setup: &TechniqueSetup<'a>, params: &Params) -> Result<Self> {
         let ctx = setup.ctx;
-        let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params))?;
+        let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params)?)?;
         let size = shadow_map.desc.size;
         let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::SAMPLED;
         let desc = ImageDesc::new_2d(MOMENT_FORMAT, size, size, usage);
@@ -215,7 +215,7 @@ impl<'a> Savsm<'a> {
             size,
             sats[0].rows_per_band,
             params,
-        );
+        )?;
         Ok(Savsm {
             ctx: ctx.clone(),
             sats,

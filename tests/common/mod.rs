@@ -99,3 +99,81 @@ pub fn small(spec: &str) -> penumbra::scene::Scene {
     scene.camera.height = 96;
     scene
 }
+
+/// Lit, umbra and penumbra counts of `visibility` over the view samples (`w > 0` in
+/// `positions`): the shaders' classes (v ≥ 1, v ≤ 0, else).
+pub fn class_counts(visibility: &[f32], positions: &[glam::Vec4]) -> [u64; 3] {
+    let mut counts = [0u64; 3];
+    for (v, p) in visibility.iter().zip(positions) {
+        if p.w > 0.0 {
+            counts[if *v >= 1.0 {
+                0
+            } else if *v <= 0.0 {
+                1
+            } else {
+                2
+            }] += 1;
+        }
+    }
+    counts
+}
+
+/// Checks a GPU frame's `lit`/`umbra`/`penumbra` counters two ways that can each fail: exactly
+/// against the classes of the GPU's own visibility image (the counters describe that image), and
+/// against the CPU twin's counters `cpu` within `max_flip_fraction` of the view samples — a
+/// declared cap on how many samples may change class by rounding, not a bound taken from the
+/// images being checked. Panics naming `what`.
+pub fn check_class_counters(
+    what: &str,
+    counters: &std::collections::BTreeMap<String, u64>,
+    gpu_visibility: &[f32],
+    positions: &[glam::Vec4],
+    cpu: [u64; 3],
+    max_flip_fraction: f64,
+) {
+    let own = class_counts(gpu_visibility, positions);
+    let samples: u64 = own.iter().sum();
+    let cap = (max_flip_fraction * samples as f64).ceil() as u64;
+    for (k, name) in ["lit", "umbra", "penumbra"].iter().enumerate() {
+        assert_eq!(
+            counters[*name], own[k],
+            "{what}: counter {name} disagrees with the GPU's own image"
+        );
+        assert!(
+            counters[*name].abs_diff(cpu[k]) <= cap,
+            "{what}: {name} GPU {} vs CPU {} (at most {cap} samples may change class)",
+            counters[*name],
+            cpu[k]
+        );
+    }
+}
+
+/// A bare 10 × 10 plane at y = 0 under `light`, seen from above at 128×96: every receiver is its
+/// own occluder.
+pub fn bare_plane(light: penumbra::scene::Light) -> penumbra::scene::Scene {
+    let (positions, indices) = penumbra::scene::shapes::plane(10.0, 10.0, 1);
+    penumbra::scene::Scene {
+        name: "bare-plane".into(),
+        source: "bare-plane".into(),
+        meshes: vec![penumbra::scene::Mesh {
+            name: "plane".into(),
+            positions,
+            indices,
+        }],
+        camera: penumbra::scene::Camera {
+            position: glam::Vec3::new(0.0, 6.0, 2.0),
+            target: glam::Vec3::ZERO,
+            up: glam::Vec3::Y,
+            fov_y_deg: 45.0,
+            width: 128,
+            height: 96,
+            near: 0.1,
+            far: 100.0,
+        },
+        light,
+        defaults: penumbra::scene::SceneDefaults {
+            shadow_map_size: 256,
+            ..penumbra::scene::SceneDefaults::default()
+        },
+    }
+}

@@ -36,6 +36,7 @@
 //! F32. Formula twin: [`crate::cpu::filtered::csm_terms`].
 
 use super::{base_config, create, FilterConfig, Mode, COMMON_KNOBS};
+use crate::error::Result;
 use crate::techniques::{Knob, KnobDefault, Params, TechniqueInfo};
 
 /// Most terms: the paper's largest M.
@@ -104,7 +105,7 @@ pub const CSM: TechniqueInfo = TechniqueInfo {
     summary: "convolution shadow maps: M Fourier terms of the step, blurred two at a time",
     knobs: &KNOBS,
     cacheable: false,
-    create: |setup, params| create(setup, params, "csm", config(params)),
+    create: |setup, params| create(setup, params, "csm", config(params)?),
 };
 
 /// The damped series f̂(t) = ½ + Σ_{k=1..M} exp(−α(k/M)²)·(2/c_k)·sin(c_k t).
@@ -168,26 +169,25 @@ pub fn series(terms: u32, damping: f64) -> Series {
 }
 
 /// The resolved setup: params = (depth range, offset, remap ε', damping α); `terms` M.
-pub fn config(params: &Params) -> FilterConfig {
-    let terms = params.u32("terms").clamp(1, MAX_TERMS);
-    let damping = params.get("damping");
+pub fn config(params: &Params) -> Result<FilterConfig> {
+    let terms = params.u32("terms")?.clamp(1, MAX_TERMS);
+    let damping = params.get("damping")?;
     let s = series(terms, damping);
-    let offset = if params.get("offset") < 0.0 {
-        s.offset
-    } else {
-        params.get("offset")
+    let offset = match params.get("offset")? {
+        o if o < 0.0 => s.offset,
+        o => o,
     };
     let remap = (s.epsilon + REMAP_MARGIN).min(0.499);
-    FilterConfig {
+    Ok(FilterConfig {
         terms,
         params: [
-            params.f32("depth_range"),
+            params.f32("depth_range")?,
             offset as f32,
             remap as f32,
             damping as f32,
         ],
-        ..base_config(Mode::Csm, params)
-    }
+        ..base_config(Mode::Csm, params)?
+    })
 }
 
 #[cfg(test)]

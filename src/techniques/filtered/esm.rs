@@ -21,6 +21,7 @@
 //! F32 = 4 B (R32F). Formula twin: [`crate::cpu::filtered::esm_visibility`].
 
 use super::{base_config, create, FilterConfig, Mode, COMMON_KNOBS};
+use crate::error::Result;
 use crate::techniques::{Knob, KnobDefault, Params, TechniqueInfo};
 
 /// `exponent`.
@@ -49,15 +50,15 @@ pub const ESM: TechniqueInfo = TechniqueInfo {
     summary: "exponential shadow maps: c*z blurred in log space, exp(min(0, L - c*d))",
     knobs: &KNOBS,
     cacheable: false,
-    create: |setup, params| create(setup, params, "esm", config(params)),
+    create: |setup, params| create(setup, params, "esm", config(params)?),
 };
 
 /// The resolved setup: params = (c, –, –, –).
-pub fn config(params: &Params) -> FilterConfig {
-    FilterConfig {
-        params: [params.f32("exponent"), 0.0, 0.0, 0.0],
-        ..base_config(Mode::Esm, params)
-    }
+pub fn config(params: &Params) -> Result<FilterConfig> {
+    Ok(FilterConfig {
+        params: [params.f32("exponent")?, 0.0, 0.0, 0.0],
+        ..base_config(Mode::Esm, params)?
+    })
 }
 
 /// The largest c for which exp(c·z), z ∈ `[0,1]`, fits a float of largest finite value `max`:

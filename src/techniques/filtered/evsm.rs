@@ -22,6 +22,7 @@
 //! [`crate::cpu::filtered::evsm_visibility`].
 
 use super::{base_config, create, FilterConfig, Mode, COMMON_KNOBS};
+use crate::error::Result;
 use crate::techniques::{Knob, KnobDefault, Params, TechniqueInfo};
 
 /// `components`.
@@ -85,22 +86,22 @@ pub const EVSM: TechniqueInfo = TechniqueInfo {
     summary: "exponential variance shadow maps: VSM on exp(c+ z) and -exp(-c- z), p = min",
     knobs: &KNOBS,
     cacheable: false,
-    create: |setup, params| create(setup, params, "evsm", config(params)),
+    create: |setup, params| create(setup, params, "evsm", config(params)?),
 };
 
 /// The resolved setup: params = (c₊, c₋, min variance, bleed reduction); `components` 2 or 4
 /// (3 is read as 4: there is no 3-component layout).
-pub fn config(params: &Params) -> FilterConfig {
-    FilterConfig {
-        components: if params.u32("components") <= 2 { 2 } else { 4 },
+pub fn config(params: &Params) -> Result<FilterConfig> {
+    Ok(FilterConfig {
+        components: if params.u32("components")? <= 2 { 2 } else { 4 },
         params: [
-            params.f32("exponent_positive"),
-            params.f32("exponent_negative"),
-            params.f32("min_variance"),
-            params.f32("bleed_reduction"),
+            params.f32("exponent_positive")?,
+            params.f32("exponent_negative")?,
+            params.f32("min_variance")?,
+            params.f32("bleed_reduction")?,
         ],
-        ..base_config(Mode::Evsm, params)
-    }
+        ..base_config(Mode::Evsm, params)?
+    })
 }
 
 #[cfg(test)]

@@ -208,25 +208,25 @@ pub const COMMON_KNOBS: [Knob; 6] = [
 ];
 
 /// A [`FilterConfig`] with the blur knobs read and everything else zero.
-fn base_config(mode: Mode, params: &Params) -> FilterConfig {
-    FilterConfig {
+fn base_config(mode: Mode, params: &Params) -> Result<FilterConfig> {
+    Ok(FilterConfig {
         mode,
-        radius: params.u32("filter_radius").min(MAX_RADIUS),
-        box_filter: params.u32("filter_shape") == 1,
+        radius: params.u32("filter_radius")?.min(MAX_RADIUS),
+        box_filter: params.u32("filter_shape")? == 1,
         components: 4,
         terms: 0,
         params: [0.0; 4],
-    }
+    })
 }
 
 /// The resolved setup of filtered technique `name` (for tests and CPU twins).
 pub fn config(name: &str, params: &Params) -> Result<FilterConfig> {
     match name {
-        "vsm" => Ok(vsm::config(params)),
-        "esm" => Ok(esm::config(params)),
-        "evsm" => Ok(evsm::config(params)),
-        "msm" => Ok(msm::config(params)),
-        "csm" => Ok(csm::config(params)),
+        "vsm" => vsm::config(params),
+        "esm" => esm::config(params),
+        "evsm" => evsm::config(params),
+        "msm" => msm::config(params),
+        "csm" => csm::config(params),
         other => Err(Error::Parameter {
             technique: other.to_string(),
             message: "not a filtered shadow-map technique".into(),
@@ -261,7 +261,7 @@ pub fn create<'a>(
     config: FilterConfig,
 ) -> Result<Box<dyn Technique + 'a>> {
     let ctx = setup.ctx;
-    let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params))?;
+    let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params)?)?;
     let size = shadow_map.desc.size;
     let filtered = Image::new(
         ctx,

@@ -24,6 +24,7 @@
 //! β = 6e-5). Formula twin: [`crate::cpu::filtered::msm_hamburger`].
 
 use super::{base_config, create, FilterConfig, Mode, COMMON_KNOBS};
+use crate::error::Result;
 use crate::techniques::{Knob, KnobDefault, Params, TechniqueInfo};
 
 /// `moment_bias`.
@@ -63,20 +64,20 @@ pub const MSM: TechniqueInfo = TechniqueInfo {
     summary: "moment shadow maps: four blurred moments, Hamburger 4MSM lower bound",
     knobs: &KNOBS,
     cacheable: false,
-    create: |setup, params| create(setup, params, "msm", config(params)),
+    create: |setup, params| create(setup, params, "msm", config(params)?),
 };
 
 /// The resolved setup: params = (moment bias, depth bias, –, –).
-pub fn config(params: &Params) -> FilterConfig {
-    FilterConfig {
+pub fn config(params: &Params) -> Result<FilterConfig> {
+    Ok(FilterConfig {
         params: [
-            params.f32("moment_bias"),
-            params.f32("depth_bias"),
+            params.f32("moment_bias")?,
+            params.f32("depth_bias")?,
             0.0,
             0.0,
         ],
-        ..base_config(Mode::Msm, params)
-    }
+        ..base_config(Mode::Msm, params)?
+    })
 }
 
 #[cfg(test)]

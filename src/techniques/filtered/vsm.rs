@@ -17,6 +17,7 @@
 //! 2 × F32 = 8 B (RG32F). Formula twin: [`crate::cpu::filtered::vsm_visibility`].
 
 use super::{base_config, create, FilterConfig, Mode, COMMON_KNOBS};
+use crate::error::Result;
 use crate::techniques::{Knob, KnobDefault, Params, TechniqueInfo};
 
 /// `min_variance`.
@@ -57,20 +58,20 @@ pub const VSM: TechniqueInfo = TechniqueInfo {
     summary: "variance shadow maps: blurred (z, z^2), Chebyshev upper bound, bleed reduction",
     knobs: &KNOBS,
     cacheable: false,
-    create: |setup, params| create(setup, params, "vsm", config(params)),
+    create: |setup, params| create(setup, params, "vsm", config(params)?),
 };
 
 /// The resolved setup: params = (min variance, bleed reduction, –, –).
-pub fn config(params: &Params) -> FilterConfig {
-    FilterConfig {
+pub fn config(params: &Params) -> Result<FilterConfig> {
+    Ok(FilterConfig {
         params: [
-            params.f32("min_variance"),
-            params.f32("bleed_reduction"),
+            params.f32("min_variance")?,
+            params.f32("bleed_reduction")?,
             0.0,
             0.0,
         ],
-        ..base_config(Mode::Vsm, params)
-    }
+        ..base_config(Mode::Vsm, params)?
+    })
 }
 
 #[cfg(test)]

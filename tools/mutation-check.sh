@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# Mutation check of the test oracles: breaks one push-constant builder or set-up at a time (a
+# flipped sign, a wrong constant, a swapped flag), runs the tests of that technique family and
+# reports which tests caught it. Every mutation must be caught by at least one test; the script
+# exits non-zero otherwise. The tree is restored after each mutation (from a copy, so uncommitted
+# work is safe). Slow — one incremental build per mutation, ~1 min each on 2 cores — so CI does
+# not run it; the README says when it was last run and with what result.
+#
+#   bash tools/mutation-check.sh [FILTER]     # FILTER: only mutations whose name contains it
+set -uo pipefail
+cd "$(dirname "$0")/.."
+export PATH="$HOME/.cargo/bin:$PATH"
+
+# name | file | perl substitution (applied once, must change the file) | test file
+mutations=(
+  "filtered: far plane 1 % too far|src/techniques/filtered/mod.rs|s/far: view.far,/far: view.far * 1.01,/|filtered"
+  "filtered: perspective flag inverted|src/techniques/filtered/mod.rs|s/LightProjection::Perspective \{ .. \}\) as i32/LightProjection::Orthographic { .. }) as i32/|filtered"
+  "filtered: radius clamped to 1|src/techniques/filtered/mod.rs|s/config.radius.min\(MAX_RADIUS\)/config.radius.min(1)/|filtered"
+  "csm: group's first term off by one|src/techniques/filtered/mod.rs|s/Mode::Csm => \(2 \* group \+ 1\)/Mode::Csm => (2 * group + 2)/|filtered"
+  "csm: automatic offset negated|src/techniques/filtered/csm.rs|s/o if o < 0.0 => s.offset,/o if o < 0.0 => -s.offset,/|filtered"
+  "csm: remap margin doubled|src/techniques/filtered/csm.rs|s/s.epsilon \+ REMAP_MARGIN/s.epsilon + 2.0 * REMAP_MARGIN/|filtered"
+  "esm: exponent scaled by 0.9|src/techniques/filtered/esm.rs|s/params.f32\(\"exponent\"\)\?/0.9 * params.f32(\"exponent\")?/|filtered"
+  "evsm: negative exponent halved|src/techniques/filtered/evsm.rs|s/params.f32\(\"exponent_negative\"\)\?/0.5 * params.f32(\"exponent_negative\")?/|filtered"
+  "evsm: components 2 and 4 swapped|src/techniques/filtered/evsm.rs|s/<= 2 \{ 2 \} else \{ 4 \}/<= 2 { 4 } else { 2 }/|filtered"
+  "msm: depth bias sign flipped|src/techniques/filtered/msm.rs|s/params.f32\(\"depth_bias\"\)\?/-params.f32(\"depth_bias\")?/|filtered"
+  "savsm: perspective flag inverted|src/techniques/savsm.rs|s/LightProjection::Perspective \{ .. \}\) as i32/LightProjection::Orthographic { .. }) as i32/|savsm"
+  "savsm: box one texel wider|src/techniques/savsm.rs|s/kernel: params.f32\(\"kernel\"\)\?,/kernel: params.f32(\"kernel\")? + 1.0,/|savsm"
+)
+
+filter="${1:-}"
+backup="$(mktemp -d)"
+missed=0
+printf '| mutation | caught by |\n|---|---|\n'
+for m in "${mutations[@]}"; do
+  IFS='|' read -r name file expr test <<<"$m"
+  [[ -n "$filter" && "$name" != *"$filter"* ]] && continue
+  cp "$file" "$backup/file"
+  perl -0pi -e "$expr" "$file"
+  if cmp -s "$file" "$backup/file"; then
+    echo "| $name | **mutation did not apply** ($file) |"
+    missed=$((missed + 1))
+    continue
+  fi
+  log="$backup/log"
+  cargo test --test "$test" -- --test-threads 1 >"$log" 2>&1
+  cp "$backup/file" "$file"
+  failed=$(grep -E '^test .* FAILED$' "$log" | sed -E 's/^test (.*) \.\.\. FAILED$/\1/' | paste -sd, - | sed 's/,/, /g')
+  if grep -q -E '^error(\[E[0-9]+\])?: could not compile|^error\[E' "$log"; then
+    failed="(does not compile)"
+  fi
+  if [ -z "$failed" ]; then
+    echo "| $name | **not caught** |"
+    missed=$((missed + 1))
+  else
+    echo "| $name | \`$test\`: $failed |"
+  fi
+done
+rm -rf "$backup"
+if [ "$missed" -gt 0 ]; then
+  echo "$missed mutation(s) not caught" >&2
+  exit 1
+fi

@@ -8,6 +8,12 @@
 //! moves V by at most 2/w per texel of displacement), excluding the view samples the twins flag
 //! as depth ties (at most 5 %).
 //!
+//! The twins take their inputs from the knobs given here, not from the techniques' set-up: the
+//! kernel, radius, taps and receiver-plane flag are the values the knobs were set to, and the
+//! Poisson disk and rotations come from an independent generator in this file, checked bit for
+//! bit against the tables `pcf-poisson` uploads. The map's size and bias are checked against the
+//! knobs too (the twins read the GPU's map and do not model bias).
+//!
 //! Properties of the pure functions on synthetic data — coverage weights summing to the kernel
 //! area, texel-aligned integer boxes equal to whole-texel boxes, the Poisson patterns, the
 //! receiver plane's neighbour choice and gradient — are unit tests beside them
@@ -22,7 +28,7 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use glam::{IVec2, Mat4, Vec3, Vec4};
+use glam::{IVec2, Mat4, Vec2, Vec3, Vec4};
 use penumbra::cpu::pcf::{pcf_with_plane, PcfOutput, COUNTER_NAMES};
 use penumbra::cpu::pcf_coverage::pcf_coverage;
 use penumbra::cpu::pcf_poisson::{pcf_poisson, poisson_disk, rotations, PoissonKernel};
@@ -30,11 +36,15 @@ use penumbra::cpu::receiver_plane::ViewImages;
 use penumbra::cpu::shadow_map::{shadow_coord, DepthMap};
 use penumbra::engine::PreparedScene;
 use penumbra::gpu::f32s;
+use penumbra::passes::{DepthBias, ShadowMapDesc};
 use penumbra::scene::{shapes, Camera, Light, Mesh, Scene, SceneDefaults};
 use penumbra::{Engine, Frame};
 
 const MAP: i32 = 256;
 const TOLERANCE: f32 = 1e-5;
+/// Depth bias, given as knobs on every run so the map's description can be checked against them.
+const BIAS_CONSTANT: f32 = 1.5;
+const BIAS_SLOPE: f32 = 2.0;
 
 /// The tolerance for a coverage box of width `w` (see the file's note).
 fn coverage_tolerance(w: f32) -> f32 {
@@ -74,6 +84,10 @@ fn knobs(pairs: &[(&str, &str)]) -> BTreeMap<String, String> {
         .map(|(k, v)| (k.to_string(), v.to_string()))
         .collect();
     m.entry("map_size".into()).or_insert(MAP.to_string());
+    m.entry("bias_constant".into())
+        .or_insert(BIAS_CONSTANT.to_string());
+    m.entry("bias_slope".into())
+        .or_insert(BIAS_SLOPE.to_string());
     m
 }
 
@@ -123,14 +137,32 @@ fn assert_plane_in_view(frame: &Frame, technique: &str) {
 fn run(engine: &Engine, prepared: &PreparedScene, technique: &str, set: &[(&str, &str)]) -> Run {
     let ctx = engine.context().clone();
     let mut depth = Vec::new();
+    let mut rendered_with = None;
     let frame = engine
         .render_inspect(prepared, technique, &knobs(set), 1, |t| {
             let sm = t.shadow_map().expect("a shadow-map technique");
             depth = f32s(&ctx.read_image(&sm.depth)?);
+            rendered_with = Some(sm.desc);
             Ok(())
         })
         .expect("render");
     assert_sane(&frame, technique);
+    // The twins read the GPU's map with the size the knobs give and do not model bias: the map
+    // must have been rendered as the knobs say.
+    let expected = ShadowMapDesc {
+        size: MAP as u32,
+        bias: DepthBias {
+            constant: BIAS_CONSTANT,
+            slope: BIAS_SLOPE,
+            clamp: 0.0,
+        },
+    };
+    assert_eq!(
+        rendered_with,
+        Some(expected),
+        "{technique}: the map's knobs"
+    );
+    assert_eq!(depth.len(), (MAP * MAP) as usize);
     Run {
         frame,
         depth,
@@ -199,19 +231,131 @@ fn check(name: &str, run: &Run, cpu: &PcfOutput, tolerance: f32) {
     );
 }
 
+/// The `pcf-poisson` tables recomputed from their documentation in `penumbra::cpu::pcf_poisson`,
+/// without calling it: Mitchell's best-candidate dart throwing in the unit disk (first point at
+/// the centre; each further point the farthest from those placed out of 10 × (points placed)
+/// candidates, ties to the first), candidates drawn uniformly in [−1, 1)² from SplitMix64 seeded
+/// with the documented seed XOR `taps` (top 53 bits of a draw over 2⁵², minus 1) and rejected
+/// outside the open disk; rotations (cos, sin) of 2πk/256. The twin runs on these, so a wrong
+/// table, scale or tap count anywhere in the GPU path's set-up makes it disagree.
+mod independent_poisson {
+    use glam::Vec2;
+
+    /// The seed documented in `penumbra::cpu::pcf_poisson`.
+    const SEED: u64 = 0x005E_ED0F_D15C;
+
+    fn splitmix64(state: &mut u64) -> u64 {
+        *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = *state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    fn candidate(state: &mut u64) -> (f64, f64) {
+        let signed = |s: &mut u64| (splitmix64(s) >> 11) as f64 / (1u64 << 52) as f64 - 1.0;
+        loop {
+            let (x, y) = (signed(state), signed(state));
+            if x * x + y * y < 1.0 {
+                return (x, y);
+            }
+        }
+    }
+
+    /// The pattern of `taps` points.
+    pub fn disk(taps: usize) -> Vec<Vec2> {
+        let mut state = SEED ^ taps as u64;
+        let mut placed = vec![(0.0f64, 0.0f64)];
+        while placed.len() < taps {
+            let mut best = (0.0, 0.0);
+            let mut best_d2 = -1.0;
+            for _ in 0..10 * placed.len() {
+                let c = candidate(&mut state);
+                let mut d2 = f64::INFINITY;
+                for p in &placed {
+                    let (dx, dy) = (p.0 - c.0, p.1 - c.1);
+                    d2 = d2.min(dx * dx + dy * dy);
+                }
+                if d2 > best_d2 {
+                    (best, best_d2) = (c, d2);
+                }
+            }
+            placed.push(best);
+        }
+        placed
+            .iter()
+            .map(|&(x, y)| Vec2::new(x as f32, y as f32))
+            .collect()
+    }
+
+    /// The 256 unit rotations.
+    pub fn rotations() -> Vec<Vec2> {
+        (0..256)
+            .map(|k| {
+                let (sin, cos) = (f64::from(k) * std::f64::consts::TAU / 256.0).sin_cos();
+                Vec2::new(cos as f32, sin as f32)
+            })
+            .collect()
+    }
+}
+
+/// The set-up `pcf-poisson` uploads (`poisson_disk`, `rotations`) against the independent
+/// generator, bit for bit, and the properties of a Poisson disk checked by plain code here.
+#[test]
+fn poisson_tables_are_poisson_and_match_an_independent_generator() {
+    for taps in [1usize, 2, 8, 16, 32, 64] {
+        let disk = independent_poisson::disk(taps);
+        assert_eq!(poisson_disk(taps), disk, "{taps} taps");
+        assert_eq!(disk.len(), taps);
+        assert_eq!(disk[0], Vec2::ZERO, "the first tap is the plain lookup");
+        assert!(
+            disk.iter().all(|p| p.x * p.x + p.y * p.y < 1.0),
+            "{taps}: outside the disk"
+        );
+        let mut min_d = f32::INFINITY;
+        for i in 0..taps {
+            for j in i + 1..taps {
+                let (dx, dy) = (disk[i].x - disk[j].x, disk[i].y - disk[j].y);
+                min_d = min_d.min((dx * dx + dy * dy).sqrt());
+            }
+        }
+        // Hexagonal packing spaces n points in the unit disk ~1.9/√n apart; best candidate gets
+        // a good fraction of that (white noise would not), and fills the disk.
+        if taps > 1 {
+            assert!(min_d > 0.7 * 1.9 / (taps as f32).sqrt(), "{taps}: {min_d}");
+            let reach = disk.iter().map(|p| p.length()).fold(0.0, f32::max);
+            assert!(reach > 0.6, "{taps}: the pattern reaches only {reach}");
+        }
+    }
+    let table = independent_poisson::rotations();
+    assert_eq!(rotations(), table);
+    for (k, r) in table.iter().enumerate() {
+        assert!((r.length() - 1.0).abs() < 1e-6, "rotation {k}: {r}");
+        // Each entry is the previous one turned by 2π/256.
+        let next = table[(k + 1) % table.len()];
+        let step = (r.x * next.x + r.y * next.y).clamp(-1.0, 1.0).acos();
+        assert!(
+            (step - std::f32::consts::TAU / 256.0).abs() < 1e-4,
+            "step {k}: {step}"
+        );
+    }
+}
+
 #[test]
 fn poisson_matches_cpu() {
     let engine = common::engine();
     let prepared = engine
         .prepare(&common::small("plane-boxes"))
         .expect("prepare");
-    let disk = poisson_disk(16);
-    let table = rotations();
+    let (taps, radius) = (16usize, 2.5f32);
+    let disk = independent_poisson::disk(taps);
+    let table = independent_poisson::rotations();
     let kernel = PoissonKernel {
         disk: &disk,
         rotations: &table,
-        radius: 2.5,
+        radius,
     };
+    let (taps, radius) = (taps.to_string(), radius.to_string());
     for rpb in [false, true] {
         let flag = if rpb { "1" } else { "0" };
         let r = run(
@@ -219,8 +363,8 @@ fn poisson_matches_cpu() {
             &prepared,
             "pcf-poisson",
             &[
-                ("taps", "16"),
-                ("radius", "2.5"),
+                ("taps", &taps),
+                ("radius", &radius),
                 ("receiver_plane_bias", flag),
             ],
         );
@@ -263,13 +407,17 @@ fn pcf_receiver_plane_matches_cpu() {
     let prepared = engine
         .prepare(&common::small("plane-boxes"))
         .expect("prepare");
+    let kernel = 5;
     let r = run(
         &engine,
         &prepared,
         "pcf",
-        &[("kernel", "5"), ("receiver_plane_bias", "1")],
+        &[
+            ("kernel", &kernel.to_string()),
+            ("receiver_plane_bias", "1"),
+        ],
     );
-    let cpu = pcf_with_plane(&r.view(), &r.map(), r.light_view_proj, 1, 5, true);
+    let cpu = pcf_with_plane(&r.view(), &r.map(), r.light_view_proj, 1, kernel, true);
     check("pcf-rpb1", &r, &cpu, TOLERANCE);
     // Box edges and depth discontinuities leave some pixels without a plane, but few.
     let fallback = r.frame.stats.counters["plane_fallback"];
@@ -524,8 +672,8 @@ fn twins_are_non_increasing_in_receiver_depth() {
         .expect("prepare");
     let r = run(&engine, &prepared, "pcf-coverage", &[]);
     let (view, map) = (r.view(), r.map());
-    let disk = poisson_disk(16);
-    let table = rotations();
+    let disk = independent_poisson::disk(16);
+    let table = independent_poisson::rotations();
     let kernel = PoissonKernel {
         disk: &disk,
         rotations: &table,

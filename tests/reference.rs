@@ -6,9 +6,9 @@ mod common;
 
 use std::collections::BTreeMap;
 
-use glam::{Mat4, Vec3, Vec4};
-use penumbra::cpu::ray_cast::{self, RayCastInput, RayCastOutput};
-use penumbra::reference::{push_constants, Settings};
+use glam::{IVec2, Mat4, Vec3, Vec4};
+use penumbra::cpu::ray_cast::{self, Knobs, RayCastInput, RayCastOutput, Setup};
+use penumbra::reference::{push_constants, ReferencePush, Settings};
 use penumbra::scene::{shapes, Camera, Light, Mesh, Scene, SceneDefaults};
 use penumbra::{Engine, Frame, PreparedScene};
 
@@ -27,24 +27,25 @@ fn render(engine: &Engine, prepared: &PreparedScene, technique: &str, samples: u
     frame
 }
 
-/// The CPU twin on the GPU's own view samples.
+/// The CPU twin on the GPU's own view samples, its light and knobs read from the scene and the
+/// knob values the render was given (jitter on, the default ray offset 2⁻¹⁶), not from the
+/// reference's push constants.
 fn twin(engine: &Engine, prepared: &PreparedScene, samples: u32, single: bool) -> RayCastOutput {
     let (positions, normals) = samples_of(engine, prepared);
     let triangles = ray_cast::triangles(&prepared.positions, &prepared.indices);
-    let settings = Settings {
+    let knobs = Knobs {
         samples,
         jitter: true,
         ray_offset: 1.0 / 65536.0,
         single_layer: single,
     };
     let size = [prepared.view.width, prepared.view.height];
-    let (light, n) = (&prepared.light, triangles.len());
-    let push = push_constants(light, &prepared.positions, n, size, &settings).expect("push");
+    let setup = Setup::new(&prepared.light, &prepared.positions, size, &knobs).expect("light");
     ray_cast::ray_cast(&RayCastInput {
         positions: &positions,
         normals: &normals,
         triangles: &triangles,
-        push: &push,
+        setup: &setup,
     })
 }
 
@@ -591,6 +592,202 @@ fn single_layer_drops_occluders_hidden_from_the_light_centre() {
         "hidden occluders still count: {brighter} brighter samples"
     );
     assert!(single.stats.counters["centre_rays"] > 0);
+    drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}
+
+/// `reference::push_constants`, the GPU path's set-up (which the twin no longer shares), against
+/// values worked out by hand. Kinds are the shader's literals: 0 point, 1 rect, 2 directional.
+#[test]
+fn push_constants_match_hand_computed_values() {
+    // R = 8 (the largest absolute coordinate): δ = 2⁻¹⁶·8 = 2⁻¹³, sun rays' extent 4R + 1 = 33.
+    let positions = [
+        Vec3::new(-4.0, 0.0, 2.0),
+        Vec3::new(1.0, 8.0, 0.0),
+        Vec3::new(0.5, -3.0, -6.0),
+    ];
+    let settings = |samples, jitter, single_layer| Settings {
+        samples,
+        jitter,
+        ray_offset: 1.0 / 65536.0,
+        single_layer,
+    };
+    let push = |light: &Light, s: &Settings| {
+        push_constants(light, &positions, 7, [5, 3], s).expect("a valid light")
+    };
+    let rect = Light::Rect {
+        position: Vec3::new(1.0, 4.0, 2.0),
+        u: Vec3::new(2.0, 0.0, 0.0),
+        v: Vec3::new(0.0, 0.0, 1.0),
+    };
+    let expected = ReferencePush {
+        light_position: Vec4::new(1.0, 4.0, 2.0, 1.0),
+        light_u: Vec4::new(2.0, 0.0, 0.0, 0.0),
+        light_v: Vec4::new(0.0, 0.0, 1.0, 0.0),
+        view_size: IVec2::new(5, 3),
+        kind: 1,
+        samples: 8,
+        inv_samples: 0.125,
+        offset: 1.0 / 8192.0,
+        t_far: 33.0,
+        single_layer: 0,
+        jitter: 1,
+        triangle_count: 7,
+        first_cell: 0,
+        cell_count: 64,
+    };
+    assert_eq!(push(&rect, &settings(8, true, false)), expected);
+    let most = push(&rect, &settings(64, true, false));
+    assert_eq!((most.samples, most.inv_samples), (64, 0.015_625));
+    assert_eq!(most.cell_count, 4096);
+
+    // A point light takes one ray whatever N is; the single layer and jitter flags pass through.
+    let point = Light::Point {
+        position: Vec3::new(-1.0, 6.0, 0.5),
+    };
+    let p = push(&point, &settings(8, false, true));
+    let point_expected = ReferencePush {
+        light_position: Vec4::new(-1.0, 6.0, 0.5, 1.0),
+        light_u: Vec4::ZERO,
+        light_v: Vec4::ZERO,
+        kind: 0,
+        samples: 1,
+        inv_samples: 1.0,
+        single_layer: 1,
+        jitter: 0,
+        cell_count: 1,
+        ..expected
+    };
+    assert_eq!(p, point_expected);
+
+    // A 0.5° sun straight down: the shader takes tan(angular radius) = tan(0.25°)
+    // = 0.004363350820701567 (not the diameter, not radians unconverted). Towards the sun
+    // w = (−0, 1, −0); Duff et al.'s basis with sign(−0) = −1 gives e1 = (1, 0, 0) and
+    // e2 = (0, 0, −1).
+    let tan = 0.004_363_350_820_701_567_f64 as f32;
+    let sun = Light::Directional {
+        direction: Vec3::new(0.0, -2.0, 0.0),
+        angular_diameter_deg: 0.5,
+    };
+    let s = push(&sun, &settings(8, true, false));
+    assert_eq!((s.kind, s.samples, s.cell_count), (2, 8, 64));
+    assert_eq!((s.offset, s.t_far), (expected.offset, 33.0));
+    assert_eq!(s.light_position, Vec4::new(0.0, 1.0, 0.0, 1.0));
+    // A few ulps (4.7e-10 each) for the f32 degree conversion and tangent.
+    let near = |a: Vec4, b: Vec4| (a - b).abs().max_element() <= 2e-9;
+    assert!(near(s.light_u, Vec4::new(tan, 0.0, 0.0, 0.0)), "{s:?}");
+    assert!(near(s.light_v, Vec4::new(0.0, 0.0, -tan, 0.0)), "{s:?}");
+
+    // A slanted 2° sun: a right-handed frame (u × v along the sun) of radius tan(1°).
+    let slanted = Light::Directional {
+        direction: Vec3::new(0.3, -1.0, 0.1),
+        angular_diameter_deg: 2.0,
+    };
+    let s = push(&slanted, &settings(4, true, false));
+    let w = -Vec3::new(0.3, -1.0, 0.1).normalize();
+    let (u, v) = (s.light_u.truncate(), s.light_v.truncate());
+    let tan1 = 0.017_455_064_928_217_585_f64 as f32;
+    assert!((s.light_position.truncate() - w).length() < 1e-6);
+    assert!((u.length() - tan1).abs() < 1e-8 && (v.length() - tan1).abs() < 1e-8);
+    assert!(u.dot(w).abs() < 1e-8 && v.dot(w).abs() < 1e-8 && u.dot(v).abs() < 1e-9);
+    assert!((u.cross(v) / (tan1 * tan1) - w).length() < 1e-5);
+
+    // A hard sun: one ray along the direction.
+    let hard = Light::Directional {
+        direction: Vec3::new(0.0, -2.0, 0.0),
+        angular_diameter_deg: 0.0,
+    };
+    let h = push(&hard, &settings(8, true, false));
+    assert_eq!((h.samples, h.cell_count, h.inv_samples), (1, 1, 1.0));
+    assert_eq!((h.light_u, h.light_v), (Vec4::ZERO, Vec4::ZERO));
+    for bad in [
+        (Vec3::ZERO, 0.5),
+        (Vec3::NEG_Y, 180.0),
+        (Vec3::NEG_Y, f32::NAN),
+    ] {
+        let light = Light::Directional {
+            direction: bad.0,
+            angular_diameter_deg: bad.1,
+        };
+        assert!(push_constants(&light, &positions, 7, [5, 3], &settings(8, true, false)).is_err());
+    }
+}
+
+/// The sun's half-angle, checked by geometry alone. A sun overhead of angular radius α
+/// (tan α = r) shines on a receiver at y = 0 past a half-plane occluder x < 0 at height h. The
+/// shader spreads the sun's samples uniformly (area-preserving concentric map) over the disk of
+/// radius r in the plane tangent to the unit sphere at the sun's centre, so a receiver at x sees
+/// the part of that disk with X ≥ t = −x / (h·r): V = (acos t − t·√(1 − t²)) / π — one half on
+/// the edge's shadow line x = 0, a penumbra 2hr wide.
+#[test]
+fn sun_past_a_straight_edge_matches_the_closed_form() {
+    let (h, diameter) = (2.0f64, 20.0f32);
+    let r = (f64::from(diameter) / 2.0).to_radians().tan();
+    let exact = |x: f64| {
+        let t = (-x / (h * r)).clamp(-1.0, 1.0);
+        (t.acos() - t * (1.0 - t * t).sqrt()) / std::f64::consts::PI
+    };
+    let s = scene(
+        "sun-edge",
+        vec![
+            mesh("receiver", shapes::plane(20.0, 20.0, 1), Mat4::IDENTITY),
+            // 10 × 10 at x ∈ [−10, 0]: its edge is the line x = 0, y = h.
+            mesh(
+                "occluder",
+                shapes::plane(10.0, 10.0, 1),
+                at(-5.0, h as f32, 0.0),
+            ),
+        ],
+        // Between receiver and occluder, looking down at the penumbra (|x| ≤ hr ≈ 0.35).
+        camera([0.0, 1.0, 0.0], [0.0; 3], Vec3::Z, 60.0),
+        Light::Directional {
+            direction: Vec3::NEG_Y,
+            angular_diameter_deg: diameter,
+        },
+    );
+    let engine = common::engine();
+    let prepared = engine.prepare(&s).expect("prepare");
+    let (positions, _) = samples_of(&engine, &prepared);
+    let n = 8u32;
+    let frame = render(&engine, &prepared, "reference", n);
+    let (mut worst, mut sum_err, mut count) = (0.0f64, 0.0f64, 0);
+    let (mut line_sum, mut line_count) = (0.0f64, 0);
+    for (p, &v) in positions.iter().zip(&frame.visibility) {
+        if p.w <= 0.0 {
+            continue;
+        }
+        let (x, v) = (f64::from(p.x), f64::from(v));
+        let e = exact(x);
+        worst = worst.max((v - e).abs());
+        if e > 0.0 && e < 1.0 {
+            sum_err += (v - e).abs();
+            count += 1;
+        }
+        if x.abs() < 0.01 {
+            line_sum += v;
+            line_count += 1;
+        }
+    }
+    let (mean, on_line) = (sum_err / f64::from(count), line_sum / f64::from(line_count));
+    eprintln!(
+        "sun edge: max |V − exact| {worst}, mean {mean} over {count}; V on the line {on_line} \
+         over {line_count}"
+    );
+    assert!(count > 2000, "too few penumbra samples: {count}");
+    assert!(line_count > 50, "too few samples on the shadow line");
+    // Jittered strata: the chord through the disk crosses about N of the N² cells, each off by
+    // up to 1/N² (measured at N = 8: max 0.067, mean 0.014, 0.499 on the line). A sun of the
+    // full angle as its radius would double the penumbra (errors near 0.2).
+    let nf = f64::from(n);
+    assert!(worst <= 1.0 / nf, "max error {worst} > 1/N");
+    assert!(
+        mean < 0.3 / nf,
+        "mean error {mean}: jitter does not average"
+    );
+    assert!(
+        (on_line - 0.5).abs() < 0.02,
+        "V on the shadow line {on_line}"
+    );
     drop(prepared);
     common::assert_clean(&engine.context().validation());
 }

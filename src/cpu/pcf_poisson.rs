@@ -3,8 +3,12 @@
 //!
 //! The pattern is generated here, deterministically, and uploaded by the technique: Mitchell's
 //! best-candidate dart throwing (each new point is the candidate farthest from those placed, out
-//! of 10·k uniform candidates in the unit disk) from a fixed-seed SplitMix64 stream, with the
-//! first point at the centre so that one tap is the plain bilinear lookup. Best-candidate sets
+//! of 10·k uniform candidates in the unit disk, the first such on a tie) from a SplitMix64 stream
+//! seeded with `0x005E_ED0F_D15C ^ taps`, with the first point at the centre so that one tap is
+//! the plain bilinear lookup. A candidate is a pair of draws mapped to [−1, 1) as (top 53 bits) /
+//! 2⁵² − 1, rejected unless strictly inside the unit disk; points are kept in `f64` and rounded
+//! to `f32` at the end. This description is complete enough to regenerate the pattern
+//! elsewhere: `tests/pcf_family.rs` does, and runs the GPU's twin on its own tables. Best-candidate sets
 //! are progressive, but each `taps` count gets its own set so that every size is as even as
 //! possible. The per-pixel rotation is an entry of a table of [`ROTATIONS`] evenly spaced unit
 //! vectors picked by an integer hash of the pixel (Isidoro06 tiles a small random-rotation

@@ -14,6 +14,15 @@
 //! mapping uses `sin`/`cos`, which the GPU evaluates to within a few ulps only) and the single
 //! layer's hit point (a division and a square root).
 //!
+//! **Inputs.** The twin never reads the shader's push constants: [`Setup::new`] derives
+//! everything it needs — the light's kind, centre and edges, the sun's frame and tan(angular
+//! radius), samples per side, the jitter flag, the ray offset δ and the sun rays' extent — from
+//! the scene's [`Light`], its positions and the resolved knobs, with its own plain code. A bug in
+//! `reference::push_constants` therefore shows up as a GPU/twin mismatch, and that builder has
+//! its own test against hand-computed values. Point and rect lights copy the scene's vectors, so
+//! they are bit-identical to the shader's; the sun's frame and tan are computed in `f64` and
+//! rounded, within an ulp of the `f32` push constants, far inside the tie band below.
+//!
 //! Tolerance against the GPU: a pixel with no tie ray matches exactly (hard and soft, up to the
 //! division `visible / N²`, 1e-6); a pixel with `k` tie rays may differ by at most `k / N²`.
 //! Counters: `view_samples` exact; `lit`/`umbra`/`penumbra` and `rays` may move by the pixels with
@@ -22,7 +31,7 @@
 
 use glam::{Vec3, Vec4};
 
-use crate::reference::{ReferencePush, KIND_DIRECTIONAL, KIND_POINT, KIND_RECT};
+use crate::scene::Light;
 
 /// Relative distance under which a ray's outcome is a rounding tie, not a bug: 2⁻²⁰ ≈ 8 ulps,
 /// well above the few ulps by which a GPU's `sin`/`cos`, division or square root may differ,
@@ -39,6 +48,142 @@ pub const COUNTER_NAMES: [&str; 6] = [
     "rays",
     "centre_rays",
 ];
+
+/// Which kind of light sample the twin draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightKind {
+    /// One ray to a position.
+    Point,
+    /// N×N stratified points on a rectangle.
+    Rect,
+    /// Directions: N×N strata of the sun's disk, or one ray for a hard sun.
+    Sun,
+}
+
+/// The reference's knobs, resolved (the twin takes plain values, not `Params`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Knobs {
+    /// Light samples per side N.
+    pub samples: u32,
+    /// Hashed jitter in each cell (`false`: cell centres).
+    pub jitter: bool,
+    /// Ray offset as a fraction of the scene's largest absolute coordinate.
+    pub ray_offset: f32,
+    /// Single-layer variant.
+    pub single_layer: bool,
+}
+
+/// Everything the twin derives from the scene and the knobs before casting a ray: its own
+/// reading of the light, computed without the GPU path's push-constant builder.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Setup {
+    /// Point, rect or sun.
+    pub kind: LightKind,
+    /// Point/rect: the light's centre. Sun: the unit vector towards the sun.
+    pub centre: [f32; 3],
+    /// Rect: the first full edge. Soft sun: tan(angular radius) × the first unit vector of the
+    /// frame around `centre`. Zero for a point light or a hard sun.
+    pub u: [f32; 3],
+    /// Rect: the second full edge. Soft sun: tan(angular radius) × the frame's second vector.
+    pub v: [f32; 3],
+    /// Samples per side (1 for a point light or a hard sun).
+    pub samples: u32,
+    /// 1 / `samples`, rounded once, as the shader multiplies by it.
+    pub inv_samples: f32,
+    /// Hashed jitter.
+    pub jitter: bool,
+    /// Ray-origin offset δ in world units.
+    pub offset: f32,
+    /// Ray extent along a sun direction: longer than any segment in the scene.
+    pub t_far: f32,
+    /// Single-layer variant.
+    pub single_layer: bool,
+    /// View-sample image width and height.
+    pub view_size: [u32; 2],
+}
+
+impl Setup {
+    /// Reads `light` and the knobs; `positions` are the scene's vertices (for δ and the sun
+    /// rays' extent). `None` for a light the reference rejects (a sun with no direction, or an
+    /// angular diameter outside [0, 180)).
+    pub fn new(
+        light: &Light,
+        positions: &[Vec3],
+        view_size: [u32; 2],
+        knobs: &Knobs,
+    ) -> Option<Setup> {
+        let n = knobs.samples.max(1);
+        let zero = [0.0; 3];
+        let (kind, samples, centre, u, v) = match *light {
+            Light::Point { position } => (LightKind::Point, 1, position.to_array(), zero, zero),
+            Light::Rect { position, u, v } => (
+                LightKind::Rect,
+                n,
+                position.to_array(),
+                u.to_array(),
+                v.to_array(),
+            ),
+            Light::Directional {
+                direction,
+                angular_diameter_deg,
+            } => {
+                let (to_sun, e1, e2) = sun_frame(direction)?;
+                if !(0.0..180.0).contains(&angular_diameter_deg) {
+                    return None;
+                }
+                if angular_diameter_deg == 0.0 {
+                    (LightKind::Sun, 1, to_sun, zero, zero)
+                } else {
+                    // The shader takes the tangent of the angular *radius*: half the diameter.
+                    let radius =
+                        f64::from(angular_diameter_deg) / 2.0 * std::f64::consts::PI / 180.0;
+                    let t = radius.tan();
+                    let scaled = |e: [f64; 3]| e.map(|x| (x * t) as f32);
+                    (LightKind::Sun, n, to_sun, scaled(e1), scaled(e2))
+                }
+            }
+        };
+        // The scene's scale R: its largest absolute coordinate (max of absolute values is exact).
+        let scale = positions
+            .iter()
+            .flat_map(|p| p.to_array())
+            .fold(f32::MIN_POSITIVE, |m, x| m.max(x.abs()));
+        Some(Setup {
+            kind,
+            centre,
+            u,
+            v,
+            samples,
+            inv_samples: 1.0 / samples as f32,
+            jitter: knobs.jitter,
+            offset: knobs.ray_offset * scale,
+            // Any extent beyond the scene's diameter would do; 4R + 1 also covers R ≈ 0.
+            t_far: 4.0 * scale + 1.0,
+            single_layer: knobs.single_layer,
+            view_size,
+        })
+    }
+}
+
+/// The unit vector towards the sun and the frame the sun's disk is laid out in, in `f64`, or
+/// `None` for a zero direction. The frame is Duff et al.'s branchless orthonormal basis
+/// ("Building an orthonormal basis, revisited", JCGT 2017) around `w`, with the sign of `w.z`
+/// read from its sign bit (so −0 counts as negative): the same construction the shader's push
+/// constants use, so both lay the disk's strata out alike.
+fn sun_frame(direction: Vec3) -> Option<([f32; 3], [f64; 3], [f64; 3])> {
+    let d = direction.to_array().map(|x| -f64::from(x));
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    if !(len > 0.0 && len.is_finite()) {
+        return None;
+    }
+    let w = d.map(|x| x / len);
+    let sign = 1f64.copysign(w[2]);
+    let a = -1.0 / (sign + w[2]);
+    let b = w[0] * w[1] * a;
+    let e1 = [1.0 + sign * w[0] * w[0] * a, sign * b, -sign * w[0]];
+    let e2 = [b, sign + w[1] * w[1] * a, -w[1]];
+    Some((w.map(|x| x as f32), e1, e2))
+}
 
 /// One triangle's three vertices.
 pub type Triangle = [[f32; 3]; 3];
@@ -248,12 +393,12 @@ fn sub3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
 
 /// `centre_ray` of the shader, then `occluded`: whether hit point H (weights `w` on `tri`) is
 /// directly visible from the light centre, as `blocked` (H blocks the light-sample ray). H is
-/// offset by `push.offset` along the triangle's normal, on the centre's side, and a ray is cast
+/// offset by `setup.offset` along the triangle's normal, on the centre's side, and a ray is cast
 /// from there to the centre (directional: towards the sun).
 fn visible_from_centre(
     tri: &Triangle,
     w: [f32; 4],
-    push: &ReferencePush,
+    setup: &Setup,
     triangles: &[Triangle],
 ) -> Occlusion {
     let inv = 1.0 / w[3];
@@ -266,19 +411,19 @@ fn visible_from_centre(
         e1[2] * e2[0] - e1[0] * e2[2],
         e1[0] * e2[1] - e1[1] * e2[0],
     ];
-    let centre = push.light_position.truncate().to_array();
-    let directional = push.kind == KIND_DIRECTIONAL;
+    let centre = setup.centre;
+    let directional = setup.kind == LightKind::Sun;
     let to_light = if directional { centre } else { sub3(centre, h) };
     let side = dot3(nt, to_light);
     let len = dot3(nt, nt).sqrt();
     let s = (if side >= 0.0 {
-        push.offset
+        setup.offset
     } else {
-        -push.offset
+        -setup.offset
     }) / len;
     let ho: [f32; 3] = std::array::from_fn(|k| h[k] + nt[k] * s);
     let (dir, tmax) = if directional {
-        (centre, push.t_far)
+        (centre, setup.t_far)
     } else {
         (sub3(centre, ho), 1.0)
     };
@@ -291,11 +436,7 @@ fn visible_from_centre(
 
 /// The single-layer test of one light-sample ray: blocked iff some hit H along it is directly
 /// visible from the light centre. Also returns the centre rays cast for the shader's hits.
-fn occluded_single_layer(
-    ray: &Ray,
-    push: &ReferencePush,
-    triangles: &[Triangle],
-) -> (Occlusion, u32) {
+fn occluded_single_layer(ray: &Ray, setup: &Setup, triangles: &[Triangle]) -> (Occlusion, u32) {
     let mut blocked = false;
     let mut tie = false;
     let mut centre_rays = 0;
@@ -309,7 +450,7 @@ fn occluded_single_layer(
             continue;
         }
         // `seen.blocked` means "H is visible from the centre": H blocks the light sample.
-        let seen = visible_from_centre(tri, r.weights, push, triangles);
+        let seen = visible_from_centre(tri, r.weights, setup, triangles);
         centre_rays += u32::from(r.hit);
         blocked |= r.hit && seen.blocked;
         if r.class == Class::Hit && seen.blocked && !seen.tie {
@@ -342,9 +483,9 @@ fn unit(h: u32) -> f32 {
 
 /// `cell_point` of the shader: the sample of cell (i, j) in [0, 1)², jittered by a hash of the
 /// pixel's seed and the cell, or the cell centre without jitter.
-pub fn cell_point(push: &ReferencePush, seed: u32, i: u32, j: u32) -> [f32; 2] {
-    let cell = j * push.samples as u32 + i;
-    let jit = if push.jitter != 0 {
+pub fn cell_point(setup: &Setup, seed: u32, i: u32, j: u32) -> [f32; 2] {
+    let cell = j * setup.samples + i;
+    let jit = if setup.jitter {
         [
             unit(pcg(seed.wrapping_add(2 * cell))),
             unit(pcg(seed.wrapping_add(2 * cell + 1))),
@@ -353,8 +494,8 @@ pub fn cell_point(push: &ReferencePush, seed: u32, i: u32, j: u32) -> [f32; 2] {
         [0.5, 0.5]
     };
     [
-        (i as f32 + jit[0]) * push.inv_samples,
-        (j as f32 + jit[1]) * push.inv_samples,
+        (i as f32 + jit[0]) * setup.inv_samples,
+        (j as f32 + jit[1]) * setup.inv_samples,
     ]
 }
 
@@ -394,54 +535,50 @@ pub struct RayCastInput<'a> {
     pub normals: &'a [Vec4],
     /// Every triangle (original order).
     pub triangles: &'a [Triangle],
-    /// The shader's push constants.
-    pub push: &'a ReferencePush,
+    /// The light and knobs as the twin reads them ([`Setup::new`]).
+    pub setup: &'a Setup,
 }
 
 /// Shades pixel `index`; `None` for background.
 pub fn shade(input: &RayCastInput<'_>, index: usize) -> Option<Shaded> {
-    let push = input.push;
+    let setup = input.setup;
     let p4 = *input.positions.get(index)?;
     if p4.w <= 0.0 {
         return None;
     }
     let p = p4.truncate().to_array();
     let n = input.normals.get(index)?.truncate().to_array();
-    let o: [f32; 3] = std::array::from_fn(|k| p[k] + n[k] * push.offset);
-    let side = push.samples.max(1) as u32;
+    let o: [f32; 3] = std::array::from_fn(|k| p[k] + n[k] * setup.offset);
+    let side = setup.samples.max(1);
     let total = side * side;
     let seed = pcg(index as u32);
-    let c = push.light_position.truncate().to_array();
-    let (u, v) = (
-        push.light_u.truncate().to_array(),
-        push.light_v.truncate().to_array(),
-    );
+    let (c, u, v) = (setup.centre, setup.u, setup.v);
     let mut out = Shaded::default();
     let mut visible = 0;
     for j in 0..side {
         for i in 0..side {
-            let x = cell_point(push, seed, i, j);
-            let (dir, tmax, to_light) = match push.kind {
-                KIND_POINT => (sub3(c, o), 1.0, sub3(c, p)),
-                KIND_RECT => {
+            let x = cell_point(setup, seed, i, j);
+            let (dir, tmax, to_light) = match setup.kind {
+                LightKind::Point => (sub3(c, o), 1.0, sub3(c, p)),
+                LightKind::Rect => {
                     let (sx, sy) = (x[0] - 0.5, x[1] - 0.5);
                     let s: [f32; 3] = std::array::from_fn(|k| c[k] + u[k] * sx + v[k] * sy);
                     (sub3(s, o), 1.0, sub3(s, p))
                 }
-                _ => {
+                LightKind::Sun => {
                     let disk = concentric(x);
                     let d: [f32; 3] =
                         std::array::from_fn(|k| c[k] + u[k] * disk[0] + v[k] * disk[1]);
-                    (d, push.t_far, d)
+                    (d, setup.t_far, d)
                 }
             };
             let facing = dot3(n, to_light);
             let mut tie = facing.abs() <= dot3_bound(n, to_light);
-            if facing > 0.0 && push.triangle_count > 0 {
+            if facing > 0.0 && !input.triangles.is_empty() {
                 out.rays += 1;
                 let ray = Ray::new(o, dir, tmax);
-                let r = if push.single_layer != 0 {
-                    let (r, centre_rays) = occluded_single_layer(&ray, push, input.triangles);
+                let r = if setup.single_layer {
+                    let (r, centre_rays) = occluded_single_layer(&ray, setup, input.triangles);
                     out.centre_rays += centre_rays;
                     r
                 } else {
@@ -477,7 +614,8 @@ pub struct RayCastOutput {
 
 /// Runs the shader's computation for every pixel.
 pub fn ray_cast(input: &RayCastInput<'_>) -> RayCastOutput {
-    let n = (input.push.view_size.x.max(0) * input.push.view_size.y.max(0)) as usize;
+    let [width, height] = input.setup.view_size;
+    let n = width as usize * height as usize;
     let mut out = RayCastOutput {
         visibility: vec![1.0; n],
         ties: vec![0; n],
@@ -558,19 +696,28 @@ mod tests {
 
     #[test]
     fn sample_pattern_is_stratified_and_disk_is_inside() {
-        let mut push: ReferencePush = bytemuck::Zeroable::zeroed();
-        push.samples = 4;
-        push.inv_samples = 0.25;
-        push.jitter = 1;
+        let light = Light::Rect {
+            position: Vec3::ZERO,
+            u: Vec3::X,
+            v: Vec3::Z,
+        };
+        let knobs = Knobs {
+            samples: 4,
+            jitter: true,
+            ray_offset: 0.0,
+            single_layer: false,
+        };
+        let mut setup = Setup::new(&light, &[Vec3::ONE], [1, 1], &knobs).expect("setup");
+        assert_eq!(setup.inv_samples, 0.25);
         for j in 0..4 {
             for i in 0..4 {
-                let x = cell_point(&push, pcg(17), i, j);
+                let x = cell_point(&setup, pcg(17), i, j);
                 assert!((x[0] * 4.0).floor() as u32 == i && (x[1] * 4.0).floor() as u32 == j);
                 let d = concentric(x);
                 assert!(d[0] * d[0] + d[1] * d[1] <= 1.0 + 1e-6);
             }
         }
-        push.jitter = 0;
-        assert_eq!(cell_point(&push, 5, 1, 2), [0.375, 0.625]);
+        setup.jitter = false;
+        assert_eq!(cell_point(&setup, 5, 1, 2), [0.375, 0.625]);
     }
 }

@@ -202,8 +202,9 @@ impl Settings {
     }
 }
 
-/// The push constants for `light` on a scene with `positions` and `triangle_count` triangles:
-/// shared by the technique and the tests that run the CPU twin.
+/// The push constants for `light` on a scene with `positions` and `triangle_count` triangles.
+/// The CPU twin does not use them (it reads the light itself, [`crate::cpu::ray_cast::Setup`]);
+/// `tests/reference.rs` checks them against hand-computed values.
 pub fn push_constants(
     light: &Light,
     positions: &[Vec3],

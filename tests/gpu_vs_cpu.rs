@@ -111,6 +111,12 @@ fn compare(technique: &str, mode: i32, kernel: i32, map_size: u32, tolerance: f3
     let ties = cpu.tie.iter().filter(|&&t| t).count() as u64;
     assert_eq!(frame.stats.counters["view_samples"], cpu.counters[0]);
     assert_eq!(frame.stats.counters["outside_light"], cpu.counters[1]);
+    common::assert_counters_describe_image(
+        technique,
+        &frame.stats.counters,
+        &frame.visibility,
+        &positions,
+    );
     for (k, name) in COUNTER_NAMES.iter().enumerate().skip(2) {
         let gpu = frame.stats.counters[*name];
         assert!(

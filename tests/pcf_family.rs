@@ -217,6 +217,12 @@ fn check(name: &str, run: &Run, cpu: &PcfOutput, tolerance: f32) {
     }
     assert_eq!(gpu.stats.counters["view_samples"], cpu.counters[0]);
     assert_eq!(gpu.stats.counters["outside_light"], cpu.counters[1]);
+    common::assert_counters_describe_image(
+        name,
+        &gpu.stats.counters,
+        &gpu.visibility,
+        &run.positions,
+    );
     for (k, counter) in COUNTER_NAMES.iter().enumerate().skip(2) {
         let g = gpu.stats.counters[*counter];
         assert!(

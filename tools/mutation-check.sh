@@ -6,7 +6,7 @@
 # work is safe). Slow — one incremental build per mutation, ~1 min each on 2 cores — so CI does
 # not run it; the README says when it was last run and with what result.
 #
-#   bash tools/mutation-check.sh [FILTER]     # FILTER: only mutations whose name contains it
+#   bash tools/mutation-check.sh [FILTER]...   # only mutations whose name contains a FILTER
 set -uo pipefail
 cd "$(dirname "$0")/.."
 export PATH="$HOME/.cargo/bin:$PATH"
@@ -25,15 +25,25 @@ mutations=(
   "msm: depth bias sign flipped|src/techniques/filtered/msm.rs|s/params.f32\(\"depth_bias\"\)\?/-params.f32(\"depth_bias\")?/|filtered"
   "savsm: perspective flag inverted|src/techniques/savsm.rs|s/LightProjection::Perspective \{ .. \}\) as i32/LightProjection::Orthographic { .. }) as i32/|savsm"
   "savsm: box one texel wider|src/techniques/savsm.rs|s/kernel: params.f32\(\"kernel\"\)\?,/kernel: params.f32(\"kernel\")? + 1.0,/|savsm"
+  "reference: sun radius from the full diameter|src/reference/mod.rs|s/\(0.5 \* angular_diameter_deg\)/(angular_diameter_deg)/|reference"
+  "reference: ray offset doubled|src/reference/mod.rs|s/offset: settings.ray_offset \* scale,/offset: 2.0 * settings.ray_offset * scale,/|reference"
+  "average-maps: rect samples mirrored in v|src/passes/light_view.rs|s/v \* \(b - 0.5\)/v * (0.5 - b)/|gpu_vs_cpu"
+  "pcf: kernel one wider|src/techniques/pcf.rs|s/let kernel = params.u32\(\"kernel\"\)\? as i32;/let kernel = params.u32(\"kernel\")? as i32 + 1;/|gpu_vs_cpu"
+  "pcf-coverage: kernel floored at 1|src/techniques/pcf_coverage.rs|s/let kernel = params.f32\(\"kernel\"\)\?;/let kernel = params.f32(\"kernel\")?.max(1.0);/|pcf_family"
+  "pcf-poisson: taps one fewer|src/techniques/pcf_poisson.rs|s/taps: disk_points.len\(\) as i32,/taps: disk_points.len() as i32 - 1,/|pcf_family"
+  "shadow maps: constant and slope bias swapped|src/techniques/pcf.rs|s/constant: params.f32\(\"bias_constant\"\)\?,\n(\s*)slope: params.f32\(\"bias_slope\"\)\?,/constant: params.f32(\"bias_slope\")?,\n$1slope: params.f32(\"bias_constant\")?,/|gpu_vs_cpu"
 )
 
-filter="${1:-}"
 backup="$(mktemp -d)"
 missed=0
 printf '| mutation | caught by |\n|---|---|\n'
 for m in "${mutations[@]}"; do
   IFS='|' read -r name file expr test <<<"$m"
-  [[ -n "$filter" && "$name" != *"$filter"* ]] && continue
+  if [ $# -gt 0 ]; then
+    wanted=0
+    for f in "$@"; do [[ "$name" == *"$f"* ]] && wanted=1; done
+    [ "$wanted" -eq 1 ] || continue
+  fi
   cp "$file" "$backup/file"
   perl -0pi -e "$expr" "$file"
   if cmp -s "$file" "$backup/file"; then

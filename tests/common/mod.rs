@@ -118,6 +118,24 @@ pub fn class_counts(visibility: &[f32], positions: &[glam::Vec4]) -> [u64; 3] {
     counts
 }
 
+/// Asserts a frame's `lit`/`umbra`/`penumbra` counters equal the classes of its own visibility
+/// image over the view samples (the shader counts what it writes); returns those classes.
+pub fn assert_counters_describe_image(
+    what: &str,
+    counters: &std::collections::BTreeMap<String, u64>,
+    visibility: &[f32],
+    positions: &[glam::Vec4],
+) -> [u64; 3] {
+    let own = class_counts(visibility, positions);
+    for (k, name) in ["lit", "umbra", "penumbra"].iter().enumerate() {
+        assert_eq!(
+            counters[*name], own[k],
+            "{what}: counter {name} disagrees with the GPU's own image"
+        );
+    }
+    own
+}
+
 /// Checks a GPU frame's `lit`/`umbra`/`penumbra` counters two ways that can each fail: exactly
 /// against the classes of the GPU's own visibility image (the counters describe that image), and
 /// against the CPU twin's counters `cpu` within `max_flip_fraction` of the view samples — a
@@ -131,14 +149,10 @@ pub fn check_class_counters(
     cpu: [u64; 3],
     max_flip_fraction: f64,
 ) {
-    let own = class_counts(gpu_visibility, positions);
+    let own = assert_counters_describe_image(what, counters, gpu_visibility, positions);
     let samples: u64 = own.iter().sum();
     let cap = (max_flip_fraction * samples as f64).ceil() as u64;
     for (k, name) in ["lit", "umbra", "penumbra"].iter().enumerate() {
-        assert_eq!(
-            counters[*name], own[k],
-            "{what}: counter {name} disagrees with the GPU's own image"
-        );
         assert!(
             counters[*name].abs_diff(cpu[k]) <= cap,
             "{what}: {name} GPU {} vs CPU {} (at most {cap} samples may change class)",

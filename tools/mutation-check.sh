@@ -31,7 +31,7 @@ mutations=(
   "pcf: kernel one wider|src/techniques/pcf.rs|s/let kernel = params.u32\(\"kernel\"\)\? as i32;/let kernel = params.u32(\"kernel\")? as i32 + 1;/|gpu_vs_cpu"
   "pcf-coverage: kernel floored at 1|src/techniques/pcf_coverage.rs|s/let kernel = params.f32\(\"kernel\"\)\?;/let kernel = params.f32(\"kernel\")?.max(1.0);/|pcf_family"
   "pcf-poisson: taps one fewer|src/techniques/pcf_poisson.rs|s/taps: disk_points.len\(\) as i32,/taps: disk_points.len() as i32 - 1,/|pcf_family"
-  "shadow maps: constant and slope bias swapped|src/techniques/pcf.rs|s/constant: params.f32\(\"bias_constant\"\)\?,\n(\s*)slope: params.f32\(\"bias_slope\"\)\?,/constant: params.f32(\"bias_slope\")?,\n$1slope: params.f32(\"bias_constant\")?,/|gpu_vs_cpu"
+  "shadow maps: constant and slope bias swapped|src/techniques/pcf.rs|s/constant: params.f32\(\"bias_constant\"\)\?,\n(\s*)slope: params.f32\(\"bias_slope\"\)\?,/constant: params.f32(\"bias_slope\")?,\n\$1slope: params.f32(\"bias_constant\")?,/|gpu_vs_cpu"
 )
 
 backup="$(mktemp -d)"

@@ -255,15 +255,22 @@ fn find_queue_family(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Option
     })
 }
 
-fn device_extensions(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Vec<CString> {
-    unsafe { instance.enumerate_device_extension_properties(pd) }
-        .unwrap_or_default()
+/// The device's extension names. A failed enumeration is an error: treating it as "no
+/// extensions" would silently report conservative rasterization, interlock and ray query as
+/// absent.
+fn device_extensions(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<Vec<CString>> {
+    let props = unsafe { instance.enumerate_device_extension_properties(pd) }
+        .vk("vkEnumerateDeviceExtensionProperties")?;
+    Ok(props
         .iter()
+        // A name without a terminating NUL breaks the spec and cannot be compared with the names
+        // penumbra asks for; skipping it can only make an extension look absent, which makes
+        // passes refuse to run (an error), never claim a feature the device lacks.
         .filter_map(|e| e.extension_name_as_c_str().ok().map(CStr::to_owned))
-        .collect()
+        .collect())
 }
 
-fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceInfo {
+fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<DeviceInfo> {
     let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
     let mut driver = vk::PhysicalDeviceDriverProperties::default();
     let mut props2 = vk::PhysicalDeviceProperties2::default()
@@ -278,7 +285,7 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceInfo {
         .push_next(&mut f13);
     unsafe { instance.get_physical_device_features2(pd, &mut features2) };
     let features = features2.features;
-    let exts = device_extensions(instance, pd);
+    let exts = device_extensions(instance, pd)?;
     let has_ext = |name: &CStr| exts.iter().any(|e| e.as_c_str() == name);
     let depth_props =
         unsafe { instance.get_physical_device_format_properties(pd, vk::Format::D32_SFLOAT) };
@@ -305,7 +312,7 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceInfo {
             .to_string_lossy()
             .into_owned()
     };
-    DeviceInfo {
+    Ok(DeviceInfo {
         name: text(&props.device_name),
         device_type: device_type_name(props.device_type).into(),
         api_version: format!(
@@ -344,7 +351,7 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceInfo {
         max_image_dimension_2d: props.limits.max_image_dimension2_d,
         sub_pixel_precision_bits: props.limits.sub_pixel_precision_bits,
         usable,
-    }
+    })
 }
 
 /// Lists every Vulkan device with what penumbra knows about it (creates a throwaway instance).
@@ -354,7 +361,7 @@ pub fn enumerate_devices() -> Result<Vec<DeviceInfo>> {
     let (instance, _) = create_instance(&entry, false, &log)?;
     let result = unsafe { instance.enumerate_physical_devices() }
         .vk("vkEnumeratePhysicalDevices")
-        .map(|pds| pds.iter().map(|&pd| query_info(&instance, pd)).collect());
+        .and_then(|pds| pds.iter().map(|&pd| query_info(&instance, pd)).collect());
     unsafe { instance.destroy_instance(None) };
     result
 }
@@ -364,10 +371,10 @@ fn choose_device(
     request: Option<&str>,
 ) -> Result<(vk::PhysicalDevice, DeviceInfo)> {
     let pds = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
-    let infos: Vec<_> = pds
+    let infos = pds
         .iter()
-        .map(|&pd| (pd, query_info(instance, pd)))
-        .collect();
+        .map(|&pd| Ok((pd, query_info(instance, pd)?)))
+        .collect::<Result<Vec<_>>>()?;
     if infos.is_empty() {
         return Err(Error::NoDevice(
             "the loader reports no Vulkan device (install mesa-vulkan-drivers for lavapipe)".into(),
@@ -491,7 +498,7 @@ impl Context {
         device: ash::Device,
         queue_family: u32,
     ) -> Result<Context> {
-        let mut info = query_info(&instance, physical_device);
+        let mut info = query_info(&instance, physical_device)?;
         if let Err(why) = &info.usable {
             return Err(Error::Unsupported {
                 device: info.name.clone(),

@@ -25,7 +25,10 @@ use crate::error::{Error, Result, VkResultExt};
 #[derive(Clone, Debug, Default)]
 pub struct ContextDesc {
     /// Enable `VK_LAYER_KHRONOS_validation` with synchronization validation. Fails with
-    /// [`Error::Unsupported`] if the layer is not installed.
+    /// [`Error::Unsupported`] if the layer or `VK_EXT_debug_utils` (which counts its messages)
+    /// is missing, so a validated context always reports [`ValidationCounts::ran`].
+    ///
+    /// [`ValidationCounts::ran`]: super::ValidationCounts::ran
     pub validation: bool,
     /// Which physical device: an index into the enumeration order, or a case-insensitive
     /// substring of its name. `None` reads `PENUMBRA_DEVICE`, then prefers discrete > integrated
@@ -184,6 +187,14 @@ fn create_instance(
             feature: "VK_LAYER_KHRONOS_validation (install vulkan-validationlayers)".into(),
         });
     }
+    // Without the messenger the layer's messages would reach no counter, and a validated run
+    // would report zero errors that were never counted.
+    if validation && !debug_utils {
+        return Err(Error::Unsupported {
+            device: "Vulkan instance".into(),
+            feature: "VK_EXT_debug_utils, which validation needs to count its messages".into(),
+        });
+    }
     let layers: Vec<*const c_char> = if validation {
         vec![VALIDATION_LAYER.as_ptr()]
     } else {
@@ -211,7 +222,10 @@ fn create_instance(
     let messenger = if validation && debug_utils {
         let loader = ash::ext::debug_utils::Instance::new(entry, &instance);
         match unsafe { loader.create_debug_utils_messenger(&messenger_info(log), None) } {
-            Ok(m) => Some((loader, m)),
+            Ok(m) => {
+                log.mark_ran();
+                Some((loader, m))
+            }
             Err(result) => {
                 unsafe { instance.destroy_instance(None) };
                 return Err(Error::Vulkan {
@@ -485,7 +499,8 @@ impl Context {
     /// float64/int64 shader variants, 64-bit atomics and depth-bias clamping are reported as
     /// absent (techniques then take their portable paths or say the feature is unsupported), and
     /// debug labels and object names are off (`VK_EXT_debug_utils` may not be enabled).
-    /// Validation messages go to the caller's own messenger.
+    /// Validation messages go to the caller's own messenger, so this context's
+    /// [`Context::validation`] log reports that validation did not run (`ran: false`).
     ///
     /// # Safety
     /// The handles must be valid, from `entry`/`instance`, and outlive the returned context and
@@ -610,8 +625,8 @@ impl Context {
         &self.shared.info
     }
 
-    /// The validation log (errors and warnings seen so far). Keep the `Arc` past the context's
-    /// drop to see what teardown reported.
+    /// The validation log (errors and warnings seen so far, and whether validation ran at all).
+    /// Keep the `Arc` past the context's drop to see what teardown reported.
     pub fn validation(&self) -> Arc<ValidationLog> {
         self.shared.log.clone()
     }

@@ -57,6 +57,12 @@ pub struct DeviceInfo {
     pub api_version: String,
     /// Driver name and info, e.g. `llvmpipe: Mesa 22.3.6 (LLVM 15.0.6)`.
     pub driver: String,
+    /// `vendorID` (PCI vendor, or a Khronos vendor id).
+    pub vendor_id: u32,
+    /// `deviceID`.
+    pub device_id: u32,
+    /// `driverVersion`, in the vendor's own encoding.
+    pub driver_version: u32,
     /// Nanoseconds per timestamp tick.
     pub timestamp_period: f32,
     /// Valid bits of timestamps on the chosen queue family (0: no timestamps).
@@ -340,6 +346,9 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<Device
             text(&driver.driver_name),
             text(&driver.driver_info)
         ),
+        vendor_id: props.vendor_id,
+        device_id: props.device_id,
+        driver_version: props.driver_version,
         timestamp_period: props.limits.timestamp_period,
         timestamp_valid_bits: queue.map(|q| q.1).unwrap_or(0),
         float64: features.shader_float64 == vk::TRUE,

@@ -274,7 +274,9 @@ pub enum CacheUse {
 impl Engine {
     /// [`Engine::render`] through the on-disk cache in `cache_dir` for cacheable techniques
     /// (the ray-cast references). The key covers the triangles, camera, light, technique,
-    /// resolved knobs and every embedded shader, so a change to any of them recomputes.
+    /// resolved knobs, every embedded shader, the device and driver, and the host code that
+    /// builds the BVH and sets up rays and view samples (see [`crate::cache`]), so a change to
+    /// any of them recomputes.
     pub fn render_cached(
         &self,
         prepared: &PreparedScene,
@@ -313,6 +315,10 @@ impl Engine {
             h.write_str(name);
             h.write(crate::gpu::shader_spirv(name)?);
         }
+        h.write_environment(
+            &crate::cache::DeviceIdentity::of(self.ctx.info()),
+            crate::cache::host_code_hash(),
+        );
         let key = h.finish();
         let n = (c.width * c.height) as usize;
         if let Some(entry) = crate::cache::load(dir, info.name, key, n)? {

@@ -70,8 +70,13 @@ fn render_writes_every_file_with_clean_stats() {
     }
     assert_eq!(stats["technique"], "pcf");
     assert_eq!(stats["params"]["map_size"], 512.0);
+    assert_eq!(stats["validation"]["ran"], true);
     assert_eq!(stats["validation"]["errors"], 0);
     assert_eq!(stats["validation"]["warnings"], 0);
+    assert!(
+        !dir.join("validation.txt").exists(),
+        "a clean run has no validation messages to write"
+    );
     assert_eq!(stats["nan_count"], 0);
     let passes = stats["passes"].as_array().expect("passes list");
     let names: Vec<_> = passes
@@ -218,4 +223,29 @@ fn bad_input_fails_cleanly() {
     );
     // Nothing half-done: a failed render leaves no output directory behind.
     assert!(!dir.exists(), "a failed render created {}", dir.display());
+}
+
+/// Validation that was asked for but cannot run (here: the loader finds no layer) fails the
+/// command instead of reporting zero errors nobody counted.
+#[test]
+fn render_refuses_when_validation_cannot_run() {
+    let dir = out_dir("no-layer");
+    let o = Command::new(env!("CARGO_BIN_EXE_penumbra"))
+        .args([
+            "render",
+            "scenes/spot-point.toml",
+            "--technique",
+            "pcf",
+            "--out",
+            dir.to_str().expect("utf-8"),
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        // The loader then searches only this (missing) directory for explicit layers.
+        .env("VK_LAYER_PATH", dir.join("no-layers-here"))
+        .output()
+        .expect("run penumbra");
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "expected a refusal, got: {err}");
+    assert!(!err.contains("panicked"), "panicked: {err}");
+    assert!(err.contains("VK_LAYER_KHRONOS_validation"), "{err}");
 }

@@ -248,23 +248,64 @@ fn synthetic_frame(w: u32, h: u32) -> (Vec<f32>, Vec<f32>, Vec<bool>) {
     (r, t, s)
 }
 
+/// Height of the heat map's title band (documented in `heatmap_size`).
+const TITLE_H: u32 = 30;
+
 #[test]
-fn heatmap_png_has_expected_size_and_colours() {
+fn heatmap_pixels_are_the_frame_errors_in_place() {
     for (w, h) in [(400u32, 300u32), (160, 120)] {
         let (r, t, s) = synthetic_frame(w, h);
         let path = out(&format!("heatmap_{w}x{h}.png"));
         write_error_heatmap(&path, w, h, &r, &t, &s).unwrap();
         let img = image::open(&path).unwrap().to_rgb8();
         assert_eq!(img.dimensions(), heatmap_size(w, h));
-        assert!(img.width() > w, "legend area to the right");
 
-        if h >= 300 {
-            // The map sits at the bottom-left: a non-sample (top row) is grey, a far-lit pixel
-            // (no error) is white.
-            let top = img.height() - h;
-            assert_eq!(img.get_pixel(w / 2, top + 2).0, [150, 150, 150]);
-            assert_eq!(img.get_pixel(5, top + h - 5).0, [255, 255, 255]);
+        // Every frame pixel sits at (x, TITLE_H + y) in the colour its error maps to. Column 0
+        // is under the frame drawn around the map.
+        let mut kinds = [0usize; 4]; // grey, black, white, coloured
+        for y in 0..h {
+            for x in 1..w {
+                let i = (y * w + x) as usize;
+                let expected = if !s[i] {
+                    kinds[0] += 1;
+                    [150, 150, 150]
+                } else if !t[i].is_finite() {
+                    kinds[1] += 1;
+                    [0, 0, 0]
+                } else {
+                    let c = diverging_color(t[i] - r[i]);
+                    kinds[if c == [255, 255, 255] { 2 } else { 3 }] += 1;
+                    c
+                };
+                assert_eq!(
+                    img.get_pixel(x, TITLE_H + y).0,
+                    expected,
+                    "{w}x{h}: frame pixel ({x}, {y})"
+                );
+            }
         }
+        // The synthetic frame exercises every kind of pixel, so a blank map cannot pass.
+        assert!(kinds.iter().all(|&n| n > 0), "{kinds:?}");
+
+        // The title band holds text, and the legend right of the map holds the colour bar's
+        // reds and blues.
+        let dark = |p: &image::Rgb<u8>| p.0.iter().all(|&c| c < 100);
+        assert!(
+            (0..TITLE_H - 2).any(|y| (0..w).any(|x| dark(img.get_pixel(x, y)))),
+            "no title text"
+        );
+        let legend = |pred: &dyn Fn([u8; 3]) -> bool| {
+            (TITLE_H..img.height())
+                .any(|y| (w + 1..img.width()).any(|x| pred(img.get_pixel(x, y).0)))
+        };
+        assert!(
+            legend(&|[r, _, b]| r > 150 && b < 100),
+            "no red in the colour bar"
+        );
+        assert!(
+            legend(&|[r, _, b]| b > 150 && r < 100),
+            "no blue in the colour bar"
+        );
     }
 }
 
@@ -277,20 +318,152 @@ fn heatmap_errors_are_reported() {
     assert!(matches!(e, Error::Image { .. }), "{e}");
 }
 
-#[test]
-fn pareto_chart_png_has_expected_size() {
-    let mut points = hand_made_points();
-    for p in &mut points {
-        p.label = format!("knob={}", p.time_ms);
+/// Connected regions (4-neighbour) of pixels of exactly `colour`: (pixel count, centroid).
+fn blobs(img: &image::RgbImage, colour: [u8; 3]) -> Vec<(usize, (f64, f64))> {
+    let (w, h) = img.dimensions();
+    let mut seen = vec![false; (w * h) as usize];
+    let mut found = Vec::new();
+    for start in 0..w * h {
+        let (sx, sy) = (start % w, start / w);
+        if seen[start as usize] || img.get_pixel(sx, sy).0 != colour {
+            continue;
+        }
+        let (mut n, mut cx, mut cy) = (0usize, 0.0, 0.0);
+        let mut stack = vec![(sx, sy)];
+        seen[start as usize] = true;
+        while let Some((x, y)) = stack.pop() {
+            n += 1;
+            cx += f64::from(x);
+            cy += f64::from(y);
+            let neighbours = [
+                (x.wrapping_sub(1), y),
+                (x + 1, y),
+                (x, y.wrapping_sub(1)),
+                (x, y + 1),
+            ];
+            for (nx, ny) in neighbours {
+                if nx < w && ny < h {
+                    let k = (ny * w + nx) as usize;
+                    if !seen[k] && img.get_pixel(nx, ny).0 == colour {
+                        seen[k] = true;
+                        stack.push((nx, ny));
+                    }
+                }
+            }
+        }
+        found.push((n, (cx / n as f64, cy / n as f64)));
     }
+    found
+}
+
+/// The longest straight run of pure black pixels, vertical or horizontal: (the column or row,
+/// first, last). The chart's axes are such runs along the plotting area's left and bottom edges.
+fn longest_black_run(img: &image::RgbImage, vertical: bool) -> (u32, u32, u32) {
+    let (w, h) = img.dimensions();
+    let (lines, len) = if vertical { (w, h) } else { (h, w) };
+    let mut best = (0, 0, 0);
+    for line in 0..lines {
+        let mut first = None;
+        for i in 0..=len {
+            let black = i < len && {
+                let (x, y) = if vertical { (line, i) } else { (i, line) };
+                img.get_pixel(x, y).0 == [0, 0, 0]
+            };
+            match (black, first) {
+                (true, None) => first = Some(i),
+                (false, Some(f)) => {
+                    if i - f > best.2 - best.1 + 1 || best == (0, 0, 0) {
+                        best = (line, f, i - 1);
+                    }
+                    first = None;
+                }
+                _ => {}
+            }
+        }
+    }
+    best
+}
+
+/// The first two colours of the chart's palette (Tableau 10), taken by techniques in order.
+const BLUE: [u8; 3] = [31, 119, 180];
+const ORANGE: [u8; 3] = [255, 127, 14];
+
+#[test]
+fn pareto_chart_draws_each_point_where_its_data_maps() {
+    let points = vec![
+        point("pcf", 1.0, 0.10),
+        point("pcf", 10.0, 0.07),
+        point("pcf", 100.0, 0.01),
+        point("vsm", 30.0, 0.09),
+    ];
     let path = out("pareto.png");
     write_pareto_chart(&path, "penumbra MAE vs GPU time — test scene", &points).unwrap();
-    let img = image::open(&path).unwrap();
-    assert_eq!((img.width(), img.height()), PARETO_CHART_SIZE);
+    let img = image::open(&path).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), PARETO_CHART_SIZE);
 
+    // The plotting area, found from the drawn axes: the y axis along its left edge, the x axis
+    // along its bottom edge.
+    let (y_axis_x, top, y_axis_end) = longest_black_run(&img, true);
+    let (x_axis_y, left, right) = longest_black_run(&img, false);
+    assert!(
+        right - left > 500 && y_axis_end - top > 300,
+        "no axes found"
+    );
+    let bottom = x_axis_y - 1;
+    assert!(left.abs_diff(y_axis_x) <= 1, "axes do not meet");
+    // Where `write_pareto_chart` documents the data to go: x over [t_min / 1.6, t_max × 1.6] on
+    // a log scale, y over [0, 1.12 × the largest error].
+    let (lo, hi, e1) = (1.0 / 1.6, 100.0 * 1.6, 0.10 * 1.12);
+    let expected = |t: f64, e: f64| {
+        let fx = (t / lo).ln() / (hi / lo).ln();
+        (
+            f64::from(left) + fx * f64::from(right - left),
+            f64::from(bottom) - e / e1 * f64::from(bottom - top),
+        )
+    };
+
+    // A filled marker of radius 5 covers some 80 pixels; specks of the colour do not count.
+    let markers = |colour| -> Vec<(f64, f64)> {
+        blobs(&img, colour)
+            .into_iter()
+            .filter(|(n, _)| *n >= 40)
+            .map(|(_, c)| c)
+            .collect()
+    };
+    let pcf = markers(BLUE);
+    let vsm = markers(ORANGE);
+    // One marker per point plus one in the legend.
+    assert_eq!(pcf.len(), 4, "pcf markers: {pcf:?}");
+    assert_eq!(vsm.len(), 2, "vsm markers: {vsm:?}");
+    let near =
+        |m: &(f64, f64), at: (f64, f64)| (m.0 - at.0).abs() <= 3.0 && (m.1 - at.1).abs() <= 3.0;
+    for p in &points {
+        let at = expected(p.time_ms, p.error);
+        let drawn = if p.technique == "pcf" { &pcf } else { &vsm };
+        assert!(
+            drawn.iter().any(|m| near(m, at)),
+            "{} ({} ms, {}) should be drawn at {at:?}; markers at {drawn:?}",
+            p.technique,
+            p.time_ms,
+            p.error
+        );
+    }
+    // The remaining marker is the legend's, with the technique's name written right of it.
+    let (lx, ly) = *pcf
+        .iter()
+        .find(|m| !points.iter().any(|p| near(m, expected(p.time_ms, p.error))))
+        .expect("a legend marker");
+    let text = (ly as u32 - 8..ly as u32 + 8).any(|y| {
+        (lx as u32 + 8..lx as u32 + 60).any(|x| img.get_pixel(x, y).0.iter().all(|&c| c < 120))
+    });
+    assert!(text, "no legend label right of the marker at ({lx}, {ly})");
+
+    // The same checks fail on a chart without points.
     let empty = out("pareto_empty.png");
     write_pareto_chart(&empty, "no points", &[]).unwrap();
-    assert_eq!(image::image_dimensions(&empty).unwrap(), PARETO_CHART_SIZE);
+    let empty = image::open(&empty).unwrap().to_rgb8();
+    assert_eq!(empty.dimensions(), PARETO_CHART_SIZE);
+    assert!(blobs(&empty, BLUE).is_empty() && blobs(&empty, ORANGE).is_empty());
 }
 
 /// A chart with realistic numbers: small errors, several decades of time, long knob labels.
@@ -315,7 +488,25 @@ fn pareto_chart_with_realistic_numbers() {
     }
     let path = out("pareto_realistic.png");
     write_pareto_chart(&path, "penumbra MAE vs GPU time — contact", &points).unwrap();
-    assert_eq!(image::image_dimensions(&path).unwrap(), PARETO_CHART_SIZE);
+    let img = image::open(&path).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), PARETO_CHART_SIZE);
+    // Each of the six techniques has its palette colour (Tableau 10, in order of appearance)
+    // on its points and its legend marker.
+    let palette = [
+        [31, 119, 180],
+        [255, 127, 14],
+        [44, 160, 44],
+        [214, 39, 40],
+        [148, 103, 189],
+        [140, 86, 75],
+    ];
+    for (technique, colour) in ["hard", "pcf", "pcss", "vsm", "esm", "msm"]
+        .iter()
+        .zip(palette)
+    {
+        let markers = blobs(&img, colour).iter().filter(|(n, _)| *n >= 40).count();
+        assert!(markers >= 2, "{technique}: {markers} markers of {colour:?}");
+    }
     let front = pareto_front(&points);
     assert!(!front.is_empty());
     // Along the front, time rises and error falls.

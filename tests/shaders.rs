@@ -1,9 +1,14 @@
 //! The committed SPIR-V is what the GLSL compiles to, valid, and reflects as the Rust side
-//! expects. Recompiling needs the `shader-compiler` feature (Debian's libshaderc); the README's
-//! test command enables it.
+//! expects: every push-constant block matches its `#[repr(C)]` Rust twin member by member
+//! (name, offset, size), as reflected from the SPIR-V. Recompiling needs the `shader-compiler`
+//! feature (Debian's libshaderc); the README's test command enables it.
 
 use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::{IVec2, Mat4};
+use penumbra::gpu::reflect::{compare_push_layout, RustField};
 use penumbra::gpu::{shader_interface, shader_names};
+use penumbra::kernels;
 
 #[cfg(feature = "shader-compiler")]
 #[test]
@@ -75,6 +80,23 @@ fn pcf_interface_reflects_as_declared() {
         ]
     );
     assert_eq!(i.push_constant_size, 96);
+    let members: Vec<_> = i
+        .push_constant_members
+        .iter()
+        .map(|m| (m.name.as_str(), m.offset, m.size))
+        .collect();
+    assert_eq!(
+        members,
+        vec![
+            ("light_view_proj", 0, 64),
+            ("view_size", 64, 8),
+            ("map_size", 72, 8),
+            ("mode", 80, 4),
+            ("kernel", 84, 4),
+            ("receiver_plane", 88, 4),
+            ("pad1", 92, 4),
+        ]
+    );
 }
 
 #[test]
@@ -95,4 +117,355 @@ fn malformed_spirv_is_an_error_not_a_panic() {
     assert!(reflect("x", &[0xdead_beef, 0, 0, 0, 0]).is_err());
     // A truncated instruction: word count runs past the end.
     assert!(reflect("x", &[0x0723_0203, 0x0001_0500, 0, 10, 0, (9 << 16) | 15]).is_err());
+}
+
+/// A Rust push struct's fields, each with `offset_of!` and its size, and the struct's size.
+macro_rules! twin {
+    ($ty:ty { $($field:ident),* $(,)? }) => {{
+        let zero = <$ty as Zeroable>::zeroed();
+        (
+            stringify!($ty),
+            vec![$(RustField {
+                name: stringify!($field),
+                offset: std::mem::offset_of!($ty, $field),
+                size: std::mem::size_of_val(&zero.$field),
+            }),*],
+            std::mem::size_of::<$ty>(),
+        )
+    }};
+}
+
+type Twin = (&'static str, Vec<RustField>, usize);
+
+/// Every shader with a push-constant block and its Rust twin.
+fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
+    use kernels::{compact, minmax, nbuffer, reduce, sat, scan, sort};
+    use penumbra::shader_types::*;
+    use penumbra::techniques::{filtered::FilteredPush, savsm::SavsmPush};
+    vec![
+        (
+            vec!["passes/light_depth.vert"],
+            twin!(LightDepthPush { light_view_proj }),
+        ),
+        (
+            vec!["passes/view_samples.vert", "passes/view_samples.frag"],
+            twin!(ViewSamplesPush {
+                view_proj,
+                eye,
+                forward
+            }),
+        ),
+        (
+            vec!["pcf/pcf.comp"],
+            twin!(PcfPush {
+                light_view_proj,
+                view_size,
+                map_size,
+                mode,
+                kernel,
+                receiver_plane,
+                pad
+            }),
+        ),
+        (
+            vec!["pcf_poisson/pcf_poisson.comp"],
+            twin!(PcfPoissonPush {
+                light_view_proj,
+                view_size,
+                map_size,
+                taps,
+                radius,
+                receiver_plane,
+                pad
+            }),
+        ),
+        (
+            vec!["pcf_coverage/pcf_coverage.comp"],
+            twin!(PcfCoveragePush {
+                light_view_proj,
+                view_size,
+                map_size,
+                kernel,
+                receiver_plane,
+                pad
+            }),
+        ),
+        (
+            vec!["average_maps/accumulate.comp"],
+            twin!(AverageMapsPush {
+                light_view_proj,
+                view_size,
+                map_size,
+                weight,
+                first,
+                pad
+            }),
+        ),
+        (
+            vec!["savsm/moments.comp", "savsm/lookup.comp"],
+            twin!(SavsmPush {
+                light_view_proj,
+                view_size,
+                map_size,
+                rows_per_band,
+                near,
+                far,
+                perspective,
+                kernel,
+                min_variance,
+                bleed_reduction,
+                pad
+            }),
+        ),
+        (
+            vec![
+                "filtered/encode.comp",
+                "filtered/blur.comp",
+                "filtered/reconstruct.comp",
+            ],
+            twin!(FilteredPush {
+                light_view_proj,
+                view_size,
+                map_size,
+                mode,
+                near,
+                far,
+                perspective,
+                radius,
+                box_filter,
+                channel_info,
+                terms,
+                flags,
+                params
+            }),
+        ),
+        (
+            vec!["reference/reference.comp"],
+            twin!(penumbra::reference::ReferencePush {
+                light_position,
+                light_u,
+                light_v,
+                view_size,
+                kind,
+                samples,
+                inv_samples,
+                offset,
+                t_far,
+                single_layer,
+                jitter,
+                triangle_count,
+                first_cell,
+                cell_count
+            }),
+        ),
+        (
+            vec!["kernels/compact_scatter.comp"],
+            twin!(compact::CompactPush { n }),
+        ),
+        (
+            vec!["kernels/minmax_first.comp", "kernels/minmax_next.comp"],
+            twin!(minmax::MinMaxPush { src_size, dst_size }),
+        ),
+        (
+            vec!["kernels/nbuffer_first.comp", "kernels/nbuffer_next.comp"],
+            twin!(nbuffer::NBufferBuildPush { size, step, pad }),
+        ),
+        (
+            vec!["kernels/nbuffer_query.comp"],
+            twin!(nbuffer::NBufferQueryPush {
+                size,
+                max_level,
+                count
+            }),
+        ),
+        (
+            vec![
+                "kernels/reduce_buffer.comp",
+                "kernels/reduce_image.comp",
+                "kernels/reduce_final.comp",
+            ],
+            twin!(reduce::ReducePush {
+                count,
+                chunk,
+                width,
+                pad
+            }),
+        ),
+        (
+            vec![
+                "kernels/sat_rows_f32.comp",
+                "kernels/sat_rows_f64.comp",
+                "kernels/sat_rows_u32.comp",
+                "kernels/sat_rows_u64.comp",
+                "kernels/sat_rows_u32_fixed.comp",
+                "kernels/sat_rows_u64_fixed.comp",
+            ],
+            twin!(sat::SatRowsPush {
+                size,
+                row0,
+                rows,
+                scale,
+                pad
+            }),
+        ),
+        (
+            vec![
+                "kernels/sat_cols_f32.comp",
+                "kernels/sat_cols_f64.comp",
+                "kernels/sat_cols_u32.comp",
+                "kernels/sat_cols_u64.comp",
+            ],
+            twin!(sat::SatColsPush { size, rows, first }),
+        ),
+        (
+            vec![
+                "kernels/sat_query_f32.comp",
+                "kernels/sat_query_f64.comp",
+                "kernels/sat_query_u32.comp",
+                "kernels/sat_query_u64.comp",
+            ],
+            twin!(sat::SatQueryPush {
+                size,
+                rows_per_band,
+                count
+            }),
+        ),
+        (
+            vec!["kernels/sat_row_sums.comp", "kernels/sat_mean.comp"],
+            twin!(sat::SatSizePush { size }),
+        ),
+        (
+            vec![
+                "kernels/scan_block_shared.comp",
+                "kernels/scan_block_subgroup.comp",
+                "kernels/scan_add.comp",
+            ],
+            twin!(scan::ScanPush {
+                n,
+                inclusive,
+                flags,
+                pad
+            }),
+        ),
+        (
+            vec![
+                "kernels/sort_histogram_shared.comp",
+                "kernels/sort_histogram_subgroup.comp",
+                "kernels/sort_scatter_shared.comp",
+                "kernels/sort_scatter_subgroup.comp",
+            ],
+            twin!(sort::SortPush {
+                n,
+                shift,
+                num_blocks,
+                pad
+            }),
+        ),
+    ]
+}
+
+#[test]
+fn every_push_struct_matches_its_reflected_block_member_by_member() {
+    let twins = push_twins();
+    let mut problems = Vec::new();
+    for name in shader_names() {
+        let (_, i) = shader_interface(name).expect("reflect");
+        if i.push_constant_size > 0 && !twins.iter().any(|(s, _)| s.contains(&name)) {
+            problems.push(format!(
+                "{name}: push-constant block without a Rust twin here"
+            ));
+        }
+    }
+    for (shaders, (ty, fields, size)) in &twins {
+        for &shader in shaders {
+            let (_, i) = shader_interface(shader).expect("reflect");
+            assert!(
+                !i.push_constant_members.is_empty(),
+                "{shader} reflects no push-constant members"
+            );
+            for p in compare_push_layout(&i, fields, *size) {
+                problems.push(format!("{shader} vs {ty}: {p}"));
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// `PcfPush` with `mode` and `kernel` swapped: the same offsets by position and the same total
+/// size, so only a comparison by name catches it.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct SwappedPcfPush {
+    light_view_proj: Mat4,
+    view_size: IVec2,
+    map_size: IVec2,
+    kernel: i32,
+    mode: i32,
+    receiver_plane: i32,
+    pad: i32,
+}
+
+/// `PcfPush` without `receiver_plane` (a padding field in its place).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ShortPcfPush {
+    light_view_proj: Mat4,
+    view_size: IVec2,
+    map_size: IVec2,
+    mode: i32,
+    kernel: i32,
+    pad: [i32; 2],
+}
+
+#[test]
+fn the_layout_check_catches_reordered_and_missing_fields() {
+    let (_, pcf) = shader_interface("pcf/pcf.comp").expect("reflect");
+    let (_, fields, size) = twin!(SwappedPcfPush {
+        light_view_proj,
+        view_size,
+        map_size,
+        kernel,
+        mode,
+        receiver_plane,
+        pad
+    });
+    let problems = compare_push_layout(&pcf, &fields, size);
+    assert_eq!(problems.len(), 2, "{problems:?}");
+    assert!(problems[0].contains("'mode': GLSL offset 80 size 4, Rust offset 84"));
+    assert!(problems[1].contains("'kernel': GLSL offset 84 size 4, Rust offset 80"));
+
+    let (_, fields, size) = twin!(ShortPcfPush {
+        light_view_proj,
+        view_size,
+        map_size,
+        mode,
+        kernel,
+        pad
+    });
+    let problems = compare_push_layout(&pcf, &fields, size);
+    assert_eq!(
+        problems,
+        vec!["GLSL member 'receiver_plane' has no Rust field".to_string()]
+    );
+
+    // A field left out of the list is caught by the size sum (Pod structs have no gaps).
+    let (_, mut fields, size) = twin!(SwappedPcfPush {
+        light_view_proj,
+        view_size,
+        map_size,
+        mode,
+        kernel,
+        receiver_plane,
+        pad
+    });
+    fields.pop();
+    let problems = compare_push_layout(&pcf, &fields, size);
+    assert!(
+        problems.iter().any(|p| p.contains("list every field")),
+        "{problems:?}"
+    );
+
+    // Another shader's block is not this struct's twin.
+    let (_, light_depth) = shader_interface("passes/light_depth.vert").expect("reflect");
+    assert!(!compare_push_layout(&light_depth, &fields, size).is_empty());
 }

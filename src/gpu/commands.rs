@@ -479,7 +479,7 @@ impl Context {
             rec.copy_buffer(src, &dst);
             Ok(())
         })?;
-        Ok(dst.mapped().map(<[u8]>::to_vec).unwrap_or_default())
+        mapped_bytes(&self.info().name, &dst.name, dst.mapped())
     }
 
     /// Reads a whole image back to the host, tightly packed.
@@ -493,7 +493,7 @@ impl Context {
             rec.copy_image_to_buffer(src, &dst);
             Ok(())
         })?;
-        Ok(dst.mapped().map(<[u8]>::to_vec).unwrap_or_default())
+        mapped_bytes(&self.info().name, &dst.name, dst.mapped())
     }
 
     /// A host-visible buffer to copy results into.
@@ -506,6 +506,18 @@ impl Context {
             MemoryLocation::GpuToCpu,
         )
     }
+}
+
+/// The bytes of a readback buffer, or an error when its memory is not mapped. An unmapped
+/// readback buffer must not read as "no data": callers would then report counters of 0 and
+/// empty images as if the GPU had produced them.
+fn mapped_bytes(device: &str, buffer: &str, mapped: Option<&[u8]>) -> Result<Vec<u8>> {
+    mapped
+        .map(<[u8]>::to_vec)
+        .ok_or_else(|| Error::Unsupported {
+            device: device.to_string(),
+            feature: format!("host-mapped memory to read back '{buffer}'"),
+        })
 }
 
 /// Reinterprets read-back bytes as `f32`s (copying: the bytes need not be aligned).
@@ -522,4 +534,23 @@ pub fn u32s(bytes: &[u8]) -> Vec<u32> {
         .chunks_exact(4)
         .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unmapped_readback_is_an_error_not_empty_data() {
+        // lavapipe always maps GpuToCpu memory, so the unmapped case is tested on the helper.
+        let e = mapped_bytes("dev", "counters (readback)", None).unwrap_err();
+        assert!(
+            matches!(&e, Error::Unsupported { feature, .. } if feature.contains("counters (readback)")),
+            "{e}"
+        );
+        assert_eq!(
+            mapped_bytes("dev", "x", Some(&[1, 2, 3])).expect("mapped"),
+            vec![1, 2, 3]
+        );
+    }
 }

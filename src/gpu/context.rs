@@ -25,7 +25,10 @@ use crate::error::{Error, Result, VkResultExt};
 #[derive(Clone, Debug, Default)]
 pub struct ContextDesc {
     /// Enable `VK_LAYER_KHRONOS_validation` with synchronization validation. Fails with
-    /// [`Error::Unsupported`] if the layer is not installed.
+    /// [`Error::Unsupported`] if the layer or `VK_EXT_debug_utils` (which counts its messages)
+    /// is missing, so a validated context always reports [`ValidationCounts::ran`].
+    ///
+    /// [`ValidationCounts::ran`]: super::ValidationCounts::ran
     pub validation: bool,
     /// Which physical device: an index into the enumeration order, or a case-insensitive
     /// substring of its name. `None` reads `PENUMBRA_DEVICE`, then prefers discrete > integrated
@@ -54,6 +57,12 @@ pub struct DeviceInfo {
     pub api_version: String,
     /// Driver name and info, e.g. `llvmpipe: Mesa 22.3.6 (LLVM 15.0.6)`.
     pub driver: String,
+    /// `vendorID` (PCI vendor, or a Khronos vendor id).
+    pub vendor_id: u32,
+    /// `deviceID`.
+    pub device_id: u32,
+    /// `driverVersion`, in the vendor's own encoding.
+    pub driver_version: u32,
     /// Nanoseconds per timestamp tick.
     pub timestamp_period: f32,
     /// Valid bits of timestamps on the chosen queue family (0: no timestamps).
@@ -184,6 +193,14 @@ fn create_instance(
             feature: "VK_LAYER_KHRONOS_validation (install vulkan-validationlayers)".into(),
         });
     }
+    // Without the messenger the layer's messages would reach no counter, and a validated run
+    // would report zero errors that were never counted.
+    if validation && !debug_utils {
+        return Err(Error::Unsupported {
+            device: "Vulkan instance".into(),
+            feature: "VK_EXT_debug_utils, which validation needs to count its messages".into(),
+        });
+    }
     let layers: Vec<*const c_char> = if validation {
         vec![VALIDATION_LAYER.as_ptr()]
     } else {
@@ -211,7 +228,10 @@ fn create_instance(
     let messenger = if validation && debug_utils {
         let loader = ash::ext::debug_utils::Instance::new(entry, &instance);
         match unsafe { loader.create_debug_utils_messenger(&messenger_info(log), None) } {
-            Ok(m) => Some((loader, m)),
+            Ok(m) => {
+                log.mark_ran();
+                Some((loader, m))
+            }
             Err(result) => {
                 unsafe { instance.destroy_instance(None) };
                 return Err(Error::Vulkan {
@@ -255,15 +275,22 @@ fn find_queue_family(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Option
     })
 }
 
-fn device_extensions(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Vec<CString> {
-    unsafe { instance.enumerate_device_extension_properties(pd) }
-        .unwrap_or_default()
+/// The device's extension names. A failed enumeration is an error: treating it as "no
+/// extensions" would silently report conservative rasterization, interlock and ray query as
+/// absent.
+fn device_extensions(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<Vec<CString>> {
+    let props = unsafe { instance.enumerate_device_extension_properties(pd) }
+        .vk("vkEnumerateDeviceExtensionProperties")?;
+    Ok(props
         .iter()
+        // A name without a terminating NUL breaks the spec and cannot be compared with the names
+        // penumbra asks for; skipping it can only make an extension look absent, which makes
+        // passes refuse to run (an error), never claim a feature the device lacks.
         .filter_map(|e| e.extension_name_as_c_str().ok().map(CStr::to_owned))
-        .collect()
+        .collect())
 }
 
-fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceInfo {
+fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<DeviceInfo> {
     let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
     let mut driver = vk::PhysicalDeviceDriverProperties::default();
     let mut props2 = vk::PhysicalDeviceProperties2::default()
@@ -278,7 +305,7 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceInfo {
         .push_next(&mut f13);
     unsafe { instance.get_physical_device_features2(pd, &mut features2) };
     let features = features2.features;
-    let exts = device_extensions(instance, pd);
+    let exts = device_extensions(instance, pd)?;
     let has_ext = |name: &CStr| exts.iter().any(|e| e.as_c_str() == name);
     let depth_props =
         unsafe { instance.get_physical_device_format_properties(pd, vk::Format::D32_SFLOAT) };
@@ -305,7 +332,7 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceInfo {
             .to_string_lossy()
             .into_owned()
     };
-    DeviceInfo {
+    Ok(DeviceInfo {
         name: text(&props.device_name),
         device_type: device_type_name(props.device_type).into(),
         api_version: format!(
@@ -319,6 +346,9 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceInfo {
             text(&driver.driver_name),
             text(&driver.driver_info)
         ),
+        vendor_id: props.vendor_id,
+        device_id: props.device_id,
+        driver_version: props.driver_version,
         timestamp_period: props.limits.timestamp_period,
         timestamp_valid_bits: queue.map(|q| q.1).unwrap_or(0),
         float64: features.shader_float64 == vk::TRUE,
@@ -344,7 +374,7 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceInfo {
         max_image_dimension_2d: props.limits.max_image_dimension2_d,
         sub_pixel_precision_bits: props.limits.sub_pixel_precision_bits,
         usable,
-    }
+    })
 }
 
 /// Lists every Vulkan device with what penumbra knows about it (creates a throwaway instance).
@@ -354,7 +384,7 @@ pub fn enumerate_devices() -> Result<Vec<DeviceInfo>> {
     let (instance, _) = create_instance(&entry, false, &log)?;
     let result = unsafe { instance.enumerate_physical_devices() }
         .vk("vkEnumeratePhysicalDevices")
-        .map(|pds| pds.iter().map(|&pd| query_info(&instance, pd)).collect());
+        .and_then(|pds| pds.iter().map(|&pd| query_info(&instance, pd)).collect());
     unsafe { instance.destroy_instance(None) };
     result
 }
@@ -364,10 +394,10 @@ fn choose_device(
     request: Option<&str>,
 ) -> Result<(vk::PhysicalDevice, DeviceInfo)> {
     let pds = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
-    let infos: Vec<_> = pds
+    let infos = pds
         .iter()
-        .map(|&pd| (pd, query_info(instance, pd)))
-        .collect();
+        .map(|&pd| Ok((pd, query_info(instance, pd)?)))
+        .collect::<Result<Vec<_>>>()?;
     if infos.is_empty() {
         return Err(Error::NoDevice(
             "the loader reports no Vulkan device (install mesa-vulkan-drivers for lavapipe)".into(),
@@ -478,7 +508,8 @@ impl Context {
     /// float64/int64 shader variants, 64-bit atomics and depth-bias clamping are reported as
     /// absent (techniques then take their portable paths or say the feature is unsupported), and
     /// debug labels and object names are off (`VK_EXT_debug_utils` may not be enabled).
-    /// Validation messages go to the caller's own messenger.
+    /// Validation messages go to the caller's own messenger, so this context's
+    /// [`Context::validation`] log reports that validation did not run (`ran: false`).
     ///
     /// # Safety
     /// The handles must be valid, from `entry`/`instance`, and outlive the returned context and
@@ -491,7 +522,7 @@ impl Context {
         device: ash::Device,
         queue_family: u32,
     ) -> Result<Context> {
-        let mut info = query_info(&instance, physical_device);
+        let mut info = query_info(&instance, physical_device)?;
         if let Err(why) = &info.usable {
             return Err(Error::Unsupported {
                 device: info.name.clone(),
@@ -603,8 +634,8 @@ impl Context {
         &self.shared.info
     }
 
-    /// The validation log (errors and warnings seen so far). Keep the `Arc` past the context's
-    /// drop to see what teardown reported.
+    /// The validation log (errors and warnings seen so far, and whether validation ran at all).
+    /// Keep the `Arc` past the context's drop to see what teardown reported.
     pub fn validation(&self) -> Arc<ValidationLog> {
         self.shared.log.clone()
     }

@@ -1,8 +1,13 @@
-//! A minimal SPIR-V reflector: entry stage, workgroup size, descriptor bindings, push-constant size.
+//! A minimal SPIR-V reflector: entry stage, workgroup size, descriptor bindings, and the
+//! push-constant block's size and members (name, offset, size).
 //!
 //! The shader is the one source of truth for its interface: pipelines build their descriptor-set
 //! layouts from what the module declares, dispatches round thread counts up by the declared
-//! `local_size`, and pushes are checked against the declared push-constant block size. Only what
+//! `local_size`, and pushes are checked against the declared push-constant block size. The
+//! block's member offsets come from its `OpMemberDecorate … Offset` and the names from
+//! `OpMemberName`, which `compile-shaders` keeps for push blocks (the optimizer strips every
+//! other name), so the layout tests can compare each `#[repr(C)]` twin field by field with
+//! [`compare_push_layout`]. Only what
 //! penumbra's GLSL uses is understood (set 0 bindings of buffers, storage/sampled images and
 //! combined samplers, literal local sizes); anything else is an error, not a guess.
 
@@ -36,8 +41,99 @@ pub struct ShaderInterface {
     pub bindings: Vec<BindingInfo>,
     /// Size in bytes of the push-constant block (0 if none).
     pub push_constant_size: u32,
+    /// The push-constant block's members in declaration order (empty if none).
+    pub push_constant_members: Vec<PushMember>,
 }
 
+/// One member of a push-constant block, as the SPIR-V lays it out.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PushMember {
+    /// The GLSL member name (`OpMemberName`); empty when the module carries no name for it.
+    pub name: String,
+    /// Byte offset in the block (`Offset` decoration).
+    pub offset: u32,
+    /// Size in bytes.
+    pub size: u32,
+}
+
+/// One field of a Rust push-constant struct: name, `offset_of!` and size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RustField {
+    /// Field name.
+    pub name: &'static str,
+    /// `std::mem::offset_of!`.
+    pub offset: usize,
+    /// `size_of` the field's type.
+    pub size: usize,
+}
+
+/// Whether a member (GLSL or Rust) only pads the block to its size: `pad`, `pad0`, `pad1`, ….
+fn is_padding(name: &str) -> bool {
+    name.strip_prefix("pad")
+        .is_some_and(|rest| rest.chars().all(|c| c.is_ascii_digit()))
+}
+
+/// Compares a Rust push-constant struct (`fields` in declaration order, `size_of` = `size`)
+/// with the block a shader declares, by member name: every GLSL member must have a Rust field
+/// of the same name at the same offset with the same size and vice versa, and the sizes must
+/// agree. Padding members (`pad`, `pad0`, …) need no twin, since Rust and GLSL pad differently
+/// (`[i32; 2]` against two `int`s), but a Rust padding field must not cover a real member
+/// (that member would then have no twin). Because `bytemuck::Pod` forbids implicit padding,
+/// fields whose sizes add up to `size` are all the struct's fields. Returns every mismatch, one
+/// line each; empty when the layouts agree.
+pub fn compare_push_layout(
+    interface: &ShaderInterface,
+    fields: &[RustField],
+    size: usize,
+) -> Vec<String> {
+    let mut problems = Vec::new();
+    if interface.push_constant_size as usize != size {
+        problems.push(format!(
+            "block is {} bytes, the Rust struct {size}",
+            interface.push_constant_size
+        ));
+    }
+    let listed: usize = fields.iter().map(|f| f.size).sum();
+    if listed != size {
+        problems.push(format!(
+            "the listed Rust fields cover {listed} of the struct's {size} bytes: list every field"
+        ));
+    }
+    for m in &interface.push_constant_members {
+        if m.name.is_empty() {
+            problems.push(format!(
+                "member at offset {} has no name in the SPIR-V (run compile-shaders)",
+                m.offset
+            ));
+            continue;
+        }
+        if is_padding(&m.name) {
+            continue;
+        }
+        match fields.iter().find(|f| f.name == m.name) {
+            None => problems.push(format!("GLSL member '{}' has no Rust field", m.name)),
+            Some(f) if (f.offset, f.size) != (m.offset as usize, m.size as usize) => {
+                problems.push(format!(
+                    "'{}': GLSL offset {} size {}, Rust offset {} size {}",
+                    m.name, m.offset, m.size, f.offset, f.size
+                ))
+            }
+            Some(_) => {}
+        }
+    }
+    for f in fields.iter().filter(|f| !is_padding(f.name)) {
+        if !interface
+            .push_constant_members
+            .iter()
+            .any(|m| m.name == f.name)
+        {
+            problems.push(format!("Rust field '{}' has no GLSL member", f.name));
+        }
+    }
+    problems
+}
+
+const OP_MEMBER_NAME: u32 = 6;
 const OP_ENTRY_POINT: u32 = 15;
 const OP_EXECUTION_MODE: u32 = 16;
 const OP_TYPE_INT: u32 = 21;
@@ -76,6 +172,7 @@ struct Module {
     constants: HashMap<u32, u32>,
     decorations: HashMap<u32, Vec<(u32, u32)>>,
     member_decorations: HashMap<(u32, u32), Vec<(u32, u32)>>,
+    member_names: HashMap<(u32, u32), String>,
     variables: Vec<(u32, u32, u32)>,
 }
 
@@ -90,6 +187,32 @@ impl Module {
         self.member_decorations
             .get(&(id, member))
             .and_then(|d| d.iter().find(|(k, _)| *k == dec).map(|(_, v)| *v))
+    }
+
+    /// Size in bytes of member `m` (type `member`) of struct `id`; a matrix member's size comes
+    /// from its `MatrixStride`.
+    fn member_size(&self, id: u32, m: u32, member: u32) -> Option<u32> {
+        match self.member_decoration(id, m, DEC_MATRIX_STRIDE) {
+            Some(stride) => Some(stride * self.types.get(&member)?.get(3).copied()?),
+            None => self.size_of(member),
+        }
+    }
+
+    /// The members of a block struct with their names, offsets and sizes.
+    fn members(&self, id: u32) -> Option<Vec<PushMember>> {
+        let t = self.types.get(&id).filter(|t| t[0] == OP_TYPE_STRUCT)?;
+        t[2..]
+            .iter()
+            .enumerate()
+            .map(|(m, &member)| {
+                let m = m as u32;
+                Some(PushMember {
+                    name: self.member_names.get(&(id, m)).cloned().unwrap_or_default(),
+                    offset: self.member_decoration(id, m, DEC_OFFSET)?,
+                    size: self.member_size(id, m, member)?,
+                })
+            })
+            .collect()
     }
 
     /// Size in bytes of a type laid out with explicit offsets/strides (std140/std430 blocks).
@@ -110,10 +233,7 @@ impl Module {
                 let mut end = 0;
                 for (m, &member) in t[2..].iter().enumerate() {
                     let offset = self.member_decoration(id, m as u32, DEC_OFFSET)?;
-                    let size = match self.member_decoration(id, m as u32, DEC_MATRIX_STRIDE) {
-                        Some(stride) => stride * self.types.get(&member)?.get(3).copied()?,
-                        None => self.size_of(member)?,
-                    };
+                    let size = self.member_size(id, m as u32, member)?;
                     end = end.max(offset + size);
                 }
                 Some(end)
@@ -183,6 +303,11 @@ pub fn reflect(name: &str, words: &[u32]) -> Result<ShaderInterface> {
                 .entry(ins[1])
                 .or_default()
                 .push((ins[2], ins.get(3).copied().unwrap_or(0))),
+            OP_MEMBER_NAME if ins.len() >= 3 => {
+                module
+                    .member_names
+                    .insert((ins[1], ins[2]), literal_string(&ins[3..]));
+            }
             OP_MEMBER_DECORATE if ins.len() >= 4 => module
                 .member_decorations
                 .entry((ins[1], ins[2]))
@@ -195,6 +320,7 @@ pub fn reflect(name: &str, words: &[u32]) -> Result<ShaderInterface> {
     let stage = stage.ok_or_else(|| err("no entry point".into()))?;
     let mut bindings = Vec::new();
     let mut push_constant_size = 0;
+    let mut push_constant_members = Vec::new();
     for &(ptr_type, id, storage) in &module.variables {
         let pointee = match module.types.get(&ptr_type) {
             Some(t) if t[0] == OP_TYPE_POINTER => t[3],
@@ -204,6 +330,9 @@ pub fn reflect(name: &str, words: &[u32]) -> Result<ShaderInterface> {
             push_constant_size = module
                 .size_of(pointee)
                 .ok_or_else(|| err("cannot size the push-constant block".into()))?;
+            push_constant_members = module
+                .members(pointee)
+                .ok_or_else(|| err("cannot lay out the push-constant block's members".into()))?;
             continue;
         }
         if !matches!(
@@ -290,7 +419,18 @@ pub fn reflect(name: &str, words: &[u32]) -> Result<ShaderInterface> {
         local_size,
         bindings,
         push_constant_size,
+        push_constant_members,
     })
+}
+
+/// A SPIR-V literal string: UTF-8 bytes packed little-endian into words, NUL-terminated.
+fn literal_string(words: &[u32]) -> String {
+    let bytes: Vec<u8> = words
+        .iter()
+        .flat_map(|w| w.to_le_bytes())
+        .take_while(|&b| b != 0)
+        .collect();
+    String::from_utf8_lossy(&bytes).into_owned()
 }
 
 /// Turns SPIR-V bytes into words, checking alignment and the magic number.

@@ -5,8 +5,15 @@
 //! warning and error severities of the validation and performance types are subscribed to. The
 //! log lives behind an `Arc` that the caller may keep after the context is gone, so messages
 //! emitted while the instance is destroyed (leaked objects) are still counted.
+//!
+//! Zero counts mean something only if the layers ran and their messages reached this log, so the
+//! log records whether penumbra installed its messenger on a validated instance
+//! ([`ValidationCounts::ran`]); a context without validation, or one wrapping a caller's device
+//! (whose messages go to the caller's messenger), reports `ran: false`, and the test oracle and
+//! the CLI refuse to call such a run clean.
 
 use std::ffi::{c_void, CStr};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 use ash::vk;
@@ -15,6 +22,8 @@ use ash::vk;
 #[derive(Debug, Default)]
 pub struct ValidationLog {
     inner: Mutex<LogInner>,
+    /// Set once the validation layer is enabled and this log's messenger is installed.
+    ran: AtomicBool,
 }
 
 #[derive(Debug, Default, Clone)]
@@ -27,6 +36,9 @@ struct LogInner {
 /// A snapshot of a [`ValidationLog`].
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct ValidationCounts {
+    /// Whether the validation layers ran with this log's messenger installed. When `false` the
+    /// counts are zero because nothing was counted, not because nothing was wrong.
+    pub ran: bool,
     /// Messages of error severity.
     pub errors: u32,
     /// Messages of warning severity.
@@ -36,14 +48,33 @@ pub struct ValidationCounts {
 /// Keeps at most this many message texts: a broken loop could otherwise log millions.
 const MAX_KEPT_MESSAGES: usize = 256;
 
+impl ValidationCounts {
+    /// Validation ran and reported no error and no warning: the only state that may be called
+    /// clean.
+    pub fn clean(&self) -> bool {
+        self.ran && self.errors == 0 && self.warnings == 0
+    }
+}
+
 impl ValidationLog {
-    /// The error and warning counts so far.
+    /// The error and warning counts so far, and whether validation ran at all.
     pub fn counts(&self) -> ValidationCounts {
         let inner = self.lock();
         ValidationCounts {
+            ran: self.ran(),
             errors: inner.errors,
             warnings: inner.warnings,
         }
+    }
+
+    /// Whether the validation layers ran with this log's messenger installed.
+    pub fn ran(&self) -> bool {
+        self.ran.load(Ordering::SeqCst)
+    }
+
+    /// Records that the layer is enabled and the messenger that feeds this log is installed.
+    pub(crate) fn mark_ran(&self) {
+        self.ran.store(true, Ordering::SeqCst);
     }
 
     /// The texts of the messages kept so far (the first 256).

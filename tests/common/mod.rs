@@ -19,9 +19,16 @@ pub fn engine() -> Engine {
     Engine::from_context(context())
 }
 
-/// Asserts the validation log holds no error and no warning, printing what it holds.
+/// Asserts that validation ran on the log's context and reported no error and no warning,
+/// printing what it holds. A log whose context ran without the layers fails: its zero counts
+/// would claim a check that never happened.
 pub fn assert_clean(log: &ValidationLog) {
     let counts = log.counts();
+    assert!(
+        counts.ran,
+        "validation did not run on this context (no layer or no messenger): \
+         its 0 errors and 0 warnings mean nothing"
+    );
     if counts.errors > 0 || counts.warnings > 0 {
         for m in log.messages() {
             eprintln!("{m}");

@@ -405,15 +405,12 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     let counts = ctx.validation().counts();
     println!(
-        "wrote {} ({} runs), validation errors {}, warnings {}",
+        "wrote {} ({} runs), {}",
         args.out.display(),
         rows.len(),
-        counts.errors,
-        counts.warnings
+        crate::validation_summary(args.validation, &counts)
     );
-    if counts.errors > 0 {
-        anyhow::bail!("{} validation errors", counts.errors);
-    }
+    crate::finish_validation(args.validation, &ctx.validation(), &args.out)?;
     if rows.iter().any(|r| r.get("failure").is_some()) {
         anyhow::bail!("some runs failed (see bench.json)");
     }
@@ -489,16 +486,13 @@ pub fn run_kernels(
     }
     let counts = ctx.validation().counts();
     println!(
-        "wrote {}, validation errors {}, warnings {}",
+        "wrote {}, {}",
         path.display(),
-        counts.errors,
-        counts.warnings
+        crate::validation_summary(validation, &counts)
     );
+    crate::finish_validation(validation, &ctx.validation(), out)?;
     if rows.iter().any(|r| !r.verified) {
         anyhow::bail!("a primitive did not match its CPU twin");
-    }
-    if counts.errors > 0 {
-        anyhow::bail!("{} validation errors", counts.errors);
     }
     Ok(())
 }

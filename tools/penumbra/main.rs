@@ -10,6 +10,7 @@ use std::time::Duration;
 use anyhow::{bail, Context as _};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use penumbra::gpu::{ValidationCounts, ValidationLog};
 use penumbra::scene::Scene;
 use penumbra::techniques::{registry, KnobDefault};
 use penumbra::{output, ContextDesc, Engine};
@@ -31,6 +32,7 @@ struct DeviceArgs {
     #[arg(long)]
     device: Option<String>,
     /// Run without the validation layers (faster; stats.json then reports null validation counts).
+    /// With validation on (the default) any validation error or warning fails the command.
     #[arg(long)]
     no_validation: bool,
 }
@@ -312,7 +314,7 @@ fn render(
     drop(prepared);
     let counts = ctx.validation().counts();
     println!(
-        "{} on {}: {} in {} ({}x{}), validation errors {}, warnings {}",
+        "{} on {}: {} in {} ({}x{}), {}",
         technique,
         prepared_name(&stats),
         frame
@@ -323,16 +325,69 @@ fn render(
         out.display(),
         w,
         h,
-        counts.errors,
-        counts.warnings
+        validation_summary(!device.no_validation, &counts)
     );
-    if counts.errors > 0 {
-        for m in ctx.validation().messages().iter().take(5) {
-            eprintln!("{m}");
-        }
-        bail!("{} validation errors", counts.errors);
+    finish_validation(!device.no_validation, &ctx.validation(), out)
+}
+
+/// Decides whether a run's validation lets the command succeed. With validation off there is
+/// nothing to claim (stats report `null`); with it on, the run fails unless the layers ran and
+/// reported no error and no warning, since tests hold the library to the same standard. The
+/// error is one line: the counts and where the messages are (`messages`, if any were written).
+fn validation_verdict(
+    requested: bool,
+    counts: &ValidationCounts,
+    messages: Option<&Path>,
+) -> anyhow::Result<()> {
+    if !requested {
+        return Ok(());
+    }
+    if !counts.ran {
+        bail!(
+            "validation was requested but did not run (no validation layer or no debug \
+             messenger); pass --no-validation to run without it"
+        );
+    }
+    if counts.errors > 0 || counts.warnings > 0 {
+        let place = match messages {
+            Some(path) => format!("messages in {} (at most 256 kept)", path.display()),
+            None => "no message text was kept".to_string(),
+        };
+        bail!(
+            "validation reported {} error(s) and {} warning(s); {place}",
+            counts.errors,
+            counts.warnings
+        );
     }
     Ok(())
+}
+
+/// Writes the kept validation messages to `out/validation.txt` (if there are any) and applies
+/// [`validation_verdict`].
+fn finish_validation(requested: bool, log: &ValidationLog, out: &Path) -> anyhow::Result<()> {
+    let counts = log.counts();
+    let messages = log.messages();
+    let path = out.join("validation.txt");
+    let written = if requested && !messages.is_empty() {
+        std::fs::write(&path, messages.join("\n") + "\n")
+            .with_context(|| format!("writing {}", path.display()))?;
+        Some(path.as_path())
+    } else {
+        None
+    };
+    validation_verdict(requested, &counts, written)
+}
+
+/// The validation part of a command's summary line.
+fn validation_summary(requested: bool, counts: &ValidationCounts) -> String {
+    match (requested, counts.ran) {
+        (false, _) => "validation off".into(),
+        (true, false) => "validation did not run".into(),
+        (true, true) => format!(
+            "validation errors {}, warnings {}",
+            counts.errors, counts.warnings
+        ),
+    }
 }
 
 fn prepared_name(stats: &serde_json::Value) -> String {
@@ -491,5 +546,39 @@ fn main() {
     if let Err(e) = result {
         eprintln!("error: {e:#}");
         std::process::exit(1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn counts(ran: bool, errors: u32, warnings: u32) -> ValidationCounts {
+        ValidationCounts {
+            ran,
+            errors,
+            warnings,
+        }
+    }
+
+    #[test]
+    fn any_validation_error_or_warning_fails_the_command() {
+        let log = Path::new("out/validation.txt");
+        assert!(validation_verdict(true, &counts(true, 0, 0), None).is_ok());
+        let e = validation_verdict(true, &counts(true, 0, 1), Some(log)).unwrap_err();
+        let text = e.to_string();
+        assert!(text.contains("0 error(s) and 1 warning(s)"), "{text}");
+        assert!(text.contains("out/validation.txt"), "{text}");
+        assert!(!text.contains('\n'), "one line: {text}");
+        let e = validation_verdict(true, &counts(true, 3, 0), Some(log)).unwrap_err();
+        assert!(e.to_string().contains("3 error(s) and 0 warning(s)"), "{e}");
+    }
+
+    #[test]
+    fn validation_that_did_not_run_fails_when_requested() {
+        let e = validation_verdict(true, &counts(false, 0, 0), None).unwrap_err();
+        assert!(e.to_string().contains("did not run"), "{e}");
+        // Not requested: nothing is claimed, so nothing fails.
+        assert!(validation_verdict(false, &counts(false, 0, 0), None).is_ok());
     }
 }

@@ -97,10 +97,12 @@ pub struct AverageMapsPush {
     pub view_size: IVec2,
     /// Shadow-map size.
     pub map_size: IVec2,
-    /// 1/K.
-    pub weight: f32,
+    /// K, the number of light samples.
+    pub samples: f32,
     /// 1 for the first light sample (overwrite), 0 after (accumulate).
     pub first: i32,
+    /// 1 for the last light sample (divide by K, count the classes).
+    pub last: i32,
     /// Padding to the block's declared size.
-    pub pad: [i32; 2],
+    pub pad: i32,
 }

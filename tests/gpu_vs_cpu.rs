@@ -276,6 +276,22 @@ fn average_maps_matches_cpu() {
     // twin's own.
     assert_eq!(frame.stats.counters["outside_light_tests"], cpu.outside);
     assert_eq!(frame.stats.counters["light_samples"], lights.len() as u64);
+    // The classes: exactly those of the GPU's own image, and the twin's within the ties.
+    assert_eq!(frame.stats.counters["view_samples"], cpu.classes[0]);
+    let own = common::assert_counters_describe_image(
+        "average-maps",
+        &frame.stats.counters,
+        &frame.visibility,
+        &positions,
+    );
+    for k in 0..3 {
+        assert!(
+            own[k].abs_diff(cpu.classes[k + 1]) <= ties as u64,
+            "average-maps class {k}: GPU {}, CPU {}",
+            own[k],
+            cpu.classes[k + 1]
+        );
+    }
     drop(prepared);
     common::assert_clean(&ctx.validation());
 }

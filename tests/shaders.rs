@@ -196,8 +196,9 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 light_view_proj,
                 view_size,
                 map_size,
-                weight,
+                samples,
                 first,
+                last,
                 pad
             }),
         ),

@@ -1,9 +1,10 @@
 //! CPU twin of `glsl/average_maps/accumulate.comp` and of the light samples `average-maps`
 //! renders its maps from.
 //!
-//! [`average_maps`] is the mean over light samples of the nearest-texel shadow-map test.
-//! Tolerance against the GPU: 1e-6 (the GPU accumulates in the same order, in f32) except where
-//! a sample's test is a depth tie (see [`super::pcf`]).
+//! [`average_maps`] is the mean over light samples of the nearest-texel shadow-map test: the
+//! count of lit tests divided once by K (K of K is exactly 1). Tolerance against the GPU: 1e-6
+//! (the shader's division may be a few ulp off) except where a sample's test is a depth tie (see
+//! [`super::pcf`]).
 //!
 //! [`sample_lights`] is the twin's own set of light samples, written from the definition (a
 //! shifted Hammersley set over a rect light, Shirley and Chiu's concentric map over the sun's
@@ -28,6 +29,8 @@ pub struct AverageOutput {
     /// View-sample tests that fell outside a sample's light frustum, summed over the samples
     /// (the shader's `outside_light_tests` counter).
     pub outside: u64,
+    /// View samples, lit (V = 1), umbra (V = 0) and penumbra, as the shader counts them.
+    pub classes: [u64; 4],
 }
 
 /// Averages the hard test of every (map, view-projection) pair.
@@ -41,16 +44,28 @@ pub fn average_maps(
         visibility: vec![0.0; n],
         tie: vec![false; n],
         outside: 0,
+        classes: [0; 4],
     };
-    let weight = 1.0 / maps.len().max(1) as f32;
-    for (k, (map, view_proj)) in maps.iter().enumerate() {
+    for (map, view_proj) in maps {
         let hard = pcf(positions, view_size, map, *view_proj, 0, 1);
         out.outside += hard.counters[1];
         for i in 0..n {
-            // Mirrors the shader: the first sample overwrites, the rest accumulate.
-            let previous = if k == 0 { 0.0 } else { out.visibility[i] };
-            out.visibility[i] = previous + weight * hard.visibility[i];
+            out.visibility[i] += hard.visibility[i];
             out.tie[i] |= hard.tie[i];
+        }
+    }
+    let k = maps.len().max(1) as f32;
+    for (i, v) in out.visibility.iter_mut().enumerate() {
+        *v = if *v >= k { 1.0 } else { *v / k };
+        if positions[i].w > 0.0 {
+            out.classes[0] += 1;
+            out.classes[if *v >= 1.0 {
+                1
+            } else if *v <= 0.0 {
+                2
+            } else {
+                3
+            }] += 1;
         }
     }
     out

@@ -23,6 +23,16 @@ use crate::passes::{light_samples, LightView, SceneGeometry, ShadowMap};
 use crate::scene::Aabb;
 use crate::shader_types::AverageMapsPush;
 
+/// The shader's counters, in its order: tests outside a sample's light frustum (summed over the
+/// samples), then the classes of the final visibility.
+pub const COUNTERS: [&str; 5] = [
+    "outside_light_tests",
+    "view_samples",
+    "lit",
+    "umbra",
+    "penumbra",
+];
+
 const KNOBS: [Knob; 5] = [
     SHADOW_MAP_KNOBS[0],
     SHADOW_MAP_KNOBS[1],
@@ -75,7 +85,7 @@ impl<'a> AverageMaps<'a> {
             .collect::<Result<Vec<_>>>()?;
         let shadow_map = ShadowMap::new(ctx, views[0], shadow_map_desc(params)?)?;
         let pipeline = Pipeline::compute(ctx, "average_maps/accumulate.comp")?;
-        let counters = Buffer::storage(ctx, "average-maps counters", 4)?;
+        let counters = Buffer::storage(ctx, "average-maps counters", 4 * COUNTERS.len() as u64)?;
         let set = DescriptorSet::new(
             ctx,
             &pipeline,
@@ -101,7 +111,7 @@ impl<'a> AverageMaps<'a> {
 
 impl Technique for AverageMaps<'_> {
     fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
-        let weight = 1.0 / self.views.len() as f32;
+        let samples = self.views.len();
         let size = self.shadow_map.desc.size as i32;
         rec.begin_pass("average-maps")?;
         rec.fill(&self.counters, 0);
@@ -114,9 +124,10 @@ impl Technique for AverageMaps<'_> {
                 light_view_proj: view.view_proj,
                 view_size: self.view_size,
                 map_size: IVec2::splat(size),
-                weight,
+                samples: samples as f32,
                 first: (i == 0) as i32,
-                pad: [0; 2],
+                last: (i + 1 == samples) as i32,
+                pad: 0,
             };
             rec.dispatch(
                 &self.pipeline,
@@ -130,14 +141,15 @@ impl Technique for AverageMaps<'_> {
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        let outside = u32s(&self.ctx.read_buffer(&self.counters)?)
-            .first()
-            .copied()
-            .unwrap_or(0);
-        Ok(vec![
-            ("light_samples".to_string(), self.views.len() as u64),
-            ("outside_light_tests".to_string(), outside as u64),
-        ])
+        let counts = u32s(&self.ctx.read_buffer(&self.counters)?);
+        let mut out = vec![("light_samples".to_string(), self.views.len() as u64)];
+        out.extend(
+            COUNTERS
+                .iter()
+                .zip(&counts)
+                .map(|(name, &n)| (name.to_string(), n as u64)),
+        );
+        Ok(out)
     }
 
     fn shadow_map(&self) -> Option<&ShadowMap> {

@@ -7,6 +7,7 @@
 pub mod average_maps;
 pub mod compact;
 pub mod filtered;
+pub mod light_clip;
 pub mod minmax;
 pub mod nbuffer;
 pub mod pcf;

@@ -13,9 +13,9 @@ use glam::{Vec3, Vec4};
 
 use crate::error::{Error, Result};
 use crate::gpu::{f32s, Context, ContextDesc, Image, ImageDesc, PassTime, Timestamps};
-use crate::passes::{LightView, SceneGeometry, ViewSamples};
+use crate::passes::{LightView, ReceiverDesc, Receivers, SceneGeometry, ViewSamples};
 use crate::scene::{Camera, Light, Scene, SceneDefaults};
-use crate::techniques::{self, Params, Technique, TechniqueSetup};
+use crate::techniques::{self, Technique, TechniqueSetup};
 
 /// A Vulkan device ready to run techniques.
 pub struct Engine {
@@ -134,7 +134,9 @@ impl Engine {
                 vk::Format::R32_SFLOAT,
                 scene.camera.width,
                 scene.camera.height,
-                vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
+                vk::ImageUsageFlags::STORAGE
+                    | vk::ImageUsageFlags::TRANSFER_SRC
+                    | vk::ImageUsageFlags::TRANSFER_DST,
             ),
         )?;
         let mut timestamps = Timestamps::new(ctx, 1)?;
@@ -186,15 +188,43 @@ impl Engine {
     ) -> Result<Frame> {
         let ctx = &self.ctx;
         let info = techniques::find(technique)?;
-        let params = Params::resolve(info.name, info.knobs, overrides, &prepared.defaults)?;
+        let params = info.params(overrides, &prepared.defaults)?;
+        let light_view = prepared.light_view;
+        // The receivers (light clipping, normal offset) of a shadow-map technique: shared view
+        // sample data like the view samples themselves, so not counted as the technique's memory.
+        let receivers = if info.shadow_map {
+            let desc = ReceiverDesc {
+                light_clip: params.u32("light_clip")? == 1,
+                normal_offset: params.f32("normal_offset")?,
+                map_size: params.u32("map_size")?,
+                clips_itself: info.clips_light,
+            };
+            if desc.needed() {
+                Some(Receivers::new(
+                    ctx,
+                    &prepared.view,
+                    &prepared.light,
+                    &light_view,
+                    &prepared.visibility,
+                    &desc,
+                )?)
+            } else {
+                None
+            }
+        } else {
+            None
+        };
         let setup = TechniqueSetup {
             ctx,
             geometry: &prepared.geometry,
             positions: &prepared.positions,
             indices: &prepared.indices,
             view: &prepared.view,
+            receivers: receivers
+                .as_ref()
+                .map_or(&prepared.view.positions, |r| &r.lookup),
             light: &prepared.light,
-            light_view: &prepared.light_view,
+            light_view: &light_view,
             visibility: &prepared.visibility,
         };
         let before = ctx.live_bytes();
@@ -209,7 +239,16 @@ impl Engine {
         // references are computed once for their values, not their time: no warm-up.
         let first = if info.cacheable { 1 } else { 0 };
         for frame in first..=frames {
-            ctx.submit(Some(&mut timestamps), |rec| instance.record(rec))?;
+            ctx.submit(Some(&mut timestamps), |rec| {
+                if let Some(r) = &receivers {
+                    r.record_prepare(rec)?;
+                }
+                instance.record(rec)?;
+                if let Some(r) = &receivers {
+                    r.record_finish(rec)?;
+                }
+                Ok(())
+            })?;
             if frame == 0 {
                 continue; // warm-up
             }
@@ -233,7 +272,11 @@ impl Engine {
         let total_gpu_ms = timed.then(|| technique_passes.iter().filter_map(|p| p.gpu_ms).sum());
         let mut passes = vec![prepared.view_pass.clone()];
         passes.extend(technique_passes);
-        let counters = instance.counters()?.into_iter().collect();
+        let mut counters: BTreeMap<String, u64> = instance.counters()?.into_iter().collect();
+        if let Some(r) = &receivers {
+            // The technique counted only the samples it evaluated; these cover every sample.
+            counters.extend(r.counters()?);
+        }
         inspect(instance.as_ref())?;
         drop(instance);
 
@@ -292,7 +335,7 @@ impl Engine {
                 CacheUse::Off,
             ));
         };
-        let params = Params::resolve(info.name, info.knobs, overrides, &prepared.defaults)?;
+        let params = info.params(overrides, &prepared.defaults)?;
         let mut h = crate::cache::Fnv64::default();
         h.write(bytemuck::cast_slice(&prepared.positions));
         h.write(bytemuck::cast_slice(&prepared.indices));

@@ -29,6 +29,45 @@ pub struct ViewSamplesPush {
     pub forward: Vec4,
 }
 
+/// `glsl/receivers/prepare.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ReceiversPush {
+    /// The light in the reference's encoding ([`crate::reference::light_encoding`]).
+    pub light_position: Vec4,
+    /// See `light_position`.
+    pub light_u: Vec4,
+    /// See `light_position`.
+    pub light_v: Vec4,
+    /// xyz: the light view's origin; w: 1 perspective, 0 orthographic.
+    pub view_origin: Vec4,
+    /// xyz: the light view's unit direction; w: a texel's world size at unit depth
+    /// (perspective) or anywhere (orthographic).
+    pub view_direction: Vec4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// The light's kind (`reference::KIND_*`).
+    pub kind: i32,
+    /// 1: compute the clipped fraction; 0: f = 1.
+    pub light_clip: i32,
+    /// Normal offset in shadow-map texels.
+    pub normal_offset: f32,
+    /// Padding to the block's declared size.
+    pub pad: [i32; 3],
+}
+
+/// `glsl/receivers/finish.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ReceiversFinishPush {
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// 1: V' = f·V; 0: V' = V.
+    pub scale: i32,
+    /// Padding to the block's declared size.
+    pub pad: i32,
+}
+
 /// `glsl/pcf/pcf.comp`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]

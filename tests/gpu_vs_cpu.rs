@@ -32,6 +32,7 @@ fn compare(technique: &str, mode: i32, kernel: i32, map_size: u32, tolerance: f3
     overrides.insert("map_size".to_string(), map_size.to_string());
     overrides.insert("bias_constant".to_string(), BIAS_CONSTANT.to_string());
     overrides.insert("bias_slope".to_string(), BIAS_SLOPE.to_string());
+    overrides.extend(common::knobs(&common::KERNEL_ONLY));
     if mode == 1 {
         overrides.insert("kernel".to_string(), kernel.to_string());
     }

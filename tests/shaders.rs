@@ -156,6 +156,29 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
+            vec!["receivers/prepare.comp"],
+            twin!(ReceiversPush {
+                light_position,
+                light_u,
+                light_v,
+                view_origin,
+                view_direction,
+                view_size,
+                kind,
+                light_clip,
+                normal_offset,
+                pad
+            }),
+        ),
+        (
+            vec!["receivers/finish.comp"],
+            twin!(ReceiversFinishPush {
+                view_size,
+                scale,
+                pad
+            }),
+        ),
+        (
             vec!["pcf/pcf.comp"],
             twin!(PcfPush {
                 light_view_proj,

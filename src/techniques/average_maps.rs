@@ -45,6 +45,7 @@ const KNOBS: [Knob; 5] = [
         min: 1.0,
         max: 4096.0,
         integer: true,
+        names: &[],
     },
 ];
 
@@ -54,6 +55,8 @@ pub const AVERAGE_MAPS: TechniqueInfo = TechniqueInfo {
     summary: "brute-force soft shadows: average of K hard shadow maps from light samples",
     knobs: &KNOBS,
     cacheable: false,
+    shadow_map: true,
+    clips_light: true,
     create: |setup, params| Ok(Box::new(AverageMaps::new(setup, params)?)),
 };
 
@@ -90,7 +93,7 @@ impl<'a> AverageMaps<'a> {
             ctx,
             &pipeline,
             &[
-                Binding::Image(&setup.view.positions),
+                Binding::Image(setup.receivers),
                 Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&counters),

@@ -34,8 +34,12 @@ pub struct PreparedScene {
     pub light: Light,
     /// The scene's knob defaults.
     pub defaults: SceneDefaults,
-    /// The light view fitted to the scene.
+    /// The light view fitted to the scene (what the techniques render with).
     pub light_view: LightView,
+    /// The view samples' bounds in `light_view`'s view space.
+    pub receiver_bounds: crate::passes::ReceiverBounds,
+    /// The same light view focused on the view samples ([`LightView::fit_to_receivers`]).
+    pub receiver_light_view: LightView,
     /// Triangles on the GPU.
     pub geometry: SceneGeometry,
     /// The same triangles on the CPU, world space.
@@ -120,10 +124,12 @@ impl Engine {
         &self.ctx
     }
 
-    /// Uploads `scene`, fits its light view and renders its view samples.
+    /// Uploads `scene`, fits its light view, renders its view samples, bounds them in the light
+    /// view and fits a second light view to them.
     pub fn prepare(&self, scene: &Scene) -> Result<PreparedScene> {
         let ctx = &self.ctx;
-        let light_view = LightView::fit(&scene.light, &scene.bounds())?;
+        let scene_bounds = scene.bounds();
+        let light_view = LightView::fit(&scene.light, &scene_bounds)?;
         let (positions, indices) = scene.merged();
         let geometry = SceneGeometry::from_triangles(ctx, &positions, &indices)?;
         let view = ViewSamples::new(ctx, &scene.camera)?;
@@ -139,14 +145,21 @@ impl Engine {
                     | vk::ImageUsageFlags::TRANSFER_DST,
             ),
         )?;
+        let bounds_pass = crate::passes::ReceiverBoundsPass::new(ctx, &view, &light_view)?;
         let mut timestamps = Timestamps::new(ctx, 1)?;
         ctx.submit(Some(&mut timestamps), |rec| {
-            view.record(rec, &geometry, &scene.camera)
+            view.record(rec, &geometry, &scene.camera)?;
+            // Outside the timed pass: view_pass stays the view samples' time alone.
+            bounds_pass.record(rec)
         })?;
         let view_pass = timestamps.results()?.pop().unwrap_or(PassTime {
             name: "view-samples".into(),
             gpu_ms: None,
         });
+        let receiver_bounds = bounds_pass.read()?;
+        drop(bounds_pass);
+        let receiver_light_view =
+            LightView::fit_to_receivers(&scene.light, &scene_bounds, &receiver_bounds)?;
         Ok(PreparedScene {
             name: scene.name.clone(),
             source: scene.source.display().to_string(),
@@ -154,6 +167,8 @@ impl Engine {
             light: scene.light,
             defaults: scene.defaults,
             light_view,
+            receiver_bounds,
+            receiver_light_view,
             geometry,
             positions,
             indices,
@@ -189,7 +204,12 @@ impl Engine {
         let ctx = &self.ctx;
         let info = techniques::find(technique)?;
         let params = info.params(overrides, &prepared.defaults)?;
-        let light_view = prepared.light_view;
+        // `fit`: the scene's box (0) or the view samples and their casters (1, the default).
+        let light_view = if info.shadow_map && params.u32("fit")? == 1 {
+            prepared.receiver_light_view
+        } else {
+            prepared.light_view
+        };
         // The receivers (light clipping, normal offset) of a shadow-map technique: shared view
         // sample data like the view samples themselves, so not counted as the technique's memory.
         let receivers = if info.shadow_map {

@@ -68,6 +68,20 @@ pub struct ReceiversFinishPush {
     pub pad: i32,
 }
 
+/// `glsl/receiver_bounds/project.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct ReceiverBoundsPush {
+    /// World → light view (not clip: the bounds are taken in view space).
+    pub light_view: Mat4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// 1: perspective light (x and y divided by −z); 0: orthographic.
+    pub perspective: i32,
+    /// Padding to the block's declared size.
+    pub pad: i32,
+}
+
 /// `glsl/pcf/pcf.comp`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]

@@ -18,7 +18,7 @@ use penumbra::gpu::f32s;
 use penumbra::passes::{LightProjection, LightView};
 use penumbra::scene::{shapes, Camera, Light, Mesh, Scene, SceneDefaults};
 use penumbra::techniques::filtered::{config, push_constants, FilteredPush, FLAGS_ONLY_GROUP};
-use penumbra::techniques::{find, Params};
+use penumbra::techniques::find;
 use penumbra::{Engine, PreparedScene};
 
 use common::small;

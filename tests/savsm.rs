@@ -8,7 +8,7 @@ use glam::{IVec2, Vec3};
 use penumbra::cpu::savsm::{savsm, twin_push};
 use penumbra::gpu::f32s;
 use penumbra::scene::Light;
-use penumbra::techniques::{find, Params};
+use penumbra::techniques::find;
 
 /// GPU against the CPU twin, run on the GPU's own shadow map and view samples with the twin's
 /// own push block ([`twin_push`]). A pixel may differ by 1e-5 plus its sensitivity: what moving

@@ -179,6 +179,15 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
+            vec!["receiver_bounds/project.comp"],
+            twin!(ReceiverBoundsPush {
+                light_view,
+                view_size,
+                perspective,
+                pad
+            }),
+        ),
+        (
             vec!["pcf/pcf.comp"],
             twin!(PcfPush {
                 light_view_proj,

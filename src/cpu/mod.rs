@@ -15,6 +15,7 @@ pub mod pcf_coverage;
 pub mod pcf_poisson;
 pub mod raster;
 pub mod ray_cast;
+pub mod receiver_bounds;
 pub mod receivers;
 pub mod receiver_plane;
 pub mod reduce;

@@ -85,7 +85,13 @@ fn render_writes_every_file_with_clean_stats() {
         .collect();
     assert_eq!(
         names,
-        ["view-samples", "receivers", "light-depth", "pcf", "light-clip"]
+        [
+            "view-samples",
+            "receivers",
+            "light-depth",
+            "pcf",
+            "light-clip"
+        ]
     );
     assert!(passes
         .iter()

@@ -42,8 +42,7 @@ fn render_with_twin(
         })
         .expect("render");
     let info = find(technique).expect("registered");
-    let params =
-        info.params(overrides, &prepared.defaults).expect("knobs");
+    let params = info.params(overrides, &prepared.defaults).expect("knobs");
     let setup =
         TwinSetup::new(technique, &params, light, &prepared.light_view).expect("twin set-up");
     let positions = prepared.view.read_positions(&ctx).expect("positions");
@@ -234,8 +233,7 @@ fn push_constants_match_hand_computed_values() {
         let info = find(technique).expect("registered");
         let mut overrides = common::knobs(&[("map_size", "256")]);
         overrides.extend(common::knobs(knobs));
-        let params =
-            info.params(&overrides, &scene.defaults).expect("knobs");
+        let params = info.params(&overrides, &scene.defaults).expect("knobs");
         let config = config(technique, &params).expect("filtered");
         push_constants(&config, view, size, 256, group)
     };

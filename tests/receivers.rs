@@ -79,7 +79,11 @@ fn compare(spec: &str) {
             behind += usize::from(cpu.clip[i] == 0.0);
             // Skipped exactly when the twin says the whole light is behind (no f near 0 here
             // is within the tolerance of 0 without being 0: checked by the count below).
-            assert_eq!(lookup[4 * i + 3] > 0.0, cpu.lookup[i].w > 0.0, "{spec}: pixel {i}");
+            assert_eq!(
+                lookup[4 * i + 3] > 0.0,
+                cpu.lookup[i].w > 0.0,
+                "{spec}: pixel {i}"
+            );
         }
     }
     eprintln!(
@@ -94,9 +98,15 @@ fn compare(spec: &str) {
             &cpu.clip,
             &clip,
         );
-        panic!("{spec}: clipped fraction off by {worst_f}; images in {}", dir.display());
+        panic!(
+            "{spec}: clipped fraction off by {worst_f}; images in {}",
+            dir.display()
+        );
     }
-    assert!(worst_q < 1e-5, "{spec}: lookup positions off by {worst_q} of the scene");
+    assert!(
+        worst_q < 1e-5,
+        "{spec}: lookup positions off by {worst_q} of the scene"
+    );
     let (cpu_finished, counts) = twin::finish(&positions, &clip, &ramp, true);
     for i in 0..n {
         if positions[i].w > 0.0 {

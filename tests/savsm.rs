@@ -33,8 +33,7 @@ fn compare(spec: &str, kernel: &str) {
         })
         .expect("render");
     let info = find("savsm").expect("registered");
-    let params =
-        info.params(&overrides, &prepared.defaults).expect("knobs");
+    let params = info.params(&overrides, &prepared.defaults).expect("knobs");
     let size = IVec2::new(frame.width as i32, frame.height as i32);
     let pc = twin_push(&params, &scene.light, &prepared.light_view, size).expect("twin push");
     let positions = prepared.view.read_positions(&ctx).expect("positions");
@@ -251,8 +250,7 @@ fn push_block_matches_hand_computed_values() {
             ("bleed_reduction", "0.25"),
         ]);
         let info = find("savsm").expect("registered");
-        let params =
-            info.params(&overrides, &scene.defaults).expect("knobs");
+        let params = info.params(&overrides, &scene.defaults).expect("knobs");
         let pc = SavsmPush::new(&view, IVec2::new(128, 96), 256, 37, &params).expect("push");
         (pc, view)
     };

@@ -62,8 +62,7 @@ pub fn prepare(
             1.0
         };
         let q = p3 + n3 * (normal_offset as f64 * texel * depth) as f32;
-        out.lookup
-            .push(q.extend(if f > 0.0 { 1.0 } else { 0.0 }));
+        out.lookup.push(q.extend(if f > 0.0 { 1.0 } else { 0.0 }));
         out.clip.push(f);
     }
     out

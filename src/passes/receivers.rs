@@ -30,7 +30,9 @@ use glam::IVec2;
 
 use super::{LightProjection, LightView, ViewSamples};
 use crate::error::Result;
-use crate::gpu::{u32s, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
+use crate::gpu::{
+    u32s, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder,
+};
 use crate::scene::Light;
 use crate::shader_types::{ReceiversFinishPush, ReceiversPush};
 

@@ -80,7 +80,8 @@ pub const SHADOW_MAP_KNOBS: [Knob; 4] = [
 /// receiver itself (what the ray-cast reference assumes).
 pub const LIGHT_CLIP: Knob = Knob {
     name: "light_clip",
-    summary: "1: the light behind the receiver's tangent plane is blocked (as the reference); 0: off",
+    summary:
+        "1: the light behind the receiver's tangent plane is blocked (as the reference); 0: off",
     default: KnobDefault::Value(1.0),
     min: 0.0,
     max: 1.0,

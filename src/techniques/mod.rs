@@ -14,7 +14,7 @@ pub mod pcf_coverage;
 pub mod pcf_poisson;
 pub mod savsm;
 
-pub use params::{Knob, KnobDefault, Params, SHADOW_MAP_KNOBS};
+pub use params::{Knob, KnobDefault, Params, LIGHT_CLIP, SHADOW_MAP_KNOBS};
 
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Image, Recorder};

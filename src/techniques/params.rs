@@ -69,6 +69,18 @@ pub const SHADOW_MAP_KNOBS: [Knob; 4] = [
     },
 ];
 
+/// `light_clip`: the part of the light behind the receiver's tangent plane is hidden by the
+/// receiver itself (what the ray-cast reference assumes).
+pub const LIGHT_CLIP: Knob = Knob {
+    name: "light_clip",
+    summary:
+        "1: the light behind the receiver's tangent plane is blocked (as the reference); 0: off",
+    default: KnobDefault::Value(1.0),
+    min: 0.0,
+    max: 1.0,
+    integer: true,
+};
+
 /// Resolved knob values of one technique instance.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Params {

@@ -205,7 +205,8 @@ impl Engine {
         let info = techniques::find(technique)?;
         let params = info.params(overrides, &prepared.defaults)?;
         // `fit`: the scene's box (0) or the view samples and their casters (1, the default).
-        let light_view = if info.shadow_map && params.u32("fit")? == 1 {
+        let fits = info.shadow_map && !info.per_light_sample;
+        let light_view = if fits && params.u32("fit")? == 1 {
             prepared.receiver_light_view
         } else {
             prepared.light_view
@@ -217,7 +218,7 @@ impl Engine {
                 light_clip: params.u32("light_clip")? == 1,
                 normal_offset: params.f32("normal_offset")?,
                 map_size: params.u32("map_size")?,
-                clips_itself: info.clips_light,
+                clips_itself: info.per_light_sample,
             };
             if desc.needed() {
                 Some(Receivers::new(

@@ -146,6 +146,9 @@ pub struct PcfCoveragePush {
 pub struct AverageMapsPush {
     /// World → this light sample's clip space.
     pub light_view_proj: Mat4,
+    /// The light sample for the tangent-plane test: its position with w = 1, or the unit
+    /// direction towards the sun with w = 0.
+    pub light_sample: Vec4,
     /// View-sample image size.
     pub view_size: IVec2,
     /// Shadow-map size.
@@ -156,6 +159,6 @@ pub struct AverageMapsPush {
     pub first: i32,
     /// 1 for the last light sample (divide by K, count the classes).
     pub last: i32,
-    /// Padding to the block's declared size.
-    pub pad: i32,
+    /// 1: a light sample behind the receiver's tangent plane is blocked (the `light_clip` knob).
+    pub light_clip: i32,
 }

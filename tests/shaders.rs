@@ -226,12 +226,13 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             vec!["average_maps/accumulate.comp"],
             twin!(AverageMapsPush {
                 light_view_proj,
+                light_sample,
                 view_size,
                 map_size,
                 samples,
                 first,
                 last,
-                pad
+                light_clip
             }),
         ),
         (

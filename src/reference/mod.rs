@@ -118,7 +118,7 @@ pub const REFERENCE: TechniqueInfo = TechniqueInfo {
     knobs: &KNOBS,
     cacheable: true,
     shadow_map: false,
-    clips_light: false,
+    per_light_sample: false,
     create: |setup, params| {
         let settings = Settings::from_params(params, false)?;
         Ok(Box::new(Reference::new(setup, &settings, "reference")?))
@@ -133,7 +133,7 @@ pub const REFERENCE_SINGLE_LAYER: TechniqueInfo = TechniqueInfo {
     knobs: &KNOBS,
     cacheable: true,
     shadow_map: false,
-    clips_light: false,
+    per_light_sample: false,
     create: |setup, params| {
         let settings = Settings::from_params(params, true)?;
         Ok(Box::new(Reference::new(

@@ -78,19 +78,25 @@ pub struct TechniqueInfo {
     /// Whether it looks view samples up in a shadow map: the engine then prepares its receivers
     /// (light clipping, normal offset, light-view fit) and adds [`RECEIVER_KNOBS`].
     pub shadow_map: bool,
-    /// Whether it tests light samples itself and leaves out those behind the receiver's tangent
-    /// plane (`average-maps`): the engine then does not scale its result by the clipped fraction.
-    pub clips_light: bool,
+    /// Whether it renders one map per light sample, each fitted from that sample's own position,
+    /// and leaves out the samples behind the receiver's tangent plane itself (`average-maps`):
+    /// the engine then neither scales its result by the clipped fraction nor offers `fit`.
+    pub per_light_sample: bool,
     /// Builds an instance.
     pub create: for<'a> fn(&TechniqueSetup<'a>, &Params) -> Result<Box<dyn Technique + 'a>>,
 }
 
 impl TechniqueInfo {
-    /// Every knob it takes: its own, then [`RECEIVER_KNOBS`] for a shadow-map technique.
+    /// Every knob it takes: its own, then [`RECEIVER_KNOBS`] for a shadow-map technique (less
+    /// `fit` for a per-light-sample technique, whose maps are fitted sample by sample).
     pub fn all_knobs(&self) -> Vec<Knob> {
         let mut knobs = self.knobs.to_vec();
         if self.shadow_map {
-            knobs.extend(RECEIVER_KNOBS);
+            knobs.extend(
+                RECEIVER_KNOBS
+                    .iter()
+                    .filter(|k| !(self.per_light_sample && k.name == params::FIT.name)),
+            );
         }
         knobs
     }

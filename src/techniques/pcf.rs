@@ -50,7 +50,7 @@ pub const HARD: TechniqueInfo = TechniqueInfo {
     knobs: &SHADOW_MAP_KNOBS,
     cacheable: false,
     shadow_map: true,
-    clips_light: false,
+    per_light_sample: false,
     create: |setup, params| Ok(Box::new(pcf(setup, params, 0, 1, 0)?)),
 };
 
@@ -70,7 +70,7 @@ pub const PCF: TechniqueInfo = TechniqueInfo {
     knobs: &PCF_KNOBS,
     cacheable: false,
     shadow_map: true,
-    clips_light: false,
+    per_light_sample: false,
     create: |setup, params| {
         let kernel = params.u32("kernel")? as i32;
         let receiver_plane = params.u32("receiver_plane_bias")? as i32;

@@ -44,7 +44,7 @@ pub const PCF_COVERAGE: TechniqueInfo = TechniqueInfo {
     knobs: &KNOBS,
     cacheable: false,
     shadow_map: true,
-    clips_light: false,
+    per_light_sample: false,
     create: |setup, params| Ok(Box::new(pcf_coverage(setup, params)?)),
 };
 

@@ -53,7 +53,7 @@ pub const PCF_POISSON: TechniqueInfo = TechniqueInfo {
     knobs: &KNOBS,
     cacheable: false,
     shadow_map: true,
-    clips_light: false,
+    per_light_sample: false,
     create: |setup, params| Ok(Box::new(pcf_poisson(setup, params)?)),
 };
 

@@ -91,7 +91,7 @@ pub const SAVSM: TechniqueInfo = TechniqueInfo {
     knobs: &KNOBS,
     cacheable: false,
     shadow_map: true,
-    clips_light: false,
+    per_light_sample: false,
     create: |setup, params| Ok(Box::new(Savsm::new(setup, params)?)),
 };
 

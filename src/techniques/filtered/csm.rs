@@ -110,7 +110,7 @@ pub const CSM: TechniqueInfo = TechniqueInfo {
     knobs: &KNOBS,
     cacheable: false,
     shadow_map: true,
-    clips_light: false,
+    per_light_sample: false,
     create: |setup, params| create(setup, params, "csm", config(params)?),
 };
 

@@ -52,7 +52,7 @@ pub const ESM: TechniqueInfo = TechniqueInfo {
     knobs: &KNOBS,
     cacheable: false,
     shadow_map: true,
-    clips_light: false,
+    per_light_sample: false,
     create: |setup, params| create(setup, params, "esm", config(params)?),
 };
 

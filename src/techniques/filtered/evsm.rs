@@ -91,7 +91,7 @@ pub const EVSM: TechniqueInfo = TechniqueInfo {
     knobs: &KNOBS,
     cacheable: false,
     shadow_map: true,
-    clips_light: false,
+    per_light_sample: false,
     create: |setup, params| create(setup, params, "evsm", config(params)?),
 };
 

@@ -67,7 +67,7 @@ pub const MSM: TechniqueInfo = TechniqueInfo {
     knobs: &KNOBS,
     cacheable: false,
     shadow_map: true,
-    clips_light: false,
+    per_light_sample: false,
     create: |setup, params| create(setup, params, "msm", config(params)?),
 };
 

@@ -61,7 +61,7 @@ pub const VSM: TechniqueInfo = TechniqueInfo {
     knobs: &KNOBS,
     cacheable: false,
     shadow_map: true,
-    clips_light: false,
+    per_light_sample: false,
     create: |setup, params| create(setup, params, "vsm", config(params)?),
 };
 

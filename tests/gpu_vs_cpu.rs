@@ -431,7 +431,7 @@ fn average_maps_without_clip_is_the_mean_of_hard_maps() {
     scene.camera.width = 128;
     scene.camera.height = 96;
     let samples = 4u32;
-    let mut set = common::knobs(&[("map_size", "256")]);
+    let set = common::knobs(&[("map_size", "256")]);
     let prepared = engine.prepare(&scene).expect("prepare");
     let mut avg_set = set.clone();
     avg_set.insert("samples".to_string(), samples.to_string());

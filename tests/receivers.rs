@@ -203,8 +203,8 @@ fn clipping_scales_results_and_removes_the_leak() {
         };
         let (on, off) = (render("1"), render("0"));
         let mut horizon = 0u64;
-        for i in 0..positions.len() {
-            if positions[i].w <= 0.0 {
+        for (i, p) in positions.iter().enumerate() {
+            if p.w <= 0.0 {
                 continue;
             }
             let f = twin_clip.clip[i];

@@ -13,9 +13,9 @@ use glam::{Vec3, Vec4};
 
 use crate::error::{Error, Result};
 use crate::gpu::{f32s, Context, ContextDesc, Image, ImageDesc, PassTime, Timestamps};
-use crate::passes::{LightView, SceneGeometry, ViewSamples};
+use crate::passes::{LightView, ReceiverDesc, Receivers, SceneGeometry, ViewSamples};
 use crate::scene::{Camera, Light, Scene, SceneDefaults};
-use crate::techniques::{self, Params, Technique, TechniqueSetup};
+use crate::techniques::{self, Technique, TechniqueSetup};
 
 /// A Vulkan device ready to run techniques.
 pub struct Engine {
@@ -34,8 +34,12 @@ pub struct PreparedScene {
     pub light: Light,
     /// The scene's knob defaults.
     pub defaults: SceneDefaults,
-    /// The light view fitted to the scene.
+    /// The light view fitted to the scene (what the techniques render with).
     pub light_view: LightView,
+    /// The view samples' bounds in `light_view`'s view space.
+    pub receiver_bounds: crate::passes::ReceiverBounds,
+    /// The same light view focused on the view samples ([`LightView::fit_to_receivers`]).
+    pub receiver_light_view: LightView,
     /// Triangles on the GPU.
     pub geometry: SceneGeometry,
     /// The same triangles on the CPU, world space.
@@ -120,10 +124,12 @@ impl Engine {
         &self.ctx
     }
 
-    /// Uploads `scene`, fits its light view and renders its view samples.
+    /// Uploads `scene`, fits its light view, renders its view samples, bounds them in the light
+    /// view and fits a second light view to them.
     pub fn prepare(&self, scene: &Scene) -> Result<PreparedScene> {
         let ctx = &self.ctx;
-        let light_view = LightView::fit(&scene.light, &scene.bounds())?;
+        let scene_bounds = scene.bounds();
+        let light_view = LightView::fit(&scene.light, &scene_bounds)?;
         let (positions, indices) = scene.merged();
         let geometry = SceneGeometry::from_triangles(ctx, &positions, &indices)?;
         let view = ViewSamples::new(ctx, &scene.camera)?;
@@ -134,17 +140,26 @@ impl Engine {
                 vk::Format::R32_SFLOAT,
                 scene.camera.width,
                 scene.camera.height,
-                vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
+                vk::ImageUsageFlags::STORAGE
+                    | vk::ImageUsageFlags::TRANSFER_SRC
+                    | vk::ImageUsageFlags::TRANSFER_DST,
             ),
         )?;
+        let bounds_pass = crate::passes::ReceiverBoundsPass::new(ctx, &view, &light_view)?;
         let mut timestamps = Timestamps::new(ctx, 1)?;
         ctx.submit(Some(&mut timestamps), |rec| {
-            view.record(rec, &geometry, &scene.camera)
+            view.record(rec, &geometry, &scene.camera)?;
+            // Outside the timed pass: view_pass stays the view samples' time alone.
+            bounds_pass.record(rec)
         })?;
         let view_pass = timestamps.results()?.pop().unwrap_or(PassTime {
             name: "view-samples".into(),
             gpu_ms: None,
         });
+        let receiver_bounds = bounds_pass.read()?;
+        drop(bounds_pass);
+        let receiver_light_view =
+            LightView::fit_to_receivers(&scene.light, &scene_bounds, &receiver_bounds)?;
         Ok(PreparedScene {
             name: scene.name.clone(),
             source: scene.source.display().to_string(),
@@ -152,6 +167,8 @@ impl Engine {
             light: scene.light,
             defaults: scene.defaults,
             light_view,
+            receiver_bounds,
+            receiver_light_view,
             geometry,
             positions,
             indices,
@@ -186,15 +203,49 @@ impl Engine {
     ) -> Result<Frame> {
         let ctx = &self.ctx;
         let info = techniques::find(technique)?;
-        let params = Params::resolve(info.name, info.knobs, overrides, &prepared.defaults)?;
+        let params = info.params(overrides, &prepared.defaults)?;
+        // `fit`: the scene's box (0) or the view samples and their casters (1, the default).
+        let fits = info.shadow_map && !info.per_light_sample;
+        let light_view = if fits && params.u32("fit")? == 1 {
+            prepared.receiver_light_view
+        } else {
+            prepared.light_view
+        };
+        // The receivers (light clipping, normal offset) of a shadow-map technique: shared view
+        // sample data like the view samples themselves, so not counted as the technique's memory.
+        let receivers = if info.shadow_map {
+            let desc = ReceiverDesc {
+                light_clip: params.u32("light_clip")? == 1,
+                normal_offset: params.f32("normal_offset")?,
+                map_size: params.u32("map_size")?,
+                clips_itself: info.per_light_sample,
+            };
+            if desc.needed() {
+                Some(Receivers::new(
+                    ctx,
+                    &prepared.view,
+                    &prepared.light,
+                    &light_view,
+                    &prepared.visibility,
+                    &desc,
+                )?)
+            } else {
+                None
+            }
+        } else {
+            None
+        };
         let setup = TechniqueSetup {
             ctx,
             geometry: &prepared.geometry,
             positions: &prepared.positions,
             indices: &prepared.indices,
             view: &prepared.view,
+            receivers: receivers
+                .as_ref()
+                .map_or(&prepared.view.positions, |r| &r.lookup),
             light: &prepared.light,
-            light_view: &prepared.light_view,
+            light_view: &light_view,
             visibility: &prepared.visibility,
         };
         let before = ctx.live_bytes();
@@ -209,7 +260,16 @@ impl Engine {
         // references are computed once for their values, not their time: no warm-up.
         let first = if info.cacheable { 1 } else { 0 };
         for frame in first..=frames {
-            ctx.submit(Some(&mut timestamps), |rec| instance.record(rec))?;
+            ctx.submit(Some(&mut timestamps), |rec| {
+                if let Some(r) = &receivers {
+                    r.record_prepare(rec)?;
+                }
+                instance.record(rec)?;
+                if let Some(r) = &receivers {
+                    r.record_finish(rec)?;
+                }
+                Ok(())
+            })?;
             if frame == 0 {
                 continue; // warm-up
             }
@@ -233,7 +293,11 @@ impl Engine {
         let total_gpu_ms = timed.then(|| technique_passes.iter().filter_map(|p| p.gpu_ms).sum());
         let mut passes = vec![prepared.view_pass.clone()];
         passes.extend(technique_passes);
-        let counters = instance.counters()?.into_iter().collect();
+        let mut counters: BTreeMap<String, u64> = instance.counters()?.into_iter().collect();
+        if let Some(r) = &receivers {
+            // The technique counted only the samples it evaluated; these cover every sample.
+            counters.extend(r.counters()?);
+        }
         inspect(instance.as_ref())?;
         drop(instance);
 
@@ -292,7 +356,7 @@ impl Engine {
                 CacheUse::Off,
             ));
         };
-        let params = Params::resolve(info.name, info.knobs, overrides, &prepared.defaults)?;
+        let params = info.params(overrides, &prepared.defaults)?;
         let mut h = crate::cache::Fnv64::default();
         h.write(bytemuck::cast_slice(&prepared.positions));
         h.write(bytemuck::cast_slice(&prepared.indices));

@@ -29,6 +29,59 @@ pub struct ViewSamplesPush {
     pub forward: Vec4,
 }
 
+/// `glsl/receivers/prepare.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ReceiversPush {
+    /// The light in the reference's encoding ([`crate::reference::light_encoding`]).
+    pub light_position: Vec4,
+    /// See `light_position`.
+    pub light_u: Vec4,
+    /// See `light_position`.
+    pub light_v: Vec4,
+    /// xyz: the light view's origin; w: 1 perspective, 0 orthographic.
+    pub view_origin: Vec4,
+    /// xyz: the light view's unit direction; w: a texel's world size at unit depth
+    /// (perspective) or anywhere (orthographic).
+    pub view_direction: Vec4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// The light's kind (`reference::KIND_*`).
+    pub kind: i32,
+    /// 1: compute the clipped fraction; 0: f = 1.
+    pub light_clip: i32,
+    /// Normal offset in shadow-map texels.
+    pub normal_offset: f32,
+    /// Padding to the block's declared size.
+    pub pad: [i32; 3],
+}
+
+/// `glsl/receivers/finish.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ReceiversFinishPush {
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// 1: V' = f·V; 0: V' = V.
+    pub scale: i32,
+    /// Padding to the block's declared size.
+    pub pad: i32,
+}
+
+/// `glsl/receiver_bounds/project.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct ReceiverBoundsPush {
+    /// World → light view (not clip: the bounds are taken in view space).
+    pub light_view: Mat4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// 1: perspective light (x and y divided by −z); 0: orthographic.
+    pub perspective: i32,
+    /// Padding to the block's declared size.
+    pub pad: i32,
+}
+
 /// `glsl/pcf/pcf.comp`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -93,6 +146,9 @@ pub struct PcfCoveragePush {
 pub struct AverageMapsPush {
     /// World → this light sample's clip space.
     pub light_view_proj: Mat4,
+    /// The light sample for the tangent-plane test: its position with w = 1, or the unit
+    /// direction towards the sun with w = 0.
+    pub light_sample: Vec4,
     /// View-sample image size.
     pub view_size: IVec2,
     /// Shadow-map size.
@@ -103,6 +159,6 @@ pub struct AverageMapsPush {
     pub first: i32,
     /// 1 for the last light sample (divide by K, count the classes).
     pub last: i32,
-    /// Padding to the block's declared size.
-    pub pad: i32,
+    /// 1: a light sample behind the receiver's tangent plane is blocked (the `light_clip` knob).
+    pub light_clip: i32,
 }

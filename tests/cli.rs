@@ -83,7 +83,16 @@ fn render_writes_every_file_with_clean_stats() {
         .iter()
         .map(|p| p["name"].as_str().unwrap_or(""))
         .collect();
-    assert_eq!(names, ["view-samples", "light-depth", "pcf"]);
+    assert_eq!(
+        names,
+        [
+            "view-samples",
+            "receivers",
+            "light-depth",
+            "pcf",
+            "light-clip"
+        ]
+    );
     assert!(passes
         .iter()
         .all(|p| p["gpu_ms"].as_f64().is_some_and(|ms| ms > 0.0)));

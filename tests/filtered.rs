@@ -18,7 +18,7 @@ use penumbra::gpu::f32s;
 use penumbra::passes::{LightProjection, LightView};
 use penumbra::scene::{shapes, Camera, Light, Mesh, Scene, SceneDefaults};
 use penumbra::techniques::filtered::{config, push_constants, FilteredPush, FLAGS_ONLY_GROUP};
-use penumbra::techniques::{find, Params};
+use penumbra::techniques::find;
 use penumbra::{Engine, PreparedScene};
 
 use common::small;
@@ -42,8 +42,7 @@ fn render_with_twin(
         })
         .expect("render");
     let info = find(technique).expect("registered");
-    let params =
-        Params::resolve(info.name, info.knobs, overrides, &prepared.defaults).expect("knobs");
+    let params = info.params(overrides, &prepared.defaults).expect("knobs");
     let setup =
         TwinSetup::new(technique, &params, light, &prepared.light_view).expect("twin set-up");
     let positions = prepared.view.read_positions(&ctx).expect("positions");
@@ -67,6 +66,7 @@ fn compare(
     let scene = small(spec);
     let prepared = engine.prepare(&scene).expect("prepare");
     let mut overrides = common::knobs(&[("map_size", map)]);
+    overrides.extend(common::knobs(&common::KERNEL_ONLY));
     overrides.extend(common::knobs(knobs));
     let (frame, cpu) = render_with_twin(&engine, &prepared, &scene.light, technique, &overrides);
     // A pixel fails when it differs by more than the tolerance plus what a rounding-sized
@@ -233,8 +233,7 @@ fn push_constants_match_hand_computed_values() {
         let info = find(technique).expect("registered");
         let mut overrides = common::knobs(&[("map_size", "256")]);
         overrides.extend(common::knobs(knobs));
-        let params =
-            Params::resolve(info.name, info.knobs, &overrides, &scene.defaults).expect("knobs");
+        let params = info.params(&overrides, &scene.defaults).expect("knobs");
         let config = config(technique, &params).expect("filtered");
         push_constants(&config, view, size, 256, group)
     };

@@ -88,6 +88,9 @@ fn knobs(pairs: &[(&str, &str)]) -> BTreeMap<String, String> {
         .or_insert(BIAS_CONSTANT.to_string());
     m.entry("bias_slope".into())
         .or_insert(BIAS_SLOPE.to_string());
+    for (k, v) in common::KERNEL_ONLY {
+        m.entry(k.into()).or_insert(v.to_string());
+    }
     m
 }
 

@@ -8,7 +8,7 @@ use glam::{IVec2, Vec3};
 use penumbra::cpu::savsm::{savsm, twin_push};
 use penumbra::gpu::f32s;
 use penumbra::scene::Light;
-use penumbra::techniques::{find, Params};
+use penumbra::techniques::find;
 
 /// GPU against the CPU twin, run on the GPU's own shadow map and view samples with the twin's
 /// own push block ([`twin_push`]). A pixel may differ by 1e-5 plus its sensitivity: what moving
@@ -21,7 +21,8 @@ fn compare(spec: &str, kernel: &str) {
     let engine = common::engine();
     let scene = common::small(spec);
     let prepared = engine.prepare(&scene).expect("prepare");
-    let overrides = common::knobs(&[("map_size", "256"), ("kernel", kernel)]);
+    let mut overrides = common::knobs(&[("map_size", "256"), ("kernel", kernel)]);
+    overrides.extend(common::knobs(&common::KERNEL_ONLY));
     let ctx = engine.context().clone();
     let mut depth = Vec::new();
     let frame = engine
@@ -32,8 +33,7 @@ fn compare(spec: &str, kernel: &str) {
         })
         .expect("render");
     let info = find("savsm").expect("registered");
-    let params =
-        Params::resolve(info.name, info.knobs, &overrides, &prepared.defaults).expect("knobs");
+    let params = info.params(&overrides, &prepared.defaults).expect("knobs");
     let size = IVec2::new(frame.width as i32, frame.height as i32);
     let pc = twin_push(&params, &scene.light, &prepared.light_view, size).expect("twin push");
     let positions = prepared.view.read_positions(&ctx).expect("positions");
@@ -250,8 +250,7 @@ fn push_block_matches_hand_computed_values() {
             ("bleed_reduction", "0.25"),
         ]);
         let info = find("savsm").expect("registered");
-        let params =
-            Params::resolve(info.name, info.knobs, &overrides, &scene.defaults).expect("knobs");
+        let params = info.params(&overrides, &scene.defaults).expect("knobs");
         let pc = SavsmPush::new(&view, IVec2::new(128, 96), 256, 37, &params).expect("push");
         (pc, view)
     };

@@ -156,6 +156,38 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
+            vec!["receivers/prepare.comp"],
+            twin!(ReceiversPush {
+                light_position,
+                light_u,
+                light_v,
+                view_origin,
+                view_direction,
+                view_size,
+                kind,
+                light_clip,
+                normal_offset,
+                pad
+            }),
+        ),
+        (
+            vec!["receivers/finish.comp"],
+            twin!(ReceiversFinishPush {
+                view_size,
+                scale,
+                pad
+            }),
+        ),
+        (
+            vec!["receiver_bounds/project.comp"],
+            twin!(ReceiverBoundsPush {
+                light_view,
+                view_size,
+                perspective,
+                pad
+            }),
+        ),
+        (
             vec!["pcf/pcf.comp"],
             twin!(PcfPush {
                 light_view_proj,
@@ -194,12 +226,13 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             vec!["average_maps/accumulate.comp"],
             twin!(AverageMapsPush {
                 light_view_proj,
+                light_sample,
                 view_size,
                 map_size,
                 samples,
                 first,
                 last,
-                pad
+                light_clip
             }),
         ),
         (

@@ -2,9 +2,13 @@
 //! renders its maps from.
 //!
 //! [`average_maps`] is the mean over light samples of the nearest-texel shadow-map test: the
-//! count of lit tests divided once by K (K of K is exactly 1). Tolerance against the GPU: 1e-6
-//! (the shader's division may be a few ulp off) except where a sample's test is a depth tie (see
-//! [`super::pcf`]).
+//! count of lit tests divided once by K (K of K is exactly 1). With `light_clip` a sample behind
+//! the receiver's tangent plane counts 0 without a map test, decided by the twin's own plane test
+//! ([`behind_plane`]) on its own light samples. Tolerance against the GPU: 1e-6 (the shader's
+//! division may be a few ulp off) except at view samples where some sample's test is a tie: a
+//! depth tie or a texel-edge tie (as in [`super::pcf`]), or a plane tie — `n·(s − p)` within
+//! [`PLANE_TIE`] of its terms' magnitude, where the GPU's rounding (or a sun direction an ulp
+//! away from the twin's) may put the sample on the other side.
 //!
 //! [`sample_lights`] is the twin's own set of light samples, written from the definition (a
 //! shifted Hammersley set over a rect light, Shirley and Chiu's concentric map over the sun's
@@ -13,62 +17,140 @@
 //! bit for bit the same as the technique's (the test compares images rendered from them); sun
 //! directions are computed in `f64` and agree to an ulp.
 
-use glam::{IVec2, Mat4, Vec3, Vec4};
+use glam::{IVec2, Mat4, Vec2, Vec3, Vec4};
 
-use super::pcf::pcf;
+use super::pcf::TIE_EPSILON;
 use super::ray_cast::concentric;
-use super::shadow_map::DepthMap;
+use super::shadow_map::{inside_map, shadow_coord, DepthMap};
+use crate::error::{Error, Result};
 use crate::scene::Light;
+
+/// Relative band of the tangent-plane test: `|n·(s − p)|` at most this times
+/// `Σ|nᵢ (s − p)ᵢ|` is a plane tie (a few f32 roundings of the terms).
+pub const PLANE_TIE: f32 = 1e-6;
+
+/// One light sample as the twin tests it: its shadow map, the map's view-projection, and the
+/// sample itself (a point, a rect sample whose position is the point, or a sun direction), which
+/// the tangent-plane test reads.
+pub struct SampleMap<'a> {
+    /// The sample's depth map.
+    pub map: DepthMap<'a>,
+    /// World → the sample's light clip space (the map's matrix).
+    pub view_proj: Mat4,
+    /// The light sample.
+    pub light: Light,
+}
 
 /// What the twin computes.
 pub struct AverageOutput {
     /// Visibility per pixel, row-major (1 for background).
     pub visibility: Vec<f32>,
-    /// Per pixel: a depth tie in some sample's test (excluded from exact comparison).
+    /// Per pixel: a depth, texel-edge or plane tie in some sample's test (excluded from exact
+    /// comparison).
     pub tie: Vec<bool>,
+    /// Per pixel: how many light samples are behind the tangent plane (0 without `light_clip`).
+    pub behind: Vec<u32>,
     /// View-sample tests that fell outside a sample's light frustum, summed over the samples
-    /// (the shader's `outside_light_tests` counter).
+    /// (the shader's `outside_light_tests` counter); clipped samples are not tested.
     pub outside: u64,
     /// View samples, lit (V = 1), umbra (V = 0) and penumbra, as the shader counts them.
     pub classes: [u64; 4],
+    /// View samples whose every light sample is behind the plane (`horizon_umbra`).
+    pub horizon: u64,
 }
 
-/// Averages the hard test of every (map, view-projection) pair.
+/// The tangent-plane test of view sample `p` with unit normal `n` against light sample `light`:
+/// `n·(s − p)` for a point or rect sample at s, `n·ω` for a sun, ω = −direction the way towards
+/// it. Returns the value and whether it is a plane tie ([`PLANE_TIE`]). The sample is behind
+/// (blocked by the receiver itself) when the value is ≤ 0.
+pub fn behind_plane(p: Vec3, n: Vec3, light: &Light) -> (f32, bool) {
+    let to_light = match *light {
+        Light::Point { position } | Light::Rect { position, .. } => {
+            Vec3::new(position.x - p.x, position.y - p.y, position.z - p.z)
+        }
+        Light::Directional { direction, .. } => -direction,
+    };
+    // Summed left to right, as the shader's `dot3`.
+    let terms = [n.x * to_light.x, n.y * to_light.y, n.z * to_light.z];
+    let facing = terms[0] + terms[1] + terms[2];
+    let magnitude = terms[0].abs() + terms[1].abs() + terms[2].abs();
+    (facing, facing.abs() <= PLANE_TIE * magnitude)
+}
+
+/// Averages the hard test of every light sample over the view samples (`positions`, w > 0 marks
+/// a sample; `normals` their camera-facing unit normals, needed with `light_clip` only). With
+/// `light_clip` a sample behind a view sample's tangent plane counts 0 and is not tested.
 pub fn average_maps(
     positions: &[Vec4],
+    normals: &[Vec4],
     view_size: IVec2,
-    maps: &[(DepthMap<'_>, Mat4)],
-) -> AverageOutput {
+    maps: &[SampleMap<'_>],
+    light_clip: bool,
+) -> Result<AverageOutput> {
     let n = (view_size.x * view_size.y) as usize;
+    if positions.len() < n || (light_clip && normals.len() < n) {
+        return Err(Error::Parameter {
+            technique: "average-maps (CPU twin)".to_string(),
+            message: format!(
+                "{} positions and {} normals for {n} view samples",
+                positions.len(),
+                normals.len()
+            ),
+        });
+    }
     let mut out = AverageOutput {
         visibility: vec![0.0; n],
         tie: vec![false; n],
+        behind: vec![0; n],
         outside: 0,
         classes: [0; 4],
+        horizon: 0,
     };
-    for (map, view_proj) in maps {
-        let hard = pcf(positions, view_size, map, *view_proj, 0, 1);
-        out.outside += hard.counters[1];
-        for i in 0..n {
-            out.visibility[i] += hard.visibility[i];
-            out.tie[i] |= hard.tie[i];
+    // Near a texel edge the GPU's projected xy may fall in the neighbouring texel.
+    let edge = |x: f32| (x - x.round()).abs() < 1e-3;
+    for i in 0..n {
+        let p = positions[i];
+        if p.w <= 0.0 {
+            out.visibility[i] = 1.0;
+            continue;
         }
-    }
-    let k = maps.len().max(1) as f32;
-    for (i, v) in out.visibility.iter_mut().enumerate() {
-        *v = if *v >= k { 1.0 } else { *v / k };
-        if positions[i].w > 0.0 {
-            out.classes[0] += 1;
-            out.classes[if *v >= 1.0 {
-                1
-            } else if *v <= 0.0 {
-                2
+        let mut lit = 0u32;
+        for sample in maps {
+            if light_clip {
+                let (facing, tie) =
+                    behind_plane(p.truncate(), normals[i].truncate(), &sample.light);
+                out.tie[i] |= tie;
+                if facing <= 0.0 {
+                    out.behind[i] += 1;
+                    continue;
+                }
+            }
+            let c = shadow_coord(sample.view_proj, p.truncate(), sample.map.size);
+            if !inside_map(c, sample.map.size) {
+                out.outside += 1;
+                lit += 1;
             } else {
-                3
-            }] += 1;
+                let t = Vec2::new(c.x, c.y).floor().as_ivec2();
+                out.tie[i] |= (c.z - sample.map.fetch(t)).abs() < TIE_EPSILON;
+                lit += sample.map.depth_test(t, c.z) as u32;
+            }
+            out.tie[i] |= edge(c.x) || edge(c.y);
         }
+        let k = maps.len().max(1) as f32;
+        let count = lit as f32;
+        let v = if count >= k { 1.0 } else { count / k };
+        out.visibility[i] = v;
+        out.classes[0] += 1;
+        out.classes[if v >= 1.0 {
+            1
+        } else if v <= 0.0 {
+            2
+        } else {
+            3
+        }] += 1;
+        out.horizon += u64::from(!maps.is_empty() && out.behind[i] as usize == maps.len());
     }
-    out
+    Ok(out)
 }
 
 /// Base-2 radical inverse of `i` (van der Corput): its binary digits mirrored about the point,

@@ -7,6 +7,7 @@
 pub mod average_maps;
 pub mod compact;
 pub mod filtered;
+pub mod light_clip;
 pub mod minmax;
 pub mod nbuffer;
 pub mod pcf;
@@ -14,7 +15,9 @@ pub mod pcf_coverage;
 pub mod pcf_poisson;
 pub mod raster;
 pub mod ray_cast;
+pub mod receiver_bounds;
 pub mod receiver_plane;
+pub mod receivers;
 pub mod reduce;
 pub mod sat;
 pub mod savsm;

@@ -7,24 +7,62 @@
 //! a wide scene would otherwise need a cube map, and geometry outside the cap is reported as
 //! `outside_light` by the techniques rather than silently clamped). Near and far planes hug the
 //! box so D32 depth keeps its precision.
+//!
+//! [`LightView::fit_to_receivers`] focuses the same view (same origin and direction) on what the
+//! camera sees (book §4.1): its cross-section is the box of the view samples' light-space
+//! bounds ([`ReceiverBounds`], an off-centre frustum for a perspective light), so map texels
+//! are not spent on geometry no view sample looks up. Near stays the scene fit's (a caster
+//! between a receiver and the light can be nearer the light than any receiver), far comes from
+//! the farthest receiver.
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 
+use super::receiver_bounds::ReceiverBounds;
 use crate::error::{Error, Result};
 use crate::scene::{Aabb, Light};
 
 /// The widest perspective frustum fitted to a scene.
 pub const MAX_FOV_DEG: f32 = 150.0;
 
+/// Margin of a receiver fit's cross-section, on each side, as a fraction of the receivers' box
+/// (its larger side). View samples are pixel centres: the surfaces they stand for reach half a
+/// camera pixel further, and filtered lookups read a few texels around a sample (texels outside
+/// the map read as lit). 2 % is 5 texels of a 256² map and 41 of a 2048² one; it also absorbs
+/// the GPU's rounding of the bounds (~1e-6 relative, see `crate::cpu::receiver_bounds`).
+pub const RECEIVER_MARGIN: f32 = 0.02;
+
+/// Smallest receiver margin, as a fraction of the scene fit's cross-section (its larger side),
+/// so a single receiver, or a line of them, still gets a frustum of non-zero width.
+pub const MIN_RECEIVER_MARGIN: f32 = 1e-3;
+
+/// Margin beyond the farthest receiver, as a fraction of the larger of the scene box's diagonal
+/// and that receiver's depth: the scene fit's own depth margin (1e-3), which also covers the
+/// f32 rounding of a depth taken at large distance from the light.
+pub const DEPTH_MARGIN: f32 = 1e-3;
+
+/// Floor on a receiver fit's depth range `far − near`, as a fraction of the scene box's
+/// diagonal. The receivers of a flat scene seen head-on all share one depth, so far would
+/// close in on near: the projection's depth row (`far / (near − far)`) would grow without bound
+/// and the filtered techniques, which normalise depth as `(d − near) / (far − near)`, would
+/// magnify every world-space depth difference and f32 rounding of the receivers' positions by
+/// `1 / (far − near)`, so their knobs (ESM's exponent, VSM's minimum variance, MSM's moment
+/// bias) would change meaning from scene to scene. 1 % of the diagonal caps that magnification at
+/// 100 / diagonal: a depth step of 1 % of the scene's size spans at most the whole normalised
+/// range. (The scene fit of a flat box can be thinner still, e.g. 0.1 % for a plane under a
+/// point light; the floor applies to the receiver fit only.)
+pub const DEPTH_FLOOR: f32 = 0.01;
+
 /// Perspective or orthographic.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub enum LightProjection {
-    /// From a point: full vertical (= horizontal) field of view in radians.
+    /// From a point: full vertical (= horizontal) field of view in radians. For an off-centre
+    /// receiver fit, the field of the smallest centred frustum that holds it.
     Perspective {
         /// Field of view, radians.
         fov: f32,
     },
-    /// Parallel rays: half the side of the square covered, world units.
+    /// Parallel rays: half the side of the square covered, world units. For an off-centre
+    /// receiver fit, the smallest centred square that holds its rectangle.
     Orthographic {
         /// Half extent, world units.
         half_extent: f32,
@@ -32,6 +70,10 @@ pub enum LightProjection {
 }
 
 /// The fitted light view.
+///
+/// A receiver fit ([`LightView::fit_to_receivers`]) may be off-centre: its exact cross-section
+/// is [`LightView::cross_section`], and [`LightProjection`] then gives the smallest centred
+/// frustum (or square) that holds it.
 #[derive(Clone, Copy, Debug)]
 pub struct LightView {
     /// World → light view.
@@ -178,6 +220,115 @@ impl LightView {
                 })
             }
         }
+    }
+}
+
+/// A right-handed, off-centre perspective projection with depth 0..1, the shape of
+/// [`Mat4::perspective_rh`] (which it equals for a centred window): the window is given at unit
+/// depth, `left..right` in `x / −z` and `bottom..top` in `y / −z`, and maps to clip x and y
+/// −1..1; view depths `near..far` (positive) map to 0..1. glam's `frustum_rh` takes the window on
+/// the near plane and rounds its depth row differently; this one keeps `perspective_rh`'s depth
+/// row bit for bit, which the filtered techniques invert (`linear_depth`).
+pub fn perspective_off_centre_rh(
+    left: f32,
+    right: f32,
+    bottom: f32,
+    top: f32,
+    near: f32,
+    far: f32,
+) -> Mat4 {
+    let (w, h) = (right - left, top - bottom);
+    // clip.w = −z, so clip.x / clip.w = 2 (x/−z) / w − (right + left) / w: the z column
+    // carries the offset with a + sign.
+    let r = far / (near - far);
+    Mat4::from_cols(
+        Vec4::new(2.0 / w, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, 2.0 / h, 0.0, 0.0),
+        Vec4::new((right + left) / w, (top + bottom) / h, r, -1.0),
+        Vec4::new(0.0, 0.0, r * near, 0.0),
+    )
+}
+
+impl LightView {
+    /// The window the projection covers, as (min, max) corners: in `x / −z`, `y / −z` of the
+    /// light's view space for a perspective view, in world units of `x`, `y` for an orthographic
+    /// one. Read back from `proj`, so it holds for views built by hand too.
+    pub fn cross_section(&self) -> (Vec2, Vec2) {
+        let (sx, sy) = (self.proj.x_axis.x, self.proj.y_axis.y);
+        // Perspective: ndc = s·t − o with the offset o in the z column; orthographic:
+        // ndc = s·x + o with o in the w column.
+        let (ox, oy) = match self.projection {
+            LightProjection::Perspective { .. } => (self.proj.z_axis.x, self.proj.z_axis.y),
+            LightProjection::Orthographic { .. } => (-self.proj.w_axis.x, -self.proj.w_axis.y),
+        };
+        let lo = Vec2::new((ox - 1.0) / sx, (oy - 1.0) / sy);
+        let hi = Vec2::new((ox + 1.0) / sx, (oy + 1.0) / sy);
+        (lo.min(hi), lo.max(hi))
+    }
+
+    /// The view of [`LightView::fit`] (same origin, direction and near plane) focused on the
+    /// receivers: `receivers` are the view samples' bounds in that fit's view space (see
+    /// [`super::ReceiverBoundsPass`]). The cross-section is the receivers' box (`x/−z`,
+    /// `y/−z` for a perspective light, giving an off-centre frustum; `x`, `y` for a directional
+    /// one) grown by [`RECEIVER_MARGIN`] and clipped to the scene fit's, so it never covers
+    /// more than the scene fit. Every caster between a receiver and the light's origin lies on
+    /// the receiver's ray from the origin (perspective) or its parallel ray (orthographic), so
+    /// inside this cross-section, and in the scene box, so no nearer than the scene fit's near
+    /// plane, which is kept. Far is the farthest receiver's depth plus [`DEPTH_MARGIN`], at least
+    /// `near` + [`DEPTH_FLOOR`] × the box diagonal. With no receivers in the scene fit's view the
+    /// scene fit itself is returned.
+    pub fn fit_to_receivers(
+        light: &Light,
+        scene_bounds: &Aabb,
+        receivers: &ReceiverBounds,
+    ) -> Result<LightView> {
+        let scene = LightView::fit(light, scene_bounds)?;
+        let perspective = matches!(scene.projection, LightProjection::Perspective { .. });
+        if receivers.perspective != perspective {
+            return Err(Error::input(
+                "scene",
+                None,
+                "receiver bounds were taken for the other kind of light projection",
+            ));
+        }
+        if receivers.is_empty() || !receivers.min.is_finite() || !receivers.max.is_finite() {
+            return Ok(scene);
+        }
+        let (scene_lo, scene_hi) = scene.cross_section();
+        let lo = receivers.min.truncate().max(scene_lo);
+        let hi = receivers.max.truncate().min(scene_hi);
+        if lo.cmpgt(hi).any() {
+            // Every receiver is outside the scene fit (beyond its field-of-view cap).
+            return Ok(scene);
+        }
+        let pad = (RECEIVER_MARGIN * (hi - lo).max_element())
+            .max(MIN_RECEIVER_MARGIN * (scene_hi - scene_lo).max_element());
+        let lo = (lo - pad).max(scene_lo);
+        let hi = (hi + pad).min(scene_hi);
+
+        let diagonal = (scene_bounds.max - scene_bounds.min).length().max(1e-6);
+        let near = scene.near;
+        let deepest = receivers.max.z;
+        let far = (deepest + DEPTH_MARGIN * diagonal.max(deepest))
+            .min(scene.far)
+            .max(near + DEPTH_FLOOR * diagonal);
+        let half = lo.abs().max(hi.abs()).max_element();
+        let (proj, projection) = if perspective {
+            let proj = perspective_off_centre_rh(lo.x, hi.x, lo.y, hi.y, near, far);
+            let fov = 2.0 * half.atan();
+            (proj, LightProjection::Perspective { fov })
+        } else {
+            let proj = Mat4::orthographic_rh(lo.x, hi.x, lo.y, hi.y, near, far);
+            (proj, LightProjection::Orthographic { half_extent: half })
+        };
+        Ok(LightView {
+            proj,
+            view_proj: proj * scene.view,
+            projection,
+            near,
+            far,
+            ..scene
+        })
     }
 }
 

@@ -1,12 +1,21 @@
-//! Raster passes: the scene's geometry on the GPU, the light-view depth map, and the camera's
-//! view samples. Graphics pipelines only; everything after them is compute.
+//! The passes every technique builds on: the scene's geometry on the GPU, the light-view depth
+//! map and the camera's view samples (raster); the light views they are rendered with, including
+//! the receiver fit and the compute pass that bounds the view samples in the light's view for it;
+//! and the receivers prepared around each shadow-map technique (compute).
 
 mod geometry;
 mod light_depth;
 mod light_view;
+mod receiver_bounds;
+pub mod receivers;
 mod view_samples;
 
 pub use geometry::SceneGeometry;
 pub use light_depth::{DepthBias, ShadowMap, ShadowMapDesc};
-pub use light_view::{light_samples, LightProjection, LightView};
+pub use light_view::{
+    light_samples, perspective_off_centre_rh, LightProjection, LightView, DEPTH_FLOOR,
+    DEPTH_MARGIN, MAX_FOV_DEG, MIN_RECEIVER_MARGIN, RECEIVER_MARGIN,
+};
+pub use receiver_bounds::{ReceiverBounds, ReceiverBoundsPass};
+pub use receivers::{ReceiverDesc, Receivers};
 pub use view_samples::ViewSamples;

@@ -87,6 +87,7 @@ const KNOBS: [Knob; 3] = [
         min: 1.0,
         max: 64.0,
         integer: true,
+        names: &[],
     },
     Knob {
         name: "jitter",
@@ -96,6 +97,7 @@ const KNOBS: [Knob; 3] = [
         min: 0.0,
         max: 1.0,
         integer: true,
+        names: &[],
     },
     Knob {
         name: "ray_offset",
@@ -105,6 +107,7 @@ const KNOBS: [Knob; 3] = [
         min: 0.0,
         max: 0.01,
         integer: false,
+        names: &[],
     },
 ];
 
@@ -114,6 +117,8 @@ pub const REFERENCE: TechniqueInfo = TechniqueInfo {
     summary: "ground truth: shadow rays through a BVH, N x N stratified light samples",
     knobs: &KNOBS,
     cacheable: true,
+    shadow_map: false,
+    per_light_sample: false,
     create: |setup, params| {
         let settings = Settings::from_params(params, false)?;
         Ok(Box::new(Reference::new(setup, &settings, "reference")?))
@@ -127,6 +132,8 @@ pub const REFERENCE_SINGLE_LAYER: TechniqueInfo = TechniqueInfo {
               methods converge to)",
     knobs: &KNOBS,
     cacheable: true,
+    shadow_map: false,
+    per_light_sample: false,
     create: |setup, params| {
         let settings = Settings::from_params(params, true)?;
         Ok(Box::new(Reference::new(
@@ -202,6 +209,45 @@ impl Settings {
     }
 }
 
+/// How shaders take a light (the reference's encoding, shared by `glsl/receivers/` through
+/// `light_clip.glsl`): `(kind, position, u, v)` — a point light's position; a rect's centre and
+/// full edge vectors; for a sun the unit direction towards it and, for a disk, e1·tan r and
+/// e2·tan r (r the angular radius, (e1, e2) any orthonormal pair across the direction), zero for
+/// a hard sun. `technique` names the caller in errors (a direction of zero length, an angular
+/// diameter outside [0°, 180°)).
+pub fn light_encoding(light: &Light, technique: &str) -> Result<(i32, Vec3, Vec3, Vec3)> {
+    let bad = |message: String| Error::Parameter {
+        technique: technique.to_string(),
+        message,
+    };
+    Ok(match *light {
+        Light::Point { position } => (KIND_POINT, position, Vec3::ZERO, Vec3::ZERO),
+        Light::Rect { position, u, v } => (KIND_RECT, position, u, v),
+        Light::Directional {
+            direction,
+            angular_diameter_deg,
+        } => {
+            let to_sun = (-direction).try_normalize().ok_or_else(|| {
+                bad(format!(
+                    "directional light direction {direction} is not a direction"
+                ))
+            })?;
+            if !(angular_diameter_deg.is_finite() && (0.0..180.0).contains(&angular_diameter_deg)) {
+                return Err(bad(format!(
+                    "sun angular diameter {angular_diameter_deg}° is outside [0, 180)"
+                )));
+            }
+            if angular_diameter_deg == 0.0 {
+                (KIND_DIRECTIONAL, to_sun, Vec3::ZERO, Vec3::ZERO)
+            } else {
+                let tan_radius = (0.5 * angular_diameter_deg).to_radians().tan();
+                let (e1, e2) = to_sun.any_orthonormal_pair();
+                (KIND_DIRECTIONAL, to_sun, e1 * tan_radius, e2 * tan_radius)
+            }
+        }
+    })
+}
+
 /// The push constants for `light` on a scene with `positions` and `triangle_count` triangles.
 /// The CPU twin does not use them (it reads the light itself, [`crate::cpu::ray_cast::Setup`]);
 /// `tests/reference.rs` checks them against hand-computed values.
@@ -221,38 +267,12 @@ pub fn push_constants(
         technique: technique.to_string(),
         message,
     };
-    let n = settings.samples.clamp(1, 64) as i32;
-    let (kind, samples, position, u, v) = match *light {
-        Light::Point { position } => (KIND_POINT, 1, position, Vec3::ZERO, Vec3::ZERO),
-        Light::Rect { position, u, v } => (KIND_RECT, n, position, u, v),
-        Light::Directional {
-            direction,
-            angular_diameter_deg,
-        } => {
-            let to_sun = (-direction).try_normalize().ok_or_else(|| {
-                bad(format!(
-                    "directional light direction {direction} is not a direction"
-                ))
-            })?;
-            if !(angular_diameter_deg.is_finite() && (0.0..180.0).contains(&angular_diameter_deg)) {
-                return Err(bad(format!(
-                    "sun angular diameter {angular_diameter_deg}° is outside [0, 180)"
-                )));
-            }
-            if angular_diameter_deg == 0.0 {
-                (KIND_DIRECTIONAL, 1, to_sun, Vec3::ZERO, Vec3::ZERO)
-            } else {
-                let tan_radius = (0.5 * angular_diameter_deg).to_radians().tan();
-                let (e1, e2) = to_sun.any_orthonormal_pair();
-                (
-                    KIND_DIRECTIONAL,
-                    n,
-                    to_sun,
-                    e1 * tan_radius,
-                    e2 * tan_radius,
-                )
-            }
-        }
+    let (kind, position, u, v) = light_encoding(light, technique)?;
+    // A point light and a hard sun take one ray; an area light N × N.
+    let samples = if u == Vec3::ZERO && v == Vec3::ZERO {
+        1
+    } else {
+        settings.samples.clamp(1, 64) as i32
     };
     let scale = scene_scale(positions);
     Ok(ReferencePush {

@@ -10,27 +10,42 @@
 //! each map is fitted to the scene from its own sample position. As K grows the result converges
 //! to the light's visible fraction up to shadow-map resolution and bias. CPU twin:
 //! [`crate::cpu::average_maps`].
+//!
+//! **Light clip** (knob `light_clip`, default 1): a light sample behind the receiver's tangent
+//! plane — `n·(s − p) ≤ 0` for a sample point s, `n·ω ≤ 0` for a direction ω towards the sun, n
+//! the view sample's camera-facing normal (`ViewSamples::normals`) — counts as blocked without a
+//! map lookup, exactly as the ray-cast reference counts it. A shadow map sees that part of an
+//! area light as lit wherever the receiver is its own nearest occluder (the lit side of a curved
+//! body near its terminator, within the depth bias); with `light_clip = 0` the result is the
+//! plain average of the K maps, bit for bit as before the knob existed.
+//!
+//! **Counters**: `light_samples` (K as rendered), `outside_light_tests` (map tests outside a
+//! sample's light frustum, summed over the samples; clipped samples are not tested),
+//! `view_samples`, `lit`, `umbra`, `penumbra`, and `horizon_umbra`: view samples whose every
+//! light sample is behind the plane (umbra without any map test; always 0 with `light_clip = 0`).
 
-use glam::IVec2;
+use glam::{IVec2, Vec4};
 
 use super::pcf::shadow_map_desc;
 use super::{
     Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS,
 };
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::gpu::{u32s, Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
 use crate::passes::{light_samples, LightView, SceneGeometry, ShadowMap};
-use crate::scene::Aabb;
+use crate::scene::{Aabb, Light};
 use crate::shader_types::AverageMapsPush;
 
 /// The shader's counters, in its order: tests outside a sample's light frustum (summed over the
-/// samples), then the classes of the final visibility.
-pub const COUNTERS: [&str; 5] = [
+/// samples), then the classes of the final visibility, then the umbra found by the tangent-plane
+/// test alone.
+pub const COUNTERS: [&str; 6] = [
     "outside_light_tests",
     "view_samples",
     "lit",
     "umbra",
     "penumbra",
+    "horizon_umbra",
 ];
 
 const KNOBS: [Knob; 5] = [
@@ -45,6 +60,7 @@ const KNOBS: [Knob; 5] = [
         min: 1.0,
         max: 4096.0,
         integer: true,
+        names: &[],
     },
 ];
 
@@ -54,13 +70,26 @@ pub const AVERAGE_MAPS: TechniqueInfo = TechniqueInfo {
     summary: "brute-force soft shadows: average of K hard shadow maps from light samples",
     knobs: &KNOBS,
     cacheable: false,
+    shadow_map: true,
+    per_light_sample: true,
     create: |setup, params| Ok(Box::new(AverageMaps::new(setup, params)?)),
 };
+
+/// What the shader's tangent-plane test needs of one light sample: its position (w = 1), or for
+/// a sun the direction towards it (w = 0; the light travels along `direction`).
+fn plane_test_sample(light: &Light) -> Vec4 {
+    match *light {
+        Light::Point { position } | Light::Rect { position, .. } => position.extend(1.0),
+        Light::Directional { direction, .. } => (-direction).extend(0.0),
+    }
+}
 
 struct AverageMaps<'a> {
     ctx: Context,
     shadow_map: ShadowMap,
-    views: Vec<LightView>,
+    /// Per light sample: its map's view and its `AverageMapsPush::light_sample`.
+    views: Vec<(LightView, Vec4)>,
+    light_clip: bool,
     pipeline: Pipeline,
     set: DescriptorSet,
     counters: Buffer,
@@ -81,16 +110,23 @@ impl<'a> AverageMaps<'a> {
         }
         let views = light_samples(setup.light, params.u32("samples")?)
             .iter()
-            .map(|l| LightView::fit(l, &bounds))
+            .map(|l| Ok((LightView::fit(l, &bounds)?, plane_test_sample(l))))
             .collect::<Result<Vec<_>>>()?;
-        let shadow_map = ShadowMap::new(ctx, views[0], shadow_map_desc(params)?)?;
+        let Some(&(first_view, _)) = views.first() else {
+            return Err(Error::Parameter {
+                technique: AVERAGE_MAPS.name.to_string(),
+                message: "no light samples".to_string(),
+            });
+        };
+        let shadow_map = ShadowMap::new(ctx, first_view, shadow_map_desc(params)?)?;
         let pipeline = Pipeline::compute(ctx, "average_maps/accumulate.comp")?;
         let counters = Buffer::storage(ctx, "average-maps counters", 4 * COUNTERS.len() as u64)?;
         let set = DescriptorSet::new(
             ctx,
             &pipeline,
             &[
-                Binding::Image(&setup.view.positions),
+                Binding::Image(setup.receivers),
+                Binding::Image(&setup.view.normals),
                 Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&counters),
@@ -100,6 +136,7 @@ impl<'a> AverageMaps<'a> {
             ctx: ctx.clone(),
             shadow_map,
             views,
+            light_clip: params.u32("light_clip")? != 0,
             pipeline,
             set,
             counters,
@@ -115,19 +152,20 @@ impl Technique for AverageMaps<'_> {
         let size = self.shadow_map.desc.size as i32;
         rec.begin_pass("average-maps")?;
         rec.fill(&self.counters, 0);
-        for (i, view) in self.views.iter().enumerate() {
+        for (i, (view, light_sample)) in self.views.iter().enumerate() {
             self.shadow_map.view = *view;
             // One timed pass for the whole loop: K light-depth passes would overflow the pool and
             // drown the table; the loop is the technique's cost.
             self.shadow_map.record_untimed(rec, self.geometry)?;
             let push = AverageMapsPush {
                 light_view_proj: view.view_proj,
+                light_sample: *light_sample,
                 view_size: self.view_size,
                 map_size: IVec2::splat(size),
                 samples: samples as f32,
                 first: (i == 0) as i32,
                 last: (i + 1 == samples) as i32,
-                pad: 0,
+                light_clip: self.light_clip as i32,
             };
             rec.dispatch(
                 &self.pipeline,

@@ -14,7 +14,9 @@ pub mod pcf_coverage;
 pub mod pcf_poisson;
 pub mod savsm;
 
-pub use params::{Knob, KnobDefault, Params, SHADOW_MAP_KNOBS};
+pub use params::{
+    Knob, KnobDefault, Params, FIT, LIGHT_CLIP, NORMAL_OFFSET, RECEIVER_KNOBS, SHADOW_MAP_KNOBS,
+};
 
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Image, Recorder};
@@ -34,9 +36,15 @@ pub struct TechniqueSetup<'a> {
     pub indices: &'a [u32],
     /// The view samples to shade.
     pub view: &'a ViewSamples,
+    /// Where to look each view sample up: `view.positions` itself, or the receivers pass's
+    /// positions (pushed along the normal by the normal offset; w = 0 for a sample whose light is
+    /// entirely behind its tangent plane, which the technique skips like background). Every
+    /// shadow-map technique binds this, not `view.positions`.
+    pub receivers: &'a Image,
     /// The scene's light.
     pub light: &'a Light,
-    /// The light view fitted to the scene.
+    /// The light view to render the map from (fitted to the scene or to the view samples, the
+    /// `fit` knob).
     pub light_view: &'a LightView,
     /// Where visibility goes (R32F, one texel per view sample).
     pub visibility: &'a Image,
@@ -67,8 +75,40 @@ pub struct TechniqueInfo {
     /// Whether results are deterministic and expensive enough to cache on disk (the ray-cast
     /// references: `true`); timed techniques are never cached.
     pub cacheable: bool,
+    /// Whether it looks view samples up in a shadow map: the engine then prepares its receivers
+    /// (light clipping, normal offset, light-view fit) and adds [`RECEIVER_KNOBS`].
+    pub shadow_map: bool,
+    /// Whether it renders one map per light sample, each fitted from that sample's own position,
+    /// and leaves out the samples behind the receiver's tangent plane itself (`average-maps`):
+    /// the engine then neither scales its result by the clipped fraction nor offers `fit`.
+    pub per_light_sample: bool,
     /// Builds an instance.
     pub create: for<'a> fn(&TechniqueSetup<'a>, &Params) -> Result<Box<dyn Technique + 'a>>,
+}
+
+impl TechniqueInfo {
+    /// Every knob it takes: its own, then [`RECEIVER_KNOBS`] for a shadow-map technique (less
+    /// `fit` for a per-light-sample technique, whose maps are fitted sample by sample).
+    pub fn all_knobs(&self) -> Vec<Knob> {
+        let mut knobs = self.knobs.to_vec();
+        if self.shadow_map {
+            knobs.extend(
+                RECEIVER_KNOBS
+                    .iter()
+                    .filter(|k| !(self.per_light_sample && k.name == params::FIT.name)),
+            );
+        }
+        knobs
+    }
+
+    /// Resolves `overrides` against [`TechniqueInfo::all_knobs`] and the scene's defaults.
+    pub fn params(
+        &self,
+        overrides: &std::collections::BTreeMap<String, String>,
+        defaults: &crate::scene::SceneDefaults,
+    ) -> Result<Params> {
+        Params::resolve(self.name, &self.all_knobs(), overrides, defaults)
+    }
 }
 
 /// Every technique, in the order `penumbra techniques` lists them.

@@ -31,6 +31,9 @@ pub struct Knob {
     pub max: f64,
     /// Whether only integers are accepted.
     pub integer: bool,
+    /// Names accepted for the integer values 0, 1, … (e.g. `fit = scene | view`); empty for a
+    /// plain number. A knob with names also accepts the numbers.
+    pub names: &'static [&'static str],
 }
 
 /// The knobs every shadow-map technique has.
@@ -42,6 +45,7 @@ pub const SHADOW_MAP_KNOBS: [Knob; 4] = [
         min: 16.0,
         max: 16384.0,
         integer: true,
+        names: &[],
     },
     Knob {
         name: "bias_constant",
@@ -50,6 +54,7 @@ pub const SHADOW_MAP_KNOBS: [Knob; 4] = [
         min: -1.0e6,
         max: 1.0e6,
         integer: false,
+        names: &[],
     },
     Knob {
         name: "bias_slope",
@@ -58,6 +63,7 @@ pub const SHADOW_MAP_KNOBS: [Knob; 4] = [
         min: -100.0,
         max: 100.0,
         integer: false,
+        names: &[],
     },
     Knob {
         name: "bias_clamp",
@@ -66,8 +72,51 @@ pub const SHADOW_MAP_KNOBS: [Knob; 4] = [
         min: 0.0,
         max: 1.0,
         integer: false,
+        names: &[],
     },
 ];
+
+/// `light_clip`: the part of the light behind the receiver's tangent plane is hidden by the
+/// receiver itself (what the ray-cast reference assumes).
+pub const LIGHT_CLIP: Knob = Knob {
+    name: "light_clip",
+    summary:
+        "1: the light behind the receiver's tangent plane is blocked (as the reference); 0: off",
+    default: KnobDefault::Value(1.0),
+    min: 0.0,
+    max: 1.0,
+    integer: true,
+    names: &[],
+};
+
+/// `normal_offset`: the lookup position pushed along the receiver's normal (book §2.2.3).
+pub const NORMAL_OFFSET: Knob = Knob {
+    name: "normal_offset",
+    summary: "normal-offset bias: the lookup moves along the receiver's normal by this many \
+              shadow-map texels (world size at the receiver)",
+    default: KnobDefault::Value(0.0),
+    min: 0.0,
+    max: 16.0,
+    integer: false,
+    names: &[],
+};
+
+/// `fit`: what the light view is fitted to.
+pub const FIT: Knob = Knob {
+    name: "fit",
+    summary: "light view fitted to the scene's bounding box (scene) or to the view samples and \
+              the casters between them and the light (view)",
+    default: KnobDefault::Value(1.0),
+    min: 0.0,
+    max: 1.0,
+    integer: true,
+    names: &["scene", "view"],
+};
+
+/// The knobs the engine adds to every shadow-map technique: it prepares the receivers (light
+/// clipping, normal offset) and the light view around the technique (see
+/// [`crate::passes::receivers`]).
+pub const RECEIVER_KNOBS: [Knob; 3] = [LIGHT_CLIP, NORMAL_OFFSET, FIT];
 
 /// Resolved knob values of one technique instance.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -116,10 +165,20 @@ impl Params {
         let mut values = BTreeMap::new();
         for k in knobs {
             let value = match overrides.get(k.name) {
-                Some(text) => text
-                    .trim()
-                    .parse::<f64>()
-                    .map_err(|_| err(format!("knob '{}' = '{text}' is not a number", k.name)))?,
+                Some(text) => match k.names.iter().position(|n| *n == text.trim()) {
+                    Some(index) => index as f64,
+                    None => text.trim().parse::<f64>().map_err(|_| {
+                        err(if k.names.is_empty() {
+                            format!("knob '{}' = '{text}' is not a number", k.name)
+                        } else {
+                            format!(
+                                "knob '{}' = '{text}' is not one of {} (or their index)",
+                                k.name,
+                                k.names.join(", ")
+                            )
+                        })
+                    })?,
+                },
                 None => match k.default {
                     KnobDefault::Value(v) => v,
                     KnobDefault::Scene(key) => scene_default(defaults, key)
@@ -190,6 +249,19 @@ mod tests {
         )
         .expect("declared knobs");
         assert_eq!(params.u32("map_size").expect("declared"), 512);
+        let named = Params::resolve(
+            "pcf",
+            &[FIT],
+            &BTreeMap::from([("fit".to_string(), "scene".to_string())]),
+            &SceneDefaults::default(),
+        )
+        .expect("a named value");
+        assert_eq!(named.u32("fit").expect("declared"), 0);
+        let bad = BTreeMap::from([("fit".to_string(), "camera".to_string())]);
+        let err = Params::resolve("pcf", &[FIT], &bad, &SceneDefaults::default())
+            .expect_err("not a name")
+            .to_string();
+        assert!(err.contains("scene, view"), "{err}");
         assert_eq!(params.f32("bias_clamp").expect("declared"), 0.0);
         let err = params.get("kernel").expect_err("not declared").to_string();
         assert!(err.contains("pcf") && err.contains("kernel"), "{err}");

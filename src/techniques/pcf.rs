@@ -28,6 +28,7 @@ const KERNEL: Knob = Knob {
     min: 1.0,
     max: 32.0,
     integer: true,
+    names: &[],
 };
 
 /// Receiver-plane depth bias (Isidoro06; book Eq. 5.3) for the PCF family: each tap compares the
@@ -39,6 +40,7 @@ pub const RECEIVER_PLANE_BIAS: Knob = Knob {
     min: 0.0,
     max: 1.0,
     integer: true,
+    names: &[],
 };
 
 /// `hard`: one nearest-texel shadow-map test.
@@ -47,6 +49,8 @@ pub const HARD: TechniqueInfo = TechniqueInfo {
     summary: "standard shadow mapping: one nearest-texel depth test from the light centre",
     knobs: &SHADOW_MAP_KNOBS,
     cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
     create: |setup, params| Ok(Box::new(pcf(setup, params, 0, 1, 0)?)),
 };
 
@@ -65,6 +69,8 @@ pub const PCF: TechniqueInfo = TechniqueInfo {
     summary: "percentage-closer filtering: kernel x kernel box of hand-made bilinear 2x2 tests",
     knobs: &PCF_KNOBS,
     cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
     create: |setup, params| {
         let kernel = params.u32("kernel")? as i32;
         let receiver_plane = params.u32("receiver_plane_bias")? as i32;
@@ -121,7 +127,7 @@ impl<'a, P: bytemuck::Pod> ViewPass<'a, P> {
             (COUNTER_NAMES.len() * 4) as u64,
         )?;
         let mut bindings = vec![
-            Binding::Image(&setup.view.positions),
+            Binding::Image(setup.receivers),
             Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
             Binding::Image(setup.visibility),
             Binding::Buffer(&counters),

@@ -32,6 +32,7 @@ const KNOBS: [Knob; 6] = [
         min: 0.01,
         max: 32.0,
         integer: false,
+        names: &[],
     },
     RECEIVER_PLANE_BIAS,
 ];
@@ -42,6 +43,8 @@ pub const PCF_COVERAGE: TechniqueInfo = TechniqueInfo {
     summary: "exact texel-coverage box PCF (PVSSM Eq. 2): continuous in the kernel width",
     knobs: &KNOBS,
     cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
     create: |setup, params| Ok(Box::new(pcf_coverage(setup, params)?)),
 };
 

@@ -32,6 +32,7 @@ const KNOBS: [Knob; 7] = [
         min: 1.0,
         max: MAX_TAPS as f64,
         integer: true,
+        names: &[],
     },
     Knob {
         name: "radius",
@@ -40,6 +41,7 @@ const KNOBS: [Knob; 7] = [
         min: 0.0,
         max: 32.0,
         integer: false,
+        names: &[],
     },
     RECEIVER_PLANE_BIAS,
 ];
@@ -50,6 +52,8 @@ pub const PCF_POISSON: TechniqueInfo = TechniqueInfo {
     summary: "Poisson-disk PCF: rotated-per-pixel disk of bilinear 2x2 tests",
     knobs: &KNOBS,
     cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
     create: |setup, params| Ok(Box::new(pcf_poisson(setup, params)?)),
 };
 

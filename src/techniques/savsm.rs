@@ -71,6 +71,7 @@ pub const KERNEL: Knob = Knob {
     min: 1.0,
     max: 64.0,
     integer: false,
+    names: &[],
 };
 
 const KNOBS: [Knob; 7] = [
@@ -89,6 +90,8 @@ pub const SAVSM: TechniqueInfo = TechniqueInfo {
     summary: "summed-area variance shadow maps: (z, z^2) box means from u32-fixed16 SATs",
     knobs: &KNOBS,
     cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
     create: |setup, params| Ok(Box::new(Savsm::new(setup, params)?)),
 };
 
@@ -196,7 +199,7 @@ impl<'a> Savsm<'a> {
             ],
         )?;
         let mut bindings = vec![
-            Binding::Image(&setup.view.positions),
+            Binding::Image(setup.receivers),
             Binding::Image(setup.visibility),
             Binding::Buffer(&counters),
         ];

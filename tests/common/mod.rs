@@ -91,6 +91,11 @@ pub fn write_diff(
     dir
 }
 
+/// The knobs that leave a shadow-map technique's kernel alone, for comparisons with its CPU
+/// twin: no light clipping (the receivers pass has its own twin, `tests/receivers.rs`) and the
+/// light view fitted to the scene (what `prepared.light_view` holds).
+pub const KERNEL_ONLY: [(&str, &str); 2] = [("light_clip", "0"), ("fit", "scene")];
+
 /// Knob overrides from `(key, value)` pairs.
 pub fn knobs(pairs: &[(&str, &str)]) -> std::collections::BTreeMap<String, String> {
     pairs

@@ -201,7 +201,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             .map(|(k, vs)| (k.to_string(), vs.iter().map(|v| v.to_string()).collect()))
             .collect();
         for (k, vs) in &user_sweep {
-            if info.knobs.iter().any(|kn| kn.name == k) {
+            if info.all_knobs().iter().any(|kn| kn.name == k) {
                 sweep.retain(|(sk, _)| sk != k);
                 sweep.push((k.clone(), vs.clone()));
             }

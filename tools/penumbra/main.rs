@@ -190,7 +190,7 @@ fn render(
     let bar = progress(if compare.is_some() { 6 } else { 5 });
     bar.set_message(format!("loading {scene_spec}"));
     let scene = Scene::open(scene_spec)?;
-    penumbra::techniques::Params::resolve(info.name, info.knobs, &overrides, &scene.defaults)?;
+    info.params(&overrides, &scene.defaults)?;
     bar.inc(1);
     bar.set_message("creating the Vulkan device");
     let engine = Engine::new(&ContextDesc {
@@ -446,16 +446,21 @@ fn techniques(json: bool) -> anyhow::Result<()> {
     if json {
         let list: Vec<_> = registry()
             .iter()
-            .map(|t| serde_json::json!({"name": t.name, "summary": t.summary, "knobs": t.knobs}))
+            .map(|t| {
+                serde_json::json!({"name": t.name, "summary": t.summary, "knobs": t.all_knobs()})
+            })
             .collect();
         println!("{}", serde_json::to_string_pretty(&list)?);
         return Ok(());
     }
     for t in registry() {
         println!("{}: {}", t.name, t.summary);
-        for k in t.knobs {
+        for k in t.all_knobs() {
             let default = match k.default {
-                KnobDefault::Value(v) => format!("{v}"),
+                KnobDefault::Value(v) => match k.names.get(v as usize) {
+                    Some(name) => name.to_string(),
+                    None => format!("{v}"),
+                },
                 KnobDefault::Scene(key) => format!("scene's {key}"),
             };
             println!(
@@ -464,7 +469,13 @@ fn techniques(json: bool) -> anyhow::Result<()> {
                 default,
                 k.min,
                 k.max,
-                if k.integer { " integer" } else { "" },
+                if !k.names.is_empty() {
+                    format!(" {}", k.names.join("|"))
+                } else if k.integer {
+                    " integer".to_string()
+                } else {
+                    String::new()
+                },
                 k.summary
             );
         }

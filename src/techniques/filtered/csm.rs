@@ -54,6 +54,7 @@ pub const TERMS: Knob = Knob {
     min: 1.0,
     max: MAX_TERMS as f64,
     integer: true,
+    names: &[],
 };
 
 /// `damping`.
@@ -64,6 +65,7 @@ pub const DAMPING: Knob = Knob {
     min: 0.0,
     max: 4.0,
     integer: false,
+    names: &[],
 };
 
 /// `offset`.
@@ -74,6 +76,7 @@ pub const OFFSET: Knob = Knob {
     min: -1.0,
     max: 0.5,
     integer: false,
+    names: &[],
 };
 
 /// `depth_range`.
@@ -84,6 +87,7 @@ pub const DEPTH_RANGE: Knob = Knob {
     min: 0.05,
     max: 1.0,
     integer: false,
+    names: &[],
 };
 
 const KNOBS: [Knob; 10] = [
@@ -105,6 +109,8 @@ pub const CSM: TechniqueInfo = TechniqueInfo {
     summary: "convolution shadow maps: M Fourier terms of the step, blurred two at a time",
     knobs: &KNOBS,
     cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
     create: |setup, params| create(setup, params, "csm", config(params)?),
 };
 

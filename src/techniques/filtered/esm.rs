@@ -32,6 +32,7 @@ pub const EXPONENT: Knob = Knob {
     min: 0.1,
     max: 1000.0,
     integer: false,
+    names: &[],
 };
 
 const KNOBS: [Knob; 7] = [
@@ -50,6 +51,8 @@ pub const ESM: TechniqueInfo = TechniqueInfo {
     summary: "exponential shadow maps: c*z blurred in log space, exp(min(0, L - c*d))",
     knobs: &KNOBS,
     cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
     create: |setup, params| create(setup, params, "esm", config(params)?),
 };
 

@@ -33,6 +33,7 @@ pub const COMPONENTS: Knob = Knob {
     min: 2.0,
     max: 4.0,
     integer: true,
+    names: &[],
 };
 
 /// `exponent_positive`.
@@ -43,6 +44,7 @@ pub const EXPONENT_POSITIVE: Knob = Knob {
     min: 0.1,
     max: 42.0,
     integer: false,
+    names: &[],
 };
 
 /// `exponent_negative`.
@@ -53,6 +55,7 @@ pub const EXPONENT_NEGATIVE: Knob = Knob {
     min: 0.1,
     max: 42.0,
     integer: false,
+    names: &[],
 };
 
 /// `min_variance` (linear depth², scaled to the warped ranges at the receiver).
@@ -64,6 +67,7 @@ pub const MIN_VARIANCE: Knob = Knob {
     // (sqrt(1e-3)·42·e^42)² ≈ 5e36: the largest floor whose warped square stays finite.
     max: 1e-3,
     integer: false,
+    names: &[],
 };
 
 const KNOBS: [Knob; 11] = [
@@ -86,6 +90,8 @@ pub const EVSM: TechniqueInfo = TechniqueInfo {
     summary: "exponential variance shadow maps: VSM on exp(c+ z) and -exp(-c- z), p = min",
     knobs: &KNOBS,
     cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
     create: |setup, params| create(setup, params, "evsm", config(params)?),
 };
 

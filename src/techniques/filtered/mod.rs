@@ -185,6 +185,7 @@ pub const FILTER_RADIUS: Knob = Knob {
     min: 0.0,
     max: MAX_RADIUS as f64,
     integer: true,
+    names: &[],
 };
 
 /// `filter_shape`: Gaussian or box.
@@ -195,6 +196,7 @@ pub const FILTER_SHAPE: Knob = Knob {
     min: 0.0,
     max: 1.0,
     integer: true,
+    names: &[],
 };
 
 /// The knobs every filtered technique starts with: the shadow map's, then the blur's.
@@ -294,7 +296,7 @@ pub fn create<'a>(
         ctx,
         &reconstruct,
         &[
-            Binding::Image(&setup.view.positions),
+            Binding::Image(setup.receivers),
             Binding::Image(&filtered),
             Binding::Image(setup.visibility),
             Binding::Buffer(&counters),

@@ -35,6 +35,7 @@ pub const MOMENT_BIAS: Knob = Knob {
     min: 0.0,
     max: 0.1,
     integer: false,
+    names: &[],
 };
 
 /// `depth_bias`.
@@ -45,6 +46,7 @@ pub const DEPTH_BIAS: Knob = Knob {
     min: -0.1,
     max: 0.1,
     integer: false,
+    names: &[],
 };
 
 const KNOBS: [Knob; 8] = [
@@ -64,6 +66,8 @@ pub const MSM: TechniqueInfo = TechniqueInfo {
     summary: "moment shadow maps: four blurred moments, Hamburger 4MSM lower bound",
     knobs: &KNOBS,
     cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
     create: |setup, params| create(setup, params, "msm", config(params)?),
 };
 

@@ -29,6 +29,7 @@ pub const MIN_VARIANCE: Knob = Knob {
     min: 0.0,
     max: 0.1,
     integer: false,
+    names: &[],
 };
 
 /// `bleed_reduction`.
@@ -39,6 +40,7 @@ pub const BLEED_REDUCTION: Knob = Knob {
     min: 0.0,
     max: 0.99,
     integer: false,
+    names: &[],
 };
 
 const KNOBS: [Knob; 8] = [
@@ -58,6 +60,8 @@ pub const VSM: TechniqueInfo = TechniqueInfo {
     summary: "variance shadow maps: blurred (z, z^2), Chebyshev upper bound, bleed reduction",
     knobs: &KNOBS,
     cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
     create: |setup, params| create(setup, params, "vsm", config(params)?),
 };
 

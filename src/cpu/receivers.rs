@@ -1,0 +1,108 @@
+//! CPU twin of `glsl/receivers/` (`prepare.comp`, `finish.comp`): the light's clipped fraction
+//! per view sample ([`super::light_clip::light_fraction`], the twin's own analytic clipping), the
+//! normal-offset lookup position, and the combination with a technique's visibility.
+//!
+//! Its inputs are its own: the light as the scene gives it (not the shaders' encoding), the light
+//! view's origin, direction and projection matrix for the texel size (the view itself is shared
+//! geometry, checked by its own tests), and the knobs.
+//!
+//! Tolerance against the GPU: f within 1e-5 (the shader computes the clipped polygon's area and
+//! the disk segment in f32, the twin in f64), lookup positions within 1e-5 relative to the
+//! scene's scale; `finish` is exact given the same f.
+
+use glam::Vec4;
+
+use super::light_clip::light_fraction;
+use crate::passes::{LightProjection, LightView};
+use crate::scene::Light;
+
+/// What `prepare.comp` writes.
+pub struct Prepared {
+    /// xyz lookup position, w = 1 to evaluate, 0 to skip (background or f = 0).
+    pub lookup: Vec<Vec4>,
+    /// The light's clipped fraction (1 for background).
+    pub clip: Vec<f32>,
+}
+
+/// The twin of `prepare.comp` for view samples `positions`/`normals` lit by `light`, looked up
+/// in `view` with a map of `map_size` texels.
+pub fn prepare(
+    positions: &[Vec4],
+    normals: &[Vec4],
+    light: &Light,
+    view: &LightView,
+    map_size: u32,
+    light_clip: bool,
+    normal_offset: f32,
+) -> Prepared {
+    // A texel's world size: the view's extent at unit depth (or its width) over the map.
+    let extent_x = 2.0 / view.proj.x_axis.x.abs() as f64;
+    let extent_y = 2.0 / view.proj.y_axis.y.abs() as f64;
+    let texel = extent_x.max(extent_y) / map_size.max(1) as f64;
+    let perspective = matches!(view.projection, LightProjection::Perspective { .. });
+    let mut out = Prepared {
+        lookup: Vec::with_capacity(positions.len()),
+        clip: Vec::with_capacity(positions.len()),
+    };
+    for (p, n) in positions.iter().zip(normals) {
+        if p.w <= 0.0 {
+            out.lookup.push(Vec4::ZERO);
+            out.clip.push(1.0);
+            continue;
+        }
+        let (p3, n3) = (p.truncate(), n.truncate());
+        let f = if light_clip {
+            light_fraction(light, p3, n3)
+        } else {
+            1.0
+        };
+        let depth = if perspective {
+            (p3 - view.origin).dot(view.direction).max(0.0) as f64
+        } else {
+            1.0
+        };
+        let q = p3 + n3 * (normal_offset as f64 * texel * depth) as f32;
+        out.lookup.push(q.extend(if f > 0.0 { 1.0 } else { 0.0 }));
+        out.clip.push(f);
+    }
+    out
+}
+
+/// The twin of `finish.comp`: the visibility after combining the technique's `visibility` with
+/// the clipped fractions (`scale`: V' = f·V, else V' = V; f = 0 gives 0), and the counters
+/// (view samples, lit, umbra, penumbra, horizon umbra).
+pub fn finish(
+    positions: &[Vec4],
+    clip: &[f32],
+    visibility: &[f32],
+    scale: bool,
+) -> (Vec<f32>, [u64; 5]) {
+    let mut counts = [0u64; 5];
+    let mut out = visibility.to_vec();
+    for (i, p) in positions.iter().enumerate() {
+        if p.w <= 0.0 {
+            continue;
+        }
+        let f = clip[i];
+        let v = if f > 0.0 {
+            if scale {
+                visibility[i] * f
+            } else {
+                visibility[i]
+            }
+        } else {
+            counts[4] += 1;
+            0.0
+        };
+        out[i] = v;
+        counts[0] += 1;
+        counts[if v >= 1.0 {
+            1
+        } else if v <= 0.0 {
+            2
+        } else {
+            3
+        }] += 1;
+    }
+    (out, counts)
+}

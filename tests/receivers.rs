@@ -1,0 +1,236 @@
+//! The receivers passes (`glsl/receivers/`: light clipping, normal offset, horizon umbra) under
+//! validation: against their CPU twin on a rect light, a sun disk and a point light, and the
+//! properties the accurate-receivers issue lists — clipping changes nothing where the whole light
+//! is in front of the receiver (the parallel-plane case), a sample whose light is entirely behind
+//! its plane is umbra and counted, and clipping removes most of the light leak of a shadow-map
+//! technique on curved receivers.
+
+mod common;
+
+use glam::Vec3;
+use penumbra::cpu::receivers as twin;
+use penumbra::gpu::f32s;
+use penumbra::metrics;
+use penumbra::passes::{ReceiverDesc, Receivers};
+use penumbra::scene::Light;
+
+/// Largest |GPU − CPU| of the clipped fraction: the shader clips and measures in f32, the twin
+/// in f64; lavapipe shows less than 1e-6.
+const CLIP_TOLERANCE: f32 = 1e-5;
+
+fn scene(name: &str) -> String {
+    format!("{}/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `prepare.comp` and `finish.comp` against the twin on `spec`, with an offset of 1.5 texels.
+fn compare(spec: &str) {
+    let engine = common::engine();
+    let ctx = engine.context().clone();
+    let prepared = engine.prepare(&common::small(spec)).expect("prepare");
+    let desc = ReceiverDesc {
+        light_clip: true,
+        normal_offset: 1.5,
+        map_size: 256,
+        clips_itself: false,
+    };
+    let receivers = Receivers::new(
+        &ctx,
+        &prepared.view,
+        &prepared.light,
+        &prepared.light_view,
+        &prepared.visibility,
+        &desc,
+    )
+    .expect("receivers");
+    // A known visibility for `finish` to combine: a ramp over the pixels.
+    let n = (prepared.view.width * prepared.view.height) as usize;
+    let ramp: Vec<f32> = (0..n).map(|i| (i % 97) as f32 / 96.0).collect();
+    ctx.submit(None, |rec| {
+        rec.upload_image(&prepared.visibility, bytemuck::cast_slice(&ramp))?;
+        receivers.record_prepare(rec)?;
+        receivers.record_finish(rec)
+    })
+    .expect("run");
+    let lookup = f32s(&ctx.read_image(&receivers.lookup).expect("lookup"));
+    let clip = f32s(&ctx.read_image(&receivers.clip).expect("clip"));
+    let finished = f32s(&ctx.read_image(&prepared.visibility).expect("visibility"));
+    let positions = prepared.view.read_positions(&ctx).expect("positions");
+    let normals = prepared.view.read_normals(&ctx).expect("normals");
+    let cpu = twin::prepare(
+        &positions,
+        &normals,
+        &prepared.light,
+        &prepared.light_view,
+        256,
+        true,
+        1.5,
+    );
+    let scale = prepared
+        .positions
+        .iter()
+        .fold(0.0f32, |m, p| m.max(p.abs().max_element()));
+    let (mut worst_f, mut worst_q, mut partial, mut behind) = (0.0f32, 0.0f32, 0, 0);
+    for i in 0..n {
+        worst_f = worst_f.max((clip[i] - cpu.clip[i]).abs());
+        let q = Vec3::from_slice(&lookup[4 * i..4 * i + 3]);
+        worst_q = worst_q.max((q - cpu.lookup[i].truncate()).abs().max_element() / scale);
+        if positions[i].w > 0.0 {
+            partial += usize::from(cpu.clip[i] > 0.0 && cpu.clip[i] < 1.0);
+            behind += usize::from(cpu.clip[i] == 0.0);
+            // Skipped exactly when the twin says the whole light is behind (no f near 0 here
+            // is within the tolerance of 0 without being 0: checked by the count below).
+            assert_eq!(
+                lookup[4 * i + 3] > 0.0,
+                cpu.lookup[i].w > 0.0,
+                "{spec}: pixel {i}"
+            );
+        }
+    }
+    eprintln!(
+        "{spec}: max |Δf| {worst_f:e}, max |Δq|/scale {worst_q:e}; {partial} partly and \
+         {behind} wholly behind"
+    );
+    if worst_f > CLIP_TOLERANCE {
+        let dir = common::write_diff(
+            "receivers-clip",
+            prepared.view.width,
+            prepared.view.height,
+            &cpu.clip,
+            &clip,
+        );
+        panic!(
+            "{spec}: clipped fraction off by {worst_f}; images in {}",
+            dir.display()
+        );
+    }
+    assert!(
+        worst_q < 1e-5,
+        "{spec}: lookup positions off by {worst_q} of the scene"
+    );
+    let (cpu_finished, counts) = twin::finish(&positions, &clip, &ramp, true);
+    for i in 0..n {
+        if positions[i].w > 0.0 {
+            assert_eq!(finished[i], cpu_finished[i], "{spec}: finish at pixel {i}");
+        }
+    }
+    let gpu_counts = receivers.counters().expect("counters");
+    for (k, (name, value)) in gpu_counts.iter().enumerate() {
+        assert_eq!(*value, counts[k], "{spec}: {name}");
+    }
+    drop(receivers);
+    drop(prepared);
+    common::assert_clean(&ctx.validation());
+}
+
+/// Curved receivers under a rect light: many samples see the light partly behind their plane.
+#[test]
+fn rect_light_matches_twin() {
+    compare(&scene("teapot-rect"));
+}
+
+/// A 0.5° sun on a CAD part.
+#[test]
+fn sun_disk_matches_twin() {
+    compare(&scene("rocker-arm-directional"));
+}
+
+/// A point light: f is a step.
+#[test]
+fn point_light_matches_twin() {
+    compare(&scene("spot-point"));
+}
+
+/// The parallel-plane case: a plane facing a rect light above it sees the whole light, so
+/// clipping (and its pass) changes nothing, bit for bit.
+#[test]
+fn parallel_plane_is_unchanged() {
+    let engine = common::engine();
+    let light = Light::Rect {
+        position: Vec3::new(0.0, 6.0, 0.0),
+        u: Vec3::new(2.0, 0.0, 0.0),
+        v: Vec3::new(0.0, 0.0, 2.0),
+    };
+    let prepared = engine.prepare(&common::bare_plane(light)).expect("prepare");
+    let render = |clip: &str| {
+        engine
+            .render(&prepared, "pcf", &common::knobs(&[("light_clip", clip)]), 1)
+            .expect("render")
+    };
+    let (on, off) = (render("1"), render("0"));
+    assert_eq!(on.visibility, off.visibility);
+    assert_eq!(on.stats.counters["horizon_umbra"], 0);
+    assert_eq!(on.stats.counters["lit"], on.stats.counters["view_samples"]);
+    drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}
+
+/// End to end on curved receivers: with clipping, every technique's result is f times its
+/// result without (for a technique that does not clip its own samples), samples with f = 0 read
+/// 0 and are counted as `horizon_umbra`, and the light leak against the reference falls at least
+/// threefold.
+#[test]
+fn clipping_scales_results_and_removes_the_leak() {
+    let engine = common::engine();
+    let ctx = engine.context().clone();
+    let prepared = engine
+        .prepare(&common::small(&scene("teapot-rect")))
+        .expect("prepare");
+    let positions = prepared.view.read_positions(&ctx).expect("positions");
+    let normals = prepared.view.read_normals(&ctx).expect("normals");
+    let reference = engine
+        .render(
+            &prepared,
+            "reference",
+            &common::knobs(&[("samples", "8")]),
+            1,
+        )
+        .expect("reference");
+    let twin_clip = twin::prepare(
+        &positions,
+        &normals,
+        &prepared.light,
+        &prepared.light_view,
+        1024,
+        true,
+        0.0,
+    );
+    for technique in ["pcf", "vsm", "savsm"] {
+        let render = |clip: &str| {
+            let knobs = common::knobs(&[("light_clip", clip), ("fit", "scene")]);
+            engine
+                .render(&prepared, technique, &knobs, 1)
+                .expect("render")
+        };
+        let (on, off) = (render("1"), render("0"));
+        let mut horizon = 0u64;
+        for (i, p) in positions.iter().enumerate() {
+            if p.w <= 0.0 {
+                continue;
+            }
+            let f = twin_clip.clip[i];
+            horizon += u64::from(f == 0.0);
+            let expected = if f == 0.0 { 0.0 } else { f * off.visibility[i] };
+            assert!(
+                (on.visibility[i] - expected).abs() <= CLIP_TOLERANCE,
+                "{technique}: pixel {i}: {} vs f·V = {expected}",
+                on.visibility[i]
+            );
+        }
+        assert_eq!(on.stats.counters["horizon_umbra"], horizon, "{technique}");
+        assert!(horizon > 100, "{technique}: the teapot has a dark side");
+        let is_sample: Vec<bool> = positions.iter().map(|p| p.w > 0.0).collect();
+        let leak = |frame: &penumbra::engine::Frame| {
+            metrics::compare(&reference.visibility, &frame.visibility, &is_sample)
+                .expect("metrics")
+                .light_leak
+        };
+        let (leak_on, leak_off) = (leak(&on), leak(&off));
+        eprintln!("{technique}: light leak {leak_off:.4} → {leak_on:.4} with clipping");
+        assert!(
+            leak_on * 3.0 <= leak_off,
+            "{technique}: light leak {leak_off} → {leak_on}"
+        );
+    }
+    drop(prepared);
+    common::assert_clean(&ctx.validation());
+}

@@ -578,8 +578,10 @@ fn extreme_exponents_and_depth_ranges_stay_finite() {
 }
 
 /// §11.4–11.8, B6.7: a flat unoccluded plane at the scene's **default** bias (constant 1.5,
-/// slope 2), under a perspective and an orthographic light. What each technique achieves there,
-/// measured on lavapipe and asserted:
+/// slope 2), under a perspective and an orthographic light, with the default light view fitted
+/// to the view samples — whose depth range has a floor of 1 % of the scene's diagonal
+/// (`DEPTH_FLOOR`), so the plane's depth keeps its precision although near ≈ far for its box.
+/// What each technique achieves there, measured on lavapipe and asserted:
 /// - `hard`, `pcf`, `vsm`, `esm`, `evsm` and `csm` read exactly 1 on every view sample (every
 ///   window holds only the plane's own depth, and CSM's remap makes its plateau exactly 1);
 /// - `msm` reads 1 − 1.4e-6 at its defaults: the moment bias (3e-6) pulls the Hamburger bound

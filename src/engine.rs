@@ -304,6 +304,16 @@ impl Engine {
         let visibility = f32s(&ctx.read_image(&prepared.visibility)?);
         let positions = prepared.view.read_positions(ctx)?;
         let (nan_count, out_of_range_count) = count_bad(&visibility, &positions);
+        if fits {
+            // How finely the chosen light view resolves what the camera sees: distinct map
+            // texels the view samples land in (divide by `view_samples` for texels per sample).
+            let used = crate::cpu::receiver_bounds::map_texels_used(
+                &positions,
+                &light_view,
+                params.u32("map_size")?,
+            );
+            counters.insert("map_texels_used".to_string(), used);
+        }
         Ok(Frame {
             width: prepared.view.width,
             height: prepared.view.height,

@@ -520,3 +520,43 @@ fn hard_misclassifies_less_with_the_view_fit() {
     }
     common::assert_clean(&engine.context().validation());
 }
+
+/// The engine reports the same measure as the counter `map_texels_used` for the light view the
+/// technique used: larger with `fit = view` than with `fit = scene` on every bundled scene.
+#[test]
+fn map_texels_used_counter_follows_the_fit() {
+    let engine = common::engine();
+    for name in [
+        "spot-point",
+        "teapot-rect",
+        "bunny-rect",
+        "rocker-arm-directional",
+    ] {
+        let path = format!("{}/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+        let prepared = engine.prepare(&common::small(&path)).expect("prepare");
+        let positions = prepared
+            .view
+            .read_positions(engine.context())
+            .expect("positions");
+        let used = |fit: &str| {
+            let frame = engine
+                .render(&prepared, "hard", &common::knobs(&[("fit", fit)]), 1)
+                .expect("hard");
+            frame.stats.counters["map_texels_used"]
+        };
+        let map_size = prepared.defaults.shadow_map_size;
+        let (scene_fit, view_fit) = (used("scene"), used("view"));
+        assert_eq!(
+            scene_fit,
+            penumbra::cpu::receiver_bounds::map_texels_used(
+                &positions,
+                &prepared.light_view,
+                map_size
+            ),
+            "{name}"
+        );
+        eprintln!("{name}: {scene_fit} texels (scene fit), {view_fit} (view fit)");
+        assert!(view_fit > scene_fit, "{name}: {view_fit} vs {scene_fit}");
+    }
+    common::assert_clean(&engine.context().validation());
+}

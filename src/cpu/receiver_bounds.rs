@@ -77,16 +77,14 @@ pub fn receiver_bounds(positions: &[Vec4], light_view: &Mat4, perspective: bool)
 }
 
 /// Distinct shadow-map texels the view samples `positions` (`w > 0`) look up through `view`
-/// on a `map_size`² map, per view sample: how finely the map resolves what the camera sees.
-/// A sample outside the light's frustum (behind the light, off the map, or outside near..far)
-/// hits no texel but still counts in the denominator. Texels as the techniques address them
-/// (`shadow_coord` in `glsl/include/shadow_map.glsl`). 0 with no view samples.
-pub fn texels_per_view_sample(positions: &[Vec4], view: &LightView, map_size: u32) -> f64 {
+/// on a `map_size`² map: how finely the map resolves what the camera sees (the engine reports it
+/// as the counter `map_texels_used`). A sample outside the light's frustum (behind the light,
+/// off the map, or outside near..far) hits no texel. Texels as the techniques address them
+/// (`shadow_coord` in `glsl/include/shadow_map.glsl`).
+pub fn map_texels_used(positions: &[Vec4], view: &LightView, map_size: u32) -> u64 {
     let size = map_size as f32;
     let mut texels = HashSet::new();
-    let mut samples = 0u64;
     for p in positions.iter().filter(|p| p.w > 0.0) {
-        samples += 1;
         let clip = view.view_proj * p.truncate().extend(1.0);
         if clip.w <= 0.0 {
             continue;
@@ -103,9 +101,16 @@ pub fn texels_per_view_sample(positions: &[Vec4], view: &LightView, map_size: u3
         let ty = (t.y as u32).min(map_size.saturating_sub(1));
         texels.insert((tx, ty));
     }
+    texels.len() as u64
+}
+
+/// [`map_texels_used`] per view sample (samples outside the frustum count in the denominator);
+/// 0 with no view samples.
+pub fn texels_per_view_sample(positions: &[Vec4], view: &LightView, map_size: u32) -> f64 {
+    let samples = positions.iter().filter(|p| p.w > 0.0).count();
     if samples == 0 {
         0.0
     } else {
-        texels.len() as f64 / samples as f64
+        map_texels_used(positions, view, map_size) as f64 / samples as f64
     }
 }

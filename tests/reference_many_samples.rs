@@ -1,8 +1,9 @@
 //! The reference at the sample counts the bench uses (N up to 40, i.e. 1600 rays per view
 //! sample) against the brute-force CPU twin on a grid of pixels of a real mesh. Small-N tests
 //! missed a lavapipe failure that only appeared past ~350 rays per invocation and dispatch
-//! (whole SIMD rows came out dark); the reference now splits the light samples into dispatches
-//! of `CELLS_PER_DISPATCH`, and this test guards it.
+//! (whole SIMD rows came out dark: its loop limiter, see `CELLS_PER_DISPATCH`); the reference
+//! splits the light samples into dispatches, and this test and `reference_deep_traversal.rs` (a
+//! mesh with deeper traversals) guard it.
 
 mod common;
 

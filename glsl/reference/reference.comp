@@ -10,7 +10,8 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
 layout(set = 0, binding = 2, r32f) uniform writeonly image2D visibility;
-// [0] view samples, [1] lit, [2] umbra, [3] penumbra, [4..5] rays, [6..7] centre rays (lo, hi).
+// [0] view samples, [1] lit, [2] umbra, [3] penumbra, [4..5] rays, [6..7] centre rays (lo, hi),
+// [8] invocations whose loops the driver's loop limiter cut short (must stay 0).
 layout(set = 0, binding = 3) buffer Counters { uint counters[]; };
 
 layout(push_constant) uniform Push {
@@ -298,6 +299,18 @@ void main() {
             }
         }
         imageStore(visibility, pixel, vec4(v));
+    }
+
+    // lavapipe stops every loop of a SIMD group once the group has made 65 535 loop passes in the
+    // dispatch (see CELLS_PER_DISPATCH in src/reference/mod.rs), silently: each later loop makes
+    // one pass. This loop makes two (samples >= 1, which the compiler cannot know), unless the
+    // limiter ran out above, in which case `v` is wrong and the host fails the frame.
+    int passes = 0;
+    for (int i = 0; i < min(pc.samples, 1) + 1; ++i) {
+        passes += 1;
+    }
+    if (passes < 2) {
+        atomicAdd(counters[8], 1u);
     }
 
     barrier();

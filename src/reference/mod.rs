@@ -178,11 +178,33 @@ pub struct ReferencePush {
     pub cell_count: i32,
 }
 
-/// Light-sample cells per dispatch. lavapipe (Mesa 22.3) computed wrong visibilities for whole
-/// SIMD rows once one invocation traced more than ~350 rays in a dispatch (N ≥ 20 in one go;
-/// the CPU twin and N ≤ 18 agreed); splitting the N×N cells into dispatches of at most 256 keeps
-/// every N exact, and costs nothing measurable. The per-pixel count carries over between them.
-pub const CELLS_PER_DISPATCH: i32 = 256;
+/// Light-sample cells per dispatch (the per-pixel count of visible cells carries over).
+///
+/// **Why split.** lavapipe (Mesa 22.3's gallivm) runs a compute shader in SIMD groups of 8
+/// invocations (one row of the 8×8 workgroup) and guards against endless loops with one *loop
+/// limiter* per group and dispatch, shared by every loop of the shader: after
+/// `LP_MAX_TGSI_LOOP_ITERATIONS` = 65 535 loop passes, every loop exits at its next back edge,
+/// silently. A group makes a pass while any of its lanes is still in the loop (so a traversal
+/// costs its slowest lane's node visits and triangle tests), and it enters and leaves an inner
+/// loop on every outer pass even with no lane active. Past the limit the ray being traced counts
+/// as unblocked and the cell loop stops, so the group's 8 pixels come out too dark, mostly: rows
+/// and 8×8-pixel blocks of error on the image (3 216 pixels in 458 rows of bunny-rect).
+///
+/// **Measured** (N = 32, 512×384; pass counts from a temporary copy of the shader that counted
+/// them, within 1 % of the limiter where it cut): bunny-rect (69 451 triangles) took up to
+/// 16 610 passes per group in a dispatch of 32 cells, about 520 a cell, so the previous 256 cells
+/// (~130 000) overran the limiter in the rows around the bunny's contact shadow, where the twin,
+/// and 64 cells, disagreed with it; teapot-rect (6 322 triangles) took up to 8 879, about 280 a
+/// cell, which is also why the teapot went wrong at N ≥ 20 in one dispatch (the first split,
+/// into 256 cells). 32 cells keep the bunny 4 times under the limit. Splitting costs nothing measurable: the reference's GPU
+/// time on teapot-rect at 256×192, N = 32, was 37.8 s before this change (256 cells), 37.1 s with
+/// the guard below and 37.6 s with 32 cells (means of two runs, which varied by 3 %).
+///
+/// **Guard.** Once the limiter has run out, a loop makes one pass only; `reference.comp` ends
+/// with a loop of two passes whose count the compiler cannot see, and a frame where it made one
+/// fails with [`Error::Shader`] rather than return a wrong ground truth. A device without the
+/// limiter never trips it.
+pub const CELLS_PER_DISPATCH: i32 = 32;
 
 /// The reference's knobs, resolved.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -294,8 +316,9 @@ pub fn push_constants(
     })
 }
 
-/// Counter words: view_samples, lit, umbra, penumbra, rays (lo, hi), centre_rays (lo, hi).
-const COUNTER_WORDS: usize = 8;
+/// Counter words: view_samples, lit, umbra, penumbra, rays (lo, hi), centre_rays (lo, hi), and
+/// the invocations whose loops lavapipe's loop limiter cut short (see [`CELLS_PER_DISPATCH`]).
+const COUNTER_WORDS: usize = 9;
 
 struct Reference<'a> {
     ctx: Context,
@@ -392,6 +415,17 @@ impl Technique for Reference<'_> {
     fn counters(&self) -> Result<Vec<(String, u64)>> {
         let w = u32s(&self.ctx.read_buffer(&self.counters)?);
         let word = |i: usize| u64::from(w.get(i).copied().unwrap_or(0));
+        if word(8) > 0 {
+            return Err(Error::Shader {
+                name: "reference/reference.comp".to_string(),
+                message: format!(
+                    "the driver's loop limiter cut short the loops of {} invocations (lavapipe: \
+                     65 535 passes per SIMD group and dispatch), so their visibility is wrong; \
+                     lower CELLS_PER_DISPATCH",
+                    word(8)
+                ),
+            });
+        }
         let values = [
             word(0),
             word(1),

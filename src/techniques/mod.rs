@@ -13,6 +13,7 @@ pub mod pcf;
 pub mod pcf_coverage;
 pub mod pcf_poisson;
 pub mod savsm;
+pub mod soft_light;
 
 pub use params::{
     Knob, KnobDefault, Params, FIT, LIGHT_CLIP, NORMAL_OFFSET, RECEIVER_KNOBS, SHADOW_MAP_KNOBS,

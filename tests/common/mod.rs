@@ -203,3 +203,73 @@ pub fn bare_plane(light: penumbra::scene::Light) -> penumbra::scene::Scene {
         },
     }
 }
+
+/// The parallel-plane case of the soft filtered family (book §6.2.1; PCSS's own assumptions): a
+/// square light of side `light_width` at height `light_height`, facing down, over an 8 × 8
+/// ground plane at y = 0, and an occluder plane at height `occluder_height` covering
+/// x ∈ [−4, 0], z ∈ [−3, 3] — a straight edge along z through the origin. Seen at 128×96 from
+/// the +x side, low enough to see the ground under the edge. On the ground near the edge (|z| <
+/// 2) the exact visibility is [`parallel_planes_visibility`].
+pub fn parallel_planes(
+    light_width: f32,
+    occluder_height: f32,
+    light_height: f32,
+) -> penumbra::scene::Scene {
+    use glam::Vec3;
+    let (ground, ground_indices) = penumbra::scene::shapes::plane(8.0, 8.0, 1);
+    let (mut occluder, occluder_indices) = penumbra::scene::shapes::plane(4.0, 6.0, 1);
+    for p in &mut occluder {
+        *p += Vec3::new(-2.0, occluder_height, 0.0);
+    }
+    penumbra::scene::Scene {
+        name: "parallel-planes".into(),
+        source: "parallel-planes".into(),
+        meshes: vec![
+            penumbra::scene::Mesh {
+                name: "ground".into(),
+                positions: ground,
+                indices: ground_indices,
+            },
+            penumbra::scene::Mesh {
+                name: "occluder".into(),
+                positions: occluder,
+                indices: occluder_indices,
+            },
+        ],
+        camera: penumbra::scene::Camera {
+            position: Vec3::new(4.0, 4.0, 0.0),
+            target: Vec3::new(0.0, 0.0, 0.0),
+            up: Vec3::Y,
+            fov_y_deg: 45.0,
+            width: 128,
+            height: 96,
+            near: 0.1,
+            far: 100.0,
+        },
+        light: penumbra::scene::Light::Rect {
+            position: Vec3::new(0.0, light_height, 0.0),
+            u: Vec3::X * light_width,
+            v: Vec3::Z * light_width,
+        },
+        defaults: penumbra::scene::SceneDefaults {
+            shadow_map_size: 512,
+            ..penumbra::scene::SceneDefaults::default()
+        },
+    }
+}
+
+/// The exact visibility of the ground point at `x` in [`parallel_planes`]: a linear ramp of
+/// width w·h/(H − h) centred on the edge (intercept theorem), V = clamp(½ + x(H − h)/(h·w)).
+/// A light point at l_x sees (x, 0) past the edge when x + (l_x − x)·h/H ≥ 0.
+pub fn parallel_planes_visibility(
+    x: f32,
+    light_width: f32,
+    occluder_height: f32,
+    light_height: f32,
+) -> f32 {
+    let (w, h, big_h) = (light_width, occluder_height, light_height);
+    if w <= 0.0 {
+        return if x >= 0.0 { 1.0 } else { 0.0 };
+    }
+    (0.5 + x * (big_h - h) / (h * w)).clamp(0.0, 1.0)
+}

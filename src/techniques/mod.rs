@@ -12,6 +12,7 @@ mod params;
 pub mod pcf;
 pub mod pcf_coverage;
 pub mod pcf_poisson;
+pub mod pcss;
 pub mod savsm;
 pub mod soft_light;
 
@@ -128,6 +129,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         filtered::msm::MSM,
         filtered::csm::CSM,
         savsm::SAVSM,
+        pcss::PCSS,
     ]
 }
 

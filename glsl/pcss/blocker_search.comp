@@ -1,0 +1,154 @@
+#version 460
+// pcss, pass 1: per view sample, the blocker search (book §6.5.3, PVSSM §4). The search region
+// is the light's footprint at the near plane (the nearest any blocker can be) centred at the
+// sample's map position. With skip on, the N-buffer's exact min and max depth over the region,
+// grown by one texel (the reach of filter.comp's bilinear taps), classify it first: min >= z
+// means no texel can block (lit, V = 1), max < z that every texel blocks (umbra in the single-
+// layer model, V = 0), and neither search nor filter runs. Otherwise the average distance of the
+// blocking texels, z_avg, goes to `blocker` for filter.comp; a region with no blocker is lit (the
+// PCSS early out). Both shortcuts give exactly what the full search and filter would: they test
+// the same texels with the same comparison (see src/techniques/pcss.rs).
+// CPU twin: src/cpu/pcss.rs.
+#extension GL_GOOGLE_include_directive : require
+#include "shadow_map.glsl"
+#include "coverage.glsl"
+#include "pcss.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
+layout(set = 0, binding = 1) uniform sampler2D shadow_map;
+// z_avg of the blockers (a distance > 0), or 0 where this pass decided V.
+layout(set = 0, binding = 2, r32f) uniform writeonly image2D blocker;
+layout(set = 0, binding = 3, r32f) uniform writeonly image2D visibility;
+layout(set = 0, binding = 4) buffer Counters { uint counters[]; };
+layout(set = 0, binding = 5, rgba32f) uniform readonly image2D normals;
+
+vec4 rp_position(ivec2 pixel) {
+    return imageLoad(positions, pixel);
+}
+
+vec3 rp_normal(ivec2 pixel) {
+    return imageLoad(normals, pixel).xyz;
+}
+
+#define NBUFFER_SIZE ivec2(pc.map_size)
+#define NBUFFER_MAX_LEVEL pc.max_level
+#define NBUFFER_LEVELS_BINDING 6
+#include "nbuffer.glsl"
+
+shared uint group_counts[COUNTERS];
+
+void count(int slot) {
+    atomicAdd(group_counts[slot], 1);
+}
+
+// Decides V here (no filter pass) and counts its class.
+void decide(ivec2 pixel, float v, int slot) {
+    imageStore(visibility, pixel, vec4(v));
+    imageStore(blocker, pixel, vec4(0.0));
+    count(slot);
+}
+
+void main() {
+    if (gl_LocalInvocationIndex < COUNTERS) {
+        group_counts[gl_LocalInvocationIndex] = 0;
+    }
+    barrier();
+
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 map_size = ivec2(pc.map_size);
+    if (all(lessThan(pixel, pc.view_size))) {
+        vec4 p = imageLoad(positions, pixel);
+        vec4 c = shadow_coord(pc.light_view_proj, p.xyz, map_size);
+        if (p.w <= 0.0) {
+            imageStore(visibility, pixel, vec4(1.0));
+            imageStore(blocker, pixel, vec4(0.0));
+        } else if (!inside_map(c, map_size)) {
+            count(COUNT_SAMPLES);
+            count(COUNT_OUTSIDE);
+            decide(pixel, 1.0, COUNT_LIT);
+        } else {
+            count(COUNT_SAMPLES);
+            float dr = pcss_distance(c.z);
+            vec2 raw = soft_light_footprint(pc.light_size, pc.perspective, dr, pc.near);
+            if (any(greaterThan(raw, vec2(pc.max_width)))) {
+                count(COUNT_CLAMPED);
+            }
+            vec2 size = pcss_width(dr, pc.near);
+            ivec4 box = pcss_box_texels(c.xy, size);
+            vec3 plane = pcss_plane(pixel, p, c);
+            if (plane.z == 0.0) {
+                count(COUNT_NO_PLANE);
+            }
+            vec2 g = plane.xy;
+            bool decided = false;
+            if (pc.skip != 0) {
+                ivec4 grown = ivec4(box.xy - 1, box.zw + 1);
+                vec2 mm = nbuffer_minmax_rect(grown.xy, grown.zw);
+                // Widened by a few ulps of depth: a tap's plane depth, rounded, could exceed
+                // the corners' by one, and a margin only ever classifies less.
+                vec2 z_range = pcss_depth_range(c.z, c.xy, grown, g) + vec2(-2e-7, 2e-7);
+                // Texels off the map read as the far plane (1.0): lit, never blocking.
+                bool off_map = any(lessThan(grown.xy, ivec2(0)))
+                    || any(greaterThanEqual(grown.zw, map_size));
+                if (mm.x >= z_range.y) {
+                    decide(pixel, 1.0, COUNT_LIT);
+                    count(COUNT_SKIPPED_LIT);
+                    decided = true;
+                } else if (!off_map && mm.y < z_range.x) {
+                    decide(pixel, 0.0, COUNT_UMBRA);
+                    count(COUNT_SKIPPED_UMBRA);
+                    decided = true;
+                }
+            }
+            if (!decided) {
+                // (sum of weight * distance, sum of weight) over the blocking texels, each
+                // tested at the receiver's depth under its centre.
+                vec2 sum = vec2(0.0);
+                if (pc.search_taps == 0) {
+                    vec2 lo = c.xy - 0.5 * size;
+                    vec2 hi = c.xy + 0.5 * size;
+                    vec2 l = lo - vec2(box.xy);
+                    vec2 h = hi - vec2(box.xy);
+                    for (int j = box.y; j <= box.w; ++j) {
+                        float y = float(j - box.y);
+                        float wy = overlap_1d(y, y + 1.0, l.y, h.y);
+                        for (int i = box.x; i <= box.z; ++i) {
+                            float d = fetch_depth(shadow_map, ivec2(i, j), map_size);
+                            vec2 to_texel = vec2(float(i), float(j)) + 0.5 - c.xy;
+                            if (d < rp_tap_depth(c.z, to_texel, g)) {
+                                float x = float(i - box.x);
+                                float w = overlap_1d(x, x + 1.0, l.x, h.x) * wy;
+                                sum += vec2(w * pcss_distance(d), w);
+                            }
+                        }
+                    }
+                } else {
+                    float n = float(pc.search_taps);
+                    vec2 lo = c.xy - 0.5 * size;
+                    for (int j = 0; j < pc.search_taps; ++j) {
+                        for (int i = 0; i < pc.search_taps; ++i) {
+                            vec2 q = lo + (vec2(i, j) + 0.5) * (size / n);
+                            ivec2 t = ivec2(floor(q));
+                            float d = fetch_depth(shadow_map, t, map_size);
+                            if (d < rp_tap_depth(c.z, vec2(t) + 0.5 - c.xy, g)) {
+                                sum += vec2(pcss_distance(d), 1.0);
+                            }
+                        }
+                    }
+                }
+                if (sum.y > 0.0) {
+                    imageStore(blocker, pixel, vec4(sum.x / sum.y));
+                } else {
+                    decide(pixel, 1.0, COUNT_LIT);
+                }
+            }
+        }
+    }
+
+    barrier();
+    if (gl_LocalInvocationIndex < COUNTERS && group_counts[gl_LocalInvocationIndex] > 0) {
+        atomicAdd(counters[gl_LocalInvocationIndex], group_counts[gl_LocalInvocationIndex]);
+    }
+}

@@ -1,0 +1,89 @@
+// PCSS: the push-constant block and the helpers shared by blocker_search.comp and filter.comp.
+// Rust block: PcssPush in src/techniques/pcss.rs; CPU twin: src/cpu/pcss.rs. Keep the three in
+// step.
+
+#ifndef PENUMBRA_PCSS_GLSL
+#define PENUMBRA_PCSS_GLSL
+
+#include "soft_light.glsl"
+#include "receiver_plane.glsl"
+
+layout(push_constant) uniform Push {
+    mat4 light_view_proj;
+    ivec2 view_size;
+    int map_size;
+    // The N-buffer's highest level (blocker_search.comp with skip on).
+    int max_level;
+    // soft_light.glsl's footprint factor, per map axis.
+    vec2 light_size;
+    float near;
+    float far;
+    int perspective;
+    // 1: classify each search region by its N-buffer min/max first.
+    int skip;
+    // 0: every texel of the search region, area-weighted; n: an n x n grid of point taps.
+    int search_taps;
+    // 0: the exact texel-coverage filter; n: an n x n grid of bilinear taps once the filter is
+    // wider than n texels.
+    int filter_taps;
+    float min_kernel;
+    float max_width;
+    // 1: every texel is tested at the receiver plane's depth under its centre.
+    int receiver_plane;
+    int pad0;
+} pc;
+
+// Counter slots, shared by both passes.
+const int COUNT_SAMPLES = 0;
+const int COUNT_OUTSIDE = 1;
+const int COUNT_LIT = 2;
+const int COUNT_UMBRA = 3;
+const int COUNT_PENUMBRA = 4;
+const int COUNT_SKIPPED_LIT = 5;
+const int COUNT_SKIPPED_UMBRA = 6;
+const int COUNT_CLAMPED = 7;
+const int COUNT_NO_PLANE = 8;
+const int COUNTERS = 9;
+
+float pcss_distance(float ndc) {
+    return soft_light_distance(ndc, pc.near, pc.far, pc.perspective);
+}
+
+// The footprint of the light for a receiver at distance dr through blockers at distance db, in
+// texels per axis, between min_kernel and max_width. The search region is pcss_width(dr, near)
+// and the filter pcss_width(dr, z_avg) with z_avg >= near, so the filter lies inside the region.
+vec2 pcss_width(float dr, float db) {
+    vec2 w = soft_light_footprint(pc.light_size, pc.perspective, dr, db);
+    return clamp(w, vec2(pc.min_kernel), vec2(pc.max_width));
+}
+
+// The texels a box of full size `size` centred at `centre` overlaps: (first, last) inclusive,
+// the loop bounds of coverage.glsl.
+ivec4 pcss_box_texels(vec2 centre, vec2 size) {
+    vec2 lo = centre - 0.5 * size;
+    vec2 hi = centre + 0.5 * size;
+    return ivec4(ivec2(floor(lo)), ivec2(ceil(hi)) - 1);
+}
+
+// The receiver's depth gradient per texel (receiver_plane.glsl), zero when the knob is off or
+// no same-plane neighbour exists (then counted by the search pass).
+vec3 pcss_plane(ivec2 pixel, vec4 p, vec4 c) {
+    if (pc.receiver_plane == 0) {
+        return vec3(0.0, 0.0, 1.0);
+    }
+    return receiver_plane(pixel, pc.view_size, pc.light_view_proj, ivec2(pc.map_size), p, c);
+}
+
+// The receiver-plane depths (min, max) over the centres of texels box.xy ..= box.zw: the plane is
+// linear, so its extremes are at the corners (each clamped to the far plane like every tap).
+vec2 pcss_depth_range(float z, vec2 centre, ivec4 box, vec2 dz_duv) {
+    vec2 a = vec2(box.xy) + 0.5 - centre;
+    vec2 b = vec2(box.zw) + 0.5 - centre;
+    float z00 = rp_tap_depth(z, a, dz_duv);
+    float z10 = rp_tap_depth(z, vec2(b.x, a.y), dz_duv);
+    float z01 = rp_tap_depth(z, vec2(a.x, b.y), dz_duv);
+    float z11 = rp_tap_depth(z, b, dz_duv);
+    return vec2(min(min(z00, z10), min(z01, z11)), max(max(z00, z10), max(z01, z11)));
+}
+
+#endif

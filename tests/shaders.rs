@@ -141,7 +141,7 @@ type Twin = (&'static str, Vec<RustField>, usize);
 fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
     use kernels::{compact, minmax, nbuffer, reduce, sat, scan, sort};
     use penumbra::shader_types::*;
-    use penumbra::techniques::{filtered::FilteredPush, savsm::SavsmPush};
+    use penumbra::techniques::{filtered::FilteredPush, pcss::PcssPush, savsm::SavsmPush};
     vec![
         (
             vec!["passes/light_depth.vert"],
@@ -233,6 +233,26 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 first,
                 last,
                 light_clip
+            }),
+        ),
+        (
+            vec!["pcss/blocker_search.comp", "pcss/filter.comp"],
+            twin!(PcssPush {
+                light_view_proj,
+                view_size,
+                map_size,
+                max_level,
+                light_size,
+                near,
+                far,
+                perspective,
+                skip,
+                search_taps,
+                filter_taps,
+                min_kernel,
+                max_width,
+                receiver_plane,
+                pad
             }),
         ),
         (

@@ -86,9 +86,8 @@ void main() {
             if (pc.skip != 0) {
                 ivec4 grown = ivec4(box.xy - 1, box.zw + 1);
                 vec2 mm = nbuffer_minmax_rect(grown.xy, grown.zw);
-                // Widened by a few ulps of depth: a tap's plane depth, rounded, could exceed
-                // the corners' by one, and a margin only ever classifies less.
-                vec2 z_range = pcss_depth_range(c.z, c.xy, grown, g) + vec2(-2e-7, 2e-7);
+                // Rounding is monotone, so no tap's plane depth lies outside the corners'.
+                vec2 z_range = pcss_depth_range(c.z, c.xy, grown, g);
                 // Texels off the map read as the far plane (1.0): lit, never blocking.
                 bool off_map = any(lessThan(grown.xy, ivec2(0)))
                     || any(greaterThanEqual(grown.zw, map_size));

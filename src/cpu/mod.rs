@@ -13,6 +13,7 @@ pub mod nbuffer;
 pub mod pcf;
 pub mod pcf_coverage;
 pub mod pcf_poisson;
+pub mod pcss;
 pub mod raster;
 pub mod ray_cast;
 pub mod receiver_bounds;

@@ -22,17 +22,26 @@
 //!
 //! **Work skipping, identical output.** With `skip = 1` the search pass first asks the N-buffer
 //! for (min, max) over the region's texels grown by one texel on each side (the farthest a
-//! bilinear filter tap reaches past the region's texels). If min ≥ z (the sample's depth), no
-//! texel the search or the filter reads can block: the search would find no blocker and return
-//! V = 1. If max < z and the grown region lies inside the map (texels off the map read as the
-//! far plane, lit), every texel blocks: the search finds blockers, the filter box lies inside
-//! the region (w_f ≤ w_s because the footprint is monotone in the blocker distance and
-//! z_avg ≥ near), so every filter test is 0 and V = 0. Either way the shortcut writes the value
-//! the full path would have, **bit for bit**, and the tests check it. Counters `skipped_lit`,
-//! `skipped_umbra` count the shortcuts; `lit`, `umbra`, `penumbra` count the written values.
-//! Skipping costs the N-buffer build (levels up to [`MAX_SKIP_LEVEL`]: 8 B per texel per level)
-//! and saves the search — (w_s + 1)² texel reads — wherever a region is all lit or all umbra,
-//! which is most of a typical view.
+//! bilinear filter tap reaches past the region's texels), and compares them with the range of
+//! depths the sample's texels are tested at (its depth z, or with receiver-plane bias the plane's
+//! depths at the grown region's corner texels: the plane is linear and float rounding monotone,
+//! so no texel's depth falls outside the corners'). If min ≥ the highest, no texel the search or
+//! the filter reads can block: the search would find no blocker and return V = 1. If max < the
+//! lowest and the grown region lies inside the map (texels off the map read as the far plane,
+//! lit), every texel blocks: the search finds blockers, the filter box lies inside the region
+//! (w_f ≤ w_s because the footprint is monotone in the blocker distance and z_avg ≥ near), so
+//! every filter test is 0 and V = 0. Either way the shortcut writes the value the full path
+//! would have, **bit for bit** (the tests check it). Counters `skipped_lit`, `skipped_umbra`
+//! count the shortcuts; `lit`, `umbra`, `penumbra` count the written values. Skipping costs the
+//! N-buffer build (levels up to [`MAX_SKIP_LEVEL`]: 8 B per texel per level) and saves the
+//! search — (w_s + 1)² texel reads exhaustively — wherever it classifies.
+//!
+//! It classifies receivers that face the light: a region of teapot-rect's ground (parallel to
+//! the rect light) holds depths at or behind the sample's. A receiver tilted against the map
+//! (plane-boxes' oblique light) straddles its own region — part of its surface is nearer the
+//! light than z, part farther, and with receiver-plane bias each texel is behind *its own*
+//! plane depth but not behind the plane's highest depth over the region — so min/max cannot
+//! classify it, and such views run the full search (measured in the README's skip table).
 //!
 //! **Loop lengths.** The exhaustive search and filter read up to (`max_width` + 1)² texels in
 //! one loop nest. lavapipe stops any loop after 65 535 iterations per SIMD group (see
@@ -318,7 +327,11 @@ impl<'a> Pcss<'a> {
 impl Technique for Pcss<'_> {
     fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
         self.shadow_map.record(rec, self.geometry)?;
-        let view = [self.push.view_size.x as u32, self.push.view_size.y as u32, 1];
+        let view = [
+            self.push.view_size.x as u32,
+            self.push.view_size.y as u32,
+            1,
+        ];
         if let Some(nbuffer) = &self.nbuffer {
             rec.begin_pass("pcss-minmax")?;
             nbuffer.record(rec)?;

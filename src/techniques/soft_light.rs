@@ -133,7 +133,10 @@ mod tests {
         // unit; at depth 8 one world unit is proj[0][0]·1024/2 / 8 texels.
         let width = s.size.x * (1.0 / 4.0 - 1.0 / 8.0);
         let texels_per_unit_at_8 = view.proj.x_axis.x * 512.0 / 8.0;
-        assert!((width - texels_per_unit_at_8).abs() < 1e-3 * width, "{width}");
+        assert!(
+            (width - texels_per_unit_at_8).abs() < 1e-3 * width,
+            "{width}"
+        );
         assert!((s.size.x - s.size.y).abs() < 1e-4 * s.size.x);
     }
 
@@ -143,7 +146,10 @@ mod tests {
             position: Vec3::new(0.0, 8.0, 0.0),
         };
         let view = LightView::fit(&point, &bounds()).expect("fit");
-        assert_eq!(soft_light(&point, &view, 512).expect("size").size, Vec2::ZERO);
+        assert_eq!(
+            soft_light(&point, &view, 512).expect("size").size,
+            Vec2::ZERO
+        );
         let sun = Light::Directional {
             direction: Vec3::NEG_Y,
             angular_diameter_deg: 2.0,

@@ -24,7 +24,12 @@ pub struct BenchArgs {
     pub quick: bool,
     pub out: PathBuf,
     pub frames: Option<u32>,
-    pub reference: String,
+    /// Ground truths: the first is the primary one (CSV error columns, Pareto charts); each
+    /// further one adds `penumbra_mae@NAME` and `rmse@NAME` columns.
+    pub references: Vec<String>,
+    /// Light-size factors: each scene is also run with its light scaled (rect edges, angular
+    /// diameter); 1 is the scene as written.
+    pub light_scales: Vec<f32>,
     pub device: Option<String>,
     pub validation: bool,
     pub cache: Option<PathBuf>,
@@ -105,6 +110,20 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
             ("map_size", vec![1024.0, 2048.0]),
             ("kernel", vec![3.0, 9.0, 17.0, 33.0]),
         ],
+        // PCSS: exhaustive and 8x8-grid blocker search, skipping off and on (the skip table
+        // pairs them); a one-texel normal offset lifts receivers clear of their own surface.
+        ("pcss", true) => vec![
+            ("map_size", vec![1024.0]),
+            ("search_taps", vec![8.0]),
+            ("skip", vec![0.0, 1.0]),
+            ("normal_offset", vec![1.0]),
+        ],
+        ("pcss", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("search_taps", vec![0.0, 8.0]),
+            ("skip", vec![0.0, 1.0]),
+            ("normal_offset", vec![1.0]),
+        ],
         _ => Vec::new(),
     }
 }
@@ -158,6 +177,78 @@ fn csv_field(v: &serde_json::Value) -> String {
     }
 }
 
+/// One run of a technique with a `skip` knob, kept to compare skipping on and off.
+struct SkipRun {
+    skip: String,
+    ms: Option<f64>,
+    visibility: Vec<f32>,
+    counters: BTreeMap<String, u64>,
+}
+
+/// Scales a light's size by `s` (rect edges, angular diameter); false for a point light.
+fn scale_light(light: &mut penumbra::scene::Light, s: f32) -> bool {
+    use penumbra::scene::Light;
+    match light {
+        Light::Point { .. } => false,
+        Light::Rect { u, v, .. } => {
+            *u *= s;
+            *v *= s;
+            true
+        }
+        Light::Directional {
+            angular_diameter_deg,
+            ..
+        } => {
+            *angular_diameter_deg *= s;
+            true
+        }
+    }
+}
+
+/// Skipping off against on for every configuration run both ways on `scene`: times, speed-up,
+/// how many samples skipped, and whether the outputs are identical (max |ΔV| and differing
+/// pixels, bit for bit).
+fn skip_comparison(
+    scene: &str,
+    pairs: &BTreeMap<(String, String), Vec<SkipRun>>,
+) -> Vec<serde_json::Value> {
+    let mut out = Vec::new();
+    for ((technique, label), runs) in pairs {
+        let off = runs.iter().find(|r| r.skip == "0");
+        let on = runs.iter().find(|r| r.skip == "1");
+        let (Some(off), Some(on)) = (off, on) else {
+            continue;
+        };
+        let differing = off
+            .visibility
+            .iter()
+            .zip(&on.visibility)
+            .filter(|(a, b)| a.to_bits() != b.to_bits())
+            .count();
+        let max_diff = off
+            .visibility
+            .iter()
+            .zip(&on.visibility)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        let samples = on.counters.get("view_samples").copied().unwrap_or(0);
+        let skipped = on.counters.get("skipped_lit").copied().unwrap_or(0)
+            + on.counters.get("skipped_umbra").copied().unwrap_or(0);
+        out.push(serde_json::json!({
+            "scene": scene,
+            "technique": technique,
+            "label": label,
+            "ms_skip_off": off.ms,
+            "ms_skip_on": on.ms,
+            "speedup": off.ms.zip(on.ms).map(|(a, b)| a / b),
+            "skipped_fraction": skipped as f64 / samples.max(1) as f64,
+            "differing_pixels": differing,
+            "max_abs_diff": max_diff,
+        }));
+    }
+    out
+}
+
 /// Runs the bench.
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let scenes = if args.scenes.is_empty() {
@@ -189,6 +280,13 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             v.split(',').map(|x| x.trim().to_string()).collect(),
         );
     }
+    if let Some(bad) = args
+        .light_scales
+        .iter()
+        .find(|s| !(s.is_finite() && **s > 0.0 && **s <= 100.0))
+    {
+        anyhow::bail!("--light-scale {bad}: expected a factor in (0, 100]");
+    }
     let frames = args.frames.unwrap_or(3);
     let ref_samples = if args.quick { "8" } else { "32" };
 
@@ -217,7 +315,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         device: args.device.clone(),
     })?;
     let ctx = engine.context().clone();
-    let bar = ProgressBar::new((scenes.len() * (plan.len() + 1)) as u64);
+    let bar = ProgressBar::new((scenes.len() * args.light_scales.len() * (plan.len() + 1)) as u64);
     bar.set_style(
         ProgressStyle::with_template(
             "{spinner} [{bar:30}] {pos}/{len} {msg} ({elapsed}, eta {eta})",
@@ -229,75 +327,119 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
 
     let mut rows: Vec<serde_json::Value> = Vec::new();
     let mut points: Vec<ParetoPoint> = Vec::new();
+    let mut skip_rows: Vec<serde_json::Value> = Vec::new();
+    let primary = args
+        .references
+        .first()
+        .context("at least one --reference is needed")?
+        .clone();
     for spec in &scenes {
-        let mut scene = Scene::open(spec)?;
-        if args.quick {
-            scene.camera.width = (scene.camera.width / 2).max(16);
-            scene.camera.height = (scene.camera.height / 2).max(16);
-        }
-        bar.set_message(format!("{}: {} reference", scene.name, args.reference));
-        let prepared = engine.prepare(&scene)?;
-        let view = ViewData::read(&engine, &prepared)?;
-        let mut ref_set = BTreeMap::new();
-        ref_set.insert("samples".to_string(), ref_samples.to_string());
-        let (reference, cache) = reference_frame(
-            &engine,
-            &prepared,
-            &args.reference,
-            &ref_set,
-            args.cache.as_deref(),
-        )?;
-        bar.inc(1);
-        for (technique, overrides) in &plan {
-            bar.set_message(format!("{}: {technique} {}", scene.name, label(overrides)));
-            let result = engine
-                .render(&prepared, technique, overrides, frames)
-                .and_then(|f| {
-                    evaluate(&prepared, &view, &reference.visibility, &f.visibility).map(|e| (f, e))
-                });
-            let mut row = serde_json::json!({
-                "scene": prepared.name,
-                "scene_source": prepared.source,
-                "technique": technique,
-                "label": label(overrides),
-                "device": ctx.info().name,
-                "width": prepared.view.width,
-                "height": prepared.view.height,
-                "triangles": prepared.triangles,
-                "light": prepared.light.kind(),
-                "reference": {"technique": args.reference, "samples": ref_samples, "cache": cache},
-            });
-            match result {
-                Ok((frame, error)) => {
-                    row["params"] = serde_json::json!(frame.stats.params);
-                    row["passes"] = serde_json::json!(frame.stats.passes);
-                    row["total_gpu_ms"] = serde_json::json!(frame.stats.total_gpu_ms);
-                    row["frames"] = serde_json::json!(frame.stats.frames);
-                    row["memory_bytes"] = serde_json::json!(frame.stats.memory_bytes);
-                    // Per shadow-map texel, for techniques with a map (the README's unit).
-                    if let Some(size) = frame.stats.params.get("map_size") {
-                        row["memory_bytes_per_texel"] =
-                            serde_json::json!(frame.stats.memory_bytes as f64 / (size * size));
-                    }
-                    row["counters"] = serde_json::json!(frame.stats.counters);
-                    row["nan_count"] = serde_json::json!(frame.stats.nan_count);
-                    row["error"] = serde_json::json!(error);
-                    if let (Some(ms), Some(pmae)) = (frame.stats.total_gpu_ms, error.penumbra_mae) {
-                        points.push(ParetoPoint {
-                            technique: technique.clone(),
-                            label: label(overrides),
-                            scene: prepared.name.clone(),
-                            time_ms: ms,
-                            error: pmae,
-                        });
-                    }
-                }
-                Err(e) => row["failure"] = serde_json::json!(e.to_string()),
+        for &light_scale in &args.light_scales {
+            let mut scene = Scene::open(spec)?;
+            if args.quick {
+                scene.camera.width = (scene.camera.width / 2).max(16);
+                scene.camera.height = (scene.camera.height / 2).max(16);
             }
-            row["validation"] =
-                serde_json::json!(args.validation.then(|| ctx.validation().counts()));
-            rows.push(row);
+            if light_scale != 1.0 {
+                if !scale_light(&mut scene.light, light_scale) {
+                    // A point light has no size to scale: the scale-1 runs cover it.
+                    bar.inc(1 + plan.len() as u64);
+                    continue;
+                }
+                scene.name = format!("{}-light{light_scale}", scene.name);
+            }
+            bar.set_message(format!("{}: references", scene.name));
+            let prepared = engine.prepare(&scene)?;
+            let view = ViewData::read(&engine, &prepared)?;
+            let mut ref_set = BTreeMap::new();
+            ref_set.insert("samples".to_string(), ref_samples.to_string());
+            let mut references = Vec::new();
+            for name in &args.references {
+                let (frame, cache) =
+                    reference_frame(&engine, &prepared, name, &ref_set, args.cache.as_deref())?;
+                references.push((name.clone(), frame, cache));
+            }
             bar.inc(1);
+            // Runs that take `skip`, by everything but `skip`: (skip, time, visibility, counters).
+            let mut skip_pairs: BTreeMap<(String, String), Vec<SkipRun>> = BTreeMap::new();
+            for (technique, overrides) in &plan {
+                bar.set_message(format!("{}: {technique} {}", scene.name, label(overrides)));
+                let result = engine
+                    .render(&prepared, technique, overrides, frames)
+                    .and_then(|f| {
+                        let errors = references
+                            .iter()
+                            .map(|(_, r, _)| evaluate(&prepared, &view, &r.visibility, &f.visibility))
+                            .collect::<penumbra::Result<Vec<_>>>()?;
+                        Ok((f, errors))
+                    });
+                let mut row = serde_json::json!({
+                    "scene": prepared.name,
+                    "scene_source": prepared.source,
+                    "light_scale": light_scale,
+                    "technique": technique,
+                    "label": label(overrides),
+                    "device": ctx.info().name,
+                    "width": prepared.view.width,
+                    "height": prepared.view.height,
+                    "triangles": prepared.triangles,
+                    "light": prepared.light.kind(),
+                    "reference": {"technique": primary, "samples": ref_samples,
+                                  "cache": references[0].2},
+                });
+                match result {
+                    Ok((frame, errors)) => {
+                        let error = &errors[0];
+                        row["params"] = serde_json::json!(frame.stats.params);
+                        row["passes"] = serde_json::json!(frame.stats.passes);
+                        row["total_gpu_ms"] = serde_json::json!(frame.stats.total_gpu_ms);
+                        row["frames"] = serde_json::json!(frame.stats.frames);
+                        row["memory_bytes"] = serde_json::json!(frame.stats.memory_bytes);
+                        // Per shadow-map texel, for techniques with a map (the README's unit).
+                        if let Some(size) = frame.stats.params.get("map_size") {
+                            row["memory_bytes_per_texel"] = serde_json::json!(
+                                frame.stats.memory_bytes as f64 / (size * size)
+                            );
+                        }
+                        row["counters"] = serde_json::json!(frame.stats.counters);
+                        row["nan_count"] = serde_json::json!(frame.stats.nan_count);
+                        row["error"] = serde_json::json!(error);
+                        for ((name, _, _), e) in references.iter().zip(&errors).skip(1) {
+                            row[format!("penumbra_mae@{name}")] = serde_json::json!(e.penumbra_mae);
+                            row[format!("rmse@{name}")] = serde_json::json!(e.rmse);
+                        }
+                        if let (Some(ms), Some(pmae)) = (frame.stats.total_gpu_ms, error.penumbra_mae)
+                        {
+                            points.push(ParetoPoint {
+                                technique: technique.clone(),
+                                label: label(overrides),
+                                scene: prepared.name.clone(),
+                                time_ms: ms,
+                                error: pmae,
+                            });
+                        }
+                        if let Some(skip) = overrides.get("skip") {
+                            let mut rest = overrides.clone();
+                            rest.remove("skip");
+                            skip_pairs
+                                .entry((technique.clone(), label(&rest)))
+                                .or_default()
+                                .push(SkipRun {
+                                    skip: skip.clone(),
+                                    ms: frame.stats.total_gpu_ms,
+                                    visibility: frame.visibility.clone(),
+                                    counters: frame.stats.counters.clone(),
+                                });
+                        }
+                    }
+                    Err(e) => row["failure"] = serde_json::json!(e.to_string()),
+                }
+                row["validation"] =
+                    serde_json::json!(args.validation.then(|| ctx.validation().counts()));
+                rows.push(row);
+                bar.inc(1);
+            }
+            skip_rows.extend(skip_comparison(&prepared.name, &skip_pairs));
         }
     }
     bar.finish_and_clear();
@@ -305,8 +447,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let json_path = args.out.join("bench.json");
     std::fs::write(&json_path, serde_json::to_string_pretty(&rows)? + "\n")
         .with_context(|| format!("writing {}", json_path.display()))?;
-    let columns = [
+    let mut columns: Vec<String> = [
         "scene",
+        "light_scale",
         "technique",
         "label",
         "total_gpu_ms",
@@ -319,25 +462,93 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "flip",
         "nan_count",
         "memory_bytes_per_texel",
+        "skipped_lit",
+        "skipped_umbra",
+        "passes",
         "failure",
-    ];
+    ]
+    .iter()
+    .map(|c| c.to_string())
+    .collect();
+    for name in args.references.iter().skip(1) {
+        columns.insert(9, format!("rmse@{name}"));
+        columns.insert(9, format!("penumbra_mae@{name}"));
+    }
     let mut csv = columns.join(",") + "\n";
     for r in &rows {
         let get = |c: &str| -> serde_json::Value {
+            if c == "passes" {
+                // "name=ms;..." in the order the passes ran.
+                let passes = r.get("passes").and_then(|p| p.as_array());
+                return passes.map_or(serde_json::Value::Null, |p| {
+                    let parts: Vec<String> = p
+                        .iter()
+                        .filter_map(|x| Some((x.get("name")?.as_str()?, x.get("gpu_ms")?.as_f64()?)))
+                        .map(|(n, ms)| format!("{n}={ms:.3}"))
+                        .collect();
+                    serde_json::Value::String(parts.join(";"))
+                });
+            }
             r.get(c)
                 .or_else(|| r.get("error").and_then(|e| e.get(c)))
+                .or_else(|| r.get("counters").and_then(|e| e.get(c)))
                 .cloned()
                 .unwrap_or(serde_json::Value::Null)
         };
         csv += &columns
             .iter()
-            .map(|c| csv_field(&get(c)))
+            .map(|c| csv_field(&get(c.as_str())))
             .collect::<Vec<_>>()
             .join(",");
         csv += "\n";
     }
     let csv_path = args.out.join("bench.csv");
     std::fs::write(&csv_path, csv).with_context(|| format!("writing {}", csv_path.display()))?;
+
+    if !skip_rows.is_empty() {
+        let columns = [
+            "scene",
+            "technique",
+            "label",
+            "ms_skip_off",
+            "ms_skip_on",
+            "speedup",
+            "skipped_fraction",
+            "differing_pixels",
+            "max_abs_diff",
+        ];
+        let mut csv = columns.join(",") + "\n";
+        println!(
+            "{:<24} {:<8} {:<40} {:>10} {:>10} {:>8} {:>8} {:>9}",
+            "scene", "skip:", "knobs", "off ms", "on ms", "speedup", "skipped", "differing"
+        );
+        for r in &skip_rows {
+            csv += &columns
+                .iter()
+                .map(|c| csv_field(r.get(*c).unwrap_or(&serde_json::Value::Null)))
+                .collect::<Vec<_>>()
+                .join(",");
+            csv += "\n";
+            let f = |c: &str, d: usize| {
+                r[c].as_f64()
+                    .map(|x| format!("{x:.d$}"))
+                    .unwrap_or_else(|| "-".into())
+            };
+            println!(
+                "{:<24} {:<8} {:<40} {:>10} {:>10} {:>8} {:>8} {:>9}",
+                r["scene"].as_str().unwrap_or(""),
+                r["technique"].as_str().unwrap_or(""),
+                r["label"].as_str().unwrap_or(""),
+                f("ms_skip_off", 1),
+                f("ms_skip_on", 1),
+                f("speedup", 2),
+                f("skipped_fraction", 3),
+                r["differing_pixels"],
+            );
+        }
+        let path = args.out.join("skip.csv");
+        std::fs::write(&path, csv).with_context(|| format!("writing {}", path.display()))?;
+    }
 
     // One point per configuration, averaged over the scenes where it has a penumbra error.
     let mut grouped: BTreeMap<(String, String), (f64, f64, usize)> = BTreeMap::new();

@@ -109,9 +109,15 @@ enum Command {
         /// Timed frames per run, after one warm-up frame (medians are reported).
         #[arg(long)]
         frames: Option<u32>,
-        /// The ground truth to measure against.
-        #[arg(long, default_value = "reference")]
-        reference: String,
+        /// The ground truths to measure against, comma-separated: the first for the error
+        /// columns and charts, each further one adds `penumbra_mae@NAME` and `rmse@NAME`
+        /// (e.g. `reference,reference-single-layer`).
+        #[arg(long, default_value = "reference", value_delimiter = ',')]
+        reference: Vec<String>,
+        /// Light-size factors, comma-separated: each scene also runs with its light scaled
+        /// (rect edges, angular diameter; point lights are run once).
+        #[arg(long, default_value = "1", value_delimiter = ',')]
+        light_scale: Vec<f32>,
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
@@ -530,6 +536,7 @@ fn main() {
             quick,
             frames,
             reference,
+            light_scale,
             out,
             device,
             cache,
@@ -540,7 +547,8 @@ fn main() {
             quick: *quick,
             out: out.clone(),
             frames: *frames,
-            reference: reference.clone(),
+            references: reference.clone(),
+            light_scales: light_scale.clone(),
             device: device.device.clone(),
             validation: !device.no_validation,
             cache: cache.dir(),

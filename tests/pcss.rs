@@ -73,15 +73,23 @@ fn pcss_matches_cpu() {
     let map = 256u32;
     let setup = PcssSetup::new(&prepared.light, &prepared.light_view, map);
     assert!(setup.light_size.min_element() > 1.0, "{setup:?}");
-    let cases: [(&[(&str, &str)], PcssKnobs); 4] = [
-        (&[("search_taps", "0")], twin_knobs(0, 0, true, true)),
+    let cases: [(&[(&str, &str)], PcssKnobs); 5] = [
+        (&[("search_taps", "0")], twin_knobs(0, 0, 2, true)),
         (
-            &[("search_taps", "5"), ("filter_taps", "4"), ("skip", "0")],
-            twin_knobs(5, 4, false, true),
+            &[("search_taps", "5"), ("filter_taps", "4"), ("skip", "off")],
+            twin_knobs(5, 4, 0, true),
         ),
         (
-            &[("search_taps", "0"), ("receiver_plane_bias", "0")],
-            twin_knobs(0, 0, true, false),
+            &[
+                ("search_taps", "0"),
+                ("receiver_plane_bias", "0"),
+                ("skip", "nbuffer"),
+            ],
+            twin_knobs(0, 0, 1, false),
+        ),
+        (
+            &[("search_taps", "3"), ("receiver_plane_bias", "0")],
+            twin_knobs(3, 0, 2, false),
         ),
         (
             &[
@@ -92,7 +100,7 @@ fn pcss_matches_cpu() {
             PcssKnobs {
                 min_kernel: 2.5,
                 max_width: 12.0,
-                ..twin_knobs(8, 0, true, true)
+                ..twin_knobs(8, 0, 2, true)
             },
         ),
     ];
@@ -157,7 +165,7 @@ fn pcss_matches_cpu() {
     common::assert_clean(&engine.context().validation());
 }
 
-fn twin_knobs(search_taps: u32, filter_taps: u32, skip: bool, receiver_plane: bool) -> PcssKnobs {
+fn twin_knobs(search_taps: u32, filter_taps: u32, skip: u32, receiver_plane: bool) -> PcssKnobs {
     PcssKnobs {
         search_taps,
         filter_taps,
@@ -189,29 +197,31 @@ fn skip_gives_identical_output() {
             ],
             &[("receiver_plane_bias", "0"), ("normal_offset", "1")],
         ] {
-            let with = |skip: &'static str| {
+            let with = |skip: &str| {
                 let mut set = base.to_vec();
                 set.push(("skip", skip));
                 render(&engine, &prepared, 512, &set)
             };
-            let (off, on) = (with("0"), with("1"));
-            let differing = (0..off.visibility.len())
-                .filter(|&i| off.visibility[i].to_bits() != on.visibility[i].to_bits())
-                .count();
-            assert_eq!(
-                differing, 0,
-                "{spec} {base:?}: skip changes {differing} pixels"
-            );
-            let c = &on.stats.counters;
-            let skipped = c["skipped_lit"] + c["skipped_umbra"];
-            assert!(
-                !facing || skipped * 2 > c["view_samples"],
-                "{spec} {base:?}: only {skipped} skipped: {c:?}"
-            );
-            for k in ["lit", "umbra", "penumbra"] {
-                assert_eq!(c[k], off.stats.counters[k], "{spec} {base:?}: {k}");
-            }
+            let off = with("off");
             assert_eq!(off.stats.counters["skipped_lit"], 0);
+            for structure in ["nbuffer", "pyramid"] {
+                let on = with(structure);
+                let differing = (0..off.visibility.len())
+                    .filter(|&i| off.visibility[i].to_bits() != on.visibility[i].to_bits())
+                    .count();
+                let what = format!("{spec} {base:?} skip={structure}");
+                assert_eq!(differing, 0, "{what}: skipping changes {differing} pixels");
+                let c = &on.stats.counters;
+                let skipped = c["skipped_lit"] + c["skipped_umbra"];
+                eprintln!("{what}: {skipped} of {} skipped", c["view_samples"]);
+                assert!(
+                    !facing || skipped * 2 > c["view_samples"],
+                    "{what}: only {skipped} skipped: {c:?}"
+                );
+                for k in ["lit", "umbra", "penumbra"] {
+                    assert_eq!(c[k], off.stats.counters[k], "{what}: {k}");
+                }
+            }
         }
         drop(prepared);
     }

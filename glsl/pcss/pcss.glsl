@@ -12,14 +12,15 @@ layout(push_constant) uniform Push {
     mat4 light_view_proj;
     ivec2 view_size;
     int map_size;
-    // The N-buffer's highest level (blocker_search.comp with skip on).
+    // The highest min/max level built (blocker_search.comp with skip on).
     int max_level;
     // soft_light.glsl's footprint factor, per map axis.
     vec2 light_size;
     float near;
     float far;
     int perspective;
-    // 1: classify each search region by its N-buffer min/max first.
+    // 0: no classification; SKIP_NBUFFER or SKIP_PYRAMID: classify each search region by the
+    // min/max depth over it first.
     int skip;
     // 0: every texel of the search region, area-weighted; n: an n x n grid of point taps.
     int search_taps;
@@ -32,6 +33,9 @@ layout(push_constant) uniform Push {
     int receiver_plane;
     int pad0;
 } pc;
+
+const int SKIP_NBUFFER = 1;
+const int SKIP_PYRAMID = 2;
 
 // Counter slots, shared by both passes.
 const int COUNT_SAMPLES = 0;

@@ -17,7 +17,8 @@
 
 use glam::{IVec2, Mat4, Vec2, Vec3, Vec3Swizzles, Vec4Swizzles};
 
-use super::nbuffer::NBufferLevels;
+use super::minmax::MinMaxLevel;
+use super::nbuffer::{combine, NBufferLevels, EMPTY};
 use super::pcf::{bilinear_tie, is_tie, tie_epsilon};
 use super::pcf_coverage::coverage_texels;
 use super::receiver_plane::{receiver_plane, tap_depth, ReceiverPlane, ViewImages};
@@ -48,8 +49,8 @@ pub struct PcssKnobs {
     pub search_taps: u32,
     /// 0: exact coverage filter; n: an n×n bilinear grid once wider than n texels.
     pub filter_taps: u32,
-    /// N-buffer classification first.
-    pub skip: bool,
+    /// Classification first: 0 off, 1 by an N-buffer (exact), 2 by a min/max pyramid.
+    pub skip: u32,
     /// Receiver-plane depth per texel.
     pub receiver_plane: bool,
     /// Floor on the widths, texels.
@@ -172,14 +173,17 @@ pub fn pcss(
         counters: [0; 9],
         tie: vec![false; n],
     };
-    let levels = knobs.skip.then(|| {
-        super::nbuffer::build(
+    let (w, h) = (map.size.x as u32, map.size.y as u32);
+    let structure = match knobs.skip {
+        0 => MinMax::Off,
+        1 => MinMax::NBuffer(super::nbuffer::build(
             map.depth,
-            map.size.x as u32,
-            map.size.y as u32,
-            super::nbuffer::full_levels(map.size.x as u32, map.size.y as u32) - 1,
-        )
-    });
+            w,
+            h,
+            super::nbuffer::full_levels(w, h) - 1,
+        )),
+        _ => MinMax::Pyramid(super::minmax::build(map.depth, w, h)),
+    };
     let clamp = |w: Vec2| w.clamp(Vec2::splat(knobs.min_kernel), Vec2::splat(knobs.max_width));
     for (i, p) in view.positions.iter().enumerate().take(n) {
         if p.w <= 0.0 {
@@ -210,12 +214,10 @@ pub fn pcss(
         let lo = centre - 0.5 * size;
         let first = lo.floor().as_ivec2();
         let last = (centre + 0.5 * size).ceil().as_ivec2() - 1;
-        if let Some(levels) = &levels {
-            if let Some(v) = classify(levels, map, c.z, centre, first, last, g) {
-                out.counters[if v > 0.0 { 5 } else { 6 }] += 1;
-                out.store(i, v);
-                continue;
-            }
+        if let Some(v) = classify(&structure, map, c.z, centre, first, last, g) {
+            out.counters[if v > 0.0 { 5 } else { 6 }] += 1;
+            out.store(i, v);
+            continue;
         }
         // The blocker search: (Σ weight·distance, Σ weight) over blocking texels.
         let mut sum = Vec2::ZERO;
@@ -283,10 +285,42 @@ fn near_edge(q: Vec2) -> bool {
     edge(q.x) || edge(q.y)
 }
 
+/// The skip classification's structure.
+enum MinMax {
+    Off,
+    NBuffer(NBufferLevels),
+    Pyramid(Vec<MinMaxLevel>),
+}
+
+/// The shader's `pyramid_minmax_rect`: (min, max) over the cells of the finest level covering
+/// texels lo..=hi (clipped) with at most 4 cells per axis.
+pub fn pyramid_minmax(levels: &[MinMaxLevel], lo: IVec2, hi: IVec2) -> [f32; 2] {
+    let size = IVec2::new(levels[0].width as i32, levels[0].height as i32);
+    let (a, b) = (lo.max(IVec2::ZERO), hi.min(size - 1));
+    if a.cmpgt(b).any() {
+        return EMPTY;
+    }
+    let mut level = 0i32;
+    while ((level + 1) as usize) < levels.len()
+        && ((b >> level) - (a >> level)).cmpgt(IVec2::splat(3)).any()
+    {
+        level += 1;
+    }
+    let (ca, cb) = (a >> level, b >> level);
+    let l = &levels[level as usize];
+    let mut result = EMPTY;
+    for y in ca.y..=cb.y {
+        for x in ca.x..=cb.x {
+            result = combine(result, l.data[(y * l.width as i32 + x) as usize]);
+        }
+    }
+    result
+}
+
 /// The skip test: `Some(1)` when no texel of the region grown by one can block, `Some(0)` when
 /// all block and the grown region is on the map, else `None` (the shaders' classification).
 fn classify(
-    levels: &NBufferLevels,
+    structure: &MinMax,
     map: &DepthMap<'_>,
     z: f32,
     centre: Vec2,
@@ -295,7 +329,11 @@ fn classify(
     g: Vec2,
 ) -> Option<f32> {
     let (lo, hi) = (first - 1, last + 1);
-    let [min, max] = levels.minmax_rect([lo.x, lo.y], [hi.x, hi.y]);
+    let [min, max] = match structure {
+        MinMax::Off => return None,
+        MinMax::NBuffer(levels) => levels.minmax_rect([lo.x, lo.y], [hi.x, hi.y]),
+        MinMax::Pyramid(levels) => pyramid_minmax(levels, lo, hi),
+    };
     let corner_depths = [
         Vec2::new(lo.x as f32, lo.y as f32),
         Vec2::new(hi.x as f32, lo.y as f32),

@@ -4,7 +4,11 @@
 //! Per frame:
 //!
 //! 1. the D32 [`ShadowMap`] from the light's centre;
-//! 2. with `skip = 1`, an [`NBuffer`] of it (exact min and max depth over any texel rectangle);
+//! 2. with `skip = nbuffer`, an [`NBuffer`] of it (exact min and max depth over any texel
+//!    rectangle, 8 B per texel per level); with `skip = pyramid` (the default), a
+//!    [`MinMaxPyramid`] (min and max over a superset of the rectangle: the cells of the finest
+//!    level covering it with at most 4 cells per axis; 2.7 B per texel, a tenth of the N-buffer's
+//!    build time);
 //! 3. `glsl/pcss/blocker_search.comp`, per view sample at map position x and light-view distance
 //!    z_y: the search region is the light's footprint at the near plane,
 //!    w_s = [`soft_light`]`(z_y, near)` — the light-pyramid cross-section w_light·(z_y − z_n)/z_y
@@ -20,8 +24,8 @@
 //! Both widths are clamped to [`MIN_KERNEL`, `MAX_WIDTH`]: a point light gives `min_kernel`,
 //! `pcf-coverage` with that kernel.
 //!
-//! **Work skipping, identical output.** With `skip = 1` the search pass first asks the N-buffer
-//! for (min, max) over the region's texels grown by one texel on each side (the farthest a
+//! **Work skipping, identical output.** With skipping on, the search pass first asks the
+//! structure for (min, max) over the region's texels grown by one texel on each side (the farthest a
 //! bilinear filter tap reaches past the region's texels), and compares them with the range of
 //! depths the sample's texels are tested at (its depth z, or with receiver-plane bias the plane's
 //! depths at the grown region's corner texels: the plane is linear and float rounding monotone,
@@ -32,9 +36,10 @@
 //! (w_f ≤ w_s because the footprint is monotone in the blocker distance and z_avg ≥ near), so
 //! every filter test is 0 and V = 0. Either way the shortcut writes the value the full path
 //! would have, **bit for bit** (the tests check it). Counters `skipped_lit`, `skipped_umbra`
-//! count the shortcuts; `lit`, `umbra`, `penumbra` count the written values. Skipping costs the
-//! N-buffer build (levels up to [`MAX_SKIP_LEVEL`]: 8 B per texel per level) and saves the
-//! search — (w_s + 1)² texel reads exhaustively — wherever it classifies.
+//! count the shortcuts; `lit`, `umbra`, `penumbra` count the written values. A superset's
+//! (min, max) only classifies less, never differently. Skipping costs the structure's build
+//! (N-buffer levels up to [`MAX_SKIP_LEVEL`]) and saves the search — (w_s + 1)² texel reads
+//! exhaustively, n² with a grid — wherever it classifies.
 //!
 //! It classifies receivers that face the light: a region of teapot-rect's ground (parallel to
 //! the rect light) holds depths at or behind the sample's. A receiver tilted against the map
@@ -66,6 +71,7 @@ use crate::error::{Error, Result};
 use crate::gpu::{
     u32s, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder,
 };
+use crate::kernels::minmax::MinMaxPyramid;
 use crate::kernels::nbuffer::{NBuffer, MAX_LEVEL};
 use crate::passes::{SceneGeometry, ShadowMap};
 
@@ -115,12 +121,13 @@ const KNOBS: [Knob; 10] = [
     },
     Knob {
         name: "skip",
-        summary: "1: classify regions by N-buffer min/max first (same output, less work)",
-        default: KnobDefault::Value(1.0),
+        summary: "classify regions by min/max depth first (same output, less work): off, by an \
+                  N-buffer (exact), or by a min/max pyramid (a superset; cheaper to build)",
+        default: KnobDefault::Value(2.0),
         min: 0.0,
-        max: 1.0,
+        max: 2.0,
         integer: true,
-        names: &[],
+        names: &["off", "nbuffer", "pyramid"],
     },
     Knob {
         name: "receiver_plane_bias",
@@ -182,11 +189,43 @@ pub struct PcssPush {
     pub pad: i32,
 }
 
+/// The skip classification's structure (the `skip` knob).
+enum MinMax<'a> {
+    Off,
+    NBuffer(NBuffer<'a>),
+    Pyramid(MinMaxPyramid<'a>),
+}
+
+impl MinMax<'_> {
+    /// The highest level built and its images, by level (1 ..= highest).
+    fn levels(&self) -> (u32, Vec<&(Image, Image)>) {
+        match self {
+            MinMax::Off => (0, Vec::new()),
+            MinMax::NBuffer(n) => (
+                n.max_level,
+                (1..=n.max_level).filter_map(|l| n.level(l)).collect(),
+            ),
+            MinMax::Pyramid(p) => {
+                let top = p.sizes.len() as u32 - 1;
+                (top, (1..=top).filter_map(|l| p.level(l)).collect())
+            }
+        }
+    }
+
+    fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        match self {
+            MinMax::Off => Ok(()),
+            MinMax::NBuffer(n) => n.record(rec),
+            MinMax::Pyramid(p) => p.record(rec),
+        }
+    }
+}
+
 struct Pcss<'a> {
     ctx: Context,
     // Field order is drop order: the N-buffer and the sets refer to the map's depth image, which
     // is dropped last (see `new`).
-    nbuffer: Option<NBuffer<'a>>,
+    minmax: MinMax<'a>,
     search_set: DescriptorSet,
     filter_set: DescriptorSet,
     search: Pipeline,
@@ -238,10 +277,10 @@ impl<'a> Pcss<'a> {
         // sets name it). The map is boxed, so its address survives moves of `Pcss`; it is never
         // replaced, and it is declared last, so it is dropped after everything referring to it.
         let depth: &'a Image = unsafe { &*(&shadow_map.depth as *const Image) };
-        let nbuffer = if skip != 0 {
-            Some(NBuffer::new(ctx, depth, Some(MAX_SKIP_LEVEL))?)
-        } else {
-            None
+        let minmax = match skip {
+            0 => MinMax::Off,
+            1 => MinMax::NBuffer(NBuffer::new(ctx, depth, Some(MAX_SKIP_LEVEL))?),
+            _ => MinMax::Pyramid(MinMaxPyramid::new(ctx, depth)?),
         };
         let usage = vk::ImageUsageFlags::STORAGE;
         let blocker = Image::new(
@@ -258,8 +297,15 @@ impl<'a> Pcss<'a> {
         let search = Pipeline::compute(ctx, "pcss/blocker_search.comp")?;
         let filter = Pipeline::compute(ctx, "pcss/filter.comp")?;
 
-        // Levels the shader may not read (none built, or above the highest) are still bound.
-        let built = nbuffer.as_ref().map_or(0, |n| n.max_level);
+        // Levels the shader never reads (none built, or above the highest) are still bound: to
+        // the highest level, or to a 1×1 pair when nothing is built.
+        let (built, levels) = minmax.levels();
+        if levels.len() != built as usize || built > MAX_LEVEL {
+            return Err(parameter(format!(
+                "{built} min/max levels, {} images",
+                levels.len()
+            )));
+        }
         let unused_levels = if built == 0 {
             Some(crate::kernels::nbuffer::minmax_images(
                 ctx,
@@ -279,13 +325,15 @@ impl<'a> Pcss<'a> {
             Binding::Image(&setup.view.normals),
             Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
         ];
-        for l in 1..=MAX_LEVEL {
-            let level = match (&nbuffer, &unused_levels) {
-                (Some(n), _) => n.level(l.min(built)),
-                (None, Some(unused)) => Some(unused),
-                (None, None) => None,
+        for l in 1..=MAX_LEVEL as usize {
+            let (min, max) = match (
+                levels.get(l.min(levels.len()).wrapping_sub(1)),
+                &unused_levels,
+            ) {
+                (Some(level), _) => *level,
+                (None, Some(unused)) => unused,
+                (None, None) => return Err(parameter("min/max level missing".into())),
             };
-            let (min, max) = level.ok_or_else(|| parameter("N-buffer level missing".into()))?;
             bindings.extend([Binding::Image(min), Binding::Image(max)]);
         }
         let search_set = DescriptorSet::new(ctx, &search, &bindings)?;
@@ -309,7 +357,7 @@ impl<'a> Pcss<'a> {
         };
         Ok(Pcss {
             ctx: ctx.clone(),
-            nbuffer,
+            minmax,
             search_set,
             filter_set,
             search,
@@ -332,9 +380,9 @@ impl Technique for Pcss<'_> {
             self.push.view_size.y as u32,
             1,
         ];
-        if let Some(nbuffer) = &self.nbuffer {
+        if !matches!(self.minmax, MinMax::Off) {
             rec.begin_pass("pcss-minmax")?;
-            nbuffer.record(rec)?;
+            self.minmax.record(rec)?;
         }
         rec.begin_pass("pcss-blocker-search")?;
         rec.fill(&self.counters, 0);

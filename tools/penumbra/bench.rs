@@ -110,18 +110,18 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
             ("map_size", vec![1024.0, 2048.0]),
             ("kernel", vec![3.0, 9.0, 17.0, 33.0]),
         ],
-        // PCSS: exhaustive and 8x8-grid blocker search, skipping off and on (the skip table
-        // pairs them); a one-texel normal offset lifts receivers clear of their own surface.
+        // PCSS: exhaustive and 8x8-grid blocker search, skipping off, by N-buffer and by pyramid
+        // (the skip table pairs each with off); a one-texel normal offset lifts receivers clear of their own surface.
         ("pcss", true) => vec![
             ("map_size", vec![1024.0]),
             ("search_taps", vec![8.0]),
-            ("skip", vec![0.0, 1.0]),
+            ("skip", vec![0.0, 2.0]),
             ("normal_offset", vec![1.0]),
         ],
         ("pcss", false) => vec![
             ("map_size", vec![1024.0, 2048.0]),
             ("search_taps", vec![0.0, 8.0]),
-            ("skip", vec![0.0, 1.0]),
+            ("skip", vec![0.0, 1.0, 2.0]),
             ("normal_offset", vec![1.0]),
         ],
         _ => Vec::new(),
@@ -214,37 +214,37 @@ fn skip_comparison(
 ) -> Vec<serde_json::Value> {
     let mut out = Vec::new();
     for ((technique, label), runs) in pairs {
-        let off = runs.iter().find(|r| r.skip == "0");
-        let on = runs.iter().find(|r| r.skip == "1");
-        let (Some(off), Some(on)) = (off, on) else {
+        let Some(off) = runs.iter().find(|r| r.skip == "0") else {
             continue;
         };
-        let differing = off
-            .visibility
-            .iter()
-            .zip(&on.visibility)
-            .filter(|(a, b)| a.to_bits() != b.to_bits())
-            .count();
-        let max_diff = off
-            .visibility
-            .iter()
-            .zip(&on.visibility)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max);
-        let samples = on.counters.get("view_samples").copied().unwrap_or(0);
-        let skipped = on.counters.get("skipped_lit").copied().unwrap_or(0)
-            + on.counters.get("skipped_umbra").copied().unwrap_or(0);
-        out.push(serde_json::json!({
-            "scene": scene,
-            "technique": technique,
-            "label": label,
-            "ms_skip_off": off.ms,
-            "ms_skip_on": on.ms,
-            "speedup": off.ms.zip(on.ms).map(|(a, b)| a / b),
-            "skipped_fraction": skipped as f64 / samples.max(1) as f64,
-            "differing_pixels": differing,
-            "max_abs_diff": max_diff,
-        }));
+        for on in runs.iter().filter(|r| r.skip != "0") {
+            let differing = off
+                .visibility
+                .iter()
+                .zip(&on.visibility)
+                .filter(|(a, b)| a.to_bits() != b.to_bits())
+                .count();
+            let max_diff = off
+                .visibility
+                .iter()
+                .zip(&on.visibility)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0f32, f32::max);
+            let samples = on.counters.get("view_samples").copied().unwrap_or(0);
+            let skipped = on.counters.get("skipped_lit").copied().unwrap_or(0)
+                + on.counters.get("skipped_umbra").copied().unwrap_or(0);
+            out.push(serde_json::json!({
+                "scene": scene,
+                "technique": technique,
+                "label": format!("{label} skip={}", on.skip),
+                "ms_skip_off": off.ms,
+                "ms_skip_on": on.ms,
+                "speedup": off.ms.zip(on.ms).map(|(a, b)| a / b),
+                "skipped_fraction": skipped as f64 / samples.max(1) as f64,
+                "differing_pixels": differing,
+                "max_abs_diff": max_diff,
+            }));
+        }
     }
     out
 }
@@ -369,7 +369,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                     .and_then(|f| {
                         let errors = references
                             .iter()
-                            .map(|(_, r, _)| evaluate(&prepared, &view, &r.visibility, &f.visibility))
+                            .map(|(_, r, _)| {
+                                evaluate(&prepared, &view, &r.visibility, &f.visibility)
+                            })
                             .collect::<penumbra::Result<Vec<_>>>()?;
                         Ok((f, errors))
                     });
@@ -397,9 +399,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                         row["memory_bytes"] = serde_json::json!(frame.stats.memory_bytes);
                         // Per shadow-map texel, for techniques with a map (the README's unit).
                         if let Some(size) = frame.stats.params.get("map_size") {
-                            row["memory_bytes_per_texel"] = serde_json::json!(
-                                frame.stats.memory_bytes as f64 / (size * size)
-                            );
+                            row["memory_bytes_per_texel"] =
+                                serde_json::json!(frame.stats.memory_bytes as f64 / (size * size));
                         }
                         row["counters"] = serde_json::json!(frame.stats.counters);
                         row["nan_count"] = serde_json::json!(frame.stats.nan_count);
@@ -408,7 +409,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                             row[format!("penumbra_mae@{name}")] = serde_json::json!(e.penumbra_mae);
                             row[format!("rmse@{name}")] = serde_json::json!(e.rmse);
                         }
-                        if let (Some(ms), Some(pmae)) = (frame.stats.total_gpu_ms, error.penumbra_mae)
+                        if let (Some(ms), Some(pmae)) =
+                            (frame.stats.total_gpu_ms, error.penumbra_mae)
                         {
                             points.push(ParetoPoint {
                                 technique: technique.clone(),
@@ -483,7 +485,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                 return passes.map_or(serde_json::Value::Null, |p| {
                     let parts: Vec<String> = p
                         .iter()
-                        .filter_map(|x| Some((x.get("name")?.as_str()?, x.get("gpu_ms")?.as_f64()?)))
+                        .filter_map(|x| {
+                            Some((x.get("name")?.as_str()?, x.get("gpu_ms")?.as_f64()?))
+                        })
                         .map(|(n, ms)| format!("{n}={ms:.3}"))
                         .collect();
                     serde_json::Value::String(parts.join(";"))

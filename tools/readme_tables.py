@@ -1,0 +1,142 @@
+#!/usr/bin/env python3
+"""The README's measured tables, from the bench's own output (so every figure there comes from a
+named command):
+
+    python3 tools/readme_tables.py receivers DIR   # DIR from `penumbra bench --set light_clip=0,1`
+    python3 tools/readme_tables.py soft DIR        # DIR from the soft-shadow bench (README)
+
+`receivers`: per technique, the configuration with clipping on that has the lowest penumbra MAE
+on teapot-rect (lowest RMSE on spot-point), with the same configuration's clip-off figures and
+the light leak of docs/bench-full-lavapipe-2026-11-22.csv. `soft`: per scene (and light scale),
+per technique and map size, the configuration with the lowest penumbra MAE, its error against
+both references and its pass times; then the skip table (skip.csv).
+"""
+import csv
+import sys
+from pathlib import Path
+
+OLD = Path(__file__).resolve().parent.parent / "docs" / "bench-full-lavapipe-2026-11-22.csv"
+
+
+def rows(path):
+    with open(path, newline="") as f:
+        return [r for r in csv.DictReader(f) if not r.get("failure")]
+
+
+def num(r, key):
+    try:
+        return float(r[key])
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
+def knobs(label, drop):
+    parts = [p for p in label.split() if p.split("=")[0] not in drop]
+    return " ".join(parts) or "defaults"
+
+
+def fmt(v, digits):
+    return "—" if v is None else f"{v:.{digits}f}"
+
+
+def receivers(directory):
+    data = rows(Path(directory) / "bench.csv")
+    old = rows(OLD) if OLD.exists() else []
+    old_leak = {(r["scene"], r["technique"], r["label"]): num(r, "light_leak") for r in old}
+    order = []
+    for r in data:
+        if r["technique"] not in order:
+            order.append(r["technique"])
+    for scene, metric in (("teapot-rect", "penumbra_mae"), ("spot-point", "rmse")):
+        print(f"\n{scene} (best {metric} with light_clip=1)\n")
+        if metric == "penumbra_mae":
+            print("| technique | best knobs on teapot-rect | GPU ms | penumbra MAE | — clip off "
+                  "| RMSE | misclassified | light leak | — clip off | — 2026-11-22 | FLIP "
+                  "| memory B / map texel |")
+            print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+        else:
+            print("| technique | best knobs on spot-point | GPU ms | RMSE | — clip off "
+                  "| misclassified | light leak | — clip off | — 2026-11-22 |")
+            print("|---|---|---|---|---|---|---|---|---|")
+        for t in order:
+            on = [r for r in data if r["scene"] == scene and r["technique"] == t
+                  and "light_clip=1" in r["label"].split() and num(r, metric) is not None]
+            if not on:
+                continue
+            best = min(on, key=lambda r: num(r, metric))
+            label = knobs(best["label"], {"light_clip"})
+            off = next((r for r in data if r["scene"] == scene and r["technique"] == t
+                        and "light_clip=0" in r["label"].split()
+                        and knobs(r["label"], {"light_clip"}) == label), None)
+            leak_old = old_leak.get((scene, t, label if label != "defaults" else "defaults"))
+            g = lambda r, k: None if r is None else num(r, k)
+            if metric == "penumbra_mae":
+                print(f"| `{t}` | {label} | {fmt(num(best, 'total_gpu_ms'), 1)} "
+                      f"| {fmt(num(best, 'penumbra_mae'), 3)} | {fmt(g(off, 'penumbra_mae'), 3)} "
+                      f"| {fmt(num(best, 'rmse'), 3)} | {fmt(num(best, 'misclassified'), 3)} "
+                      f"| {fmt(num(best, 'light_leak'), 3)} | {fmt(g(off, 'light_leak'), 3)} "
+                      f"| {fmt(leak_old, 3)} | {fmt(num(best, 'flip'), 4)} "
+                      f"| {fmt(num(best, 'memory_bytes_per_texel'), 1)} |")
+            else:
+                print(f"| `{t}` | {label} | {fmt(num(best, 'total_gpu_ms'), 1)} "
+                      f"| {fmt(num(best, 'rmse'), 3)} | {fmt(g(off, 'rmse'), 3)} "
+                      f"| {fmt(num(best, 'misclassified'), 3)} "
+                      f"| {fmt(num(best, 'light_leak'), 3)} | {fmt(g(off, 'light_leak'), 3)} "
+                      f"| {fmt(leak_old, 3)} |")
+
+
+def passes(r, prefix):
+    out = []
+    for part in (r.get("passes") or "").split(";"):
+        if "=" in part:
+            name, ms = part.split("=")
+            if name.startswith(prefix):
+                out.append(f"{name[len(prefix):]} {float(ms):.0f}")
+    return ", ".join(out)
+
+
+def soft(directory):
+    data = rows(Path(directory) / "bench.csv")
+    single = next((k for k in (data[0].keys() if data else []) if k.startswith("penumbra_mae@")),
+                  None)
+    scenes = []
+    for r in data:
+        if r["scene"] not in scenes:
+            scenes.append(r["scene"])
+    for scene in scenes:
+        print(f"\n{scene}\n")
+        print("| technique | map | best knobs | GPU ms | passes (ms) | penumbra MAE "
+              f"| {single or 'single-layer'} | RMSE | light leak |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        here = [r for r in data if r["scene"] == scene and num(r, "penumbra_mae") is not None]
+        order = []
+        for r in here:
+            key = (r["technique"], r["label"].split("map_size=")[-1].split()[0]
+                   if "map_size=" in r["label"] else "")
+            if key not in order:
+                order.append(key)
+        for t, size in order:
+            cands = [r for r in here if r["technique"] == t and f"map_size={size}" in r["label"]]
+            best = min(cands, key=lambda r: (num(r, "penumbra_mae"), num(r, "total_gpu_ms") or 0))
+            prefix = t + "-"
+            print(f"| `{t}` | {size} | {knobs(best['label'], {'map_size'})} "
+                  f"| {fmt(num(best, 'total_gpu_ms'), 1)} | {passes(best, prefix)} "
+                  f"| {fmt(num(best, 'penumbra_mae'), 4)} "
+                  f"| {fmt(num(best, single) if single else None, 4)} "
+                  f"| {fmt(num(best, 'rmse'), 4)} | {fmt(num(best, 'light_leak'), 4)} |")
+    skip = Path(directory) / "skip.csv"
+    if skip.exists():
+        print("\nskip\n")
+        print("| scene | knobs | skip off ms | skip on ms | speed-up | samples skipped "
+              "| pixels differing |")
+        print("|---|---|---|---|---|---|---|")
+        for r in rows(skip):
+            print(f"| {r['scene']} | {r['label']} | {fmt(num(r, 'ms_skip_off'), 1)} "
+                  f"| {fmt(num(r, 'ms_skip_on'), 1)} | {fmt(num(r, 'speedup'), 2)}× "
+                  f"| {fmt(100 * num(r, 'skipped_fraction'), 1)} % | {r['differing_pixels']} |")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3 or sys.argv[1] not in ("receivers", "soft"):
+        sys.exit(__doc__)
+    {"receivers": receivers, "soft": soft}[sys.argv[1]](sys.argv[2])

@@ -7,6 +7,7 @@
 //! after each frame.
 
 pub mod average_maps;
+pub mod cssm;
 pub mod filtered;
 mod params;
 pub mod pcf;
@@ -128,6 +129,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         filtered::msm::MSM,
         filtered::csm::CSM,
         savsm::SAVSM,
+        cssm::CSSM,
     ]
 }
 

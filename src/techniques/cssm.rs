@@ -243,7 +243,7 @@ struct Cssm<'a> {
     shadow_map: ShadowMap,
     geometry: &'a SceneGeometry,
     _view_images: [Image; 2],
-    _images: Vec<Box<Image>>,
+    _images: Vec<Image>,
 }
 
 impl<'a> Cssm<'a> {
@@ -255,7 +255,7 @@ impl<'a> Cssm<'a> {
         let desc = ImageDesc::new_2d(vk::Format::R32_SFLOAT, size, size, usage);
         let images = ["z", "sin", "cos", "z sin", "z cos"]
             .iter()
-            .map(|n| Ok(Box::new(Image::new(ctx, &format!("cssm {n}"), desc)?)))
+            .map(|n| Image::new(ctx, &format!("cssm {n}"), desc))
             .collect::<Result<Vec<_>>>()?;
         let push = CssmPush::new(
             setup.light_view,
@@ -268,10 +268,11 @@ impl<'a> Cssm<'a> {
         let mut sats = Vec::with_capacity(images.len());
         for image in &images {
             // SAFETY: `Sat` borrows its source only to tie it to the image's life (its
-            // descriptor sets name the image). The images are boxed, so their addresses survive
-            // moves of `Cssm`; they are never replaced or mutated, and `_images` is the last
-            // field, dropped after everything that refers to them (as in `savsm`).
-            let source: &'a Image = unsafe { &*(image.as_ref() as *const Image) };
+            // descriptor sets name the image). The images live in the Vec's heap buffer, which
+            // moves of `Cssm` do not move and which is never pushed to (no reallocation), and
+            // `_images` is the last field, dropped after everything that refers to them (as
+            // `savsm` does with boxes).
+            let source: &'a Image = unsafe { &*(image as *const Image) };
             let sat = Sat::new(ctx, source, precision)?;
             if sat.bands().len() != 1 {
                 return Err(Error::Unsupported {
@@ -303,7 +304,7 @@ impl<'a> Cssm<'a> {
             ],
         )?;
         let mut bindings = vec![Binding::Sampled(&shadow_map.depth, &shadow_map.sampler)];
-        bindings.extend(images.iter().map(|i| Binding::Image(i.as_ref())));
+        bindings.extend(images.iter().map(Binding::Image));
         let encode_set = DescriptorSet::new(ctx, &encode, &bindings)?;
         let mut bindings = vec![
             Binding::Image(&view_images[0]),

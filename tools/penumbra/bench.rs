@@ -105,6 +105,12 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
             ("map_size", vec![1024.0, 2048.0]),
             ("kernel", vec![3.0, 9.0, 17.0, 33.0]),
         ],
+        // Convolution soft shadows: M, the cost driver (6M + 1 table builds per frame).
+        ("cssm", true) => vec![("map_size", vec![1024.0]), ("terms", vec![4.0, 8.0, 16.0])],
+        ("cssm", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("terms", vec![4.0, 8.0, 16.0]),
+        ],
         _ => Vec::new(),
     }
 }

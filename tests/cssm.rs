@@ -126,6 +126,12 @@ fn matches_cpu_twin_plane_boxes_rect_undamped() {
     compare("plane-boxes@rect", "4", "0");
 }
 
+/// The orthographic path: the 0.5° sun's footprint grows with depth, not with 1/distance.
+#[test]
+fn matches_cpu_twin_directional() {
+    compare("plane-boxes@directional", "4", "1");
+}
+
 /// Ground samples of [`common::parallel_planes`] near the edge (|z| < 2, y ≈ 0, |x| < 1.5) as
 /// (x, V).
 fn ground_ramp(r: &Run) -> Vec<(f32, f32)> {
@@ -184,7 +190,24 @@ fn parallel_planes_ramp() {
         samples.len(),
         w * h / (big_h - h)
     );
-    assert!(mae < 0.04 && worst < 0.2, "MAE {mae}, max {worst}");
+    if !(mae < 0.04 && worst < 0.2) {
+        // Expected: the analytic ramp where it is checked, the GPU's own value elsewhere.
+        let expected: Vec<f32> = r
+            .positions
+            .iter()
+            .zip(&r.visibility)
+            .map(|(p, v)| {
+                let checked = p.w > 0.0 && p.y.abs() < 1e-3 && p.z.abs() < 2.0 && p.x.abs() < 1.5;
+                if checked {
+                    common::parallel_planes_visibility(p.x, w, h, big_h)
+                } else {
+                    *v
+                }
+            })
+            .collect();
+        let dir = common::write_diff("cssm-ramp", r.width, r.height, &expected, &r.visibility);
+        panic!("MAE {mae}, max {worst}; images in {}", dir.display());
+    }
     assert_eq!((r.nan, r.out_of_range), (0, 0));
     common::assert_clean(&engine.context().validation());
 }

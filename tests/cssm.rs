@@ -435,3 +435,24 @@ fn point_light_reduces_to_pcf_coverage() {
     drop(prepared);
     common::assert_clean(&engine.context().validation());
 }
+
+/// `resident = 1` keeps each term's sin/cos tables instead of rebuilding them for the filter:
+/// the same tables read in the same order, so V and every counter are identical, bit for bit.
+#[test]
+fn resident_tables_change_nothing() {
+    let engine = common::engine();
+    let scene = common::small("scenes/teapot-rect.toml");
+    let base = [("map_size", "256"), ("terms", "5")];
+    let rebuilt = run(&engine, &scene, &[base[0], base[1], ("resident", "0")]);
+    let resident = run(&engine, &scene, &[base[0], base[1], ("resident", "1")]);
+    let differing = rebuilt
+        .visibility
+        .iter()
+        .zip(&resident.visibility)
+        .filter(|(a, b)| a.to_bits() != b.to_bits())
+        .count();
+    assert_eq!(differing, 0, "{differing} samples differ");
+    assert_eq!(rebuilt.counters, resident.counters);
+    assert!(rebuilt.counters["penumbra"] > 100);
+    common::assert_clean(&engine.context().validation());
+}

@@ -41,14 +41,17 @@
 //! the *filter loop*, per term: `encode.comp`, the sin and cos tables only, `lookup.comp`
 //! (resolving z_avg and the width at k = 1, accumulating, and at k = M writing V). Only the M
 //! terms asked for are computed, one at a time, so memory does not grow with M; the price is the
-//! sin/cos tables built twice (6M + 1 table builds, against 4M + 1 with every table resident).
-//! Timed passes: `cssm-search`, `cssm-filter`.
+//! sin/cos tables built twice: 6M + 1 table builds, which dominate the frame. `resident = 1`
+//! trades memory for that time: each term's sin/cos tables are built once, in the search loop,
+//! and kept, so the filter loop only reads (4M + 1 builds). Both give identical results (same
+//! tables, same order of operations; `tests/cssm.rs` checks it bit for bit). Timed passes:
+//! `cssm-search`, `cssm-filter`.
 //!
-//! **Memory per shadow-map texel** while running, whatever M: 4 B (D32) + 5 × 4 B (R32F basis
-//! images) + 5 × 4 B (u32 tables) = 44 B, plus a carry row per table and 2 × 16 B per view
-//! sample (positions in the map, state). Keeping every term's tables instead would be
-//! (4M + 1) × 4 B: 68 B at M = 4, 260 B at M = 16. Each table is one storage-buffer binding, so
-//! the map is limited to 4 · size² ≤ `maxStorageBufferRange` (5792² on lavapipe).
+//! **Memory per shadow-map texel** while running: 4 B (D32) + 5 × 4 B (R32F basis images) +
+//! 5 × 4 B (u32 tables) = 44 B whatever M, plus a carry row per table and 2 × 16 B per view
+//! sample (positions in the map, state); with `resident`, (3 + 2M) tables: 36 + 8M B (68 B at
+//! M = 4, 164 B at M = 16). Each table is one storage-buffer binding, so the map is limited to
+//! 4 · size² ≤ `maxStorageBufferRange` (5792² on lavapipe).
 //!
 //! Counters: `view_samples`, `outside_light`, `lit`, `umbra`, `penumbra`, `no_blockers`,
 //! `terms`. CPU twin: [`crate::cpu::cssm`].
@@ -60,7 +63,9 @@ use glam::{IVec2, Mat4, Vec2};
 use super::filtered::csm::{self, DAMPING, DEPTH_RANGE, OFFSET, REMAP_MARGIN, TERMS};
 use super::pcf::shadow_map_desc;
 use super::soft_light::{soft_light, MAX_WIDTH, MIN_KERNEL};
-use super::{Knob, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS};
+use super::{
+    Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS,
+};
 use crate::error::{Error, Result};
 use crate::gpu::{
     u32s, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder,
@@ -85,7 +90,19 @@ pub const FLAG_FIRST: i32 = 2;
 /// Last dispatch of a loop.
 pub const FLAG_LAST: i32 = 4;
 
-const KNOBS: [Knob; 10] = [
+/// `resident`: keep every term's sin/cos tables for the filter loop instead of rebuilding them.
+pub const RESIDENT: Knob = Knob {
+    name: "resident",
+    summary: "1: keep each term's sin/cos tables from the search for the filter (2M more tables, \
+              8M B/texel; the filter loop then builds nothing); 0: rebuild them",
+    default: KnobDefault::Value(0.0),
+    min: 0.0,
+    max: 1.0,
+    integer: true,
+    names: &[],
+};
+
+const KNOBS: [Knob; 11] = [
     SHADOW_MAP_KNOBS[0],
     SHADOW_MAP_KNOBS[1],
     SHADOW_MAP_KNOBS[2],
@@ -96,6 +113,7 @@ const KNOBS: [Knob; 10] = [
     DEPTH_RANGE,
     MIN_KERNEL,
     MAX_WIDTH,
+    RESIDENT,
 ];
 
 /// `cssm`: convolution soft shadow maps.
@@ -228,11 +246,16 @@ impl CssmPush {
 struct Cssm<'a> {
     ctx: Context,
     // Field order is drop order: the tables and sets refer to the images, dropped last.
-    /// z, then term k's sin, cos, z sin, z cos.
+    /// Every table: z, z sin, z cos, then sin and cos once (rebuilt per term) or per term
+    /// (`resident`).
     sats: Vec<Sat<'a>>,
+    /// Per term, indices into `sats` of its z, sin, cos, z sin and z cos tables.
+    term_tables: Vec<[usize; 5]>,
+    resident: bool,
     prepare_set: DescriptorSet,
     encode_set: DescriptorSet,
-    lookup_set: DescriptorSet,
+    /// One lookup set per distinct `term_tables` entry (one, or one per term when resident).
+    lookup_sets: Vec<DescriptorSet>,
     prepare: Pipeline,
     encode: Pipeline,
     lookup: Pipeline,
@@ -265,8 +288,23 @@ impl<'a> Cssm<'a> {
             params,
         )?;
         let precision = SatPrecision::U32Fixed(push.scale.log2() as u32);
-        let mut sats = Vec::with_capacity(images.len());
-        for image in &images {
+        let terms = params.u32("terms")?.clamp(1, csm::MAX_TERMS) as usize;
+        let resident = params.u32("resident")? == 1;
+        // Sources of the tables, in `sats` order: z, z sin, z cos, then (sin, cos) once or per
+        // term; `images` is [z, sin, cos, z sin, z cos].
+        let copies = if resident { terms } else { 1 };
+        let sources: Vec<usize> = [0, 3, 4]
+            .into_iter()
+            .chain((0..copies).flat_map(|_| [1, 2]))
+            .collect();
+        let term_tables: Vec<[usize; 5]> = (0..terms)
+            .map(|k| {
+                let pair = 3 + 2 * if resident { k } else { 0 };
+                [0, pair, pair + 1, 1, 2]
+            })
+            .collect();
+        let mut sats = Vec::with_capacity(sources.len());
+        for image in sources.iter().map(|&i| &images[i]) {
             // SAFETY: `Sat` borrows its source only to tie it to the image's life (its
             // descriptor sets name the image). The images live in the Vec's heap buffer, which
             // moves of `Cssm` do not move and which is never pushed to (no reallocation), and
@@ -306,14 +344,20 @@ impl<'a> Cssm<'a> {
         let mut bindings = vec![Binding::Sampled(&shadow_map.depth, &shadow_map.sampler)];
         bindings.extend(images.iter().map(Binding::Image));
         let encode_set = DescriptorSet::new(ctx, &encode, &bindings)?;
-        let mut bindings = vec![
+        let bindings = [
             Binding::Image(&view_images[0]),
             Binding::Image(&view_images[1]),
             Binding::Image(setup.visibility),
             Binding::Buffer(&counters),
         ];
-        bindings.extend(sats.iter().map(|s| Binding::Buffer(&s.bands()[0])));
-        let lookup_set = DescriptorSet::new(ctx, &lookup, &bindings)?;
+        let lookup_sets = term_tables[..copies]
+            .iter()
+            .map(|tables| {
+                let mut b = bindings.to_vec();
+                b.extend(tables.iter().map(|&t| Binding::Buffer(&sats[t].bands()[0])));
+                DescriptorSet::new(ctx, &lookup, &b)
+            })
+            .collect::<Result<Vec<_>>>()?;
         let view = setup.light_view;
         let prepare_push = CssmPreparePush {
             light_view_proj: view.view_proj,
@@ -324,20 +368,21 @@ impl<'a> Cssm<'a> {
             perspective: push.perspective,
             pad: [0; 2],
         };
-        let terms = params.u32("terms")?.clamp(1, csm::MAX_TERMS);
         Ok(Cssm {
             ctx: ctx.clone(),
             sats,
+            term_tables,
+            resident,
             prepare_set,
             encode_set,
-            lookup_set,
+            lookup_sets,
             prepare,
             encode,
             lookup,
             counters,
             prepare_push,
             push,
-            weights: weights(terms, params.get("damping")?),
+            weights: weights(terms as u32, params.get("damping")?),
             shadow_map,
             geometry: setup.geometry,
             _view_images: view_images,
@@ -358,19 +403,25 @@ impl<'a> Cssm<'a> {
             weight: self.weights[index],
             ..self.push
         };
-        rec.dispatch(&self.encode, &self.encode_set, &push, [size, size, 1])?;
-        // The search needs z (once) and all four bases; the filter only sin and cos.
-        let tables = match (filter, index) {
-            (false, 0) => 0..5,
-            (false, _) => 1..5,
-            (true, _) => 1..3,
+        // The search needs z (once) and all four bases; the filter only sin and cos, which
+        // resident tables still hold from the search.
+        let tables = &self.term_tables[index];
+        let build = match (filter, index) {
+            (false, 0) => &tables[..],
+            (false, _) => &tables[1..],
+            (true, _) if self.resident => &tables[..0],
+            (true, _) => &tables[1..3],
         };
-        for sat in &self.sats[tables] {
-            sat.record(rec)?;
+        if !build.is_empty() {
+            rec.dispatch(&self.encode, &self.encode_set, &push, [size, size, 1])?;
+        }
+        for &t in build {
+            self.sats[t].record(rec)?;
         }
         let view = self.push.view_size;
         let threads = [view.x as u32, view.y as u32, 1];
-        rec.dispatch(&self.lookup, &self.lookup_set, &push, threads)
+        let set = &self.lookup_sets[index.min(self.lookup_sets.len() - 1)];
+        rec.dispatch(&self.lookup, set, &push, threads)
     }
 }
 

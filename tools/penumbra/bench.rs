@@ -110,6 +110,7 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
         ("cssm", false) => vec![
             ("map_size", vec![1024.0, 2048.0]),
             ("terms", vec![4.0, 8.0, 16.0]),
+            ("resident", vec![0.0, 1.0]),
         ],
         _ => Vec::new(),
     }

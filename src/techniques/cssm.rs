@@ -21,9 +21,9 @@
 //!   [`super::filtered::csm`].
 //!
 //! Boxes follow the family's convention ([`super::soft_light`]): the search box is the light's
-//! footprint at the near plane, the filter box its footprint at z_avg, both clamped to
-//! [`MIN_KERNEL`, `MAX_WIDTH`] texels and centred at the receiver. Texels outside the map are
-//! the far plane (z = 1).
+//! footprint at the near plane, the filter box its footprint at z_avg, both clamped between
+//! [`MIN_KERNEL`] and [`MAX_WIDTH`] texels and centred at the receiver. Texels outside the map
+//! are the far plane (z = 1).
 //!
 //! **Prefiltering: summed-area tables in u32 fixed point.** A box mean of any fractional width
 //! is 16 reads per table (`sat_box_sum`), so the cost per pixel is constant in the penumbra
@@ -41,7 +41,9 @@
 //! the *filter loop*, per term: `encode.comp`, the sin and cos tables only, `lookup.comp`
 //! (resolving z_avg and the width at k = 1, accumulating, and at k = M writing V). Only the M
 //! terms asked for are computed, one at a time, so memory does not grow with M; the price is the
-//! sin/cos tables built twice: 6M + 1 table builds, which dominate the frame. `resident = 1`
+//! sin/cos tables built twice: 6M + 1 table builds (about half the frame at M = 16 and 1024² on
+//! lavapipe, ~33 ms each in a loaded run; the lookups' 16 reads per table and box are the rest).
+//! `resident = 1`
 //! trades memory for that time: each term's sin/cos tables are built once, in the search loop,
 //! and kept, so the filter loop only reads (4M + 1 builds). Both give identical results (same
 //! tables, same order of operations; `tests/cssm.rs` checks it bit for bit). Timed passes:

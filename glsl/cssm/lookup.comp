@@ -76,6 +76,9 @@ vec2 box_width(float receiver, float blocker) {
     return clamp(w, vec2(pc.min_kernel), vec2(pc.max_width));
 }
 
+// Distance from the light's plane of linear depth z: z = (dist - near)/(far - near) inverted.
+// For the receiver this is soft_light_distance(ndc, ...) algebraically (the linearisation is
+// exact in both projections); the blocker average is only known as a linear depth.
 float distance_of(float z) {
     return pc.near + z * (pc.far - pc.near);
 }

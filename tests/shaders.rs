@@ -141,6 +141,7 @@ type Twin = (&'static str, Vec<RustField>, usize);
 fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
     use kernels::{compact, minmax, nbuffer, reduce, sat, scan, sort};
     use penumbra::shader_types::*;
+    use penumbra::techniques::cssm::{CssmPreparePush, CssmPush};
     use penumbra::techniques::{filtered::FilteredPush, pcss::PcssPush, savsm::SavsmPush};
     vec![
         (
@@ -269,6 +270,39 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 min_variance,
                 bleed_reduction,
                 pad
+            }),
+        ),
+        (
+            vec!["cssm/prepare.comp"],
+            twin!(CssmPreparePush {
+                light_view_proj,
+                view_size,
+                map_size,
+                near,
+                far,
+                perspective,
+                pad
+            }),
+        ),
+        (
+            vec!["cssm/encode.comp", "cssm/lookup.comp"],
+            twin!(CssmPush {
+                view_size,
+                map_size,
+                pad,
+                near,
+                far,
+                perspective,
+                term,
+                flags,
+                depth_range,
+                offset,
+                remap,
+                weight,
+                scale,
+                light_size,
+                min_kernel,
+                max_width
             }),
         ),
         (

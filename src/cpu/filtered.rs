@@ -41,7 +41,7 @@ const MAX_RADIUS: i32 = 16;
 /// CSM's largest M (`csm::MAX_TERMS`, the paper's).
 const CSM_MAX_TERMS: u32 = 16;
 /// Margin added to CSM's ripple depth for the final remap (`csm::REMAP_MARGIN`).
-const CSM_REMAP_MARGIN: f64 = 1e-4;
+pub const CSM_REMAP_MARGIN: f64 = 1e-4;
 
 /// Everything the shaders take besides the maps, derived by the twin itself (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -184,7 +184,7 @@ impl TwinSetup {
 /// damped series f̂(t) = ½ + Σ exp(−α(k/M)²)·2/(π(2k−1))·sin(π(2k−1)t) on a grid of 2¹⁶ steps
 /// over [0, ½]; its first local maximum; the plateau floor F = min f̂ past it; ε = 1 − F; t₀ the
 /// first t where f̂ reaches F, narrowed by halving the bracketing step 40 times.
-fn csm_offset_and_ripple(terms: u32, alpha: f64) -> (f64, f64) {
+pub fn csm_offset_and_ripple(terms: u32, alpha: f64) -> (f64, f64) {
     let f = |t: f64| -> f64 {
         let mut sum = 0.5;
         for k in 1..=terms {

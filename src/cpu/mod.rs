@@ -6,6 +6,7 @@
 
 pub mod average_maps;
 pub mod compact;
+pub mod cssm;
 pub mod filtered;
 pub mod light_clip;
 pub mod minmax;

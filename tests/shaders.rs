@@ -141,7 +141,7 @@ type Twin = (&'static str, Vec<RustField>, usize);
 fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
     use kernels::{compact, minmax, nbuffer, reduce, sat, scan, sort};
     use penumbra::shader_types::*;
-    use penumbra::techniques::{filtered::FilteredPush, savsm::SavsmPush};
+    use penumbra::techniques::{filtered::FilteredPush, savsm::SavsmPush, vssm::VssmPush};
     vec![
         (
             vec!["passes/light_depth.vert"],
@@ -248,6 +248,25 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 kernel,
                 min_variance,
                 bleed_reduction,
+                pad
+            }),
+        ),
+        (
+            vec!["vssm/moments.comp", "vssm/lookup.comp"],
+            twin!(VssmPush {
+                light_view_proj,
+                view_size,
+                map_size,
+                rows_per_band,
+                near,
+                far,
+                perspective,
+                subdivision,
+                light_size,
+                min_kernel,
+                max_width,
+                min_variance,
+                max_level,
                 pad
             }),
         ),

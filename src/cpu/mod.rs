@@ -24,3 +24,4 @@ pub mod savsm;
 pub mod scan;
 pub mod shadow_map;
 pub mod sort;
+pub mod vssm;

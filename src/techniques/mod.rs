@@ -14,6 +14,7 @@ pub mod pcf_coverage;
 pub mod pcf_poisson;
 pub mod savsm;
 pub mod soft_light;
+pub mod vssm;
 
 pub use params::{
     Knob, KnobDefault, Params, FIT, LIGHT_CLIP, NORMAL_OFFSET, RECEIVER_KNOBS, SHADOW_MAP_KNOBS,
@@ -128,6 +129,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         filtered::msm::MSM,
         filtered::csm::CSM,
         savsm::SAVSM,
+        vssm::VSSM,
     ]
 }
 

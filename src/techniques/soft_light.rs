@@ -18,9 +18,34 @@
 
 use glam::Vec2;
 
+use super::{Knob, KnobDefault};
 use crate::error::{Error, Result};
 use crate::passes::{LightProjection, LightView};
 use crate::scene::Light;
+
+/// `min_kernel`: the floor on search and filter widths, texels. A point light (size 0), or a
+/// blocker touching its receiver, filters over this box: the family's hard-shadow limit.
+pub const MIN_KERNEL: Knob = Knob {
+    name: "min_kernel",
+    summary: "smallest search and filter width in texels (a point light's box)",
+    default: KnobDefault::Value(1.0),
+    min: 0.01,
+    max: 64.0,
+    integer: false,
+    names: &[],
+};
+
+/// `max_width`: the cap on search and filter widths, texels. Bounds a pixel's cost under a huge
+/// light; the samples it clamps are counted (`clamped`) where a technique's cost depends on it.
+pub const MAX_WIDTH: Knob = Knob {
+    name: "max_width",
+    summary: "largest search and filter width in texels (caps the cost of huge lights)",
+    default: KnobDefault::Value(128.0),
+    min: 1.0,
+    max: 1024.0,
+    integer: false,
+    names: &[],
+};
 
 /// The light's size in the units of `glsl/include/soft_light.glsl`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -108,7 +133,10 @@ mod tests {
         // unit; at depth 8 one world unit is proj[0][0]·1024/2 / 8 texels.
         let width = s.size.x * (1.0 / 4.0 - 1.0 / 8.0);
         let texels_per_unit_at_8 = view.proj.x_axis.x * 512.0 / 8.0;
-        assert!((width - texels_per_unit_at_8).abs() < 1e-3 * width, "{width}");
+        assert!(
+            (width - texels_per_unit_at_8).abs() < 1e-3 * width,
+            "{width}"
+        );
         assert!((s.size.x - s.size.y).abs() < 1e-4 * s.size.x);
     }
 
@@ -118,7 +146,10 @@ mod tests {
             position: Vec3::new(0.0, 8.0, 0.0),
         };
         let view = LightView::fit(&point, &bounds()).expect("fit");
-        assert_eq!(soft_light(&point, &view, 512).expect("size").size, Vec2::ZERO);
+        assert_eq!(
+            soft_light(&point, &view, 512).expect("size").size,
+            Vec2::ZERO
+        );
         let sun = Light::Directional {
             direction: Vec3::NEG_Y,
             angular_diameter_deg: 2.0,

@@ -105,6 +105,12 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
             ("map_size", vec![1024.0, 2048.0]),
             ("kernel", vec![3.0, 9.0, 17.0, 33.0]),
         ],
+        // Variance soft shadow mapping: subdivision against leaks (1 = plain VSM's lit).
+        ("vssm", true) => vec![("map_size", vec![1024.0]), ("subdivision", vec![1.0, 4.0])],
+        ("vssm", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("subdivision", vec![1.0, 2.0, 4.0]),
+        ],
         _ => Vec::new(),
     }
 }

@@ -141,6 +141,7 @@ type Twin = (&'static str, Vec<RustField>, usize);
 fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
     use kernels::{compact, minmax, nbuffer, reduce, sat, scan, sort};
     use penumbra::shader_types::*;
+    use penumbra::techniques::essm::{EssmBuildPush, EssmPush};
     use penumbra::techniques::{filtered::FilteredPush, savsm::SavsmPush, vssm::VssmPush};
     vec![
         (
@@ -267,6 +268,35 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 max_width,
                 min_variance,
                 max_level,
+                pad
+            }),
+        ),
+        (
+            vec!["essm/encode.comp", "essm/lookup.comp"],
+            twin!(EssmPush {
+                light_view_proj,
+                view_size,
+                map_size,
+                levels,
+                near,
+                far,
+                perspective,
+                exponent,
+                light_size,
+                min_kernel,
+                max_width,
+                pad
+            }),
+        ),
+        (
+            vec!["essm/build.comp"],
+            twin!(EssmBuildPush {
+                src_offset,
+                dst_offset,
+                src_width,
+                dst_width,
+                dst_height,
+                axis,
                 pad
             }),
         ),

@@ -208,8 +208,10 @@ vec2 region_minmax(vec2 lo, vec2 hi) {
     return mm;
 }
 
+// min then max, not clamp: the knobs allow min_kernel > max_width (clamp is then undefined);
+// max_width wins.
 vec2 clamp_width(vec2 w) {
-    return clamp(w, vec2(pc.min_kernel), vec2(pc.max_width));
+    return min(max(w, vec2(pc.min_kernel)), vec2(pc.max_width));
 }
 
 shared uint group_counts[8];

@@ -6,6 +6,7 @@
 
 pub mod average_maps;
 pub mod compact;
+pub mod essm;
 pub mod filtered;
 pub mod light_clip;
 pub mod minmax;

@@ -42,9 +42,7 @@ pub const VALUE_TOLERANCE: f32 = 2e-3;
 pub const MAX_FLIP_FRACTION: f64 = 0.01;
 
 /// The push block the twin runs with, worked out here from the knobs, the light and the light
-/// view (never through `VssmPush::new` or `soft_light`): the light's extent along the view's
-/// right and up rows times the map's texels per unit of x/−z (perspective) or per world unit
-/// (orthographic: 2·tan(θ/2) of footprint per unit of depth).
+/// view (never through `VssmPush::new` or `soft_light`; see [`light_size`]).
 pub fn twin_push(
     knobs: &Params,
     light: &Light,
@@ -52,24 +50,7 @@ pub fn twin_push(
     view_size: IVec2,
 ) -> Result<VssmPush> {
     let map_size = knobs.get("map_size")? as i32;
-    let right = view.view.row(0).truncate();
-    let up = view.view.row(1).truncate();
-    let extent = match *light {
-        Light::Point { .. } => Vec2::ZERO,
-        Light::Rect { u, v, .. } => Vec2::new(
-            u.dot(right).abs() + v.dot(right).abs(),
-            u.dot(up).abs() + v.dot(up).abs(),
-        ),
-        Light::Directional {
-            angular_diameter_deg,
-            ..
-        } => Vec2::splat(2.0 * (angular_diameter_deg.to_radians() / 2.0).tan()),
-    };
-    let per_unit = Vec2::new(view.proj.col(0).x.abs(), view.proj.col(1).y.abs());
-    let light_size = extent * per_unit * (map_size as f32 / 2.0);
-    if !light_size.is_finite() {
-        return Err(Error::input("scene", None, "light size is not finite"));
-    }
+    let light_size = light_size(light, view, map_size)?;
     let max_width = knobs.get("max_width")? as f32;
     // Level floor(log2(ceil-ish width + 1)), at least 1, at most 6 (the module's cap).
     let mut max_level = 1;
@@ -92,6 +73,32 @@ pub fn twin_push(
         max_level,
         pad: [0; 2],
     })
+}
+
+/// The light's footprint factor per map axis, the twins' own derivation (shared by the `vssm`
+/// and `essm` twins, never `soft_light`): the light's extent along the view's right and up rows
+/// times the map's texels per unit of x/−z (perspective), or 2·tan(θ/2) world units of
+/// footprint per unit of depth times texels per world unit (orthographic).
+pub fn light_size(light: &Light, view: &LightView, map_size: i32) -> Result<Vec2> {
+    let right = view.view.row(0).truncate();
+    let up = view.view.row(1).truncate();
+    let extent = match *light {
+        Light::Point { .. } => Vec2::ZERO,
+        Light::Rect { u, v, .. } => Vec2::new(
+            u.dot(right).abs() + v.dot(right).abs(),
+            u.dot(up).abs() + v.dot(up).abs(),
+        ),
+        Light::Directional {
+            angular_diameter_deg,
+            ..
+        } => Vec2::splat(2.0 * (angular_diameter_deg.to_radians() / 2.0).tan()),
+    };
+    let per_unit = Vec2::new(view.proj.col(0).x.abs(), view.proj.col(1).y.abs());
+    let size = extent * per_unit * (map_size as f32 / 2.0);
+    if !size.is_finite() {
+        return Err(Error::input("scene", None, "light size is not finite"));
+    }
+    Ok(size)
 }
 
 /// Linear depth of stored depth `ndc` (`linear_depth` in `vssm.glsl`).
@@ -267,7 +274,9 @@ pub fn vssm(positions: &[Vec4], size: IVec2, depth: &[f32], pc: &VssmPush) -> Vs
 }
 
 fn clamp_width(pc: &VssmPush, w: Vec2) -> Vec2 {
-    w.clamp(Vec2::splat(pc.min_kernel), Vec2::splat(pc.max_width))
+    // As the shader: max_width wins when the knobs cross.
+    w.max(Vec2::splat(pc.min_kernel))
+        .min(Vec2::splat(pc.max_width))
 }
 
 /// One sample at map position `p`, receiver depth `d`: V and (skipped_lit, skipped_umbra,

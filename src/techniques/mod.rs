@@ -7,6 +7,7 @@
 //! after each frame.
 
 pub mod average_maps;
+pub mod essm;
 pub mod filtered;
 mod params;
 pub mod pcf;
@@ -130,6 +131,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         filtered::csm::CSM,
         savsm::SAVSM,
         vssm::VSSM,
+        essm::ESSM,
     ]
 }
 

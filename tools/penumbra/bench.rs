@@ -111,6 +111,12 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
             ("map_size", vec![1024.0, 2048.0]),
             ("subdivision", vec![1.0, 2.0, 4.0]),
         ],
+        // Exponential soft shadow mapping: the exponent trades leaks for a sharper step.
+        ("essm", true) => vec![("map_size", vec![1024.0]), ("exponent", vec![40.0, 80.0])],
+        ("essm", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("exponent", vec![40.0, 80.0, 200.0]),
+        ],
         _ => Vec::new(),
     }
 }

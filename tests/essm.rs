@@ -288,3 +288,31 @@ fn finite_at_extreme_exponents_and_depth_ranges() {
     }
     common::assert_clean(&engine.context().validation());
 }
+
+/// A map whose rip-map channel exceeds one storage-buffer binding is refused with an error
+/// naming the limit (lavapipe: 128 MiB, so 4096²), not a panic or a validation error.
+#[test]
+fn oversized_map_is_refused_cleanly() {
+    let engine = common::engine();
+    let limit = engine.context().info().max_storage_buffer_range as u64;
+    let prepared = engine
+        .prepare(&common::small("plane-boxes@rect"))
+        .expect("prepare");
+    // 4096²: 4 B × ~4 × 4096² ≈ 256 MiB per channel.
+    let knobs = common::knobs(&[("map_size", "4096")]);
+    match engine.render(&prepared, "essm", &knobs, 1) {
+        Err(e) => {
+            assert!(limit < 4 * 4 * 4096 * 4096, "limit {limit}");
+            assert!(e.to_string().contains("maxStorageBufferRange"), "{e}");
+        }
+        Ok(frame) => {
+            assert!(
+                limit >= 4 * 3 * 4096 * 4096,
+                "rendered past the limit {limit}"
+            );
+            assert_eq!(frame.stats.nan_count, 0);
+        }
+    }
+    drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}

@@ -6,10 +6,11 @@ mod common;
 
 use std::collections::BTreeMap;
 
-use glam::{IVec2, Vec4};
+use glam::{IVec2, Vec3, Vec4};
 use penumbra::cpu::vssm::{twin_push, vssm, MAX_FLIP_FRACTION, VALUE_TOLERANCE};
 use penumbra::engine::Frame;
 use penumbra::gpu::f32s;
+use penumbra::scene::Light;
 use penumbra::techniques::find;
 use penumbra::Engine;
 
@@ -284,5 +285,42 @@ fn classified_samples_are_exactly_lit_or_umbra() {
         }
     }
     assert_eq!(wrong, 0);
+    common::assert_clean(&engine.context().validation());
+}
+
+/// No NaN or Inf at the ends of the knobs and at extreme depth ranges: no variance floor
+/// (`min_variance` 0, where a two-depth region's σ² can round to 0 or below), `min_kernel` above
+/// `max_width` (max_width wins), the widest regions, 8² sub-regions, on a bare plane whose light
+/// view spans 0.2 % of its distance, the parallel planes and the sun.
+#[test]
+fn finite_at_extreme_knobs_and_depth_ranges() {
+    let engine = common::engine();
+    let scenes = [
+        common::parallel_planes(2.0, 1.0, 4.0),
+        common::bare_plane(Light::Point {
+            position: Vec3::new(0.0, 6.0, 0.0),
+        }),
+        common::small("plane-boxes@directional"),
+    ];
+    for scene in &scenes {
+        let prepared = engine.prepare(scene).expect("prepare");
+        for (min_kernel, max_width) in [("64", "1"), ("0.01", "1024")] {
+            let knobs = common::knobs(&[
+                ("map_size", "256"),
+                ("min_variance", "0"),
+                ("subdivision", "8"),
+                ("min_kernel", min_kernel),
+                ("max_width", max_width),
+            ]);
+            let frame = engine.render(&prepared, "vssm", &knobs, 1).expect("render");
+            assert_eq!(
+                frame.stats.nan_count, 0,
+                "{} {min_kernel} {max_width}",
+                scene.name
+            );
+            assert_eq!(frame.stats.out_of_range_count, 0, "{}", scene.name);
+        }
+        drop(prepared);
+    }
     common::assert_clean(&engine.context().validation());
 }

@@ -198,13 +198,13 @@ struct Essm<'a> {
 impl<'a> Essm<'a> {
     fn new(setup: &TechniqueSetup<'a>, params: &Params) -> Result<Self> {
         let ctx = setup.ctx;
-        let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params)?)?;
-        let size = shadow_map.desc.size;
+        let size = params.get("map_size")? as u32;
         let view_size = IVec2::new(setup.view.width as i32, setup.view.height as i32);
         let push = EssmPush::new(setup.light, setup.light_view, view_size, size, params)?;
         let levels = push.levels as u32;
         let (offsets, total) = level_offsets(size, levels);
         let bytes = total * 4;
+        // Checked before anything is allocated: a refused map costs nothing.
         ctx.require(
             bytes <= ctx.info().max_storage_buffer_range as u64,
             &format!(
@@ -213,6 +213,7 @@ impl<'a> Essm<'a> {
                 ctx.info().max_storage_buffer_range
             ),
         )?;
+        let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params)?)?;
         let channels = [
             Buffer::storage(ctx, "essm c z", bytes)?,
             Buffer::storage(ctx, "essm -c z", bytes)?,

@@ -142,7 +142,10 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
     use kernels::{compact, minmax, nbuffer, reduce, sat, scan, sort};
     use penumbra::shader_types::*;
     use penumbra::techniques::cssm::{CssmPreparePush, CssmPush};
-    use penumbra::techniques::{filtered::FilteredPush, pcss::PcssPush, savsm::SavsmPush};
+    use penumbra::techniques::essm::{EssmBuildPush, EssmPush};
+    use penumbra::techniques::{
+        filtered::FilteredPush, pcss::PcssPush, savsm::SavsmPush, vssm::VssmPush,
+    };
     vec![
         (
             vec!["passes/light_depth.vert"],
@@ -303,6 +306,54 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 light_size,
                 min_kernel,
                 max_width
+            }),
+        ),
+        (
+            vec!["vssm/moments.comp", "vssm/lookup.comp"],
+            twin!(VssmPush {
+                light_view_proj,
+                view_size,
+                map_size,
+                rows_per_band,
+                near,
+                far,
+                perspective,
+                subdivision,
+                light_size,
+                min_kernel,
+                max_width,
+                min_variance,
+                max_level,
+                pad
+            }),
+        ),
+        (
+            vec!["essm/encode.comp", "essm/lookup.comp"],
+            twin!(EssmPush {
+                light_view_proj,
+                view_size,
+                map_size,
+                levels,
+                near,
+                far,
+                perspective,
+                exponent,
+                light_size,
+                min_kernel,
+                max_width,
+                pad
+            }),
+        ),
+        (
+            vec!["essm/build.comp"],
+            twin!(EssmBuildPush {
+                src_offset,
+                dst_offset,
+                src_width,
+                dst_width,
+                dst_height,
+                axis,
+                pad
             }),
         ),
         (

@@ -7,6 +7,7 @@
 pub mod average_maps;
 pub mod compact;
 pub mod cssm;
+pub mod essm;
 pub mod filtered;
 pub mod light_clip;
 pub mod minmax;
@@ -26,3 +27,4 @@ pub mod savsm;
 pub mod scan;
 pub mod shadow_map;
 pub mod sort;
+pub mod vssm;

@@ -8,6 +8,7 @@
 
 pub mod average_maps;
 pub mod cssm;
+pub mod essm;
 pub mod filtered;
 mod params;
 pub mod pcf;
@@ -16,6 +17,7 @@ pub mod pcf_poisson;
 pub mod pcss;
 pub mod savsm;
 pub mod soft_light;
+pub mod vssm;
 
 pub use params::{
     Knob, KnobDefault, Params, FIT, LIGHT_CLIP, NORMAL_OFFSET, RECEIVER_KNOBS, SHADOW_MAP_KNOBS,
@@ -132,6 +134,8 @@ pub fn registry() -> &'static [TechniqueInfo] {
         savsm::SAVSM,
         pcss::PCSS,
         cssm::CSSM,
+        vssm::VSSM,
+        essm::ESSM,
     ]
 }
 

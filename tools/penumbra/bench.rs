@@ -132,6 +132,18 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
             ("terms", vec![4.0, 8.0, 16.0]),
             ("resident", vec![0.0, 1.0]),
         ],
+        // Variance soft shadow mapping: subdivision against leaks (1 = plain VSM's lit).
+        ("vssm", true) => vec![("map_size", vec![1024.0]), ("subdivision", vec![1.0, 4.0])],
+        ("vssm", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("subdivision", vec![1.0, 2.0, 4.0]),
+        ],
+        // Exponential soft shadow mapping: the exponent trades leaks for a sharper step.
+        ("essm", true) => vec![("map_size", vec![1024.0]), ("exponent", vec![40.0, 80.0])],
+        ("essm", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("exponent", vec![40.0, 80.0, 200.0]),
+        ],
         _ => Vec::new(),
     }
 }

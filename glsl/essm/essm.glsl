@@ -1,0 +1,51 @@
+// Exponential soft shadow maps: the push-constant block, depth linearisation and the three
+// log-space channels shared by encode.comp and lookup.comp. Rust block: EssmPush in
+// src/techniques/essm.rs; CPU twin: src/cpu/essm.rs. Keep the three in step.
+
+#ifndef PENUMBRA_ESSM_GLSL
+#define PENUMBRA_ESSM_GLSL
+
+layout(push_constant) uniform Push {
+    mat4 light_view_proj;
+    ivec2 view_size;
+    int map_size;
+    // Rip-map levels per axis: block widths 1, 2, .., 2^(levels - 1).
+    int levels;
+    float near;
+    float far;
+    int perspective;
+    // c of exp(c(z - d)) and of the blocker weights exp(-c z).
+    float exponent;
+    // soft_light.glsl's `size`, per map axis.
+    vec2 light_size;
+    float min_kernel;
+    float max_width;
+    int pad[4];
+} pc;
+
+// The VSM/ESM modules' linearisation (glsl/filtered/filtered.glsl): z = (dist - near) /
+// (far - near) without cancellation; orthographic ndc is already linear.
+float linear_depth(float ndc) {
+    float z = ndc;
+    if (pc.perspective != 0) {
+        z = pc.near * ndc / (pc.far * (1.0 - ndc) + pc.near * ndc);
+    }
+    return clamp(z, 0.0, 1.0);
+}
+
+// The three channels of depth z, each the log of a positive quantity so that filtering is a
+// log-sum-exp and nothing overflows at any c: 0: c z (ESM's filter, exp(c z)), 1: -c z (the
+// blocker weights exp(-c z)), 2: log z - c z (z exp(-c z)). z is floored at 1e-30 so the log is
+// finite (the error, 1e-30 in z, is far below fp32's resolution of depth).
+float encode(int channel, float z) {
+    float c = pc.exponent;
+    if (channel == 0) {
+        return c * z;
+    }
+    if (channel == 1) {
+        return -c * z;
+    }
+    return log(max(z, 1e-30)) - c * z;
+}
+
+#endif

@@ -1,0 +1,277 @@
+#version 460
+// vssm, pass 2: variance soft shadow mapping (Yang et al. 2010; book §6.5.5) per view sample.
+//
+// 1. Blocker-search region: the light's footprint at the near plane (soft_light.glsl), centred
+//    at the sample's map position. The N-buffer's exact min/max over the texels it touches
+//    classifies it: every depth at or behind the receiver -> lit (1), every depth in front of it
+//    -> umbra (0); neither pass runs.
+// 2. Average blocker depth from the region's moments (Eq. 6.11): Chebyshev gives the unoccluded
+//    fraction p, and the non-blockers are assumed to lie on the receiver's plane. A region whose
+//    mean is not in front of the receiver (Chebyshev says "lit" although the min says otherwise)
+//    is split into subdivision^2 sub-regions: those with their mean in front use Chebyshev, the
+//    rest a 2x2 bilinear PCF at their centre (the paper's remedy against light leaks).
+// 3. Filter region: the footprint at that blocker distance (inside the search region: same
+//    function, farther blocker). Classified exactly again by the N-buffer, else Chebyshev over
+//    the region's moments, subdivided as above.
+// Moments come from u32-fixed16 summed-area tables (savsm's exact box sums, fractional bounds).
+// Texels outside the map read as the far plane (z = 1). CPU twin: src/cpu/vssm.rs.
+#extension GL_GOOGLE_include_directive : require
+#include "shadow_map.glsl"
+#include "soft_light.glsl"
+#include "vssm.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
+layout(set = 0, binding = 1, r32f) uniform writeonly image2D visibility;
+// [0] view samples, [1] outside the light frustum, [2] lit, [3] umbra, [4] penumbra,
+// [5] skipped_lit, [6] skipped_umbra, [7] subdivided.
+layout(set = 0, binding = 2) buffer Counters { uint counters[]; };
+// Table of z: bands at bindings 3..10; table of z^2: bindings 11..18.
+layout(set = 0, binding = 3) readonly buffer A0 { uint v[]; } a0;
+layout(set = 0, binding = 4) readonly buffer A1 { uint v[]; } a1;
+layout(set = 0, binding = 5) readonly buffer A2 { uint v[]; } a2;
+layout(set = 0, binding = 6) readonly buffer A3 { uint v[]; } a3;
+layout(set = 0, binding = 7) readonly buffer A4 { uint v[]; } a4;
+layout(set = 0, binding = 8) readonly buffer A5 { uint v[]; } a5;
+layout(set = 0, binding = 9) readonly buffer A6 { uint v[]; } a6;
+layout(set = 0, binding = 10) readonly buffer A7 { uint v[]; } a7;
+layout(set = 0, binding = 11) readonly buffer B0 { uint v[]; } b0;
+layout(set = 0, binding = 12) readonly buffer B1 { uint v[]; } b1;
+layout(set = 0, binding = 13) readonly buffer B2 { uint v[]; } b2;
+layout(set = 0, binding = 14) readonly buffer B3 { uint v[]; } b3;
+layout(set = 0, binding = 15) readonly buffer B4 { uint v[]; } b4;
+layout(set = 0, binding = 16) readonly buffer B5 { uint v[]; } b5;
+layout(set = 0, binding = 17) readonly buffer B6 { uint v[]; } b6;
+layout(set = 0, binding = 18) readonly buffer B7 { uint v[]; } b7;
+
+// The N-buffer of z: its source (the z image) at 19, levels 1..14 at 20..47.
+#define NBUFFER_LEVELS_BINDING 19
+#define NBUFFER_SIZE ivec2(pc.map_size)
+#define NBUFFER_MAX_LEVEL pc.max_level
+#include "nbuffer.glsl"
+
+#define SAT_T uint
+#define SAT_F float
+#define SAT_INTEGER
+#define SAT_SIZE ivec2(pc.map_size)
+#define SAT_SCALE 65536.0
+#include "sat.glsl"
+
+// 0: the table of z; 1: the table of z^2.
+int sat_table = 0;
+
+uint sat_fetch(int x, int y) {
+    int band = y / pc.rows_per_band;
+    uint i = uint(y - band * pc.rows_per_band) * uint(pc.map_size) + uint(x);
+    if (sat_table == 0) {
+        switch (band) {
+        case 0: return a0.v[i];
+        case 1: return a1.v[i];
+        case 2: return a2.v[i];
+        case 3: return a3.v[i];
+        case 4: return a4.v[i];
+        case 5: return a5.v[i];
+        case 6: return a6.v[i];
+        default: return a7.v[i];
+        }
+    }
+    switch (band) {
+    case 0: return b0.v[i];
+    case 1: return b1.v[i];
+    case 2: return b2.v[i];
+    case 3: return b3.v[i];
+    case 4: return b4.v[i];
+    case 5: return b5.v[i];
+    case 6: return b6.v[i];
+    default: return b7.v[i];
+    }
+}
+
+// Mean over the continuous box [lo, hi] of the selected table, texels outside the map at 1.
+float box_mean(vec2 lo, vec2 hi) {
+    vec2 size = vec2(pc.map_size);
+    vec2 p0 = clamp(lo, vec2(0.0), size);
+    vec2 p1 = clamp(hi, p0, size);
+    float inside = (p1.x - p0.x) * (p1.y - p0.y);
+    float area = (hi.x - lo.x) * (hi.y - lo.y);
+    return (sat_box_sum(lo, hi) / SAT_SCALE + (area - inside)) / area;
+}
+
+// (E[z], E[z^2]) over [lo, hi].
+vec2 moments(vec2 lo, vec2 hi) {
+    sat_table = 0;
+    float m1 = box_mean(lo, hi);
+    sat_table = 1;
+    return vec2(m1, box_mean(lo, hi));
+}
+
+// Chebyshev's one-sided bound on the fraction at or behind d (1 when the mean is not in front).
+float chebyshev(vec2 m, float d) {
+    float variance = max(m.y - m.x * m.x, pc.min_variance);
+    float diff = d - m.x;
+    if (diff <= 0.0) {
+        return 1.0;
+    }
+    return variance / max(variance + diff * diff, 1e-30);
+}
+
+// Linear depth of texel t, the far plane outside the map.
+float texel_z(ivec2 t) {
+    if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(pc.map_size)))) {
+        return 1.0;
+    }
+    return texelFetch(nbuffer_source, t, 0).r;
+}
+
+// 2x2 bilinear PCF at p (texel centres at .5): (weight of the texels in front of d, their
+// weighted depth sum).
+vec2 pcf_blockers(vec2 p, float d) {
+    vec2 t = p - 0.5;
+    vec2 base = floor(t);
+    vec2 f = t - base;
+    ivec2 b = ivec2(base);
+    vec2 acc = vec2(0.0);
+    for (int j = 0; j < 2; ++j) {
+        for (int i = 0; i < 2; ++i) {
+            float w = (i == 0 ? 1.0 - f.x : f.x) * (j == 0 ? 1.0 - f.y : f.y);
+            float z = texel_z(b + ivec2(i, j));
+            if (z < d) {
+                acc += w * vec2(1.0, z);
+            }
+        }
+    }
+    return acc;
+}
+
+// Eq. 6.11 as (blocker fraction, fraction x average blocker depth): the non-blockers (fraction
+// p) are taken at the receiver's depth d, so n_occ z_avg = n mean - (n - n_occ) d.
+vec2 chebyshev_blockers(vec2 m, float d) {
+    float p = chebyshev(m, d);
+    return vec2(1.0 - p, m.x - p * d);
+}
+
+// Corners of sub-region (i, j) of n x n over [lo, hi] (equal areas).
+void sub_region(vec2 lo, vec2 hi, int i, int j, int n, out vec2 slo, out vec2 shi) {
+    slo = mix(lo, hi, vec2(i, j) / float(n));
+    shi = mix(lo, hi, vec2(i + 1, j + 1) / float(n));
+}
+
+// Blocker fraction and fraction x depth over the search region [lo, hi].
+vec2 search_blockers(vec2 lo, vec2 hi, float d, inout bool subdivided) {
+    vec2 m = moments(lo, hi);
+    int n = pc.subdivision;
+    if (m.x < d || n <= 1) {
+        return chebyshev_blockers(m, d);
+    }
+    subdivided = true;
+    vec2 acc = vec2(0.0);
+    for (int j = 0; j < n; ++j) {
+        for (int i = 0; i < n; ++i) {
+            vec2 slo, shi;
+            sub_region(lo, hi, i, j, n, slo, shi);
+            vec2 ms = moments(slo, shi);
+            acc += ms.x < d ? chebyshev_blockers(ms, d) : pcf_blockers(0.5 * (slo + shi), d);
+        }
+    }
+    return acc / float(n * n);
+}
+
+// Visibility over the filter region [lo, hi].
+float filter_visibility(vec2 lo, vec2 hi, float d, inout bool subdivided) {
+    vec2 m = moments(lo, hi);
+    int n = pc.subdivision;
+    if (m.x < d || n <= 1) {
+        return chebyshev(m, d);
+    }
+    subdivided = true;
+    float acc = 0.0;
+    for (int j = 0; j < n; ++j) {
+        for (int i = 0; i < n; ++i) {
+            vec2 slo, shi;
+            sub_region(lo, hi, i, j, n, slo, shi);
+            vec2 ms = moments(slo, shi);
+            acc += ms.x < d ? chebyshev(ms, d) : 1.0 - pcf_blockers(0.5 * (slo + shi), d).x;
+        }
+    }
+    return acc / float(n * n);
+}
+
+// Exact (min, max) of z over the texels [lo, hi] touches; texels outside the map count as 1.
+vec2 region_minmax(vec2 lo, vec2 hi) {
+    ivec2 a = ivec2(floor(lo));
+    ivec2 b = ivec2(ceil(hi)) - 1;
+    vec2 mm = nbuffer_minmax_rect(a, b);
+    if (any(lessThan(a, ivec2(0))) || any(greaterThanEqual(b, ivec2(pc.map_size)))) {
+        mm = nbuffer_combine(mm, vec2(1.0));
+    }
+    return mm;
+}
+
+// min then max, not clamp: the knobs allow min_kernel > max_width (clamp is then undefined);
+// max_width wins.
+vec2 clamp_width(vec2 w) {
+    return min(max(w, vec2(pc.min_kernel)), vec2(pc.max_width));
+}
+
+shared uint group_counts[8];
+
+void main() {
+    if (gl_LocalInvocationIndex < 8) {
+        group_counts[gl_LocalInvocationIndex] = 0;
+    }
+    barrier();
+
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (all(lessThan(pixel, pc.view_size))) {
+        vec4 p = imageLoad(positions, pixel);
+        float v = 1.0;
+        if (p.w > 0.0) {
+            atomicAdd(group_counts[0], 1);
+            vec4 c = shadow_coord(pc.light_view_proj, p.xyz, ivec2(pc.map_size));
+            if (!inside_map(c, ivec2(pc.map_size))) {
+                atomicAdd(group_counts[1], 1);
+            } else {
+                float d = linear_depth(c.z);
+                float range = pc.far - pc.near;
+                float receiver = pc.near + d * range;
+                vec2 search = clamp_width(
+                    soft_light_footprint(pc.light_size, pc.perspective, receiver, pc.near));
+                vec2 mm = region_minmax(c.xy - 0.5 * search, c.xy + 0.5 * search);
+                bool subdivided = false;
+                if (mm.x >= d) {
+                    atomicAdd(group_counts[5], 1);
+                } else if (mm.y < d) {
+                    v = 0.0;
+                    atomicAdd(group_counts[6], 1);
+                } else {
+                    vec2 b = search_blockers(c.xy - 0.5 * search, c.xy + 0.5 * search, d,
+                                             subdivided);
+                    if (b.x > 0.0) {
+                        float z_avg = clamp(b.y / b.x, 0.0, d);
+                        vec2 width = clamp_width(soft_light_footprint(
+                            pc.light_size, pc.perspective, receiver, pc.near + z_avg * range));
+                        vec2 lo = c.xy - 0.5 * width;
+                        vec2 hi = c.xy + 0.5 * width;
+                        vec2 mf = region_minmax(lo, hi);
+                        if (mf.y < d) {
+                            v = 0.0;
+                        } else if (mf.x < d) {
+                            v = filter_visibility(lo, hi, d, subdivided);
+                        }
+                    }
+                }
+                if (subdivided) {
+                    atomicAdd(group_counts[7], 1);
+                }
+            }
+            atomicAdd(group_counts[v >= 1.0 ? 2 : (v <= 0.0 ? 3 : 4)], 1);
+        }
+        imageStore(visibility, pixel, vec4(v));
+    }
+
+    barrier();
+    if (gl_LocalInvocationIndex < 8 && group_counts[gl_LocalInvocationIndex] > 0) {
+        atomicAdd(counters[gl_LocalInvocationIndex], group_counts[gl_LocalInvocationIndex]);
+    }
+}

@@ -1,0 +1,39 @@
+// Variance soft shadow maps: the push-constant block and depth linearisation shared by
+// moments.comp and lookup.comp. Rust block: VssmPush in src/techniques/vssm.rs; CPU twin:
+// src/cpu/vssm.rs. Keep the three in step.
+
+#ifndef PENUMBRA_VSSM_GLSL
+#define PENUMBRA_VSSM_GLSL
+
+layout(push_constant) uniform Push {
+    mat4 light_view_proj;
+    ivec2 view_size;
+    int map_size;
+    int rows_per_band;
+    float near;
+    float far;
+    int perspective;
+    // Sub-regions per axis of a region whose mean is not in front of the receiver (1: none).
+    int subdivision;
+    // soft_light.glsl's `size`, per map axis.
+    vec2 light_size;
+    float min_kernel;
+    float max_width;
+    float min_variance;
+    // The N-buffer's highest level.
+    int max_level;
+    int pad0;
+    int pad1;
+} pc;
+
+// The VSM module's linearisation (glsl/filtered/filtered.glsl, linear_depth): z = (dist - near)
+// / (far - near), in a form with no cancellation; orthographic ndc is already linear.
+float linear_depth(float ndc) {
+    float z = ndc;
+    if (pc.perspective != 0) {
+        z = pc.near * ndc / (pc.far * (1.0 - ndc) + pc.near * ndc);
+    }
+    return clamp(z, 0.0, 1.0);
+}
+
+#endif

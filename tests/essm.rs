@@ -1,0 +1,318 @@
+//! `essm` (exponential soft shadow mapping) under validation: against its CPU twin, the linear
+//! ramp of the parallel-plane case and its growth with the light, contact hardening, and no
+//! NaN/Inf at the extreme exponents `esm` accepts and extreme depth ranges.
+
+mod common;
+
+use std::collections::BTreeMap;
+
+use glam::{IVec2, Vec3, Vec4};
+use penumbra::cpu::essm::{essm, tolerance, twin_push};
+use penumbra::engine::Frame;
+use penumbra::gpu::f32s;
+use penumbra::scene::Light;
+use penumbra::techniques::find;
+use penumbra::Engine;
+
+/// GPU against the CPU twin (brute-force f64 box means) on the GPU's own shadow map and view
+/// samples, the twin with its own push block: every sample within `tolerance(c, min_kernel)`
+/// (see `penumbra::cpu::essm`). Measured on lavapipe: largest difference 1.6e-4 at c = 80
+/// (allowed 1.3e-3) and 8e-5 at c = 1000 (allowed 1.5e-2).
+fn compare(engine: &Engine, spec: &str, extra: &[(&str, &str)]) {
+    let scene = common::small(spec);
+    let prepared = engine.prepare(&scene).expect("prepare");
+    let mut overrides = common::knobs(&[("map_size", "256")]);
+    overrides.extend(common::knobs(&common::KERNEL_ONLY));
+    overrides.extend(common::knobs(extra));
+    let ctx = engine.context().clone();
+    let mut depth = Vec::new();
+    let frame = engine
+        .render_inspect(&prepared, "essm", &overrides, 1, |t| {
+            let map = t.shadow_map().expect("a shadow map");
+            depth = f32s(&ctx.read_image(&map.depth)?);
+            Ok(())
+        })
+        .expect("render");
+    let info = find("essm").expect("registered");
+    let params = info.params(&overrides, &prepared.defaults).expect("knobs");
+    let size = IVec2::new(frame.width as i32, frame.height as i32);
+    let pc = twin_push(&params, &scene.light, &prepared.light_view, size).expect("twin push");
+    let positions = prepared.view.read_positions(&ctx).expect("positions");
+    let cpu = essm(&positions, size, &depth, &pc);
+    let allowed = tolerance(pc.exponent, pc.min_kernel);
+    let mut beyond = 0u64;
+    let mut worst = 0.0f32;
+    for (g, c) in frame.visibility.iter().zip(&cpu.visibility) {
+        let diff = (g - c).abs();
+        worst = worst.max(diff);
+        beyond += (diff > allowed) as u64;
+    }
+    let counters = &frame.stats.counters;
+    let samples = counters["view_samples"];
+    eprintln!(
+        "{spec} {extra:?}: max |GPU − CPU| = {worst} (allowed {allowed}); GPU {counters:?}; \
+         CPU {:?}",
+        cpu.counters
+    );
+    if beyond > 0 {
+        let dir = common::write_diff(
+            &format!("essm-{}", spec.replace(['@', ':'], "-")),
+            frame.width,
+            frame.height,
+            &cpu.visibility,
+            &frame.visibility,
+        );
+        panic!(
+            "essm on {spec}: {beyond} of {samples} samples beyond {allowed} (worst {worst}); \
+             images in {}",
+            dir.display()
+        );
+    }
+    assert!(samples > 5000, "too few view samples");
+    // At c = 1000 the step is sharp: ~70 penumbra samples remain on these scenes.
+    assert!(counters["penumbra"] > 50, "no penumbra to compare");
+    assert_eq!(samples, cpu.counters[0]);
+    assert_eq!(counters["outside_light"], cpu.counters[1]);
+    assert_eq!(counters["clamped"], cpu.counters[5]);
+    // Classes may flip only where V sits within the tolerance of 0 or 1.
+    common::check_class_counters(
+        &format!("essm on {spec}"),
+        counters,
+        &frame.visibility,
+        &positions,
+        [cpu.counters[2], cpu.counters[3], cpu.counters[4]],
+        0.01,
+    );
+    assert_eq!(frame.stats.nan_count, 0);
+    assert_eq!(frame.stats.out_of_range_count, 0);
+}
+
+#[test]
+fn matches_cpu_twin() {
+    let engine = common::engine();
+    compare(&engine, "plane-boxes@rect", &[]);
+    compare(
+        &engine,
+        "plane-boxes@rect",
+        &[("exponent", "1000"), ("max_width", "40")],
+    );
+    compare(
+        &engine,
+        "plane-boxes@directional",
+        &[("min_kernel", "2.5"), ("exponent", "5")],
+    );
+    compare(&engine, "plane-boxes", &[("min_kernel", "3")]);
+    common::assert_clean(&engine.context().validation());
+}
+
+/// Renders `technique` on the parallel-plane case and returns the frame and the view samples.
+fn parallel(
+    engine: &Engine,
+    technique: &str,
+    (w, h, big_h): (f32, f32, f32),
+    knobs: &BTreeMap<String, String>,
+) -> (Frame, Vec<Vec4>) {
+    let prepared = engine
+        .prepare(&common::parallel_planes(w, h, big_h))
+        .expect("prepare");
+    let frame = engine
+        .render(&prepared, technique, knobs, 1)
+        .expect("render");
+    let positions = prepared
+        .view
+        .read_positions(engine.context())
+        .expect("positions");
+    assert_eq!(frame.stats.nan_count, 0);
+    assert_eq!(frame.stats.out_of_range_count, 0);
+    (frame, positions)
+}
+
+/// Ground samples near the edge (|z| < 2, y ≈ 0, |x| < `reach`): (x, V).
+fn ground(frame: &Frame, positions: &[Vec4], reach: f32) -> Vec<(f32, f32)> {
+    positions
+        .iter()
+        .zip(&frame.visibility)
+        .filter(|(p, _)| p.w > 0.0 && p.y.abs() < 1e-3 && p.z.abs() < 2.0 && p.x.abs() < reach)
+        .map(|(p, v)| (p.x, *v))
+        .collect()
+}
+
+/// The ramp's width from a least-squares line through the samples strictly inside it.
+fn fitted_width(samples: &[(f32, f32)]) -> f32 {
+    let inside: Vec<(f64, f64)> = samples
+        .iter()
+        .filter(|(_, v)| *v > 0.05 && *v < 0.95)
+        .map(|&(x, v)| (x as f64, v as f64))
+        .collect();
+    let n = inside.len() as f64;
+    assert!(n >= 10.0, "only {n} samples inside the ramp");
+    let (sx, sv) = inside
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, v)| (a + x, b + v));
+    let (mx, mv) = (sx / n, sv / n);
+    let (cov, var) = inside.iter().fold((0.0, 0.0), |(c, s), (x, v)| {
+        (c + (x - mx) * (v - mv), s + (x - mx) * (x - mx))
+    });
+    (var / cov) as f32
+}
+
+/// The parallel-plane case (see `tests/vssm.rs`): the exact V is a linear ramp of width
+/// w·h/(H − h). The blocker ratio weights the ground (a whole depth range behind the occluder)
+/// by e^(−c) against it, so z_avg is the occluder's depth and the filter the exact footprint;
+/// ESM over a box with two depths gives the lit fraction times e^(c·bias) plus the blocked one
+/// times e^(−c·gap), i.e. the box-filtered step. Tolerance: |V − exact| ≤ 0.03 within 1.5 ramp
+/// widths of the edge, fitted width within 3 %.
+#[test]
+fn parallel_planes_ramp() {
+    let engine = common::engine();
+    let (w, h, big_h) = (1.0f32, 1.0f32, 4.0f32);
+    let knobs = common::knobs(&[("map_size", "512")]);
+    let (frame, positions) = parallel(&engine, "essm", (w, h, big_h), &knobs);
+    let width = w * h / (big_h - h);
+    let samples = ground(&frame, &positions, 1.5 * width);
+    assert!(samples.len() > 100, "{} ground samples", samples.len());
+    let mut worst = 0.0f32;
+    for &(x, v) in &samples {
+        let exact = common::parallel_planes_visibility(x, w, h, big_h);
+        worst = worst.max((v - exact).abs());
+    }
+    let fitted = fitted_width(&samples);
+    eprintln!(
+        "{} samples, worst |V − exact| {worst}, ramp width {fitted} vs {width}; {:?}",
+        samples.len(),
+        frame.stats.counters
+    );
+    if worst > 0.03 || (fitted / width - 1.0).abs() > 0.03 {
+        let expected: Vec<f32> = positions
+            .iter()
+            .zip(&frame.visibility)
+            .map(|(p, v)| {
+                if p.w > 0.0 && p.y.abs() < 1e-3 && p.z.abs() < 2.0 {
+                    common::parallel_planes_visibility(p.x, w, h, big_h)
+                } else {
+                    *v
+                }
+            })
+            .collect();
+        let dir = common::write_diff(
+            "essm-parallel",
+            frame.width,
+            frame.height,
+            &expected,
+            &frame.visibility,
+        );
+        panic!(
+            "ramp off: worst {worst}, width {fitted} vs {width}; images in {}",
+            dir.display()
+        );
+    }
+    common::assert_clean(&engine.context().validation());
+}
+
+/// Penumbra width is linear in the light's size: fitted ramp widths at w, 2w, 4w keep the ratios
+/// 2 and 4 within 3 %.
+#[test]
+fn penumbra_width_grows_linearly_with_the_light() {
+    let engine = common::engine();
+    let knobs = common::knobs(&[("map_size", "512")]);
+    let widths: Vec<f32> = [0.5f32, 1.0, 2.0]
+        .iter()
+        .map(|&w| {
+            let (frame, positions) = parallel(&engine, "essm", (w, 1.0, 4.0), &knobs);
+            fitted_width(&ground(&frame, &positions, 2.0))
+        })
+        .collect();
+    eprintln!("ramp widths {widths:?}");
+    for (k, ratio) in [(1, 2.0f32), (2, 4.0)] {
+        let r = widths[k] / widths[0];
+        assert!((r / ratio - 1.0).abs() < 0.03, "ratio {r} vs {ratio}");
+    }
+    common::assert_clean(&engine.context().validation());
+}
+
+/// Contact hardening: an occluder 0.02 above the ground casts a penumbra 0.005 wide. Ground
+/// samples more than 0.05 (3 texels) from the edge read below 0.01 under the occluder and above
+/// 0.99 beside it: the occluder–ground gap is the light view's whole depth range here, so ESM's
+/// e^(−c·gap) leak is e^(−80).
+#[test]
+fn contact_hardens_without_leaks() {
+    let engine = common::engine();
+    let knobs = common::knobs(&[("map_size", "512")]);
+    let (frame, positions) = parallel(&engine, "essm", (1.0, 0.02, 4.0), &knobs);
+    let samples = ground(&frame, &positions, 1.0);
+    let mut wrong = 0;
+    for &(x, v) in &samples {
+        if (x < -0.05 && v > 0.01) || (x > 0.05 && v < 0.99) {
+            wrong += 1;
+        }
+    }
+    eprintln!(
+        "{} ground samples, {wrong} wrong; {:?}",
+        samples.len(),
+        frame.stats.counters
+    );
+    assert!(samples.len() > 100);
+    assert_eq!(wrong, 0);
+    common::assert_clean(&engine.context().validation());
+}
+
+/// No NaN or Inf at the ends of `esm`'s exponent range (0.1 and 1000) on the parallel planes,
+/// a bundled-like scene and a bare plane whose light view spans 0.2 % of its distance (near =
+/// 5.994, far = 6.006: a tiny depth range), nor with the sun; values stay in [0, 1].
+#[test]
+fn finite_at_extreme_exponents_and_depth_ranges() {
+    let engine = common::engine();
+    let scenes = [
+        common::parallel_planes(1.0, 1.0, 4.0),
+        common::small("plane-boxes@rect"),
+        common::bare_plane(Light::Point {
+            position: Vec3::new(0.0, 6.0, 0.0),
+        }),
+        common::small("plane-boxes@directional"),
+    ];
+    for scene in &scenes {
+        let prepared = engine.prepare(scene).expect("prepare");
+        for c in ["0.1", "1000"] {
+            for max_width in ["1", "1024"] {
+                let knobs = common::knobs(&[
+                    ("map_size", "256"),
+                    ("exponent", c),
+                    ("max_width", max_width),
+                ]);
+                let frame = engine.render(&prepared, "essm", &knobs, 1).expect("render");
+                assert_eq!(frame.stats.nan_count, 0, "{} c {c}", scene.name);
+                assert_eq!(frame.stats.out_of_range_count, 0, "{} c {c}", scene.name);
+            }
+        }
+        drop(prepared);
+    }
+    common::assert_clean(&engine.context().validation());
+}
+
+/// A map whose rip-map channel exceeds one storage-buffer binding is refused with an error
+/// naming the limit (lavapipe: 128 MiB, so 4096²), not a panic or a validation error.
+#[test]
+fn oversized_map_is_refused_cleanly() {
+    let engine = common::engine();
+    let limit = engine.context().info().max_storage_buffer_range as u64;
+    let prepared = engine
+        .prepare(&common::small("plane-boxes@rect"))
+        .expect("prepare");
+    // 4096²: 4 B × ~4 × 4096² ≈ 256 MiB per channel.
+    let knobs = common::knobs(&[("map_size", "4096")]);
+    match engine.render(&prepared, "essm", &knobs, 1) {
+        Err(e) => {
+            assert!(limit < 4 * 4 * 4096 * 4096, "limit {limit}");
+            assert!(e.to_string().contains("maxStorageBufferRange"), "{e}");
+        }
+        Ok(frame) => {
+            assert!(
+                limit >= 4 * 3 * 4096 * 4096,
+                "rendered past the limit {limit}"
+            );
+            assert_eq!(frame.stats.nan_count, 0);
+        }
+    }
+    drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}

@@ -348,8 +348,24 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut rows: Vec<serde_json::Value> = Vec::new();
     let mut points: Vec<ParetoPoint> = Vec::new();
     let mut skip_rows: Vec<serde_json::Value> = Vec::new();
-    let primary = args
-        .references
+    // `NAME` or `NAME:SAMPLES` (N×N light samples; default: the bench's own).
+    let mut reference_specs: Vec<(String, String)> = Vec::new();
+    for spec in &args.references {
+        let (name, samples) = match spec.split_once(':') {
+            Some((n, s)) => {
+                let n_samples: u32 = s
+                    .parse()
+                    .ok()
+                    .filter(|v| (1..=256).contains(v))
+                    .with_context(|| format!("--reference {spec}: expected NAME:SAMPLES, 1–256"))?;
+                (n.to_string(), n_samples.to_string())
+            }
+            None => (spec.clone(), ref_samples.to_string()),
+        };
+        penumbra::techniques::find(&name)?;
+        reference_specs.push((name, samples));
+    }
+    let (primary, primary_samples) = reference_specs
         .first()
         .context("at least one --reference is needed")?
         .clone();
@@ -371,10 +387,10 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             bar.set_message(format!("{}: references", scene.name));
             let prepared = engine.prepare(&scene)?;
             let view = ViewData::read(&engine, &prepared)?;
-            let mut ref_set = BTreeMap::new();
-            ref_set.insert("samples".to_string(), ref_samples.to_string());
             let mut references = Vec::new();
-            for name in &args.references {
+            for (name, samples) in &reference_specs {
+                let mut ref_set = BTreeMap::new();
+                ref_set.insert("samples".to_string(), samples.clone());
                 let (frame, cache) =
                     reference_frame(&engine, &prepared, name, &ref_set, args.cache.as_deref())?;
                 references.push((name.clone(), frame, cache));
@@ -406,7 +422,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                     "height": prepared.view.height,
                     "triangles": prepared.triangles,
                     "light": prepared.light.kind(),
-                    "reference": {"technique": primary, "samples": ref_samples,
+                    "reference": {"technique": primary, "samples": primary_samples,
                                   "cache": references[0].2},
                 });
                 match result {
@@ -492,7 +508,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     .iter()
     .map(|c| c.to_string())
     .collect();
-    for name in args.references.iter().skip(1) {
+    for (name, _) in reference_specs.iter().skip(1) {
         columns.insert(9, format!("rmse@{name}"));
         columns.insert(9, format!("penumbra_mae@{name}"));
     }

@@ -111,7 +111,8 @@ enum Command {
         frames: Option<u32>,
         /// The ground truths to measure against, comma-separated: the first for the error
         /// columns and charts, each further one adds `penumbra_mae@NAME` and `rmse@NAME`
-        /// (e.g. `reference,reference-single-layer`).
+        /// (e.g. `reference,reference-single-layer`); `NAME:N` runs that one with N×N light
+        /// samples instead of the bench's (32, quick 8).
         #[arg(long, default_value = "reference", value_delimiter = ',')]
         reference: Vec<String>,
         /// Light-size factors, comma-separated: each scene also runs with its light scaled

@@ -31,6 +31,11 @@ mutations=(
   "pcf: kernel one wider|src/techniques/pcf.rs|s/let kernel = params.u32\(\"kernel\"\)\? as i32;/let kernel = params.u32(\"kernel\")? as i32 + 1;/|gpu_vs_cpu"
   "pcf-coverage: kernel floored at 1|src/techniques/pcf_coverage.rs|s/let kernel = params.f32\(\"kernel\"\)\?;/let kernel = params.f32(\"kernel\")?.max(1.0);/|pcf_family"
   "pcf-poisson: taps one fewer|src/techniques/pcf_poisson.rs|s/taps: disk_points.len\(\) as i32,/taps: disk_points.len() as i32 - 1,/|pcf_family"
+  "pcss: light size halved|src/techniques/pcss.rs|s/light_size: light.size,/light_size: light.size * 0.5,/|pcss"
+  "pcss: near plane 1 % farther|src/techniques/pcss.rs|s/near: setup.light_view.near,/near: setup.light_view.near * 1.01,/|pcss"
+  "soft light: rect extent from one edge only|src/techniques/soft_light.rs|s/Vec2::new\(u.x.abs\(\) \+ v.x.abs\(\), u.y.abs\(\) \+ v.y.abs\(\)\)/Vec2::new(u.x.abs(), u.y.abs())/|pcss"
+  "vssm: light size 10 % larger|src/techniques/vssm.rs|s/light_size: soft_light\(light, view, map_size\)\?.size,/light_size: soft_light(light, view, map_size)?.size * 1.1,/|vssm"
+  "essm: light size 10 % larger|src/techniques/essm.rs|s/light_size: soft_light\(light, view, map_size\)\?.size,/light_size: soft_light(light, view, map_size)?.size * 1.1,/|essm"
   "shadow maps: constant and slope bias swapped|src/techniques/pcf.rs|s/constant: params.f32\(\"bias_constant\"\)\?,\n(\s*)slope: params.f32\(\"bias_slope\"\)\?,/constant: params.f32(\"bias_slope\")?,\n\$1slope: params.f32(\"bias_constant\")?,/|gpu_vs_cpu"
 )
 

@@ -394,3 +394,68 @@ fn huge_lights_and_bad_knobs() {
     drop(prepared);
     common::assert_clean(&engine.context().validation());
 }
+
+/// The widest exhaustive search and filter the technique accepts (`EXHAUSTIVE_MAX_WIDTH`: boxes
+/// of 200 texels, ~40 000 texel reads in one loop nest) still match the twin: lavapipe's loop
+/// limiter (65 535 passes per SIMD group) would silently truncate a longer loop.
+#[test]
+fn widest_exhaustive_boxes_match_cpu() {
+    let engine = common::engine();
+    let ctx = engine.context().clone();
+    // A light so wide that every search region, and most filters, are clamped to `max_width`.
+    let mut scene = common::parallel_planes(40.0, 1.0, 4.0);
+    scene.camera.width = 48;
+    scene.camera.height = 36;
+    let prepared = engine.prepare(&scene).expect("prepare");
+    let positions = prepared.view.read_positions(&ctx).expect("positions");
+    let normals = prepared.view.read_normals(&ctx).expect("normals");
+    let map = 256u32;
+    let width = penumbra::techniques::pcss::EXHAUSTIVE_MAX_WIDTH;
+    let text = width.to_string();
+    // A large constant bias puts the ground's own texels well behind it: otherwise every ground
+    // texel of a 200-texel region is a depth tie and the twin excludes every sample.
+    let set = [
+        ("search_taps", "0"),
+        ("bias_constant", "20000"),
+        ("max_width", text.as_str()),
+        ("skip", "off"),
+        ("receiver_plane_bias", "0"),
+    ];
+    let (frame, depth) = render_with_map(&engine, &prepared, map, &set);
+    let view = ViewImages {
+        positions: &positions,
+        normals: &normals,
+        size: IVec2::new(frame.width as i32, frame.height as i32),
+    };
+    let depth_map = DepthMap {
+        depth: &depth,
+        size: IVec2::splat(map as i32),
+    };
+    let setup = PcssSetup::new(&prepared.light, &prepared.light_view, map);
+    let twin = PcssKnobs {
+        max_width: width,
+        ..twin_knobs(0, 0, 0, false)
+    };
+    let cpu = pcss(&view, &depth_map, &setup, &twin);
+    let mut worst = 0.0f32;
+    let mut compared = 0;
+    for i in 0..cpu.visibility.len() {
+        if positions[i].w > 0.0 && !cpu.tie[i] {
+            worst = worst.max((cpu.visibility[i] - frame.visibility[i]).abs());
+            compared += 1;
+        }
+    }
+    eprintln!("{width}-texel boxes: max |GPU − CPU| = {worst:e} over {compared} samples");
+    assert!(compared > 1000, "only {compared} samples compared");
+    assert!(
+        worst <= TOLERANCE,
+        "{width}-texel boxes: max |GPU − CPU| = {worst}"
+    );
+    assert!(
+        cpu.counters[7] * 2 > cpu.counters[0] && cpu.counters[4] > 100,
+        "the boxes are not clamped wide, or make no penumbra: {:?}",
+        cpu.counters
+    );
+    drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}

@@ -352,10 +352,3 @@ fn classify(
         None
     }
 }
-
-/// A receiver at `receiver` under a blocker plane at `blocker` and a `light_width`-wide light at
-/// distance 0 (perspective model): the penumbra's width on the receiver plane, world units
-/// (book Eq. 6.3), for tests of the widths the technique derives.
-pub fn penumbra_width(light_width: f32, receiver: f32, blocker: f32) -> f32 {
-    light_width * (receiver - blocker) / blocker
-}

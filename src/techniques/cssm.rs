@@ -69,9 +69,7 @@ use super::{
     Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS,
 };
 use crate::error::{Error, Result};
-use crate::gpu::{
-    u32s, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder,
-};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
 use crate::kernels::sat::{Sat, SatPrecision};
 use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
 
@@ -451,12 +449,7 @@ impl Technique for Cssm<'_> {
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        let values = u32s(&self.ctx.read_buffer(&self.counters)?);
-        let mut out: Vec<(String, u64)> = COUNTER_NAMES
-            .iter()
-            .zip(values)
-            .map(|(n, v)| (n.to_string(), v as u64))
-            .collect();
+        let mut out = super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)?;
         out.push(("terms".to_string(), self.weights.len() as u64));
         Ok(out)
     }

@@ -54,7 +54,7 @@ use super::soft_light::{soft_light, MAX_WIDTH, MIN_KERNEL};
 use super::{Knob, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS};
 use crate::cpu::essm::COUNTER_NAMES;
 use crate::error::Result;
-use crate::gpu::{u32s, Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
 use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
 use crate::scene::Light;
 
@@ -308,12 +308,7 @@ impl Technique for Essm<'_> {
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        let values = u32s(&self.ctx.read_buffer(&self.counters)?);
-        Ok(COUNTER_NAMES
-            .iter()
-            .zip(values)
-            .map(|(n, v)| (n.to_string(), v as u64))
-            .collect())
+        super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)
     }
 
     fn shadow_map(&self) -> Option<&ShadowMap> {

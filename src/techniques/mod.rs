@@ -69,6 +69,21 @@ pub trait Technique {
     }
 }
 
+/// Reads a counters buffer back as `(name, value)` pairs, one u32 slot per name in order: what
+/// every technique's [`Technique::counters`] starts from.
+pub(crate) fn read_counters(
+    ctx: &crate::gpu::Context,
+    counters: &crate::gpu::Buffer,
+    names: &[&str],
+) -> Result<Vec<(String, u64)>> {
+    let values = crate::gpu::u32s(&ctx.read_buffer(counters)?);
+    Ok(names
+        .iter()
+        .zip(values)
+        .map(|(n, v)| (n.to_string(), u64::from(v)))
+        .collect())
+}
+
 /// A registered technique: its stable name, knobs and constructor.
 pub struct TechniqueInfo {
     /// Stable kebab-case name.

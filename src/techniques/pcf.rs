@@ -17,7 +17,7 @@ use super::{
 };
 use crate::cpu::pcf::COUNTER_NAMES;
 use crate::error::Result;
-use crate::gpu::{u32s, Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
 use crate::passes::{DepthBias, SceneGeometry, ShadowMap, ShadowMapDesc};
 use crate::shader_types::PcfPush;
 
@@ -188,12 +188,7 @@ impl<P: bytemuck::Pod> Technique for ViewPass<'_, P> {
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        let values = u32s(&self.ctx.read_buffer(&self.counters)?);
-        Ok(COUNTER_NAMES
-            .iter()
-            .zip(values)
-            .map(|(n, v)| (n.to_string(), v as u64))
-            .collect())
+        super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)
     }
 
     fn shadow_map(&self) -> Option<&ShadowMap> {

@@ -68,9 +68,7 @@ use super::{
     Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS,
 };
 use crate::error::{Error, Result};
-use crate::gpu::{
-    u32s, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder,
-};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
 use crate::kernels::minmax::MinMaxPyramid;
 use crate::kernels::nbuffer::{NBuffer, MAX_LEVEL};
 use crate::passes::{SceneGeometry, ShadowMap};
@@ -394,12 +392,7 @@ impl Technique for Pcss<'_> {
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        let values = u32s(&self.ctx.read_buffer(&self.counters)?);
-        Ok(COUNTER_NAMES
-            .iter()
-            .zip(values)
-            .map(|(n, v)| (n.to_string(), v as u64))
-            .collect())
+        super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)
     }
 
     fn shadow_map(&self) -> Option<&ShadowMap> {

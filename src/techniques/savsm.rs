@@ -48,9 +48,7 @@ use super::{
 };
 use crate::cpu::savsm::COUNTER_NAMES;
 use crate::error::Result;
-use crate::gpu::{
-    u32s, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder,
-};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
 use crate::kernels::sat::{Sat, SatPrecision, MAX_BANDS};
 use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
 
@@ -263,12 +261,7 @@ impl Technique for Savsm<'_> {
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        let values = u32s(&self.ctx.read_buffer(&self.counters)?);
-        Ok(COUNTER_NAMES
-            .iter()
-            .zip(values)
-            .map(|(n, v)| (n.to_string(), v as u64))
-            .collect())
+        super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)
     }
 
     fn shadow_map(&self) -> Option<&ShadowMap> {

@@ -50,7 +50,7 @@ use super::{
 use crate::cpu::vssm::COUNTER_NAMES;
 use crate::error::Result;
 use crate::gpu::{
-    u32s, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder, Sampler,
+    Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder, Sampler,
 };
 use crate::kernels::nbuffer::{NBuffer, MAX_LEVEL};
 use crate::kernels::sat::{Sat, SatPrecision, MAX_BANDS};
@@ -302,12 +302,7 @@ impl Technique for Vssm<'_> {
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        let values = u32s(&self.ctx.read_buffer(&self.counters)?);
-        Ok(COUNTER_NAMES
-            .iter()
-            .zip(values)
-            .map(|(n, v)| (n.to_string(), v as u64))
-            .collect())
+        super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)
     }
 
     fn shadow_map(&self) -> Option<&ShadowMap> {

@@ -54,9 +54,7 @@ use super::pcf::shadow_map_desc;
 use super::{Knob, KnobDefault, Params, Technique, TechniqueSetup, SHADOW_MAP_KNOBS};
 use crate::cpu::filtered::COUNTER_NAMES;
 use crate::error::{Error, Result};
-use crate::gpu::{
-    u32s, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder,
-};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
 use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
 
 /// The widest blur (`MAX_RADIUS` in `filtered.glsl`: the shared-memory aprons are sized for it).
@@ -379,12 +377,7 @@ impl Technique for Filtered<'_> {
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        let values = u32s(&self.ctx.read_buffer(&self.counters)?);
-        let mut out: Vec<(String, u64)> = COUNTER_NAMES
-            .iter()
-            .zip(values)
-            .map(|(n, v)| (n.to_string(), v as u64))
-            .collect();
+        let mut out = crate::techniques::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)?;
         if self.config.mode == Mode::Csm {
             out.push(("terms".to_string(), self.config.terms as u64));
         }

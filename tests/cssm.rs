@@ -132,35 +132,6 @@ fn matches_cpu_twin_directional() {
     compare("plane-boxes@directional", "4", "1");
 }
 
-/// Ground samples of [`common::parallel_planes`] near the edge (|z| < 2, y ≈ 0, |x| < 1.5) as
-/// (x, V).
-fn ground_ramp(r: &Run) -> Vec<(f32, f32)> {
-    r.positions
-        .iter()
-        .zip(&r.visibility)
-        .filter(|(p, _)| p.w > 0.0 && p.y.abs() < 1e-3 && p.z.abs() < 2.0 && p.x.abs() < 1.5)
-        .map(|(p, v)| (p.x, *v))
-        .collect()
-}
-
-/// The ramp's width: the inverse slope of V against x, least squares over 0.1 < V < 0.9.
-fn ramp_width(samples: &[(f32, f32)]) -> f32 {
-    let mid: Vec<_> = samples
-        .iter()
-        .filter(|(_, v)| *v > 0.1 && *v < 0.9)
-        .copied()
-        .collect();
-    assert!(mid.len() >= 5, "only {} ramp samples", mid.len());
-    let n = mid.len() as f32;
-    let (mx, mv) = mid
-        .iter()
-        .fold((0.0, 0.0), |(a, b), (x, v)| (a + x / n, b + v / n));
-    let (sxv, sxx) = mid.iter().fold((0.0, 0.0), |(a, b), (x, v)| {
-        (a + (x - mx) * (v - mv), b + (x - mx) * (x - mx))
-    });
-    sxx / sxv
-}
-
 /// The parallel-plane case, M = 16: V against the analytic ramp of width w·h/(H − h) on the
 /// ground near the edge. Tolerance: mean |error| 0.04 and max 0.2 — the series' transition
 /// (2t₀ ≈ 0.06 of scaled depth at M = 16) blurs the step, the remap's ripple and the blocker
@@ -175,7 +146,7 @@ fn parallel_planes_ramp() {
         &common::parallel_planes(w, h, big_h),
         &[("terms", "16")],
     );
-    let samples = ground_ramp(&r);
+    let samples = common::parallel_planes_ground(&r.visibility, &r.positions, 1.5);
     assert!(samples.len() > 200, "{} ground samples", samples.len());
     let (mut sum, mut worst) = (0.0f32, 0.0f32);
     for &(x, v) in &samples {
@@ -184,7 +155,7 @@ fn parallel_planes_ramp() {
         worst = worst.max(e);
     }
     let mae = sum / samples.len() as f32;
-    let width = ramp_width(&samples);
+    let width = common::ramp_width(&samples, 0.1);
     eprintln!(
         "parallel planes: {} samples, MAE {mae}, max {worst}, width {width} (exact {})",
         samples.len(),
@@ -225,7 +196,10 @@ fn penumbra_width_is_linear_in_light_size() {
             &common::parallel_planes(w, h, big_h),
             &[("terms", "16")],
         );
-        let width = ramp_width(&ground_ramp(&r));
+        let width = common::ramp_width(
+            &common::parallel_planes_ground(&r.visibility, &r.positions, 1.5),
+            0.1,
+        );
         let exact = w * h / (big_h - h);
         eprintln!("light {w}: width {width} (exact {exact})");
         assert!(
@@ -251,7 +225,7 @@ fn contact_hardens_and_does_not_leak() {
         &common::parallel_planes(2.0, 0.05, 4.0),
         &[("terms", "16")],
     );
-    let samples = ground_ramp(&r);
+    let samples = common::parallel_planes_ground(&r.visibility, &r.positions, 1.5);
     let spread = samples
         .iter()
         .filter(|(_, v)| *v > 0.1 && *v < 0.9)
@@ -261,7 +235,7 @@ fn contact_hardens_and_does_not_leak() {
         &common::parallel_planes(2.0, 0.25, 4.0),
         &[("terms", "16")],
     );
-    let under: Vec<f32> = ground_ramp(&r)
+    let under: Vec<f32> = common::parallel_planes_ground(&r.visibility, &r.positions, 1.5)
         .iter()
         .filter(|(x, _)| *x < -0.12)
         .map(|(_, v)| *v)

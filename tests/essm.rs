@@ -127,35 +127,6 @@ fn parallel(
     (frame, positions)
 }
 
-/// Ground samples near the edge (|z| < 2, y ≈ 0, |x| < `reach`): (x, V).
-fn ground(frame: &Frame, positions: &[Vec4], reach: f32) -> Vec<(f32, f32)> {
-    positions
-        .iter()
-        .zip(&frame.visibility)
-        .filter(|(p, _)| p.w > 0.0 && p.y.abs() < 1e-3 && p.z.abs() < 2.0 && p.x.abs() < reach)
-        .map(|(p, v)| (p.x, *v))
-        .collect()
-}
-
-/// The ramp's width from a least-squares line through the samples strictly inside it.
-fn fitted_width(samples: &[(f32, f32)]) -> f32 {
-    let inside: Vec<(f64, f64)> = samples
-        .iter()
-        .filter(|(_, v)| *v > 0.05 && *v < 0.95)
-        .map(|&(x, v)| (x as f64, v as f64))
-        .collect();
-    let n = inside.len() as f64;
-    assert!(n >= 10.0, "only {n} samples inside the ramp");
-    let (sx, sv) = inside
-        .iter()
-        .fold((0.0, 0.0), |(a, b), (x, v)| (a + x, b + v));
-    let (mx, mv) = (sx / n, sv / n);
-    let (cov, var) = inside.iter().fold((0.0, 0.0), |(c, s), (x, v)| {
-        (c + (x - mx) * (v - mv), s + (x - mx) * (x - mx))
-    });
-    (var / cov) as f32
-}
-
 /// The parallel-plane case (see `tests/vssm.rs`): the exact V is a linear ramp of width
 /// w·h/(H − h). The blocker ratio weights the ground (a whole depth range behind the occluder)
 /// by e^(−c) against it, so z_avg is the occluder's depth and the filter the exact footprint;
@@ -169,14 +140,14 @@ fn parallel_planes_ramp() {
     let knobs = common::knobs(&[("map_size", "512")]);
     let (frame, positions) = parallel(&engine, "essm", (w, h, big_h), &knobs);
     let width = w * h / (big_h - h);
-    let samples = ground(&frame, &positions, 1.5 * width);
+    let samples = common::parallel_planes_ground(&frame.visibility, &positions, 1.5 * width);
     assert!(samples.len() > 100, "{} ground samples", samples.len());
     let mut worst = 0.0f32;
     for &(x, v) in &samples {
         let exact = common::parallel_planes_visibility(x, w, h, big_h);
         worst = worst.max((v - exact).abs());
     }
-    let fitted = fitted_width(&samples);
+    let fitted = common::ramp_width(&samples, 0.05);
     eprintln!(
         "{} samples, worst |V − exact| {worst}, ramp width {fitted} vs {width}; {:?}",
         samples.len(),
@@ -219,7 +190,10 @@ fn penumbra_width_grows_linearly_with_the_light() {
         .iter()
         .map(|&w| {
             let (frame, positions) = parallel(&engine, "essm", (w, 1.0, 4.0), &knobs);
-            fitted_width(&ground(&frame, &positions, 2.0))
+            common::ramp_width(
+                &common::parallel_planes_ground(&frame.visibility, &positions, 2.0),
+                0.05,
+            )
         })
         .collect();
     eprintln!("ramp widths {widths:?}");
@@ -239,7 +213,7 @@ fn contact_hardens_without_leaks() {
     let engine = common::engine();
     let knobs = common::knobs(&[("map_size", "512")]);
     let (frame, positions) = parallel(&engine, "essm", (1.0, 0.02, 4.0), &knobs);
-    let samples = ground(&frame, &positions, 1.0);
+    let samples = common::parallel_planes_ground(&frame.visibility, &positions, 1.0);
     let mut wrong = 0;
     for &(x, v) in &samples {
         if (x < -0.05 && v > 0.01) || (x > 0.05 && v < 0.99) {

@@ -12,7 +12,7 @@ mod common;
 
 use std::collections::BTreeMap;
 
-use glam::{IVec2, Vec4};
+use glam::IVec2;
 use penumbra::cpu::pcss::{pcss, PcssKnobs, PcssSetup, COUNTER_NAMES, TOLERANCE};
 use penumbra::cpu::receiver_plane::ViewImages;
 use penumbra::cpu::shadow_map::DepthMap;
@@ -267,17 +267,6 @@ fn point_light_is_pcf_coverage() {
     common::assert_clean(&engine.context().validation());
 }
 
-/// Ground samples near the straight edge of the parallel-plane case: (x, V) for |z| < 2.
-fn ground_profile(prepared: &PreparedScene, frame: &Frame, positions: &[Vec4]) -> Vec<(f32, f32)> {
-    let _ = prepared;
-    positions
-        .iter()
-        .zip(&frame.visibility)
-        .filter(|(p, _)| p.w > 0.0 && p.y.abs() < 1e-3 && p.z.abs() < 2.0 && p.x.abs() < 1.5)
-        .map(|(p, v)| (p.x, *v))
-        .collect()
-}
-
 /// On the book's parallel-plane configuration PCSS's assumptions hold exactly: V is the linear
 /// ramp of width w·h/(H − h) up to the map's texels (max error 0.06: a texel of a 512 map here
 /// is ~1/45 of the ramp at w = 1.5, and the coverage box smooths the ramp's two corners by half a
@@ -295,7 +284,7 @@ fn parallel_planes_ramp() {
         let positions = prepared.view.read_positions(&ctx).expect("positions");
         for search in ["0", "8"] {
             let frame = render(&engine, &prepared, 512, &[("search_taps", search)]);
-            let profile = ground_profile(&prepared, &frame, &positions);
+            let profile = common::parallel_planes_ground(&frame.visibility, &positions, 1.5);
             assert!(profile.len() > 500, "only {} ground samples", profile.len());
             let mut worst = 0.0f32;
             for &(x, v) in &profile {
@@ -305,7 +294,7 @@ fn parallel_planes_ramp() {
             eprintln!("w = {w}, search_taps = {search}: max |V − exact| = {worst}");
             assert!(worst < 0.06, "w = {w}: max |V − exact| = {worst}");
             if search == "0" {
-                widths.push(ramp_width(&profile));
+                widths.push(common::ramp_width(&profile, 0.02));
             }
         }
         drop(prepared);
@@ -323,7 +312,7 @@ fn parallel_planes_ramp() {
         .expect("prepare");
     let positions = prepared.view.read_positions(&ctx).expect("positions");
     let frame = render(&engine, &prepared, 512, &[]);
-    for (x, v) in ground_profile(&prepared, &frame, &positions) {
+    for (x, v) in common::parallel_planes_ground(&frame.visibility, &positions, 1.5) {
         if x < -0.1 {
             assert_eq!(v, 0.0, "light leaks under the touching occluder at x = {x}");
         } else if x > 0.1 {
@@ -332,29 +321,6 @@ fn parallel_planes_ramp() {
     }
     drop(prepared);
     common::assert_clean(&engine.context().validation());
-}
-
-/// The ramp's width, 1 / slope of the least-squares line through the samples strictly inside
-/// it (0.02 < V < 0.98).
-fn ramp_width(profile: &[(f32, f32)]) -> f32 {
-    let inside: Vec<(f64, f64)> = profile
-        .iter()
-        .filter(|(_, v)| *v > 0.02 && *v < 0.98)
-        .map(|&(x, v)| (x as f64, v as f64))
-        .collect();
-    assert!(
-        inside.len() > 20,
-        "only {} samples on the ramp",
-        inside.len()
-    );
-    let n = inside.len() as f64;
-    let (mx, mv) = inside
-        .iter()
-        .fold((0.0, 0.0), |(a, b), (x, v)| (a + x / n, b + v / n));
-    let (sxv, sxx) = inside.iter().fold((0.0, 0.0), |(a, b), (x, v)| {
-        (a + (x - mx) * (v - mv), b + (x - mx) * (x - mx))
-    });
-    (sxx / sxv) as f32
 }
 
 /// Huge lights are capped, not slow or non-finite; impossible knob combinations are errors.

@@ -131,35 +131,6 @@ fn parallel(
     (frame, positions)
 }
 
-/// Ground samples near the edge (|z| < 2, y ≈ 0, |x| < `reach`): (x, V).
-fn ground(frame: &Frame, positions: &[Vec4], reach: f32) -> Vec<(f32, f32)> {
-    positions
-        .iter()
-        .zip(&frame.visibility)
-        .filter(|(p, _)| p.w > 0.0 && p.y.abs() < 1e-3 && p.z.abs() < 2.0 && p.x.abs() < reach)
-        .map(|(p, v)| (p.x, *v))
-        .collect()
-}
-
-/// The ramp's width from a least-squares line through the samples strictly inside it.
-fn fitted_width(samples: &[(f32, f32)]) -> f32 {
-    let inside: Vec<(f64, f64)> = samples
-        .iter()
-        .filter(|(_, v)| *v > 0.05 && *v < 0.95)
-        .map(|&(x, v)| (x as f64, v as f64))
-        .collect();
-    let n = inside.len() as f64;
-    assert!(n >= 10.0, "only {n} samples inside the ramp");
-    let (sx, sv) = inside
-        .iter()
-        .fold((0.0, 0.0), |(a, b), (x, v)| (a + x, b + v));
-    let (mx, mv) = (sx / n, sv / n);
-    let (cov, var) = inside.iter().fold((0.0, 0.0), |(c, s), (x, v)| {
-        (c + (x - mx) * (v - mv), s + (x - mx) * (x - mx))
-    });
-    (var / cov) as f32
-}
-
 /// The parallel-plane case: a square light of width w at H, an occluder plane at h with a
 /// straight edge. On the ground the exact V is a linear ramp of width w·h/(H − h) (book §6.2.1),
 /// and it is VSSM's own model — two depths per region, so Chebyshev and Eq. 6.11 are exact (book
@@ -174,7 +145,7 @@ fn parallel_planes_ramp() {
     let knobs = common::knobs(&[("map_size", "512")]);
     let (frame, positions) = parallel(&engine, "vssm", (w, h, big_h), &knobs);
     let width = w * h / (big_h - h);
-    let samples = ground(&frame, &positions, 1.5 * width);
+    let samples = common::parallel_planes_ground(&frame.visibility, &positions, 1.5 * width);
     assert!(samples.len() > 100, "{} ground samples", samples.len());
     let mut worst = 0.0f32;
     let mut expected = vec![0.0f32; frame.visibility.len()];
@@ -189,7 +160,7 @@ fn parallel_planes_ramp() {
             expected[i] = frame.visibility[i];
         }
     }
-    let fitted = fitted_width(&samples);
+    let fitted = common::ramp_width(&samples, 0.05);
     eprintln!(
         "{} samples, worst |V − exact| {worst}, ramp width {fitted} vs {width}; {:?}",
         samples.len(),
@@ -221,7 +192,10 @@ fn penumbra_width_grows_linearly_with_the_light() {
         .iter()
         .map(|&w| {
             let (frame, positions) = parallel(&engine, "vssm", (w, 1.0, 4.0), &knobs);
-            fitted_width(&ground(&frame, &positions, 2.0))
+            common::ramp_width(
+                &common::parallel_planes_ground(&frame.visibility, &positions, 2.0),
+                0.05,
+            )
         })
         .collect();
     eprintln!("ramp widths {widths:?}");
@@ -241,7 +215,7 @@ fn contact_hardens_without_leaks() {
     let engine = common::engine();
     let knobs = common::knobs(&[("map_size", "512")]);
     let (frame, positions) = parallel(&engine, "vssm", (1.0, 0.02, 4.0), &knobs);
-    let samples = ground(&frame, &positions, 1.0);
+    let samples = common::parallel_planes_ground(&frame.visibility, &positions, 1.0);
     let mut wrong = 0;
     for &(x, v) in &samples {
         if (x < -0.05 && v != 0.0) || (x > 0.05 && v != 1.0) {
@@ -279,7 +253,7 @@ fn classified_samples_are_exactly_lit_or_umbra() {
     // The search region at the near plane: w·(H − near)/near wide on the ground's scale, less
     // than w·H/h-ish; 1 world unit from the edge is beyond it for these planes.
     let mut wrong = 0;
-    for (x, v) in ground(&frame, &positions, 4.0) {
+    for (x, v) in common::parallel_planes_ground(&frame.visibility, &positions, 4.0) {
         if (x < -1.0 && v != 0.0) || (x > 1.0 && v != 1.0) {
             wrong += 1;
         }

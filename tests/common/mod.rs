@@ -273,3 +273,42 @@ pub fn parallel_planes_visibility(
     }
     (0.5 + x * (big_h - h) / (h * w)).clamp(0.0, 1.0)
 }
+
+/// The ground samples of [`parallel_planes`] near its edge — on the ground (y ≈ 0), |z| < 2 and
+/// |x| < `reach` — as (x, V).
+pub fn parallel_planes_ground(
+    visibility: &[f32],
+    positions: &[glam::Vec4],
+    reach: f32,
+) -> Vec<(f32, f32)> {
+    positions
+        .iter()
+        .zip(visibility)
+        .filter(|(p, _)| p.w > 0.0 && p.y.abs() < 1e-3 && p.z.abs() < 2.0 && p.x.abs() < reach)
+        .map(|(p, v)| (p.x, *v))
+        .collect()
+}
+
+/// A ramp's width: the inverse slope of the least-squares line of V against x through the
+/// samples strictly inside it, `band` < V < 1 − `band` (the corners, where a filter rounds the
+/// ramp off, left out). Panics with fewer than 5 such samples.
+pub fn ramp_width(samples: &[(f32, f32)], band: f32) -> f32 {
+    let inside: Vec<(f64, f64)> = samples
+        .iter()
+        .filter(|(_, v)| *v > band && *v < 1.0 - band)
+        .map(|&(x, v)| (x as f64, v as f64))
+        .collect();
+    assert!(
+        inside.len() >= 5,
+        "only {} samples inside the ramp",
+        inside.len()
+    );
+    let n = inside.len() as f64;
+    let (mx, mv) = inside
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, v)| (a + x / n, b + v / n));
+    let (sxv, sxx) = inside.iter().fold((0.0, 0.0), |(a, b), (x, v)| {
+        (a + (x - mx) * (v - mv), b + (x - mx) * (x - mx))
+    });
+    (sxx / sxv) as f32
+}

@@ -65,6 +65,25 @@ pub(crate) fn minmax_images(
     ))
 }
 
+/// Bindings for levels 1 ..= [`MAX_LEVEL`] in `glsl/include/nbuffer.glsl`'s layout (min, max per
+/// level) from the levels built (`levels[l - 1]` is level l, an N-buffer's or a pyramid's).
+/// Levels above the highest built are bound to the highest (never read: queries stop at
+/// `NBUFFER_MAX_LEVEL`), and to `unused` when nothing is built.
+pub(crate) fn level_bindings<'b>(
+    levels: &[&'b (Image, Image)],
+    unused: &'b (Image, Image),
+) -> Vec<Binding<'b>> {
+    (1..=MAX_LEVEL as usize)
+        .flat_map(|l| {
+            let (min, max) = levels
+                .get(l.min(levels.len()).wrapping_sub(1))
+                .copied()
+                .unwrap_or(unused);
+            [Binding::Image(min), Binding::Image(max)]
+        })
+        .collect()
+}
+
 /// Reads a (min, max) image pair back as pairs.
 pub(crate) fn read_minmax(ctx: &Context, images: &(Image, Image)) -> Result<Vec<[f32; 2]>> {
     let min = f32s(&ctx.read_image(&images.0)?);
@@ -239,11 +258,9 @@ impl<'a> NBuffer<'a> {
             Some(d) => d,
             None => &self.levels[0],
         };
+        let built: Vec<&(Image, Image)> = self.levels.iter().collect();
         let mut bindings = vec![Binding::Sampled(self.source, &self.sampler)];
-        for l in 1..=MAX_LEVEL as usize {
-            let (min, max) = self.levels.get(l - 1).unwrap_or(filler);
-            bindings.extend([Binding::Image(min), Binding::Image(max)]);
-        }
+        bindings.extend(level_bindings(&built, filler));
         bindings.extend([Binding::Buffer(&input), Binding::Buffer(&results)]);
         let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
         let push = NBufferQueryPush {

@@ -455,6 +455,16 @@ impl<'a> Sat<'a> {
         &self.bands
     }
 
+    /// The bands as [`MAX_BANDS`] storage-buffer bindings, the layout of a shader that reads
+    /// the table through its own `sat_fetch` (`savsm`, `vssm`): slots past the table's last band
+    /// repeat it (never indexed: no row lies in them).
+    pub fn band_bindings(&self) -> Vec<Binding<'_>> {
+        let last = self.bands.len().saturating_sub(1);
+        (0..MAX_BANDS)
+            .filter_map(|k| self.bands.get(k.min(last)).map(Binding::Buffer))
+            .collect()
+    }
+
     /// The buffer holding the centring offset (one f32; 0 unless centred; unused by integer
     /// tables), for shaders that include `sat.glsl`.
     pub fn offset_buffer(&self) -> &Buffer {

@@ -70,7 +70,7 @@ use super::{
 use crate::error::{Error, Result};
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
 use crate::kernels::minmax::MinMaxPyramid;
-use crate::kernels::nbuffer::{NBuffer, MAX_LEVEL};
+use crate::kernels::nbuffer::{level_bindings, NBuffer, MAX_LEVEL};
 use crate::passes::{SceneGeometry, ShadowMap};
 
 /// Counter names, in the shaders' slot order.
@@ -195,18 +195,14 @@ enum MinMax<'a> {
 }
 
 impl MinMax<'_> {
-    /// The highest level built and its images, by level (1 ..= highest).
-    fn levels(&self) -> (u32, Vec<&(Image, Image)>) {
+    /// The images of the levels built above the source, level 1 first.
+    fn levels(&self) -> Vec<&(Image, Image)> {
         match self {
-            MinMax::Off => (0, Vec::new()),
-            MinMax::NBuffer(n) => (
-                n.max_level,
-                (1..=n.max_level).filter_map(|l| n.level(l)).collect(),
-            ),
-            MinMax::Pyramid(p) => {
-                let top = p.sizes.len() as u32 - 1;
-                (top, (1..=top).filter_map(|l| p.level(l)).collect())
-            }
+            MinMax::Off => Vec::new(),
+            MinMax::NBuffer(n) => (1..=n.max_level).filter_map(|l| n.level(l)).collect(),
+            MinMax::Pyramid(p) => (1..p.sizes.len() as u32)
+                .filter_map(|l| p.level(l))
+                .collect(),
         }
     }
 
@@ -230,7 +226,7 @@ struct Pcss<'a> {
     filter: Pipeline,
     counters: Buffer,
     _blocker: Image,
-    _unused_levels: Option<(Image, Image)>,
+    _unused_levels: (Image, Image),
     push: PcssPush,
     geometry: &'a SceneGeometry,
     shadow_map: Box<ShadowMap>,
@@ -297,23 +293,15 @@ impl<'a> Pcss<'a> {
 
         // Levels the shader never reads (none built, or above the highest) are still bound: to
         // the highest level, or to a 1×1 pair when nothing is built.
-        let (built, levels) = minmax.levels();
-        if levels.len() != built as usize || built > MAX_LEVEL {
+        let levels = minmax.levels();
+        let built = levels.len() as u32;
+        if built > MAX_LEVEL {
             return Err(parameter(format!(
-                "{built} min/max levels, {} images",
-                levels.len()
+                "{built} min/max levels, at most {MAX_LEVEL}"
             )));
         }
-        let unused_levels = if built == 0 {
-            Some(crate::kernels::nbuffer::minmax_images(
-                ctx,
-                "pcss unused levels",
-                1,
-                1,
-            )?)
-        } else {
-            None
-        };
+        let unused_levels =
+            crate::kernels::nbuffer::minmax_images(ctx, "pcss unused levels", 1, 1)?;
         let mut bindings = vec![
             Binding::Image(setup.receivers),
             Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
@@ -323,17 +311,7 @@ impl<'a> Pcss<'a> {
             Binding::Image(&setup.view.normals),
             Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
         ];
-        for l in 1..=MAX_LEVEL as usize {
-            let (min, max) = match (
-                levels.get(l.min(levels.len()).wrapping_sub(1)),
-                &unused_levels,
-            ) {
-                (Some(level), _) => *level,
-                (None, Some(unused)) => unused,
-                (None, None) => return Err(parameter("min/max level missing".into())),
-            };
-            bindings.extend([Binding::Image(min), Binding::Image(max)]);
-        }
+        bindings.extend(level_bindings(&levels, &unused_levels));
         let search_set = DescriptorSet::new(ctx, &search, &bindings)?;
         let filter_set = DescriptorSet::new(ctx, &filter, &bindings[..6])?;
         let push = PcssPush {

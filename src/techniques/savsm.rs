@@ -49,7 +49,7 @@ use super::{
 use crate::cpu::savsm::COUNTER_NAMES;
 use crate::error::Result;
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
-use crate::kernels::sat::{Sat, SatPrecision, MAX_BANDS};
+use crate::kernels::sat::{Sat, SatPrecision};
 use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
 
 /// Fractional bits of the fixed-point tables.
@@ -202,11 +202,7 @@ impl<'a> Savsm<'a> {
             Binding::Buffer(&counters),
         ];
         for sat in &sats {
-            let bands = sat.bands();
-            // Unused band slots repeat the last band (never read: bands past the table's height
-            // are never indexed).
-            bindings
-                .extend((0..MAX_BANDS).map(|k| Binding::Buffer(&bands[k.min(bands.len() - 1)])));
+            bindings.extend(sat.band_bindings());
         }
         let lookup_set = DescriptorSet::new(ctx, &lookup, &bindings)?;
         let view_size = IVec2::new(setup.view.width as i32, setup.view.height as i32);

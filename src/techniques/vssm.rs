@@ -52,8 +52,8 @@ use crate::error::Result;
 use crate::gpu::{
     Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder, Sampler,
 };
-use crate::kernels::nbuffer::{NBuffer, MAX_LEVEL};
-use crate::kernels::sat::{Sat, SatPrecision, MAX_BANDS};
+use crate::kernels::nbuffer::{level_bindings, NBuffer, MAX_LEVEL};
+use crate::kernels::sat::{Sat, SatPrecision};
 use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
 use crate::scene::Light;
 
@@ -237,23 +237,19 @@ impl<'a> Vssm<'a> {
             Binding::Buffer(&counters),
         ];
         for sat in &sats {
-            let bands = sat.bands();
-            // Unused band slots repeat the last band (never indexed).
-            bindings
-                .extend((0..MAX_BANDS).map(|k| Binding::Buffer(&bands[k.min(bands.len() - 1)])));
+            bindings.extend(sat.band_bindings());
         }
         bindings.push(Binding::Sampled(z, &sampler));
-        // Levels above the ones built are bound to level 1 (never read: queries cap their level).
-        let filler = nbuffer
-            .level(1)
+        let built: Vec<&(Image, Image)> = (1..=nbuffer.max_level)
+            .filter_map(|l| nbuffer.level(l))
+            .collect();
+        let first = *built
+            .first()
             .ok_or_else(|| crate::error::Error::Parameter {
                 technique: "vssm".into(),
                 message: "the N-buffer has no level 1".into(),
             })?;
-        for l in 1..=MAX_LEVEL {
-            let (min, max) = nbuffer.level(l).unwrap_or(filler);
-            bindings.extend([Binding::Image(min), Binding::Image(max)]);
-        }
+        bindings.extend(level_bindings(&built, first));
         let lookup_set = DescriptorSet::new(ctx, &lookup, &bindings)?;
         Ok(Vssm {
             ctx: ctx.clone(),

@@ -7,8 +7,9 @@
 //! 2. with `skip = nbuffer`, an [`NBuffer`] of it (exact min and max depth over any texel
 //!    rectangle, 8 B per texel per level); with `skip = pyramid` (the default), a
 //!    [`MinMaxPyramid`] (min and max over a superset of the rectangle: the cells of the finest
-//!    level covering it with at most 4 cells per axis; 2.7 B per texel, a tenth of the N-buffer's
-//!    build time);
+//!    level covering it with at most 4 cells per axis; 2.7 B per texel, a fifth of the N-buffer's
+//!    build time, but it classifies fewer samples, so with the exhaustive search the N-buffer
+//!    gives the faster frame — measured in the README);
 //! 3. `glsl/pcss/blocker_search.comp`, per view sample at map position x and light-view distance
 //!    z_y: the search region is the light's footprint at the near plane,
 //!    w_s = [`soft_light`]`(z_y, near)` — the light-pyramid cross-section w_light·(z_y − z_n)/z_y

@@ -4,11 +4,8 @@
 
 mod common;
 
-use std::collections::BTreeMap;
-
-use glam::{IVec2, Vec3, Vec4};
+use glam::{IVec2, Vec3};
 use penumbra::cpu::essm::{essm, tolerance, twin_push};
-use penumbra::engine::Frame;
 use penumbra::gpu::f32s;
 use penumbra::scene::Light;
 use penumbra::techniques::find;
@@ -105,28 +102,6 @@ fn matches_cpu_twin() {
     common::assert_clean(&engine.context().validation());
 }
 
-/// Renders `technique` on the parallel-plane case and returns the frame and the view samples.
-fn parallel(
-    engine: &Engine,
-    technique: &str,
-    (w, h, big_h): (f32, f32, f32),
-    knobs: &BTreeMap<String, String>,
-) -> (Frame, Vec<Vec4>) {
-    let prepared = engine
-        .prepare(&common::parallel_planes(w, h, big_h))
-        .expect("prepare");
-    let frame = engine
-        .render(&prepared, technique, knobs, 1)
-        .expect("render");
-    let positions = prepared
-        .view
-        .read_positions(engine.context())
-        .expect("positions");
-    assert_eq!(frame.stats.nan_count, 0);
-    assert_eq!(frame.stats.out_of_range_count, 0);
-    (frame, positions)
-}
-
 /// The parallel-plane case (see `tests/vssm.rs`): the exact V is a linear ramp of width
 /// w·h/(H − h). The blocker ratio weights the ground (a whole depth range behind the occluder)
 /// by e^(−c) against it, so z_avg is the occluder's depth and the filter the exact footprint;
@@ -138,7 +113,7 @@ fn parallel_planes_ramp() {
     let engine = common::engine();
     let (w, h, big_h) = (1.0f32, 1.0f32, 4.0f32);
     let knobs = common::knobs(&[("map_size", "512")]);
-    let (frame, positions) = parallel(&engine, "essm", (w, h, big_h), &knobs);
+    let (frame, positions) = common::render_parallel_planes(&engine, "essm", (w, h, big_h), &knobs);
     let width = w * h / (big_h - h);
     let samples = common::parallel_planes_ground(&frame.visibility, &positions, 1.5 * width);
     assert!(samples.len() > 100, "{} ground samples", samples.len());
@@ -189,7 +164,8 @@ fn penumbra_width_grows_linearly_with_the_light() {
     let widths: Vec<f32> = [0.5f32, 1.0, 2.0]
         .iter()
         .map(|&w| {
-            let (frame, positions) = parallel(&engine, "essm", (w, 1.0, 4.0), &knobs);
+            let (frame, positions) =
+                common::render_parallel_planes(&engine, "essm", (w, 1.0, 4.0), &knobs);
             common::ramp_width(
                 &common::parallel_planes_ground(&frame.visibility, &positions, 2.0),
                 0.05,
@@ -212,7 +188,8 @@ fn penumbra_width_grows_linearly_with_the_light() {
 fn contact_hardens_without_leaks() {
     let engine = common::engine();
     let knobs = common::knobs(&[("map_size", "512")]);
-    let (frame, positions) = parallel(&engine, "essm", (1.0, 0.02, 4.0), &knobs);
+    let (frame, positions) =
+        common::render_parallel_planes(&engine, "essm", (1.0, 0.02, 4.0), &knobs);
     let samples = common::parallel_planes_ground(&frame.visibility, &positions, 1.0);
     let mut wrong = 0;
     for &(x, v) in &samples {

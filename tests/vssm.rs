@@ -4,11 +4,8 @@
 
 mod common;
 
-use std::collections::BTreeMap;
-
-use glam::{IVec2, Vec3, Vec4};
+use glam::{IVec2, Vec3};
 use penumbra::cpu::vssm::{twin_push, vssm, MAX_FLIP_FRACTION, VALUE_TOLERANCE};
-use penumbra::engine::Frame;
 use penumbra::gpu::f32s;
 use penumbra::scene::Light;
 use penumbra::techniques::find;
@@ -109,28 +106,6 @@ fn matches_cpu_twin() {
     common::assert_clean(&engine.context().validation());
 }
 
-/// Renders `technique` on the parallel-plane case and returns the frame and the view samples.
-fn parallel(
-    engine: &Engine,
-    technique: &str,
-    (w, h, big_h): (f32, f32, f32),
-    knobs: &BTreeMap<String, String>,
-) -> (Frame, Vec<Vec4>) {
-    let prepared = engine
-        .prepare(&common::parallel_planes(w, h, big_h))
-        .expect("prepare");
-    let frame = engine
-        .render(&prepared, technique, knobs, 1)
-        .expect("render");
-    let positions = prepared
-        .view
-        .read_positions(engine.context())
-        .expect("positions");
-    assert_eq!(frame.stats.nan_count, 0);
-    assert_eq!(frame.stats.out_of_range_count, 0);
-    (frame, positions)
-}
-
 /// The parallel-plane case: a square light of width w at H, an occluder plane at h with a
 /// straight edge. On the ground the exact V is a linear ramp of width w·h/(H − h) (book §6.2.1),
 /// and it is VSSM's own model — two depths per region, so Chebyshev and Eq. 6.11 are exact (book
@@ -143,7 +118,7 @@ fn parallel_planes_ramp() {
     let engine = common::engine();
     let (w, h, big_h) = (1.0f32, 1.0f32, 4.0f32);
     let knobs = common::knobs(&[("map_size", "512")]);
-    let (frame, positions) = parallel(&engine, "vssm", (w, h, big_h), &knobs);
+    let (frame, positions) = common::render_parallel_planes(&engine, "vssm", (w, h, big_h), &knobs);
     let width = w * h / (big_h - h);
     let samples = common::parallel_planes_ground(&frame.visibility, &positions, 1.5 * width);
     assert!(samples.len() > 100, "{} ground samples", samples.len());
@@ -191,7 +166,8 @@ fn penumbra_width_grows_linearly_with_the_light() {
     let widths: Vec<f32> = [0.5f32, 1.0, 2.0]
         .iter()
         .map(|&w| {
-            let (frame, positions) = parallel(&engine, "vssm", (w, 1.0, 4.0), &knobs);
+            let (frame, positions) =
+                common::render_parallel_planes(&engine, "vssm", (w, 1.0, 4.0), &knobs);
             common::ramp_width(
                 &common::parallel_planes_ground(&frame.visibility, &positions, 2.0),
                 0.05,
@@ -214,7 +190,8 @@ fn penumbra_width_grows_linearly_with_the_light() {
 fn contact_hardens_without_leaks() {
     let engine = common::engine();
     let knobs = common::knobs(&[("map_size", "512")]);
-    let (frame, positions) = parallel(&engine, "vssm", (1.0, 0.02, 4.0), &knobs);
+    let (frame, positions) =
+        common::render_parallel_planes(&engine, "vssm", (1.0, 0.02, 4.0), &knobs);
     let samples = common::parallel_planes_ground(&frame.visibility, &positions, 1.0);
     let mut wrong = 0;
     for &(x, v) in &samples {
@@ -244,7 +221,7 @@ fn classified_samples_are_exactly_lit_or_umbra() {
     let engine = common::engine();
     let knobs = common::knobs(&[("map_size", "512")]);
     let (w, h, big_h) = (1.0f32, 1.0f32, 4.0f32);
-    let (frame, positions) = parallel(&engine, "vssm", (w, h, big_h), &knobs);
+    let (frame, positions) = common::render_parallel_planes(&engine, "vssm", (w, h, big_h), &knobs);
     let c = &frame.stats.counters;
     let own = common::assert_counters_describe_image("vssm", c, &frame.visibility, &positions);
     eprintln!("{c:?}");

@@ -312,3 +312,29 @@ pub fn ramp_width(samples: &[(f32, f32)], band: f32) -> f32 {
     });
     (sxx / sxv) as f32
 }
+
+/// Renders `technique` with `knobs` on [`parallel_planes`]`(w, h, big_h)`, asserting no NaN and
+/// no V outside [0, 1]; returns the frame and the view samples' positions.
+pub fn render_parallel_planes(
+    engine: &Engine,
+    technique: &str,
+    (w, h, big_h): (f32, f32, f32),
+    knobs: &std::collections::BTreeMap<String, String>,
+) -> (penumbra::engine::Frame, Vec<glam::Vec4>) {
+    let prepared = engine
+        .prepare(&parallel_planes(w, h, big_h))
+        .expect("prepare");
+    let frame = engine
+        .render(&prepared, technique, knobs, 1)
+        .expect("render");
+    let positions = prepared
+        .view
+        .read_positions(engine.context())
+        .expect("positions");
+    assert_eq!(frame.stats.nan_count, 0, "{technique}: NaN");
+    assert_eq!(
+        frame.stats.out_of_range_count, 0,
+        "{technique}: V outside [0, 1]"
+    );
+    (frame, positions)
+}

@@ -217,7 +217,7 @@ impl Engine {
             let desc = ReceiverDesc {
                 light_clip: params.u32("light_clip")? == 1,
                 normal_offset: params.f32("normal_offset")?,
-                map_size: params.u32("map_size")?,
+                map_size: texel_grid(&params)?,
                 clips_itself: info.per_light_sample,
             };
             if desc.needed() {
@@ -245,6 +245,7 @@ impl Engine {
                 .as_ref()
                 .map_or(&prepared.view.positions, |r| &r.lookup),
             light: &prepared.light,
+            camera: &prepared.camera,
             light_view: &light_view,
             visibility: &prepared.visibility,
         };
@@ -310,7 +311,7 @@ impl Engine {
             let used = crate::cpu::receiver_bounds::map_texels_used(
                 &positions,
                 &light_view,
-                params.u32("map_size")?,
+                texel_grid(&params)?,
             );
             counters.insert("map_texels_used".to_string(), used);
         }
@@ -431,4 +432,15 @@ pub fn count_bad(visibility: &[f32], positions: &[Vec4]) -> (u64, u64) {
         }
     }
     (nan, range)
+}
+
+/// Texels per side of the grid a shadow-map technique's finest level samples: `map_size`, or a
+/// virtual map's `virtual_size` (what the normal offset's texel unit and `map_texels_used`
+/// count in).
+fn texel_grid(params: &techniques::Params) -> Result<u32> {
+    if params.values().contains_key("virtual_size") {
+        params.u32("virtual_size")
+    } else {
+        params.u32("map_size")
+    }
 }

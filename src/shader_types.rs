@@ -162,3 +162,49 @@ pub struct AverageMapsPush {
     /// 1: a light sample behind the receiver's tangent plane is blocked (the `light_clip` knob).
     pub light_clip: i32,
 }
+
+/// The push block of every page kernel (`glsl/pages/pages_push.glsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct PagesPush {
+    /// World → light clip space of the virtual map.
+    pub light_view_proj: Mat4,
+    /// Level-0 texels per side.
+    pub virtual_size: u32,
+    /// Texels per page side.
+    pub page_size: u32,
+    /// Mip levels, the root's included.
+    pub levels: u32,
+    /// Slots in the atlas.
+    pub pool_pages: u32,
+    /// Slots per atlas row.
+    pub atlas_cols: u32,
+    /// Triangles of the scene.
+    pub triangles: u32,
+    /// Bin entries the bin buffer holds.
+    pub capacity: u32,
+    /// `bin.comp`: 0 counts, 1 scatters.
+    pub mode: u32,
+}
+
+/// `glsl/rmsm/rmsm.glsl` (mark and lookup).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct RmsmPush {
+    /// World → light clip space of the virtual map.
+    pub light_view_proj: Mat4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// Level-0 texels per side.
+    pub virtual_size: u32,
+    /// Texels per page side.
+    pub page_size: u32,
+    /// Mip levels.
+    pub levels: u32,
+    /// Slots per atlas row.
+    pub atlas_cols: u32,
+    /// 0: nearest texel; 1: bilinear 2×2.
+    pub filter_mode: u32,
+    /// Added to log2 of the footprint.
+    pub lod_bias: f32,
+}

@@ -137,13 +137,7 @@ impl Recorder<'_> {
         if threads.contains(&0) {
             return Ok(());
         }
-        for u in &set.uses {
-            let resource = match &u.resource {
-                Resource::Buffer(b) => Resource::Buffer(*b),
-                Resource::Image(i, r) => Resource::Image(*i, *r),
-            };
-            self.track(&u.tracker, resource, u.access);
-        }
+        self.use_set(set);
         self.bind_and_push(pipeline, Some(set), push)?;
         let groups = [0, 1, 2].map(|i| threads[i].div_ceil(pipeline.local_size[i].max(1)));
         unsafe {
@@ -241,6 +235,53 @@ impl Recorder<'_> {
             device.cmd_draw_indexed(self.cmd, index_count, 1, 0, 0, 0);
         }
         Ok(())
+    }
+
+    /// Draws non-indexed triangles whose counts the GPU wrote: one `VkDrawIndirectCommand`
+    /// (16 bytes) at `offset` in `args`, with `pipeline` (inside `begin_rendering`) pulling its
+    /// vertices from `set`'s storage buffers by `gl_VertexIndex`. `args` must have been declared
+    /// with [`Access::IndirectRead`] and the set's resources are tracked before rendering began
+    /// (see [`Recorder::use_set`]): barriers cannot be recorded inside a rendering scope.
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw_indirect<T: Pod>(
+        &mut self,
+        pipeline: &Pipeline,
+        set: &DescriptorSet,
+        push: &T,
+        args: &Buffer,
+        offset: u64,
+        depth_bias: Option<[f32; 3]>,
+    ) -> Result<()> {
+        if offset + 16 > args.size {
+            return Err(Error::Shader {
+                name: pipeline.name.clone(),
+                message: format!(
+                    "indirect arguments at {offset} overrun the {}-byte buffer {}",
+                    args.size, args.name
+                ),
+            });
+        }
+        self.bind_and_push(pipeline, Some(set), push)?;
+        let device = self.ctx.device();
+        unsafe {
+            if let Some([constant, slope, clamp]) = depth_bias {
+                device.cmd_set_depth_bias(self.cmd, constant, clamp, slope);
+            }
+            device.cmd_draw_indirect(self.cmd, args.raw, offset, 1, 16);
+        }
+        Ok(())
+    }
+
+    /// Emits the barriers `set`'s resources need for their declared uses, e.g. before a
+    /// rendering scope whose draws read them.
+    pub fn use_set(&mut self, set: &DescriptorSet) {
+        for u in &set.uses {
+            let resource = match &u.resource {
+                Resource::Buffer(b) => Resource::Buffer(*b),
+                Resource::Image(i, r) => Resource::Image(*i, *r),
+            };
+            self.track(&u.tracker, resource, u.access);
+        }
     }
 
     /// Copies `data` into `dst` through a staging buffer kept alive until the submit completes.

@@ -81,6 +81,9 @@ pub struct DeviceInfo {
     pub subgroup_extended_types: bool,
     /// `depthBiasClamp`.
     pub depth_bias_clamp: bool,
+    /// `shaderClipDistance`: vertex shaders may write `gl_ClipDistance` (virtual shadow maps clip
+    /// each page's casters to the page's rectangle of the atlas with it).
+    pub clip_distance: bool,
     /// `VK_EXT_conservative_rasterization`.
     pub conservative_rasterization: bool,
     /// `VK_EXT_fragment_shader_interlock`.
@@ -363,6 +366,7 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<Device
                 .contains(vk::ShaderStageFlags::COMPUTE),
         subgroup_extended_types: f12.shader_subgroup_extended_types == vk::TRUE,
         depth_bias_clamp: features.depth_bias_clamp == vk::TRUE,
+        clip_distance: features.shader_clip_distance == vk::TRUE,
         conservative_rasterization: has_ext(ash::ext::conservative_rasterization::NAME),
         fragment_shader_interlock: has_ext(ash::ext::fragment_shader_interlock::NAME),
         ray_query: has_ext(ash::khr::ray_query::NAME),
@@ -505,9 +509,9 @@ impl Context {
     /// `synchronization2` enabled and a queue from `queue_family` supporting graphics and compute.
     ///
     /// penumbra cannot see which optional features the caller enabled, so it assumes none:
-    /// float64/int64 shader variants, 64-bit atomics and depth-bias clamping are reported as
-    /// absent (techniques then take their portable paths or say the feature is unsupported), and
-    /// debug labels and object names are off (`VK_EXT_debug_utils` may not be enabled).
+    /// float64/int64 shader variants, 64-bit atomics, depth-bias clamping and clip distances are
+    /// reported as absent (techniques then take their portable paths or say the feature is
+    /// unsupported), and debug labels and object names are off (`VK_EXT_debug_utils` may not be enabled).
     /// Validation messages go to the caller's own messenger, so this context's
     /// [`Context::validation`] log reports that validation did not run (`ran: false`).
     ///
@@ -534,6 +538,7 @@ impl Context {
         info.int64_atomics = false;
         info.subgroup_extended_types = false;
         info.depth_bias_clamp = false;
+        info.clip_distance = false;
         let debug_utils = false;
         let shared = Self::assemble(
             entry,
@@ -702,6 +707,7 @@ fn create_device(
         .shader_float64(info.float64)
         .shader_int64(info.int64)
         .depth_bias_clamp(info.depth_bias_clamp)
+        .shader_clip_distance(info.clip_distance)
         .shader_storage_image_write_without_format(false);
     let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
         .shader_buffer_int64_atomics(info.int64_atomics)

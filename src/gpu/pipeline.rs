@@ -246,9 +246,13 @@ impl Pipeline {
             format: vk::Format::R32G32B32_SFLOAT,
             offset: 0,
         }];
-        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
-            .vertex_binding_descriptions(&vb)
-            .vertex_attribute_descriptions(&va);
+        let vertex_input = if desc.vertex_input {
+            vk::PipelineVertexInputStateCreateInfo::default()
+                .vertex_binding_descriptions(&vb)
+                .vertex_attribute_descriptions(&va)
+        } else {
+            vk::PipelineVertexInputStateCreateInfo::default()
+        };
         let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
             .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
         let viewport = vk::PipelineViewportStateCreateInfo::default()
@@ -343,7 +347,7 @@ impl Drop for Pipeline {
     }
 }
 
-/// How to build a graphics pipeline. Vertex input is always one `vec3` position stream.
+/// How to build a graphics pipeline. Vertex input is one `vec3` position stream or none.
 #[derive(Clone, Copy, Debug)]
 pub struct GraphicsDesc<'a> {
     /// Vertex shader name.
@@ -356,6 +360,9 @@ pub struct GraphicsDesc<'a> {
     pub depth_format: vk::Format,
     /// Whether depth bias is on (its values are dynamic state, set per draw).
     pub depth_bias: bool,
+    /// Whether the vertex shader reads the position stream; `false` for shaders that pull
+    /// their vertices from storage buffers by `gl_VertexIndex`.
+    pub vertex_input: bool,
 }
 
 /// One resource bound to a descriptor, in binding order.
@@ -439,11 +446,13 @@ impl DescriptorSet {
         let mut image_infos = Vec::new();
         for ((b, stages), r) in declared.iter().zip(resources) {
             let compute = stages.contains(vk::ShaderStageFlags::COMPUTE);
+            let fragment = stages.contains(vk::ShaderStageFlags::FRAGMENT);
             let access = |sampled: bool| match (compute, sampled, b.read_only) {
                 (true, true, _) => Access::ComputeSampled,
                 (true, false, true) => Access::ComputeRead,
                 (true, false, false) => Access::ComputeWrite,
-                (false, _, _) => Access::FragmentRead,
+                (false, _, _) if fragment => Access::FragmentRead,
+                (false, _, _) => Access::VertexRead,
             };
             match (b.kind, r) {
                 (

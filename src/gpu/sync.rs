@@ -30,6 +30,10 @@ pub enum Access {
     FragmentRead,
     /// Read as vertex or index data.
     VertexInput,
+    /// Read as a storage buffer in a vertex shader (e.g. vertices pulled by index).
+    VertexRead,
+    /// Read as indirect draw or dispatch arguments.
+    IndirectRead,
     /// Written as a colour attachment.
     ColorAttachment,
     /// Tested and written as a depth attachment.
@@ -69,6 +73,12 @@ impl Access {
                 A::VERTEX_ATTRIBUTE_READ | A::INDEX_READ,
                 L::UNDEFINED,
             ),
+            Access::VertexRead => (
+                S::VERTEX_SHADER,
+                A::SHADER_STORAGE_READ,
+                L::SHADER_READ_ONLY_OPTIMAL,
+            ),
+            Access::IndirectRead => (S::DRAW_INDIRECT, A::INDIRECT_COMMAND_READ, L::UNDEFINED),
             Access::ColorAttachment => (
                 S::COLOR_ATTACHMENT_OUTPUT,
                 A::COLOR_ATTACHMENT_READ | A::COLOR_ATTACHMENT_WRITE,
@@ -134,7 +144,7 @@ impl Tracker {
     pub(crate) fn use_as(&self, next: Access, is_image: bool) -> Option<Transition> {
         let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
         let (stage, access, layout) = next.info();
-        let new_layout = if is_image && next != Access::VertexInput {
+        let new_layout = if is_image && !matches!(next, Access::VertexInput | Access::IndirectRead) {
             layout
         } else {
             s.layout

@@ -65,6 +65,7 @@ impl ShadowMap {
                 color_formats: &[],
                 depth_format: SHADOW_MAP_FORMAT,
                 depth_bias: true,
+                vertex_input: true,
             },
         )?;
         let depth = Image::new(

@@ -42,6 +42,7 @@ impl ViewSamples {
                 color_formats: &[SAMPLE_FORMAT, SAMPLE_FORMAT],
                 depth_format: vk::Format::D32_SFLOAT,
                 depth_bias: false,
+                vertex_input: true,
             },
         )?;
         let (w, h) = (camera.width, camera.height);

@@ -15,6 +15,7 @@ pub mod pcf;
 pub mod pcf_coverage;
 pub mod pcf_poisson;
 pub mod pcss;
+pub mod rmsm;
 pub mod savsm;
 pub mod soft_light;
 pub mod vssm;
@@ -26,7 +27,7 @@ pub use params::{
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Image, Recorder};
 use crate::passes::{LightView, SceneGeometry, ViewSamples};
-use crate::scene::Light;
+use crate::scene::{Camera, Light};
 use glam::Vec3;
 
 /// What a technique is built against: the scene's GPU inputs and the output image.
@@ -48,6 +49,8 @@ pub struct TechniqueSetup<'a> {
     pub receivers: &'a Image,
     /// The scene's light.
     pub light: &'a Light,
+    /// The camera the view samples were rendered with (for screen-space footprints).
+    pub camera: &'a Camera,
     /// The light view to render the map from (fitted to the scene or to the view samples, the
     /// `fit` knob).
     pub light_view: &'a LightView,
@@ -151,6 +154,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         cssm::CSSM,
         vssm::VSSM,
         essm::ESSM,
+        rmsm::RMSM,
     ]
 }
 

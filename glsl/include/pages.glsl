@@ -1,0 +1,56 @@
+// Page-table geometry and lookups of a virtual shadow map (src/passes/pages.rs).
+//
+// A V x V level-0 texel map is split into p x p pages, with a mip chain of levels 0 .. L-1
+// (L = log2(V/p) + 1): level l has V / (p 2^l) pages per side and the top level is one page, the
+// root. The page table keeps one uint per page, coarsest level first (the root is entry 0), so an
+// ascending list of entries runs coarse to fine. An entry holds slot + 1 for a resident page (its
+// place in the atlas) and 0 otherwise. CPU twin: src/cpu/rmsm.rs.
+
+#ifndef PENUMBRA_PAGES_GLSL
+#define PENUMBRA_PAGES_GLSL
+
+// Most levels a map may have (virtual_size / page_size <= 2^15): keeps every level offset and
+// loop bound small and fixed.
+#define MAX_PAGE_LEVELS 16
+
+uint pages_per_side(uint virtual_size, uint page_size, uint level) {
+    return virtual_size / (page_size << level);
+}
+
+// Entries of the levels coarser than `level`: sum over k > level of 4^(L-1-k) = (4^(L-1-level) - 1) / 3.
+uint level_offset(uint levels, uint level) {
+    return ((1u << (2u * (levels - 1u - level))) - 1u) / 3u;
+}
+
+uint page_entry(uint virtual_size, uint page_size, uint levels, uint level, uvec2 page) {
+    uint n = pages_per_side(virtual_size, page_size, level);
+    return level_offset(levels, level) + page.y * n + page.x;
+}
+
+// Level of an entry (the root is level L-1).
+uint entry_level(uint levels, uint entry) {
+    uint level = levels - 1u;
+    while (level > 0u && entry >= level_offset(levels, level - 1u)) {
+        level -= 1u;
+    }
+    return level;
+}
+
+// Whether level-l texel t lies inside the level (texels outside read as lit, need no page).
+bool texel_inside(ivec2 t, uint virtual_size, uint level) {
+    int size = int(virtual_size >> level);
+    return all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, ivec2(size)));
+}
+
+// The page holding level-l texel t (t inside the level).
+uvec2 texel_page(ivec2 t, uint page_size) {
+    return uvec2(t) / page_size;
+}
+
+// Atlas texel of level-l texel t on slot `slot`.
+ivec2 atlas_texel(uint slot, ivec2 t, uint page_size, uint atlas_cols) {
+    uvec2 origin = uvec2(slot % atlas_cols, slot / atlas_cols) * page_size;
+    return ivec2(origin + uvec2(t) % page_size);
+}
+
+#endif

@@ -1,0 +1,37 @@
+// The push-constant block every page kernel declares (PagesPush in src/shader_types.rs).
+layout(push_constant) uniform Push {
+    // World -> light clip space of the virtual map (the fitted light view).
+    mat4 light_view_proj;
+    uint virtual_size;
+    uint page_size;
+    uint levels;
+    uint pool_pages;
+    uint atlas_cols;
+    // Triangles of the scene (bin.comp).
+    uint triangles;
+    // Bin entries that fit in the bin buffer.
+    uint capacity;
+    // bin.comp: 0 counts, 1 scatters.
+    uint mode;
+} pc;
+
+// Per-level bookkeeping written by allocate.comp with atomicMax only, so one fill with 0 resets
+// it: minima are kept as their complement (~x), and end_slot == 0 means no resident page.
+struct LevelInfo {
+    uint first_slot_not;
+    uint end_slot;
+    uint min_x_not;
+    uint min_y_not;
+    uint max_x;
+    uint max_y;
+    uint pad0;
+    uint pad1;
+};
+
+// Counter slots of the page machinery (PAGE_COUNTER_NAMES in src/passes/pages.rs).
+#define C_UNIQUE 0
+#define C_ALLOCATED 1
+#define C_OVERFLOW 2
+#define C_BINNED 3
+#define C_RENDERED 4
+#define C_BIN_OVERFLOW 5

@@ -1,0 +1,494 @@
+//! Virtual shadow-map pages: requests → compaction → pool → page table → culled indirect draws.
+//!
+//! A virtual map of `virtual_size`² level-0 texels with a mip chain is split into
+//! `page_size`² pages; a technique marks the pages its view samples need in the page table (one
+//! `u32` per page, coarsest level first: `glsl/include/pages.glsl`), and this pass does the rest
+//! on the GPU, with no readback on the frame's path:
+//!
+//! 1. **compact** (`<name>-compact`): the marked entries, ascending, into a list and a count
+//!    ([`crate::kernels::compact`]);
+//! 2. **allocate** (`<name>-allocate`): entry i of the list takes slot i of a fixed atlas of
+//!    `pool_pages` page slots while slots last. The list runs coarse to fine, so when the pool is
+//!    full it is fine pages that overflow, and a lookup falls back to the coarser pages that were
+//!    served first; the root page (entry 0) is always marked by the technique and so always
+//!    slot 0. Overflows are counted (`overflow_pages`), never dropped silently;
+//! 3. **cull** (`<name>-cull`): every triangle is tested against the resident pages under its
+//!    bounding box (an exact separating-axis test in the light's texel grid) and binned —
+//!    counted, scanned, scattered as (triangle, slot) pairs — then one indirect draw per level is
+//!    written from the bins. A page whose bins would run past the bin buffer's capacity
+//!    (`bin_factor` entries per triangle) is taken out of the page table, so lookups fall back
+//!    instead of reading a page with missing casters (`bin_overflow_pages`);
+//! 4. **render** (`<name>-render`): the atlas is cleared and each level's bins are drawn with
+//!    one `vkCmdDrawIndirect`; the vertex shader pulls each triangle's corners by index, zooms
+//!    the page's part of the light frustum onto its slot and clips it to the slot with
+//!    `gl_ClipDistance`. Depth is the full light view's, so a level-0 page holds exactly the
+//!    depths of a full map of `virtual_size`²; the constant bias (and clamp) double per level,
+//!    the slope-scaled bias grows with the texel by itself.
+//!
+//! Pages are allocated afresh every frame (no caching across frames). CPU twin of the request,
+//! allocation and culling rules: [`crate::cpu::rmsm`].
+
+use ash::vk;
+
+use super::{DepthBias, LightView, SceneGeometry, SHADOW_MAP_FORMAT};
+use crate::error::{Error, Result};
+use crate::gpu::{
+    Access, Binding, Buffer, Context, DescriptorSet, GraphicsDesc, Image, ImageDesc,
+    MemoryLocation, Pipeline, Recorder, Sampler,
+};
+use crate::kernels::compact::{Compact, CompactBinding};
+use crate::kernels::scan::{Scan, ScanBinding, ScanKind};
+use crate::shader_types::PagesPush;
+
+/// Most mip levels of a virtual map (`glsl/include/pages.glsl`'s `MAX_PAGE_LEVELS`).
+pub const MAX_PAGE_LEVELS: u32 = 16;
+
+/// Most page-table entries (4 Mi: a 16 MiB table), which bounds `virtual_size / page_size`.
+pub const MAX_PAGE_ENTRIES: u32 = 1 << 22;
+
+/// Counter names of the page machinery, in the order of its counters buffer
+/// (`glsl/pages/pages_push.glsl`'s `C_*`).
+pub const PAGE_COUNTER_NAMES: [&str; 6] = [
+    "unique_pages",
+    "allocated_pages",
+    "overflow_pages",
+    "triangles_binned",
+    "rendered_pages",
+    "bin_overflow_pages",
+];
+
+/// What a virtual map is made of.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PagesDesc {
+    /// Level-0 texels per side (power of two).
+    pub virtual_size: u32,
+    /// Texels per page side (power of two, at most `virtual_size`).
+    pub page_size: u32,
+    /// Page slots in the atlas.
+    pub pool_pages: u32,
+    /// Bin entries per scene triangle (at least 1: the root page may need every triangle).
+    pub bin_factor: u32,
+    /// Depth bias of level 0 (constant and clamp double per level).
+    pub bias: DepthBias,
+}
+
+impl PagesDesc {
+    /// Mip levels: `log2(virtual_size / page_size) + 1`.
+    pub fn levels(&self) -> u32 {
+        (self.virtual_size / self.page_size).trailing_zeros() + 1
+    }
+
+    /// Page-table entries: Σ over levels of (pages per side)².
+    pub fn entries(&self) -> u64 {
+        (0..self.levels())
+            .map(|l| {
+                let n = u64::from(self.virtual_size / (self.page_size << l));
+                n * n
+            })
+            .sum()
+    }
+
+    /// Slots per atlas row: ⌈√pool_pages⌉, so the atlas is as square as the pool allows.
+    pub fn atlas_cols(&self) -> u32 {
+        let mut cols = (self.pool_pages as f64).sqrt() as u32;
+        while cols * cols < self.pool_pages {
+            cols += 1;
+        }
+        cols.max(1)
+    }
+
+    /// Atlas size in texels (width, height).
+    pub fn atlas_size(&self) -> (u32, u32) {
+        let cols = self.atlas_cols();
+        let rows = self.pool_pages.div_ceil(cols);
+        (cols * self.page_size, rows * self.page_size)
+    }
+
+    fn check(&self, ctx: &Context, technique: &str) -> Result<()> {
+        let bad = |message: String| {
+            Err(Error::Parameter {
+                technique: technique.to_string(),
+                message,
+            })
+        };
+        if !self.virtual_size.is_power_of_two() || !self.page_size.is_power_of_two() {
+            return bad(format!(
+                "virtual_size {} and page_size {} must be powers of two",
+                self.virtual_size, self.page_size
+            ));
+        }
+        if self.page_size > self.virtual_size {
+            return bad(format!(
+                "page_size {} is larger than virtual_size {}",
+                self.page_size, self.virtual_size
+            ));
+        }
+        if self.levels() > MAX_PAGE_LEVELS || self.entries() > u64::from(MAX_PAGE_ENTRIES) {
+            return bad(format!(
+                "virtual_size / page_size = {} needs {} page-table entries in {} levels; at most \
+                 {MAX_PAGE_ENTRIES} in {MAX_PAGE_LEVELS} (raise page_size)",
+                self.virtual_size / self.page_size,
+                self.entries(),
+                self.levels()
+            ));
+        }
+        if self.pool_pages == 0 || self.bin_factor == 0 {
+            return bad("pool_pages and bin_factor must be at least 1".into());
+        }
+        let (w, h) = self.atlas_size();
+        let max = ctx.info().max_image_dimension_2d;
+        if w > max || h > max {
+            return Err(Error::Unsupported {
+                device: ctx.info().name.clone(),
+                feature: format!(
+                    "a {w}x{h} page atlas ({} pages of {}²; maxImageDimension2D is {max})",
+                    self.pool_pages, self.page_size
+                ),
+            });
+        }
+        ctx.require(ctx.info().clip_distance, "shaderClipDistance")
+    }
+}
+
+/// A virtual shadow map's GPU state: page table, pool atlas, bins, and the pipelines that fill
+/// them from the marks a technique leaves in [`VirtualPages::table`].
+pub struct VirtualPages<'a> {
+    ctx: Context,
+    name: &'static str,
+    desc: PagesDesc,
+    push: PagesPush,
+    /// One `u32` per page: nonzero = marked (the technique writes 1), then slot + 1 / 0.
+    pub table: Buffer,
+    /// The depth atlas: `pool_pages` slots of `page_size`² texels, row by row.
+    pub atlas: Image,
+    /// Nearest sampler for texel fetches from the atlas.
+    pub sampler: Sampler,
+    list: Buffer,
+    count: Buffer,
+    slot_info: Buffer,
+    level_info: Buffer,
+    bin_count: Buffer,
+    // Read through the bin and draw sets.
+    _bin_offset: Buffer,
+    bin_cursor: Buffer,
+    entries: Buffer,
+    draws: Buffer,
+    counters: Buffer,
+    compact: Compact,
+    compact_binding: CompactBinding,
+    scan: Scan,
+    scan_binding: ScanBinding,
+    allocate: (Pipeline, DescriptorSet),
+    bin: (Pipeline, DescriptorSet),
+    draw_args: (Pipeline, DescriptorSet),
+    render: (Pipeline, DescriptorSet),
+    // Each frame culls and draws this geometry (bound in the bin and render sets).
+    _geometry: &'a SceneGeometry,
+}
+
+impl<'a> VirtualPages<'a> {
+    /// Creates the page machinery for `geometry` seen through `light_view`; `name` (the
+    /// technique's) prefixes its passes and names it in errors.
+    pub fn new(
+        ctx: &Context,
+        name: &'static str,
+        light_view: &LightView,
+        geometry: &'a SceneGeometry,
+        desc: PagesDesc,
+    ) -> Result<Self> {
+        desc.check(ctx, name)?;
+        let triangles = geometry.index_count / 3;
+        let capacity = u64::from(desc.bin_factor) * u64::from(triangles);
+        let max_entries = u64::from(ctx.info().max_storage_buffer_range) / 8;
+        let capacity = capacity.min(max_entries).min(u64::from(u32::MAX / 3));
+        if capacity < u64::from(triangles) {
+            return Err(Error::Unsupported {
+                device: ctx.info().name.clone(),
+                feature: format!(
+                    "bins for {triangles} triangles (maxStorageBufferRange holds {max_entries})"
+                ),
+            });
+        }
+        let capacity = capacity as u32;
+        let entries = desc.entries() as u32;
+        let levels = desc.levels();
+        let pool = desc.pool_pages;
+        let storage = |name: &str, size: u64| Buffer::storage(ctx, name, size);
+        let table = storage("page table", 4 * u64::from(entries))?;
+        let list = storage("page list", 4 * u64::from(entries))?;
+        let count = storage("page count", 4)?;
+        let slot_info = storage("page slots", 16 * u64::from(pool))?;
+        let level_info = storage("page levels", 32 * u64::from(levels))?;
+        let bin_count = storage("page bin counts", 4 * u64::from(pool))?;
+        let bin_offset = storage("page bin offsets", 4 * u64::from(pool))?;
+        let bin_cursor = storage("page bin cursors", 4 * u64::from(pool))?;
+        let bins = storage("page bins", 8 * u64::from(capacity))?;
+        let draws = Buffer::new(
+            ctx,
+            "page draws",
+            16 * u64::from(levels),
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::INDIRECT_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let counters = storage(
+            "page counters",
+            4 * PAGE_COUNTER_NAMES.len() as u64,
+        )?;
+        let (w, h) = desc.atlas_size();
+        let atlas = Image::new(
+            ctx,
+            "page atlas",
+            ImageDesc::new_2d(
+                SHADOW_MAP_FORMAT,
+                w,
+                h,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                    | vk::ImageUsageFlags::SAMPLED
+                    | vk::ImageUsageFlags::TRANSFER_SRC,
+            ),
+        )?;
+        let sampler = Sampler::nearest_border_white(ctx, "page atlas sampler")?;
+
+        let compact = Compact::new(ctx)?;
+        let compact_binding = compact.bind(&table, &list, &count, entries)?;
+        let scan = Scan::new(ctx)?;
+        let scan_binding = scan.bind(&bin_count, &bin_offset, pool)?;
+        let with_set = |shader: &str, bindings: &[Binding<'_>]| -> Result<_> {
+            let pipeline = Pipeline::compute(ctx, shader)?;
+            let set = DescriptorSet::new(ctx, &pipeline, bindings)?;
+            Ok((pipeline, set))
+        };
+        let allocate = with_set(
+            "pages/allocate.comp",
+            &[
+                Binding::Buffer(&table),
+                Binding::Buffer(&list),
+                Binding::Buffer(&count),
+                Binding::Buffer(&slot_info),
+                Binding::Buffer(&level_info),
+                Binding::Buffer(&counters),
+            ],
+        )?;
+        let bin = with_set(
+            "pages/bin.comp",
+            &[
+                Binding::Buffer(&geometry.vertices),
+                Binding::Buffer(&geometry.indices),
+                Binding::Buffer(&table),
+                Binding::Buffer(&level_info),
+                Binding::Buffer(&bin_count),
+                Binding::Buffer(&bin_offset),
+                Binding::Buffer(&bin_cursor),
+                Binding::Buffer(&bins),
+                Binding::Buffer(&counters),
+            ],
+        )?;
+        let draw_args = with_set(
+            "pages/draws.comp",
+            &[
+                Binding::Buffer(&bin_count),
+                Binding::Buffer(&bin_offset),
+                Binding::Buffer(&table),
+                Binding::Buffer(&slot_info),
+                Binding::Buffer(&level_info),
+                Binding::Buffer(&draws),
+                Binding::Buffer(&counters),
+            ],
+        )?;
+        let render_pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsDesc {
+                vertex: "pages/page_depth.vert",
+                fragment: None,
+                color_formats: &[],
+                depth_format: SHADOW_MAP_FORMAT,
+                depth_bias: true,
+                vertex_input: false,
+            },
+        )?;
+        let render_set = DescriptorSet::new(
+            ctx,
+            &render_pipeline,
+            &[
+                Binding::Buffer(&geometry.vertices),
+                Binding::Buffer(&geometry.indices),
+                Binding::Buffer(&slot_info),
+                Binding::Buffer(&bins),
+            ],
+        )?;
+        let push = PagesPush {
+            light_view_proj: light_view.view_proj,
+            virtual_size: desc.virtual_size,
+            page_size: desc.page_size,
+            levels,
+            pool_pages: pool,
+            atlas_cols: desc.atlas_cols(),
+            triangles,
+            capacity,
+            mode: 0,
+        };
+        Ok(VirtualPages {
+            ctx: ctx.clone(),
+            name,
+            desc,
+            push,
+            table,
+            atlas,
+            sampler,
+            list,
+            count,
+            slot_info,
+            level_info,
+            bin_count,
+            _bin_offset: bin_offset,
+            bin_cursor,
+            entries: bins,
+            draws,
+            counters,
+            compact,
+            compact_binding,
+            scan,
+            scan_binding,
+            allocate,
+            bin,
+            draw_args,
+            render: (render_pipeline, render_set),
+            _geometry: geometry,
+        })
+    }
+
+    /// The description it was built from.
+    pub fn desc(&self) -> &PagesDesc {
+        &self.desc
+    }
+
+    /// Bin entries the bin buffer holds.
+    pub fn bin_capacity(&self) -> u32 {
+        self.push.capacity
+    }
+
+    /// Clears the page table for a frame's marks (record before the technique marks pages).
+    pub fn record_clear(&self, rec: &mut Recorder<'_>) {
+        rec.fill(&self.table, 0);
+    }
+
+    /// Records compaction, allocation, culling and rendering of the marked pages, each as its
+    /// own timed pass `<name>-compact|allocate|cull|render`.
+    pub fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        let name = self.name;
+        let entries = self.desc.entries() as u32;
+        rec.begin_pass(&format!("{name}-compact"))?;
+        let result = self.compact.record(rec, &self.compact_binding);
+        rec.end_pass();
+        result?;
+
+        rec.begin_pass(&format!("{name}-allocate"))?;
+        rec.fill(&self.counters, 0);
+        rec.fill(&self.level_info, 0);
+        let (pipeline, set) = &self.allocate;
+        let result = rec.dispatch(pipeline, set, &self.push, [entries, 1, 1]);
+        rec.end_pass();
+        result?;
+
+        rec.begin_pass(&format!("{name}-cull"))?;
+        let result = self.record_cull(rec);
+        rec.end_pass();
+        result?;
+
+        rec.begin_pass(&format!("{name}-render"))?;
+        let result = self.record_render(rec);
+        rec.end_pass();
+        result
+    }
+
+    fn record_cull(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        let triangles = self.push.triangles;
+        let (pipeline, set) = &self.bin;
+        rec.fill(&self.bin_count, 0);
+        rec.fill(&self.bin_cursor, 0);
+        rec.dispatch(pipeline, set, &self.push, [triangles, 1, 1])?;
+        self.scan
+            .record(rec, &self.scan_binding, ScanKind::Exclusive)?;
+        let (draw_pipeline, draw_set) = &self.draw_args;
+        let threads = self.desc.pool_pages.max(self.push.levels);
+        rec.dispatch(draw_pipeline, draw_set, &self.push, [threads, 1, 1])?;
+        let scatter = PagesPush {
+            mode: 1,
+            ..self.push
+        };
+        rec.dispatch(pipeline, set, &scatter, [triangles, 1, 1])
+    }
+
+    fn record_render(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        let (pipeline, set) = &self.render;
+        rec.use_set(set);
+        rec.use_buffer(&self.draws, Access::IndirectRead);
+        rec.begin_rendering(&[], (&self.atlas, 1.0));
+        let bias = self.desc.bias;
+        let mut result = Ok(());
+        for level in 0..self.push.levels {
+            let scale = (1u32 << level) as f32;
+            let depth_bias = [bias.constant * scale, bias.slope, bias.clamp * scale];
+            result = rec.draw_indirect(
+                pipeline,
+                set,
+                &self.push,
+                &self.draws,
+                16 * u64::from(level),
+                Some(depth_bias),
+            );
+            if result.is_err() {
+                break;
+            }
+        }
+        rec.end_rendering();
+        result
+    }
+
+    /// Counters of the last frame ([`PAGE_COUNTER_NAMES`]).
+    pub fn counters(&self) -> Result<Vec<(String, u64)>> {
+        crate::techniques::read_counters(&self.ctx, &self.counters, &PAGE_COUNTER_NAMES)
+    }
+
+    /// The last frame's compacted page list (the marked entries, ascending): for tests.
+    pub fn read_page_list(&self) -> Result<Vec<u32>> {
+        let n = crate::gpu::u32s(&self.ctx.read_buffer(&self.count)?)
+            .first()
+            .copied()
+            .unwrap_or(0) as usize;
+        let mut list = crate::gpu::u32s(&self.ctx.read_buffer(&self.list)?);
+        list.truncate(n);
+        Ok(list)
+    }
+
+    /// The page table after the last frame (slot + 1 or 0 per entry): for tests.
+    pub fn read_table(&self) -> Result<Vec<u32>> {
+        Ok(crate::gpu::u32s(&self.ctx.read_buffer(&self.table)?))
+    }
+
+    /// The last frame's bins as (triangle, slot) pairs, slot by slot: for tests.
+    pub fn read_bins(&self) -> Result<Vec<(u32, u32)>> {
+        let counts = crate::gpu::u32s(&self.ctx.read_buffer(&self.bin_count)?);
+        let total: u64 = counts.iter().map(|&c| u64::from(c)).sum();
+        let n = total.min(u64::from(self.push.capacity)) as usize;
+        let raw = crate::gpu::u32s(&self.ctx.read_buffer(&self.entries)?);
+        Ok(raw.chunks_exact(2).take(n).map(|p| (p[0], p[1])).collect())
+    }
+
+    /// (level, page x, page y, entry) of each allocated slot after the last frame: for tests.
+    pub fn read_slots(&self) -> Result<Vec<[u32; 4]>> {
+        let counters = self.counters()?;
+        let allocated = counters
+            .iter()
+            .find(|(n, _)| n == "allocated_pages")
+            .map_or(0, |(_, v)| *v as usize);
+        let raw = crate::gpu::u32s(&self.ctx.read_buffer(&self.slot_info)?);
+        Ok(raw
+            .chunks_exact(4)
+            .take(allocated)
+            .map(|c| [c[0], c[1], c[2], c[3]])
+            .collect())
+    }
+}

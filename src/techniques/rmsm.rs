@@ -1,0 +1,283 @@
+//! `rmsm`: resolution-matched virtual shadow maps (Lefohn et al. 2007; book §4.4), GPU-driven.
+//!
+//! Every frame, each view sample asks for the mip level of a `virtual_size`² virtual map whose
+//! texels match its screen footprint — the camera pixel's neighbours' rays meet the sample's
+//! tangent plane, and their spread in the light's texel grid is the footprint
+//! (`glsl/rmsm/rmsm.glsl`) — and marks the page(s) its filter reads there (`rmsm-mark`). The
+//! page machinery ([`crate::passes::pages`]) compacts the marks, allocates them from a fixed
+//! pool coarse level first, bins the casters to the resident pages and draws each page's own
+//! casters into the atlas (`rmsm-compact`, `-allocate`, `-cull`, `-render`); no readback on the
+//! way. The lookup (`rmsm-lookup`) reads each sample's level through the page table, falling
+//! back level by level to the first coarser one whose pages cover its filter's texels when the
+//! pool or the bins ran out: every sample gets a value, and the fallbacks are counted.
+//!
+//! Knobs: `virtual_size`, `page_size`, `pool_pages` (the memory bound), `lod_bias` (negative:
+//! finer than the screen needs), `filter` (nearest texel or a bilinear 2×2 whose texels may sit on
+//! different pages), `bin_factor` (bin entries per triangle), and the depth bias of a level-0
+//! page (constant and clamp double per level). CPU twin of the request, allocation, culling and
+//! fallback rules: [`crate::cpu::rmsm`].
+
+use glam::{IVec2, Vec4};
+
+use super::{Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup};
+use crate::error::Result;
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
+use crate::passes::pages::{PagesDesc, VirtualPages};
+use crate::passes::DepthBias;
+use crate::shader_types::RmsmPush;
+
+/// Counter names of the view-sample passes, in the order of `glsl/rmsm/lookup.comp`'s buffer.
+pub const LOOKUP_COUNTER_NAMES: [&str; 8] = [
+    "view_samples",
+    "outside_light",
+    "lit",
+    "umbra",
+    "penumbra",
+    "fallback_lookups",
+    "footprint_met",
+    "virtual_too_coarse",
+];
+
+const fn knob(name: &'static str, summary: &'static str, default: f64, min: f64, max: f64) -> Knob {
+    Knob {
+        name,
+        summary,
+        default: KnobDefault::Value(default),
+        min,
+        max,
+        integer: true,
+        names: &[],
+    }
+}
+
+const KNOBS: [Knob; 9] = [
+    knob(
+        "virtual_size",
+        "virtual shadow-map width and height in level-0 texels (power of two)",
+        16384.0,
+        256.0,
+        65536.0,
+    ),
+    knob(
+        "page_size",
+        "page width and height in texels (power of two)",
+        128.0,
+        16.0,
+        1024.0,
+    ),
+    knob(
+        "pool_pages",
+        "page slots in the physical atlas (256 pages of 128² = one 2048² map)",
+        256.0,
+        1.0,
+        65536.0,
+    ),
+    Knob {
+        integer: false,
+        ..knob(
+            "lod_bias",
+            "added to log2 of the footprint (negative: finer pages than the screen needs)",
+            0.0,
+            -8.0,
+            8.0,
+        )
+    },
+    Knob {
+        names: &["nearest", "bilinear"],
+        ..knob(
+            "filter",
+            "nearest: one texel; bilinear: 2x2 texels, across page borders",
+            0.0,
+            0.0,
+            1.0,
+        )
+    },
+    knob(
+        "bin_factor",
+        "caster bin entries per scene triangle (pages past it fall back)",
+        16.0,
+        1.0,
+        1024.0,
+    ),
+    super::SHADOW_MAP_KNOBS[1],
+    super::SHADOW_MAP_KNOBS[2],
+    super::SHADOW_MAP_KNOBS[3],
+];
+
+/// `rmsm`.
+pub const RMSM: TechniqueInfo = TechniqueInfo {
+    name: "rmsm",
+    summary: "resolution-matched virtual shadow map: GPU page requests, pool, culled page draws",
+    knobs: &KNOBS,
+    cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
+    create: |setup, params| Ok(Box::new(Rmsm::new(setup, params)?)),
+};
+
+/// An `rmsm` instance: its pages and its two view-sample passes.
+pub struct Rmsm<'a> {
+    ctx: Context,
+    /// The virtual map's page machinery (public for tests: page list, table, bins).
+    pub pages: VirtualPages<'a>,
+    mark: (Pipeline, DescriptorSet),
+    lookup: (Pipeline, DescriptorSet),
+    mark_counters: Buffer,
+    lookup_counters: Buffer,
+    // Read by both sets.
+    _camera: Buffer,
+    push: RmsmPush,
+    view_size: IVec2,
+    triangles: u64,
+}
+
+impl<'a> Rmsm<'a> {
+    /// Builds the pages, the passes and their bindings.
+    pub fn new(setup: &TechniqueSetup<'a>, params: &Params) -> Result<Self> {
+        let ctx = setup.ctx;
+        let desc = PagesDesc {
+            virtual_size: params.u32("virtual_size")?,
+            page_size: params.u32("page_size")?,
+            pool_pages: params.u32("pool_pages")?,
+            bin_factor: params.u32("bin_factor")?,
+            bias: DepthBias {
+                constant: params.f32("bias_constant")?,
+                slope: params.f32("bias_slope")?,
+                clamp: params.f32("bias_clamp")?,
+            },
+        };
+        if desc.bias.clamp != 0.0 {
+            ctx.require(
+                ctx.info().depth_bias_clamp,
+                "depthBiasClamp (set bias_clamp = 0)",
+            )?;
+        }
+        let pages = VirtualPages::new(ctx, "rmsm", setup.light_view, setup.geometry, desc)?;
+        let camera = setup.camera;
+        let eye = camera.position;
+        let camera_data: [Vec4; 5] = {
+            let inv = camera.view_projection().inverse();
+            [
+                inv.x_axis,
+                inv.y_axis,
+                inv.z_axis,
+                inv.w_axis,
+                eye.extend(1.0),
+            ]
+        };
+        let camera_buffer = ctx.buffer_with(
+            "rmsm camera",
+            ash::vk::BufferUsageFlags::STORAGE_BUFFER,
+            &camera_data,
+        )?;
+        let mark_counters = Buffer::storage(ctx, "rmsm mark counters", 4)?;
+        let lookup_counters = Buffer::storage(
+            ctx,
+            "rmsm lookup counters",
+            4 * LOOKUP_COUNTER_NAMES.len() as u64,
+        )?;
+        let view = setup.view;
+        let mark_pipeline = Pipeline::compute(ctx, "rmsm/mark.comp")?;
+        let mark_set = DescriptorSet::new(
+            ctx,
+            &mark_pipeline,
+            &[
+                Binding::Image(&view.positions),
+                Binding::Image(&view.normals),
+                Binding::Image(setup.receivers),
+                Binding::Buffer(&camera_buffer),
+                Binding::Buffer(&pages.table),
+                Binding::Buffer(&mark_counters),
+            ],
+        )?;
+        let lookup_pipeline = Pipeline::compute(ctx, "rmsm/lookup.comp")?;
+        let lookup_set = DescriptorSet::new(
+            ctx,
+            &lookup_pipeline,
+            &[
+                Binding::Image(&view.positions),
+                Binding::Image(&view.normals),
+                Binding::Image(setup.receivers),
+                Binding::Buffer(&camera_buffer),
+                Binding::Buffer(&pages.table),
+                Binding::Sampled(&pages.atlas, &pages.sampler),
+                Binding::Image(setup.visibility),
+                Binding::Buffer(&lookup_counters),
+            ],
+        )?;
+        let view_size = IVec2::new(view.width as i32, view.height as i32);
+        let push = RmsmPush {
+            light_view_proj: setup.light_view.view_proj,
+            view_size,
+            virtual_size: desc.virtual_size,
+            page_size: desc.page_size,
+            levels: desc.levels(),
+            atlas_cols: desc.atlas_cols(),
+            filter_mode: params.u32("filter")?,
+            lod_bias: params.f32("lod_bias")?,
+        };
+        Ok(Rmsm {
+            ctx: ctx.clone(),
+            pages,
+            mark: (mark_pipeline, mark_set),
+            lookup: (lookup_pipeline, lookup_set),
+            mark_counters,
+            lookup_counters,
+            _camera: camera_buffer,
+            push,
+            view_size,
+            triangles: setup.indices.len() as u64 / 3,
+        })
+    }
+}
+
+impl Technique for Rmsm<'_> {
+    fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
+        let threads = [self.view_size.x as u32, self.view_size.y as u32, 1];
+        rec.begin_pass("rmsm-mark")?;
+        self.pages.record_clear(rec);
+        rec.fill(&self.mark_counters, 0);
+        let (pipeline, set) = &self.mark;
+        let result = rec.dispatch(pipeline, set, &self.push, threads);
+        rec.end_pass();
+        result?;
+
+        self.pages.record(rec)?;
+
+        rec.begin_pass("rmsm-lookup")?;
+        rec.fill(&self.lookup_counters, 0);
+        let (pipeline, set) = &self.lookup;
+        let result = rec.dispatch(pipeline, set, &self.push, threads);
+        rec.end_pass();
+        result
+    }
+
+    fn counters(&self) -> Result<Vec<(String, u64)>> {
+        let mut out = super::read_counters(&self.ctx, &self.lookup_counters, &LOOKUP_COUNTER_NAMES)?;
+        out.extend(super::read_counters(
+            &self.ctx,
+            &self.mark_counters,
+            &["requested_pages"],
+        )?);
+        let pages = self.pages.counters()?;
+        let get = |name: &str| {
+            pages
+                .iter()
+                .find(|(n, _)| n == name)
+                .map_or(0, |(_, v)| *v)
+        };
+        // Work skipped by culling: triangles not drawn into a page, summed over drawn pages.
+        let drawn_pages = get("allocated_pages").saturating_sub(get("bin_overflow_pages"));
+        let culled = (self.triangles * drawn_pages).saturating_sub(get("triangles_binned"));
+        let samples = out.first().map_or(0, |(_, v)| *v).max(1);
+        let page_texels = u64::from(self.push.page_size).pow(2);
+        out.extend(pages);
+        out.push(("triangles_culled".into(), culled));
+        // Texels of the allocated pages per view sample, in thousandths.
+        out.push((
+            "texels_per_sample_milli".into(),
+            drawn_pages * page_texels * 1000 / samples,
+        ));
+        Ok(out)
+    }
+}

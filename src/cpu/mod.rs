@@ -22,6 +22,7 @@ pub mod receiver_bounds;
 pub mod receiver_plane;
 pub mod receivers;
 pub mod reduce;
+pub mod rmsm;
 pub mod sat;
 pub mod savsm;
 pub mod scan;

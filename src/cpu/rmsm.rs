@@ -1,0 +1,795 @@
+//! CPU twin of the `rmsm` (resolution-matched virtual shadow map) passes: page-table layout,
+//! per-sample requested level and page marking, allocation by compaction, caster culling
+//! against a page, and the lookup's fallback to a coarser resident level.
+//!
+//! It follows the shared rmsm specification the GPU shaders follow, each with its own code: a
+//! virtual map of `V`² level-0 texels in pages of `p`² texels, with `L = log2(V/p) + 1` levels
+//! whose page table lists the coarsest level first (the root is entry 0), so an ascending list of
+//! entries is ordered coarse → fine.
+//!
+//! Tolerance against the GPU: the page layout and allocation are exact. Requested levels, marks
+//! and counters are exact except at samples whose light-space coordinates fall within float
+//! rounding of a texel or page boundary, or whose `log2(f) + lod_bias` falls within rounding of
+//! an integer: the GPU's matrix products may contract `a*b+c` into an FMA and round the other
+//! way. The caster test is exact away from the same rounding at its `eps` margin.
+
+use glam::{Mat4, Vec2, Vec3, Vec4};
+
+use crate::scene::Camera;
+
+/// Largest `V / p` accepted: the entry count `E < 4/3 · (V/p)²` must fit a `u32`.
+const MAX_PAGES_PER_SIDE: u32 = 1 << 15;
+
+/// Page-table geometry of a virtual map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PageLayout {
+    /// Level-0 texels per side, `V` (a power of two).
+    pub virtual_size: u32,
+    /// Texels per page side, `p` (a power of two, at most `V`).
+    pub page_size: u32,
+    /// Mip levels, `L = log2(V / p) + 1`; level `L − 1` is the single root page.
+    pub levels: u32,
+}
+
+impl PageLayout {
+    /// The layout of a `virtual_size`² map in `page_size`² pages; `None` unless both are powers
+    /// of two and `page_size <= virtual_size` (or when the table would not fit `u32` entries).
+    pub fn new(virtual_size: u32, page_size: u32) -> Option<PageLayout> {
+        if !virtual_size.is_power_of_two()
+            || !page_size.is_power_of_two()
+            || page_size > virtual_size
+        {
+            return None;
+        }
+        let n0 = virtual_size / page_size;
+        if n0 > MAX_PAGES_PER_SIDE {
+            return None;
+        }
+        Some(PageLayout {
+            virtual_size,
+            page_size,
+            levels: n0.trailing_zeros() + 1,
+        })
+    }
+
+    /// Pages per side of `level`, `n_l = V / (p · 2^l)` (0 past the root).
+    pub fn pages_per_side(&self, level: u32) -> u32 {
+        (self.virtual_size / self.page_size)
+            .checked_shr(level)
+            .unwrap_or(0)
+    }
+
+    /// Level-`level` texels per side, `V / 2^l` (0 past level 31).
+    fn texels_per_side(&self, level: u32) -> u32 {
+        self.virtual_size.checked_shr(level).unwrap_or(0)
+    }
+
+    /// First entry of `level`: the entries of all coarser levels, `Σ_{k>l} n_k²`.
+    pub fn offset(&self, level: u32) -> u32 {
+        (level + 1..self.levels)
+            .map(|k| self.pages_per_side(k).pow(2))
+            .sum()
+    }
+
+    /// Entries in the whole table, `E = Σ_l n_l²`.
+    pub fn entries(&self) -> u32 {
+        self.offset(0) + self.pages_per_side(0).pow(2)
+    }
+
+    /// Entry of page `(px, py)` of `level`: `offset(l) + py · n_l + px`.
+    pub fn entry(&self, level: u32, px: u32, py: u32) -> u32 {
+        self.offset(level) + py * self.pages_per_side(level) + px
+    }
+
+    /// `(level, px, py)` of an entry; the inverse of [`PageLayout::entry`] for entries below
+    /// [`PageLayout::entries`] (larger ones decode as rows past the end of level 0).
+    pub fn decode(&self, entry: u32) -> (u32, u32, u32) {
+        // Coarse levels come first, so the entry's level is the finest whose offset is ≤ entry.
+        let level = (0..self.levels)
+            .find(|&l| entry >= self.offset(l))
+            .unwrap_or(0);
+        let n = self.pages_per_side(level).max(1);
+        let local = entry - self.offset(level);
+        (level, local % n, local / n)
+    }
+
+    /// Level-0 texel rect `[x0, y0, x1, y1]` of a page: `[px, px + 1] · p · 2^l` by
+    /// `[py, py + 1] · p · 2^l`.
+    pub fn page_rect(&self, level: u32, px: u32, py: u32) -> [f32; 4] {
+        let side = self.page_size as f32 * 2f32.powi(level as i32);
+        [
+            px as f32 * side,
+            py as f32 * side,
+            (px + 1) as f32 * side,
+            (py + 1) as f32 * side,
+        ]
+    }
+
+    /// Entry of the page holding level-`level` texel `t` (inside `[0, V/2^l)` or on its upper
+    /// edge), the page clamped to `[0, n_l − 1]`.
+    fn texel_entry(&self, level: u32, t: (i64, i64)) -> u32 {
+        let last = i64::from(self.pages_per_side(level).max(1)) - 1;
+        let p = i64::from(self.page_size);
+        let px = t.0.div_euclid(p).clamp(0, last) as u32;
+        let py = t.1.div_euclid(p).clamp(0, last) as u32;
+        self.entry(level, px, py)
+    }
+
+    /// Whether level-`level` texel `t` lies in `[0, V/2^l)²` (outside it reads 1.0, lit, and
+    /// needs no page).
+    fn texel_inside(&self, level: u32, t: (i64, i64)) -> bool {
+        let n = i64::from(self.texels_per_side(level));
+        (0..n).contains(&t.0) && (0..n).contains(&t.1)
+    }
+}
+
+/// Level-0 texel coordinates (x, y) and depth z of a world point; `None` behind the light
+/// (`w <= 0`). No y flip; texel centres at .5.
+pub fn light_texel(light_view_proj: Mat4, world: Vec3, virtual_size: u32) -> Option<Vec3> {
+    clip_texel(light_view_proj * world.extend(1.0), virtual_size)
+}
+
+/// Light clip-space position to level-0 texel coordinates and depth; `None` when `w <= 0` (or
+/// NaN).
+fn clip_texel(clip: Vec4, virtual_size: u32) -> Option<Vec3> {
+    if !positive(clip.w) {
+        return None;
+    }
+    let ndc = clip.truncate() / clip.w;
+    let xy = (Vec2::new(ndc.x, ndc.y) * 0.5 + 0.5) * virtual_size as f32;
+    Some(Vec3::new(xy.x, xy.y, ndc.z))
+}
+
+/// `w > 0`, false for NaN: a vertex or sample with NaN w is treated as behind / absent.
+fn positive(w: f32) -> bool {
+    w > 0.0
+}
+
+/// Whether texel coordinates lie inside the virtual map and the depth range (the same test as
+/// `inside_map` of the shadow-map include with map size `V`, bounds included).
+fn inside_virtual(c: Vec3, virtual_size: u32) -> bool {
+    let v = virtual_size as f32;
+    c.x >= 0.0 && c.x <= v && c.y >= 0.0 && c.y <= v && c.z >= 0.0 && c.z <= 1.0
+}
+
+/// The world point where the ray through the centre of `pixel` meets the plane through
+/// `position` with `normal`; `None` when parallel, behind the eye or not finite.
+fn tangent_hit(
+    camera: &Camera,
+    inv: Mat4,
+    pixel: (u32, u32),
+    position: Vec3,
+    normal: Vec3,
+) -> Option<Vec3> {
+    let ndc = Vec2::new(
+        (pixel.0 as f32 + 0.5) / camera.width as f32 * 2.0 - 1.0,
+        (pixel.1 as f32 + 0.5) / camera.height as f32 * 2.0 - 1.0,
+    );
+    let q = inv * Vec4::new(ndc.x, ndc.y, 1.0, 1.0);
+    let d = q.truncate() / q.w - camera.position;
+    let den = d.dot(normal);
+    let t = (position - camera.position).dot(normal) / den;
+    // `den == 0` gives ±∞ or NaN, which the finiteness test rejects as well.
+    if den == 0.0 || t <= 0.0 || !t.is_finite() {
+        return None;
+    }
+    Some(camera.position + t * d)
+}
+
+/// The footprint `f` of the spec: level-0 texels per camera pixel, the larger of the light-space
+/// distances from `position` to where the rays of the right and lower neighbour pixels meet its
+/// tangent plane. `f32::INFINITY` when undefined (a ray parallel to or away from the plane, or a
+/// point behind the light). The neighbours need not lie inside the image: only their rays are
+/// used.
+pub fn footprint(
+    camera: &Camera,
+    pixel: (u32, u32),
+    position: Vec3,
+    normal: Vec3,
+    light_view_proj: Mat4,
+    virtual_size: u32,
+) -> f32 {
+    let inv = camera.view_projection().inverse();
+    let (x, y) = pixel;
+    let hits = (
+        tangent_hit(camera, inv, (x.saturating_add(1), y), position, normal),
+        tangent_hit(camera, inv, (x, y.saturating_add(1)), position, normal),
+    );
+    let (Some(hx), Some(hy)) = hits else {
+        return f32::INFINITY;
+    };
+    let texel = |w: Vec3| light_texel(light_view_proj, w, virtual_size);
+    let (Some(cp), Some(cx), Some(cy)) = (texel(position), texel(hx), texel(hy)) else {
+        return f32::INFINITY;
+    };
+    let xy = |c: Vec3| Vec2::new(c.x, c.y);
+    (xy(cx) - xy(cp)).length().max((xy(cy) - xy(cp)).length())
+}
+
+/// Requested level from a footprint: `clamp(floor(log2(f) + lod_bias), 0, L − 1)`, with
+/// `f = +∞` or NaN → `L − 1` and `f == 0` → 0.
+pub fn requested_level(footprint: f32, lod_bias: f32, layout: &PageLayout) -> u32 {
+    let top = layout.levels.saturating_sub(1);
+    if footprint.is_nan() || footprint == f32::INFINITY {
+        return top;
+    }
+    if footprint <= 0.0 {
+        return 0;
+    }
+    // `max` before `min` sends a NaN (from a NaN bias) to level 0 rather than through `as`.
+    let level = (footprint.log2() + lod_bias)
+        .floor()
+        .max(0.0)
+        .min(top as f32);
+    level as u32
+}
+
+/// Whether a footprint asks for a finer level than level 0 (`log2(f) + lod_bias < 0`).
+fn too_coarse(footprint: f32, lod_bias: f32) -> bool {
+    footprint.log2() + lod_bias < 0.0
+}
+
+/// The level-`level` texels a filter reads at level-0 coords `c`: nearest (`filter` 0) the one
+/// under `c_l`, bilinear (any other filter) the 2×2 from `floor(c_l − 0.5)`.
+fn filter_texels(c: Vec2, level: u32, filter: u32) -> Vec<(i64, i64)> {
+    let cl = c / 2f32.powi(level as i32);
+    if filter == 0 {
+        let t = cl.floor();
+        return vec![(t.x as i64, t.y as i64)];
+    }
+    let b = (cl - 0.5).floor();
+    let (bx, by) = (b.x as i64, b.y as i64);
+    vec![(bx, by), (bx + 1, by), (bx, by + 1), (bx + 1, by + 1)]
+}
+
+/// The pages (entries, ascending and distinct) one sample marks at `level` for filter 0
+/// (nearest: the page of `floor(c_l)`, clamped to the level, so `c == V` marks the last page) or
+/// 1 (bilinear: the pages of those of its 2×2 texels inside the level). `c` is the level-0
+/// coordinates of the receiver.
+pub fn sample_pages(c: Vec2, level: u32, filter: u32, layout: &PageLayout) -> Vec<u32> {
+    let texels = filter_texels(c, level, filter);
+    let mut pages: Vec<u32> = if filter == 0 {
+        texels
+            .into_iter()
+            .map(|t| layout.texel_entry(level, t))
+            .collect()
+    } else {
+        texels
+            .into_iter()
+            .filter(|&t| layout.texel_inside(level, t))
+            .map(|t| layout.texel_entry(level, t))
+            .collect()
+    };
+    pages.sort_unstable();
+    pages.dedup();
+    pages
+}
+
+/// Per-frame requests over a whole view.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Requests {
+    /// Requested level per pixel, row-major; `None` for background, a skipped sample or a
+    /// receiver outside the virtual map.
+    pub level: Vec<Option<u32>>,
+    /// Per entry: marked by some sample; the root (entry 0) always is.
+    pub marked: Vec<bool>,
+    /// Distinct pages per sample, summed over samples (before dedup across samples); the
+    /// root's automatic mark is not counted.
+    pub requested_pages: u64,
+    /// Marking samples whose footprint wants finer than level 0 (`log2(f) + lod_bias < 0`).
+    pub virtual_too_coarse: u64,
+    /// View samples whose receiver lies outside the virtual map (lit, no marks).
+    pub outside_light: u64,
+    /// Samples the technique evaluates: view position and receiver both with w > 0.
+    pub view_samples: u64,
+}
+
+/// Per-frame requests over a whole view of `camera.width × camera.height` pixels.
+///
+/// `positions`, `normals` and `receivers` are row-major images: a view sample has
+/// `positions[i].w > 0`; a receiver with `w <= 0` is skipped (lit, not counted). The footprint
+/// uses the view position P and normal N, the marks the receiver R's coordinates. Pixels past
+/// the end of an image read as zero (background, or no normal: footprint +∞); an empty
+/// `receivers` means R = P.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the view images, light and settings the request pass binds"
+)]
+pub fn requests(
+    camera: &Camera,
+    positions: &[Vec4],
+    normals: &[Vec4],
+    receivers: &[Vec4],
+    light_view_proj: Mat4,
+    layout: &PageLayout,
+    lod_bias: f32,
+    filter: u32,
+) -> Requests {
+    let width = camera.width as usize;
+    let pixels = width * camera.height as usize;
+    let receivers = if receivers.is_empty() {
+        positions
+    } else {
+        receivers
+    };
+    let read = |image: &[Vec4], i: usize| image.get(i).copied().unwrap_or(Vec4::ZERO);
+    let mut out = Requests {
+        level: vec![None; pixels],
+        marked: vec![false; layout.entries() as usize],
+        requested_pages: 0,
+        virtual_too_coarse: 0,
+        outside_light: 0,
+        view_samples: 0,
+    };
+    if let Some(root) = out.marked.first_mut() {
+        *root = true;
+    }
+    for i in 0..pixels {
+        let (p, r) = (read(positions, i), read(receivers, i));
+        if !positive(p.w) || !positive(r.w) {
+            continue;
+        }
+        out.view_samples += 1;
+        let c = match light_texel(light_view_proj, r.truncate(), layout.virtual_size) {
+            Some(c) if inside_virtual(c, layout.virtual_size) => c,
+            _ => {
+                out.outside_light += 1;
+                continue;
+            }
+        };
+        let pixel = ((i % width) as u32, (i / width) as u32);
+        let n = read(normals, i).truncate();
+        let f = footprint(
+            camera,
+            pixel,
+            p.truncate(),
+            n,
+            light_view_proj,
+            layout.virtual_size,
+        );
+        let level = requested_level(f, lod_bias, layout);
+        out.virtual_too_coarse += u64::from(too_coarse(f, lod_bias));
+        out.level[i] = Some(level);
+        let pages = sample_pages(Vec2::new(c.x, c.y), level, filter, layout);
+        out.requested_pages += pages.len() as u64;
+        for e in pages {
+            if let Some(m) = out.marked.get_mut(e as usize) {
+                *m = true;
+            }
+        }
+    }
+    out
+}
+
+/// Allocation: every marked entry, coarse first, gets the next atlas slot while slots last.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Allocation {
+    /// Per entry: slot + 1 when resident, 0 when unmarked or overflowed.
+    pub table: Vec<u32>,
+    /// Slot → entry, `min(unique, pool_pages)` long, entries ascending.
+    pub slots: Vec<u32>,
+    /// Marked entries that got no slot (`overflow_pages`).
+    pub overflow: u32,
+}
+
+impl Allocation {
+    /// Marked entries, root included (`unique_pages`).
+    pub fn unique_pages(&self) -> u32 {
+        self.slots.len() as u32 + self.overflow
+    }
+}
+
+/// Allocates `pool_pages` slots to the marked entries in ascending entry order (the
+/// compaction's order), so coarse pages win when the pool is short.
+pub fn allocate(marked: &[bool], pool_pages: u32) -> Allocation {
+    let mut table = vec![0u32; marked.len()];
+    let mut slots = Vec::new();
+    let mut overflow = 0u32;
+    for (entry, _) in marked.iter().enumerate().filter(|(_, &m)| m) {
+        let i = slots.len() as u32 + overflow;
+        if i < pool_pages {
+            table[entry] = i + 1;
+            slots.push(entry as u32);
+        } else {
+            overflow += 1;
+        }
+    }
+    Allocation {
+        table,
+        slots,
+        overflow,
+    }
+}
+
+/// Columns of the atlas, `ceil(sqrt(pool_pages))`, computed in integers.
+pub fn atlas_columns(pool_pages: u32) -> u32 {
+    // Start from the float root and correct it: f32 loses precision past 2^24.
+    let mut c = (pool_pages as f64).sqrt() as u64;
+    let n = u64::from(pool_pages);
+    while c * c < n {
+        c += 1;
+    }
+    while c > 0 && (c - 1) * (c - 1) >= n {
+        c -= 1;
+    }
+    c as u32
+}
+
+/// Atlas origin in texels of slot `slot`: `(s % cols · p, s / cols · p)`.
+pub fn slot_origin(slot: u32, pool_pages: u32, page_size: u32) -> (u32, u32) {
+    let cols = atlas_columns(pool_pages).max(1);
+    ((slot % cols) * page_size, (slot / cols) * page_size)
+}
+
+/// The spec's caster-culling test: whether a triangle with light clip-space vertices `clip` may
+/// cover page `(level, px, py)` (conservative where a vertex lies behind the light).
+pub fn triangle_overlaps_page(
+    clip: [Vec4; 3],
+    layout: &PageLayout,
+    level: u32,
+    px: u32,
+    py: u32,
+) -> bool {
+    // Wholly in front of the near or behind the far plane: the rasterizer clips it away.
+    if clip.iter().all(|v| v.z < 0.0) || clip.iter().all(|v| v.z > v.w) {
+        return false;
+    }
+    let [x0, y0, x1, y1] = layout.page_rect(level, px, py);
+    let v = layout.virtual_size as f32;
+    if clip.iter().any(|c| !positive(c.w)) {
+        // Projecting would fold the part behind the light; test the page's four side planes in
+        // homogeneous coordinates instead, which holds for every point of the triangle.
+        let ndc = |t: f32| t / v * 2.0 - 1.0;
+        let (nx0, ny0, nx1, ny1) = (ndc(x0), ndc(y0), ndc(x1), ndc(y1));
+        let outside = clip.iter().all(|c| c.x < nx0 * c.w)
+            || clip.iter().all(|c| c.x > nx1 * c.w)
+            || clip.iter().all(|c| c.y < ny0 * c.w)
+            || clip.iter().all(|c| c.y > ny1 * c.w);
+        return !outside;
+    }
+    let mut t = [Vec2::ZERO; 3];
+    for (t, c) in t.iter_mut().zip(clip) {
+        match clip_texel(c, layout.virtual_size) {
+            Some(c) => *t = Vec2::new(c.x, c.y),
+            None => return true,
+        }
+    }
+    let eps = 2f32.powi(level as i32) / 64.0;
+    let (r0, r1) = (Vec2::new(x0 - eps, y0 - eps), Vec2::new(x1 + eps, y1 + eps));
+    let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+    if hi.x < r0.x || lo.x > r1.x || hi.y < r0.y || lo.y > r1.y {
+        return false;
+    }
+    let cross = |a: Vec2, b: Vec2| a.x * b.y - a.y * b.x;
+    let area = cross(t[1] - t[0], t[2] - t[0]);
+    if area == 0.0 || area.is_nan() {
+        return false;
+    }
+    let corners = [r0, Vec2::new(r1.x, r0.y), Vec2::new(r0.x, r1.y), r1];
+    // A corner is outside edge (a, b) when it lies on the other side from the third vertex,
+    // i.e. its edge function has the opposite sign to the triangle's area.
+    let separated = (0..3).any(|i| {
+        let (a, b) = (t[i], t[(i + 1) % 3]);
+        corners
+            .iter()
+            .all(|&q| cross(b - a, q - a) * area.signum() < 0.0)
+    });
+    !separated
+}
+
+/// The spec's lookup: the achieved level for a receiver at level-0 coords `c` wanting level
+/// `desired`, the first level from `desired` up whose texels the filter reads (those inside the
+/// level) all lie on resident pages (`table[entry] != 0`); the root always qualifies.
+pub fn lookup_level(table: &[u32], layout: &PageLayout, c: Vec2, desired: u32, filter: u32) -> u32 {
+    let top = layout.levels.saturating_sub(1);
+    for level in desired.min(top)..top {
+        let resident = filter_texels(c, level, filter)
+            .into_iter()
+            .filter(|&t| layout.texel_inside(level, t))
+            .all(|t| {
+                let e = layout.texel_entry(level, t) as usize;
+                table.get(e).is_some_and(|&s| s != 0)
+            });
+        if resident {
+            return level;
+        }
+    }
+    top
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn layout_512() -> PageLayout {
+        PageLayout::new(512, 128).expect("valid layout")
+    }
+
+    /// Light clip-space vertex at level-0 texel `(x, y)` of a `v`² map, depth 0.5, w = 1.
+    fn clip_at(x: f32, y: f32, v: f32) -> Vec4 {
+        Vec4::new(x / v * 2.0 - 1.0, y / v * 2.0 - 1.0, 0.5, 1.0)
+    }
+
+    #[test]
+    fn layout_counts_and_round_trip() {
+        let big = PageLayout::new(16384, 128).expect("valid layout");
+        assert_eq!(big.levels, 8);
+        assert_eq!(big.entries(), 21845);
+        assert_eq!(big.offset(7), 0);
+        assert_eq!(big.offset(6), 1);
+        assert_eq!(big.offset(0), 21845 - 128 * 128);
+        let small = layout_512();
+        assert_eq!(small.levels, 3);
+        assert_eq!(small.entries(), 21);
+        assert_eq!(
+            [small.offset(2), small.offset(1), small.offset(0)],
+            [0, 1, 5]
+        );
+        for layout in [big, small] {
+            let mut expected = 0;
+            // Coarse first, row-major within a level.
+            for level in (0..layout.levels).rev() {
+                let n = layout.pages_per_side(level);
+                for py in 0..n {
+                    for px in 0..n {
+                        let e = layout.entry(level, px, py);
+                        assert_eq!(e, expected);
+                        assert_eq!(layout.decode(e), (level, px, py));
+                        expected += 1;
+                    }
+                }
+            }
+            assert_eq!(expected, layout.entries());
+        }
+        assert_eq!(small.page_rect(1, 1, 0), [256.0, 0.0, 512.0, 256.0]);
+    }
+
+    #[test]
+    fn layout_rejects_bad_sizes() {
+        assert!(PageLayout::new(500, 128).is_none());
+        assert!(PageLayout::new(512, 100).is_none());
+        assert!(PageLayout::new(128, 512).is_none());
+        assert!(PageLayout::new(512, 0).is_none());
+        assert_eq!(PageLayout::new(128, 128).map(|l| l.levels), Some(1));
+    }
+
+    #[test]
+    fn requested_level_clamps() {
+        let layout = PageLayout::new(16384, 128).expect("valid layout");
+        assert_eq!(requested_level(f32::INFINITY, 0.0, &layout), 7);
+        assert_eq!(requested_level(f32::NAN, 0.0, &layout), 7);
+        assert_eq!(requested_level(1e9, 0.0, &layout), 7);
+        assert_eq!(requested_level(1e-6, 0.0, &layout), 0);
+        assert_eq!(requested_level(0.0, 0.0, &layout), 0);
+        assert_eq!(requested_level(8.0, 0.0, &layout), 3);
+        assert_eq!(requested_level(7.9, 0.0, &layout), 2);
+        assert_eq!(requested_level(8.0, -1.0, &layout), 2);
+        assert_eq!(requested_level(0.75, 0.0, &layout), 0);
+        assert!(too_coarse(0.75, 0.0) && !too_coarse(1.0, 0.0) && too_coarse(0.0, 0.0));
+    }
+
+    /// A camera 2 above the plane y = 0 looking straight down (90° fov, 256² pixels) and an
+    /// orthographic light looking straight down over [-1, 1]² with V = 1024: a pixel spans
+    /// 2·h/W = 1/64 world units, a world unit V/2 = 512 texels, so f = 8.
+    #[test]
+    fn footprint_straight_down() {
+        let h = 2.0;
+        let camera = Camera {
+            position: Vec3::new(0.0, h, 0.0),
+            target: Vec3::ZERO,
+            up: Vec3::NEG_Z,
+            fov_y_deg: 90.0,
+            width: 256,
+            height: 256,
+            near: 0.1,
+            far: 10.0,
+        };
+        let light = Mat4::orthographic_rh(-1.0, 1.0, -1.0, 1.0, 0.1, 10.0)
+            * Mat4::look_at_rh(Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO, Vec3::NEG_Z);
+        let pixel = (140u32, 110u32);
+        // View x is world x, image rows grow with world z (tan(45°) = 1).
+        let ndc = |i: u32| (i as f32 + 0.5) / 256.0 * 2.0 - 1.0;
+        let p = Vec3::new(ndc(pixel.0) * h, 0.0, ndc(pixel.1) * h);
+        let f = footprint(&camera, pixel, p, Vec3::Y, light, 1024);
+        assert!((f - 8.0).abs() < 1e-2, "f = {f}");
+        let layout = PageLayout::new(1024, 128).expect("valid layout");
+        assert_eq!(requested_level(f * 1.001, 0.0, &layout), 3);
+        // Behind the eye: the plane through a point above the camera faces away.
+        let behind = footprint(
+            &camera,
+            pixel,
+            Vec3::new(0.0, 3.0, 0.0),
+            Vec3::Y,
+            light,
+            1024,
+        );
+        assert_eq!(behind, f32::INFINITY);
+
+        // The whole view: a receiver plane at y = 0 fully inside the light's map.
+        let (w, hgt) = (camera.width as usize, camera.height as usize);
+        let mut positions = vec![Vec4::ZERO; w * hgt];
+        for (i, pos) in positions.iter_mut().enumerate() {
+            let q = Vec3::new(ndc((i % w) as u32) * h, 0.0, ndc((i / w) as u32) * h);
+            if q.x.abs() < 0.9 && q.z.abs() < 0.9 {
+                *pos = q.extend(1.0);
+            }
+        }
+        let normals = vec![Vec4::new(0.0, 1.0, 0.0, 0.0); w * hgt];
+        let r = requests(&camera, &positions, &normals, &[], light, &layout, 0.0, 0);
+        let samples = positions.iter().filter(|p| p.w > 0.0).count() as u64;
+        assert_eq!(r.view_samples, samples);
+        assert_eq!(r.outside_light, 0);
+        assert_eq!(r.virtual_too_coarse, 0);
+        assert_eq!(r.requested_pages, samples);
+        // f = 8 sits on a level boundary: rounding may pick level 2 or 3.
+        assert!(r.level.iter().flatten().all(|&l| l == 2 || l == 3));
+        assert!(r.marked[0]);
+    }
+
+    #[test]
+    fn skipped_and_outside_samples() {
+        let layout = layout_512();
+        let camera = Camera {
+            position: Vec3::new(0.0, 2.0, 0.0),
+            target: Vec3::ZERO,
+            up: Vec3::NEG_Z,
+            fov_y_deg: 90.0,
+            width: 2,
+            height: 1,
+            near: 0.1,
+            far: 10.0,
+        };
+        let light = Mat4::orthographic_rh(-1.0, 1.0, -1.0, 1.0, 0.1, 10.0)
+            * Mat4::look_at_rh(Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO, Vec3::NEG_Z);
+        let positions = [Vec4::new(0.0, 0.0, 0.0, 1.0), Vec4::new(0.5, 0.0, 0.0, 1.0)];
+        let normals = [Vec4::new(0.0, 1.0, 0.0, 0.0); 2];
+        // Pixel 0 skipped by its receiver, pixel 1's receiver outside the light's map.
+        let receivers = [Vec4::ZERO, Vec4::new(5.0, 0.0, 0.0, 1.0)];
+        let r = requests(
+            &camera, &positions, &normals, &receivers, light, &layout, 0.0, 1,
+        );
+        assert_eq!(r.view_samples, 1);
+        assert_eq!(r.outside_light, 1);
+        assert_eq!(r.requested_pages, 0);
+        assert_eq!(r.level, vec![None, None]);
+        assert_eq!(r.marked.iter().filter(|&&m| m).count(), 1);
+    }
+
+    #[test]
+    fn sample_pages_nearest_and_bilinear() {
+        let layout = layout_512();
+        // Level 0, pages 128 texels: entry offset 5, 4 per row.
+        assert_eq!(sample_pages(Vec2::new(10.0, 10.0), 0, 0, &layout), vec![5]);
+        // c == V lands on the texel past the level: its page clamps to the last one.
+        assert_eq!(
+            sample_pages(Vec2::new(512.0, 512.0), 0, 0, &layout),
+            vec![20]
+        );
+        // Bilinear across the corner of four pages.
+        assert_eq!(
+            sample_pages(Vec2::new(128.2, 128.3), 0, 1, &layout),
+            vec![5, 6, 9, 10]
+        );
+        // Bilinear at the map's corner: only the texel inside the level counts.
+        assert_eq!(sample_pages(Vec2::new(0.2, 0.2), 0, 1, &layout), vec![5]);
+        // Level 1: c / 2 = (100, 64.1), base (99, 63) → page rows 0.
+        assert_eq!(
+            sample_pages(Vec2::new(200.0, 128.2), 1, 1, &layout),
+            vec![1]
+        );
+        assert_eq!(
+            sample_pages(Vec2::new(300.0, 300.0), 2, 1, &layout),
+            vec![0]
+        );
+    }
+
+    #[test]
+    fn allocate_overflows_fine_pages() {
+        let mut marked = vec![false; 21];
+        for e in [0usize, 3, 7, 20] {
+            marked[e] = true;
+        }
+        let a = allocate(&marked, 2);
+        assert_eq!(a.slots, vec![0, 3]);
+        assert_eq!(a.overflow, 2);
+        assert_eq!(a.unique_pages(), 4);
+        assert_eq!(a.table[0], 1);
+        assert_eq!(a.table[3], 2);
+        assert_eq!(a.table.iter().filter(|&&s| s != 0).count(), 2);
+        let all = allocate(&marked, 64);
+        assert_eq!(all.overflow, 0);
+        assert_eq!(all.table[20], 4);
+        assert_eq!(atlas_columns(5), 3);
+        assert_eq!(atlas_columns(4), 2);
+        assert_eq!(atlas_columns(0), 0);
+        assert_eq!(slot_origin(4, 5, 128), (128, 128));
+    }
+
+    #[test]
+    fn triangle_against_page() {
+        let layout = layout_512();
+        let v = 512.0;
+        // Page (1, 1) of level 0: texels [128, 256]².
+        let inside = [
+            clip_at(150.0, 150.0, v),
+            clip_at(200.0, 150.0, v),
+            clip_at(150.0, 200.0, v),
+        ];
+        assert!(triangle_overlaps_page(inside, &layout, 0, 1, 1));
+        let far = [
+            clip_at(400.0, 400.0, v),
+            clip_at(450.0, 400.0, v),
+            clip_at(400.0, 450.0, v),
+        ];
+        assert!(!triangle_overlaps_page(far, &layout, 0, 1, 1));
+        // Its bounding box covers the page's corner (256, 256), but the hypotenuse x + y = 540
+        // leaves every corner of the rect on the outside.
+        let corner = [
+            clip_at(240.0, 300.0, v),
+            clip_at(300.0, 240.0, v),
+            clip_at(300.0, 300.0, v),
+        ];
+        assert!(!triangle_overlaps_page(corner, &layout, 0, 1, 1));
+        // The same winding reversed is still separated.
+        let reversed = [corner[1], corner[0], corner[2]];
+        assert!(!triangle_overlaps_page(reversed, &layout, 0, 1, 1));
+        // A triangle bigger than the page covers it.
+        let big = [
+            clip_at(0.0, 0.0, v),
+            clip_at(512.0, 0.0, v),
+            clip_at(0.0, 512.0, v),
+        ];
+        assert!(triangle_overlaps_page(big, &layout, 0, 1, 1));
+        // Within eps (1/64 texel at level 0) of the page's edge counts as touching.
+        let touching = [
+            clip_at(256.01, 150.0, v),
+            clip_at(300.0, 150.0, v),
+            clip_at(256.01, 200.0, v),
+        ];
+        assert!(triangle_overlaps_page(touching, &layout, 0, 1, 1));
+        // Degenerate.
+        let line = [inside[0], inside[1], inside[0]];
+        assert!(!triangle_overlaps_page(line, &layout, 0, 1, 1));
+        // Beyond the far plane.
+        let deep = inside.map(|c| Vec4::new(c.x, c.y, 1.5, 1.0));
+        assert!(!triangle_overlaps_page(deep, &layout, 0, 1, 1));
+        // A vertex behind the light: conservative unless all lie beyond one side plane.
+        let mut behind = inside;
+        behind[0].w = -1.0;
+        assert!(triangle_overlaps_page(behind, &layout, 0, 1, 1));
+        // x0 of page (1, 1) is ndc -0.5: x < -0.5 w for all three vertices.
+        let left = [
+            Vec4::new(-0.9, 0.0, 0.5, 1.0),
+            Vec4::new(-0.8, 0.1, 0.5, 1.0),
+            Vec4::new(0.2, 0.0, 0.5, -1.0),
+        ];
+        assert!(!triangle_overlaps_page(left, &layout, 0, 1, 1));
+    }
+
+    #[test]
+    fn lookup_falls_back() {
+        let layout = layout_512();
+        let c = Vec2::new(100.0, 300.0);
+        // Only the root resident: it is the achieved level whatever is asked.
+        let mut table = vec![0u32; 21];
+        table[0] = 1;
+        assert_eq!(lookup_level(&table, &layout, c, 0, 0), 2);
+        assert_eq!(lookup_level(&table, &layout, c, 0, 1), 2);
+        assert_eq!(lookup_level(&[], &layout, c, 0, 0), 2);
+        // Level 1 page (0, 1) (c / 2 = (50, 150)) resident: fall back to level 1.
+        table[layout.entry(1, 0, 1) as usize] = 2;
+        assert_eq!(lookup_level(&table, &layout, c, 0, 0), 1);
+        assert_eq!(lookup_level(&table, &layout, c, 1, 1), 1);
+        // The desired level-0 page (0, 2) resident.
+        table[layout.entry(0, 0, 2) as usize] = 3;
+        assert_eq!(lookup_level(&table, &layout, c, 0, 0), 0);
+        // Bilinear across the x boundary of level 0 needs pages (0, 2) and (1, 2).
+        let edge = Vec2::new(128.2, 300.0);
+        assert_eq!(lookup_level(&table, &layout, edge, 0, 1), 1);
+        table[layout.entry(0, 1, 2) as usize] = 4;
+        assert_eq!(lookup_level(&table, &layout, edge, 0, 1), 0);
+        // Asking for the root or past it gives the root.
+        assert_eq!(lookup_level(&table, &layout, c, 2, 0), 2);
+        assert_eq!(lookup_level(&table, &layout, c, 9, 0), 2);
+    }
+}

@@ -85,18 +85,24 @@ void main() {
                 }
                 atomicAdd(group_counts[level == wanted ? 6 : 5], 1u);
                 vec2 cl = c.xy / float(1u << level);
+                float scale = float(1u << level);
+                vec3 n = imageLoad(normals, pixel).xyz;
                 if (pc.filter_mode == 0u) {
-                    v = test_texel(ivec2(floor(cl)), level, c.z);
+                    ivec2 t = ivec2(floor(cl));
+                    float z = compare_depth((vec2(t) + 0.5) * scale, c.xy, c.z, r.xyz, n);
+                    v = test_texel(t, level, z);
                 } else {
                     vec2 t = cl - 0.5;
                     vec2 base = floor(t);
                     vec2 w = t - base;
                     ivec2 b = ivec2(base);
-                    float s00 = test_texel(b, level, c.z);
-                    float s10 = test_texel(b + ivec2(1, 0), level, c.z);
-                    float s01 = test_texel(b + ivec2(0, 1), level, c.z);
-                    float s11 = test_texel(b + ivec2(1, 1), level, c.z);
-                    v = mix(mix(s00, s10, w.x), mix(s01, s11, w.x), w.y);
+                    float s[4];
+                    for (int k = 0; k < 4; ++k) {
+                        ivec2 tk = b + ivec2(k & 1, k >> 1);
+                        float z = compare_depth((vec2(tk) + 0.5) * scale, c.xy, c.z, r.xyz, n);
+                        s[k] = test_texel(tk, level, z);
+                    }
+                    v = mix(mix(s[0], s[1], w.x), mix(s[2], s[3], w.x), w.y);
                 }
             }
             atomicAdd(group_counts[v >= 1.0 ? 2 : (v <= 0.0 ? 3 : 4)], 1u);

@@ -19,10 +19,14 @@ layout(push_constant) uniform Push {
     float lod_bias;
 } pc;
 
-// The camera that made the view samples: clip -> world, and its position.
+// The camera that made the view samples (clip -> world, and its position), and the light's
+// clip -> world.
 layout(set = 0, binding = 3) readonly buffer Camera {
     mat4 inv_view_proj;
     vec4 eye;
+    mat4 light_inv_view_proj;
+    // x: 1 compares each texel with the receiver's tangent plane under the texel's centre.
+    uvec4 options;
 } camera;
 
 // World point where the ray through the centre of pixel `pixel` meets the plane (p, n); false
@@ -73,4 +77,34 @@ uint requested_level(float f) {
 ivec2 filter_base(vec2 c, uint level) {
     vec2 cl = c / float(1u << level);
     return pc.filter_mode == 0u ? ivec2(floor(cl)) : ivec2(floor(cl - 0.5));
+}
+
+// NDC depth of the plane (r, n) on the light ray through level-0 texel-space point t; `fallback`
+// where that ray runs (nearly) inside the plane or meets it behind the light.
+float plane_depth(vec2 t, vec3 r, vec3 n, float fallback) {
+    vec2 ndc = t / float(pc.virtual_size) * 2.0 - 1.0;
+    vec4 a = camera.light_inv_view_proj * vec4(ndc, 0.0, 1.0);
+    vec4 b = camera.light_inv_view_proj * vec4(ndc, 1.0, 1.0);
+    vec3 o = a.xyz / a.w;
+    vec3 d = b.xyz / b.w - o;
+    float den = dot(d, n);
+    float s = dot(r - o, n) / den;
+    vec4 clip = pc.light_view_proj * vec4(o + s * d, 1.0);
+    bool ok = abs(den) > 1e-6 * length(d) * length(n) && clip.w > 0.0;
+    return ok ? clip.z / clip.w : fallback;
+}
+
+// The receiver depth to compare with the texel whose level-0 centre is `centre`: the sample's
+// own depth z, moved along its tangent plane (r, n) from the sample's coordinates c to the
+// centre when camera.options.x is set. A nearest lookup otherwise compares the map's depth at
+// the texel centre with the receiver's depth up to half a texel away, which on a receiver
+// grazed by the light differs by more than any constant bias (shadow acne); the difference of
+// two plane depths cancels the plane intersection's own rounding at the sample.
+float compare_depth(vec2 centre, vec2 c, float z, vec3 r, vec3 n) {
+    if (camera.options.x == 0u) {
+        return z;
+    }
+    float at_centre = plane_depth(centre, r, n, z);
+    float at_sample = plane_depth(c, r, n, z);
+    return z + (at_centre - at_sample);
 }

@@ -243,23 +243,18 @@ fn filter_texels(c: Vec2, level: u32, filter: u32) -> Vec<(i64, i64)> {
 }
 
 /// The pages (entries, ascending and distinct) one sample marks at `level` for filter 0
-/// (nearest: the page of `floor(c_l)`, clamped to the level, so `c == V` marks the last page) or
-/// 1 (bilinear: the pages of those of its 2×2 texels inside the level). `c` is the level-0
+/// (nearest: the page of `floor(c_l)`) or 1 (bilinear: its 2×2 texels); a texel outside the
+/// level (`c == V`) marks nothing. `c` is the level-0
 /// coordinates of the receiver.
 pub fn sample_pages(c: Vec2, level: u32, filter: u32, layout: &PageLayout) -> Vec<u32> {
     let texels = filter_texels(c, level, filter);
-    let mut pages: Vec<u32> = if filter == 0 {
-        texels
-            .into_iter()
-            .map(|t| layout.texel_entry(level, t))
-            .collect()
-    } else {
-        texels
-            .into_iter()
-            .filter(|&t| layout.texel_inside(level, t))
-            .map(|t| layout.texel_entry(level, t))
-            .collect()
-    };
+    // A texel outside the level (a receiver exactly on the map's far edge) reads as lit and
+    // needs no page, for either filter: the lookup does not look for one.
+    let mut pages: Vec<u32> = texels
+        .into_iter()
+        .filter(|&t| layout.texel_inside(level, t))
+        .map(|t| layout.texel_entry(level, t))
+        .collect();
     pages.sort_unstable();
     pages.dedup();
     pages
@@ -660,11 +655,8 @@ mod tests {
         let layout = layout_512();
         // Level 0, pages 128 texels: entry offset 5, 4 per row.
         assert_eq!(sample_pages(Vec2::new(10.0, 10.0), 0, 0, &layout), vec![5]);
-        // c == V lands on the texel past the level: its page clamps to the last one.
-        assert_eq!(
-            sample_pages(Vec2::new(512.0, 512.0), 0, 0, &layout),
-            vec![20]
-        );
+        // c == V lands on the texel past the level: lit without a page, so nothing is marked.
+        assert!(sample_pages(Vec2::new(512.0, 512.0), 0, 0, &layout).is_empty());
         // Bilinear across the corner of four pages.
         assert_eq!(
             sample_pages(Vec2::new(128.2, 128.3), 0, 1, &layout),

@@ -50,7 +50,7 @@ const fn knob(name: &'static str, summary: &'static str, default: f64, min: f64,
     }
 }
 
-const KNOBS: [Knob; 9] = [
+const KNOBS: [Knob; 10] = [
     knob(
         "virtual_size",
         "virtual shadow-map width and height in level-0 texels (power of two)",
@@ -92,6 +92,13 @@ const KNOBS: [Knob; 9] = [
             1.0,
         )
     },
+    knob(
+        "tangent_plane",
+        "1: compare each texel with the receiver's tangent plane under its centre; 0: one depth",
+        1.0,
+        0.0,
+        1.0,
+    ),
     knob(
         "bin_factor",
         "caster bin entries per scene triangle (pages past it fall back)",
@@ -155,14 +162,21 @@ impl<'a> Rmsm<'a> {
         let pages = VirtualPages::new(ctx, "rmsm", setup.light_view, setup.geometry, desc)?;
         let camera = setup.camera;
         let eye = camera.position;
-        let camera_data: [Vec4; 5] = {
+        let tangent_plane = params.u32("tangent_plane")?;
+        let camera_data: [Vec4; 10] = {
             let inv = camera.view_projection().inverse();
+            let light_inv = setup.light_view.view_proj.inverse();
             [
                 inv.x_axis,
                 inv.y_axis,
                 inv.z_axis,
                 inv.w_axis,
                 eye.extend(1.0),
+                light_inv.x_axis,
+                light_inv.y_axis,
+                light_inv.z_axis,
+                light_inv.w_axis,
+                Vec4::new(f32::from_bits(tangent_plane), 0.0, 0.0, 0.0),
             ]
         };
         let camera_buffer = ctx.buffer_with(

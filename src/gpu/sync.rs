@@ -144,7 +144,8 @@ impl Tracker {
     pub(crate) fn use_as(&self, next: Access, is_image: bool) -> Option<Transition> {
         let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
         let (stage, access, layout) = next.info();
-        let new_layout = if is_image && !matches!(next, Access::VertexInput | Access::IndirectRead) {
+        let new_layout = if is_image && !matches!(next, Access::VertexInput | Access::IndirectRead)
+        {
             layout
         } else {
             s.layout

@@ -232,10 +232,7 @@ impl<'a> VirtualPages<'a> {
                 | vk::BufferUsageFlags::TRANSFER_SRC,
             MemoryLocation::GpuOnly,
         )?;
-        let counters = storage(
-            "page counters",
-            4 * PAGE_COUNTER_NAMES.len() as u64,
-        )?;
+        let counters = storage("page counters", 4 * PAGE_COUNTER_NAMES.len() as u64)?;
         let (w, h) = desc.atlas_size();
         let atlas = Image::new(
             ctx,

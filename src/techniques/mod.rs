@@ -70,6 +70,11 @@ pub trait Technique {
     fn shadow_map(&self) -> Option<&crate::passes::ShadowMap> {
         None
     }
+
+    /// The virtual map's pages it renders, if any: for tests and debugging views.
+    fn virtual_pages(&self) -> Option<&crate::passes::pages::VirtualPages<'_>> {
+        None
+    }
 }
 
 /// Reads a counters buffer back as `(name, value)` pairs, one u32 slot per name in order: what

@@ -267,19 +267,15 @@ impl Technique for Rmsm<'_> {
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        let mut out = super::read_counters(&self.ctx, &self.lookup_counters, &LOOKUP_COUNTER_NAMES)?;
+        let mut out =
+            super::read_counters(&self.ctx, &self.lookup_counters, &LOOKUP_COUNTER_NAMES)?;
         out.extend(super::read_counters(
             &self.ctx,
             &self.mark_counters,
             &["requested_pages"],
         )?);
         let pages = self.pages.counters()?;
-        let get = |name: &str| {
-            pages
-                .iter()
-                .find(|(n, _)| n == name)
-                .map_or(0, |(_, v)| *v)
-        };
+        let get = |name: &str| pages.iter().find(|(n, _)| n == name).map_or(0, |(_, v)| *v);
         // Work skipped by culling: triangles not drawn into a page, summed over drawn pages.
         let drawn_pages = get("allocated_pages").saturating_sub(get("bin_overflow_pages"));
         let culled = (self.triangles * drawn_pages).saturating_sub(get("triangles_binned"));
@@ -293,5 +289,9 @@ impl Technique for Rmsm<'_> {
             drawn_pages * page_texels * 1000 / samples,
         ));
         Ok(out)
+    }
+
+    fn virtual_pages(&self) -> Option<&VirtualPages<'_>> {
+        Some(&self.pages)
     }
 }

@@ -1,6 +1,7 @@
 #version 460
 // rmsm requests: every view sample marks the page(s) its filter reads at the level matching its
-// screen footprint; the root page is always marked so every lookup has a page to fall back to.
+// screen footprint, and their ancestors; the root page is always marked, so every lookup has a
+// page to fall back to.
 // Marks are plain stores of 1 (any nonzero keeps an entry in the compaction). `requested_pages`
 // counts the marks before deduplication (a sample's distinct pages once each).
 // CPU twin: requests() in src/cpu/rmsm.rs.
@@ -17,6 +18,21 @@ layout(set = 0, binding = 4) buffer Table { uint table[]; };
 layout(set = 0, binding = 5) buffer Counters { uint counters[]; };
 
 shared uint group_marks;
+
+// Marks the coarser pages over `page` up to the root, so that when the pool runs out at a fine
+// level the samples there fall back one level, not to whatever coarse page happens to exist.
+// Allocation runs coarse first, so an ancestor is always served before its descendants. A walk
+// stops at an ancestor already marked: whoever marked it walks (or walked) on from there.
+void mark_ancestors(uint level, uvec2 page) {
+    for (uint l = level + 1u; l < pc.levels; ++l) {
+        page >>= 1u;
+        uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, l, page);
+        if (table[e] != 0u) {
+            break;
+        }
+        table[e] = 1u;
+    }
+}
 
 void main() {
     if (gl_LocalInvocationIndex == 0u) {
@@ -53,6 +69,7 @@ void main() {
                         marked[count] = e;
                         count += 1u;
                         table[e] = 1u;
+                        mark_ancestors(level, texel_page(t, pc.page_size));
                     }
                 }
             }

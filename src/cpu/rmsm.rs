@@ -266,7 +266,8 @@ pub struct Requests {
     /// Requested level per pixel, row-major; `None` for background, a skipped sample or a
     /// receiver outside the virtual map.
     pub level: Vec<Option<u32>>,
-    /// Per entry: marked by some sample; the root (entry 0) always is.
+    /// Per entry: marked by some sample, itself or as an ancestor of a page it marks (so every
+    /// marked page has its whole chain up to the root marked); the root always is.
     pub marked: Vec<bool>,
     /// Distinct pages per sample, summed over samples (before dedup across samples); the
     /// root's automatic mark is not counted.
@@ -348,8 +349,16 @@ pub fn requests(
         let pages = sample_pages(Vec2::new(c.x, c.y), level, filter, layout);
         out.requested_pages += pages.len() as u64;
         for e in pages {
-            if let Some(m) = out.marked.get_mut(e as usize) {
-                *m = true;
+            // The page and every coarser page over it, up to the root.
+            let (mut l, mut px, mut py) = layout.decode(e);
+            loop {
+                if let Some(m) = out.marked.get_mut(layout.entry(l, px, py) as usize) {
+                    *m = true;
+                }
+                if l + 1 >= layout.levels {
+                    break;
+                }
+                (l, px, py) = (l + 1, px / 2, py / 2);
             }
         }
     }

@@ -30,6 +30,9 @@ pub struct BenchArgs {
     /// Light-size factors: each scene is also run with its light scaled (rect edges, angular
     /// diameter); 1 is the scene as written.
     pub light_scales: Vec<f32>,
+    /// Camera-distance factors: each scene is also run with its camera moved along its view
+    /// ray to this multiple of its distance from the target; 1 is the scene as written.
+    pub camera_scales: Vec<f32>,
     pub device: Option<String>,
     pub validation: bool,
     pub cache: Option<PathBuf>,
@@ -39,7 +42,7 @@ pub struct BenchArgs {
 fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> {
     match (technique, quick) {
         ("hard", true) => vec![("map_size", vec![512.0, 1024.0])],
-        ("hard", false) => vec![("map_size", vec![512.0, 1024.0, 2048.0, 4096.0])],
+        ("hard", false) => vec![("map_size", vec![512.0, 1024.0, 2048.0, 4096.0, 8192.0])],
         ("pcf", true) => vec![("map_size", vec![1024.0]), ("kernel", vec![1.0, 3.0, 5.0])],
         ("pcf", false) => vec![
             ("map_size", vec![1024.0, 2048.0]),
@@ -143,6 +146,17 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
         ("essm", false) => vec![
             ("map_size", vec![1024.0, 2048.0]),
             ("exponent", vec![40.0, 80.0, 200.0]),
+        ],
+        // Resolution-matched virtual maps: the virtual size against `hard`'s map size, with the
+        // default pool (256 pages of 128², one 2048² map); lod_bias -2 asks for texels a quarter
+        // of the screen's footprint.
+        ("rmsm", true) => vec![("virtual_size", vec![2048.0, 16384.0])],
+        ("rmsm", false) => vec![
+            (
+                "virtual_size",
+                vec![1024.0, 2048.0, 4096.0, 8192.0, 16384.0],
+            ),
+            ("lod_bias", vec![0.0, -2.0]),
         ],
         _ => Vec::new(),
     }
@@ -307,6 +321,19 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     {
         anyhow::bail!("--light-scale {bad}: expected a factor in (0, 100]");
     }
+    if let Some(bad) = args
+        .camera_scales
+        .iter()
+        .find(|s| !(s.is_finite() && **s > 0.0 && **s <= 100.0))
+    {
+        anyhow::bail!("--camera-scale {bad}: expected a factor in (0, 100]");
+    }
+    // Every (light scale, camera scale) a scene is run with.
+    let variants: Vec<(f32, f32)> = args
+        .light_scales
+        .iter()
+        .flat_map(|&l| args.camera_scales.iter().map(move |&c| (l, c)))
+        .collect();
     let frames = args.frames.unwrap_or(3);
     let ref_samples = if args.quick { "8" } else { "32" };
 
@@ -335,7 +362,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         device: args.device.clone(),
     })?;
     let ctx = engine.context().clone();
-    let bar = ProgressBar::new((scenes.len() * args.light_scales.len() * (plan.len() + 1)) as u64);
+    let bar = ProgressBar::new((scenes.len() * variants.len() * (plan.len() + 1)) as u64);
     bar.set_style(
         ProgressStyle::with_template(
             "{spinner} [{bar:30}] {pos}/{len} {msg} ({elapsed}, eta {eta})",
@@ -370,7 +397,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         .context("at least one --reference is needed")?
         .clone();
     for spec in &scenes {
-        for &light_scale in &args.light_scales {
+        for &(light_scale, camera_scale) in &variants {
             let mut scene = Scene::open(spec)?;
             if args.quick {
                 scene.camera.width = (scene.camera.width / 2).max(16);
@@ -383,6 +410,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                     continue;
                 }
                 scene.name = format!("{}-light{light_scale}", scene.name);
+            }
+            if camera_scale != 1.0 {
+                let camera = &mut scene.camera;
+                camera.position = camera.target + (camera.position - camera.target) * camera_scale;
+                scene.name = format!("{}-camera{camera_scale}", scene.name);
             }
             bar.set_message(format!("{}: references", scene.name));
             let prepared = engine.prepare(&scene)?;
@@ -415,6 +447,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                     "scene": prepared.name,
                     "scene_source": prepared.source,
                     "light_scale": light_scale,
+                    "camera_scale": camera_scale,
                     "technique": technique,
                     "label": label(overrides),
                     "device": ctx.info().name,
@@ -488,6 +521,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut columns: Vec<String> = [
         "scene",
         "light_scale",
+        "camera_scale",
         "technique",
         "label",
         "total_gpu_ms",
@@ -499,7 +533,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "light_leak",
         "flip",
         "nan_count",
+        "memory_bytes",
         "memory_bytes_per_texel",
+        "allocated_pages",
+        "overflow_pages",
+        "fallback_lookups",
         "skipped_lit",
         "skipped_umbra",
         "passes",
@@ -508,9 +546,14 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     .iter()
     .map(|c| c.to_string())
     .collect();
+    // Each further reference's columns follow the primary's penumbra MAE.
+    let after = columns
+        .iter()
+        .position(|c| c == "penumbra_mae")
+        .map_or(0, |i| i + 1);
     for (name, _) in reference_specs.iter().skip(1) {
-        columns.insert(9, format!("rmse@{name}"));
-        columns.insert(9, format!("penumbra_mae@{name}"));
+        columns.insert(after, format!("rmse@{name}"));
+        columns.insert(after, format!("penumbra_mae@{name}"));
     }
     let mut csv = columns.join(",") + "\n";
     for r in &rows {

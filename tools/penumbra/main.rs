@@ -119,6 +119,11 @@ enum Command {
         /// (rect edges, angular diameter; point lights are run once).
         #[arg(long, default_value = "1", value_delimiter = ',')]
         light_scale: Vec<f32>,
+        /// Camera-distance factors, comma-separated: each scene also runs with its camera moved
+        /// along its view ray to this multiple of its distance from the target (e.g. `1,0.5,0.25`
+        /// to see how many pages a virtual map renders as the camera closes in).
+        #[arg(long, default_value = "1", value_delimiter = ',')]
+        camera_scale: Vec<f32>,
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
@@ -538,6 +543,7 @@ fn main() {
             frames,
             reference,
             light_scale,
+            camera_scale,
             out,
             device,
             cache,
@@ -550,6 +556,7 @@ fn main() {
             frames: *frames,
             references: reference.clone(),
             light_scales: light_scale.clone(),
+            camera_scales: camera_scale.clone(),
             device: device.device.clone(),
             validation: !device.no_validation,
             cache: cache.dir(),

@@ -185,6 +185,10 @@ pub struct PagesPush {
     pub capacity: u32,
     /// `bin.comp`: 0 counts, 1 scatters.
     pub mode: u32,
+    /// 0: the requests' round; 1: the refinement round.
+    pub round: u32,
+    /// Padding to the block's declared size.
+    pub pad: [u32; 3],
 }
 
 /// `glsl/rmsm/rmsm.glsl` (mark and lookup).
@@ -207,4 +211,8 @@ pub struct RmsmPush {
     pub filter_mode: u32,
     /// Added to log2 of the footprint.
     pub lod_bias: f32,
+    /// Levels finer that a shadow-edge sample asks for (0: no refinement round).
+    pub refine: u32,
+    /// Padding to the block's declared size.
+    pub pad: [u32; 3],
 }

@@ -25,13 +25,20 @@ use penumbra::{Engine, Frame};
 struct Run {
     frame: Frame,
     list: Vec<u32>,
+    refine_list: Vec<u32>,
     table: Vec<u32>,
     bins: Vec<(u32, u32)>,
     slots: Vec<[u32; 4]>,
 }
 
+/// `set` over the kernel-only knobs, with pages of 128², requests matched to the screen
+/// (`lod_bias` 0) and no refinement round unless `set` says otherwise (the twin's request and
+/// allocation rules describe round 0; `refinement_*` covers round 1).
 fn knobs(set: &[(&str, &str)]) -> BTreeMap<String, String> {
     let mut m = common::knobs(set);
+    for (k, v) in [("refine", "0"), ("page_size", "128"), ("lod_bias", "0")] {
+        m.entry(k.into()).or_insert(v.into());
+    }
     for (k, v) in common::KERNEL_ONLY {
         m.entry(k.into()).or_insert(v.to_string());
     }
@@ -48,10 +55,12 @@ fn counter(frame: &Frame, name: &str) -> u64 {
 
 fn run(engine: &Engine, prepared: &PreparedScene, set: &[(&str, &str)]) -> Run {
     let (mut list, mut table, mut bins, mut slots) = (vec![], vec![], vec![], vec![]);
+    let mut refine_list = vec![];
     let frame = engine
         .render_inspect(prepared, "rmsm", &knobs(set), 1, |t| {
             let pages = t.virtual_pages().expect("rmsm has pages");
             list = pages.read_page_list()?;
+            refine_list = pages.read_refine_list()?;
             table = pages.read_table()?;
             bins = pages.read_bins()?;
             slots = pages.read_slots()?;
@@ -66,6 +75,7 @@ fn run(engine: &Engine, prepared: &PreparedScene, set: &[(&str, &str)]) -> Run {
     Run {
         frame,
         list,
+        refine_list,
         table,
         bins,
         slots,
@@ -376,7 +386,10 @@ fn level_zero_pages_equal_a_full_hard_map() {
     let size = 512u32;
     let bias = [("bias_constant", "1.5"), ("bias_slope", "2")];
     let mut depth = Vec::new();
-    let mut hard_knobs = knobs(&bias);
+    let mut hard_knobs = common::knobs(&bias);
+    for (k, v) in common::KERNEL_ONLY {
+        hard_knobs.insert(k.into(), v.into());
+    }
     hard_knobs.insert("map_size".into(), size.to_string());
     let hard = engine
         .render_inspect(&prepared, "hard", &hard_knobs, 1, |t| {
@@ -473,5 +486,71 @@ fn bad_knobs_are_clear_errors() {
         };
         assert!(err.contains(expect), "{set:?}: {err}");
     }
+    common::assert_clean(&engine.context().validation());
+}
+
+#[test]
+fn refinement_allocates_after_round_zero_and_sharpens_edges() {
+    let engine = common::engine();
+    let prepared = prepare(&engine, "scenes/spot-point.toml");
+    let ref_set = common::knobs(&[("samples", "1")]);
+    let (reference, _) =
+        penumbra::evaluate::reference_frame(&engine, &prepared, "reference", &ref_set, None)
+            .expect("reference");
+    let positions = prepared
+        .view
+        .read_positions(engine.context())
+        .expect("positions");
+    let is_sample: Vec<bool> = positions.iter().map(|p| p.w > 0.0).collect();
+    let base = [
+        ("virtual_size", "16384"),
+        ("page_size", "64"),
+        ("pool_pages", "1024"),
+    ];
+    let measure = |refine: &str| {
+        let mut set = base.to_vec();
+        set.push(("refine", refine));
+        let gpu = run(&engine, &prepared, &set);
+        let error =
+            penumbra::metrics::compare(&reference.visibility, &gpu.frame.visibility, &is_sample)
+                .expect("metrics");
+        (gpu, error.misclassified)
+    };
+    let (plain, plain_error) = measure("0");
+    let (refined, refined_error) = measure("3");
+    let f = &refined.frame;
+    let edges = counter(f, "edge_samples");
+    assert!(edges > 0, "no shadow edge found");
+    assert!(counter(f, "refined_samples") <= edges);
+    assert!(counter(f, "refine_allocated_pages") > 0);
+    // Round 0 is the same with or without the refinement, and round 1 allocates after it, coarse
+    // first, exactly as the twin does from the GPU's own lists.
+    assert_eq!(plain.list, refined.list, "round 0's requests changed");
+    let layout = PageLayout::new(16384, 64).expect("layout");
+    let mut marked = vec![false; layout.entries() as usize];
+    for &e in &refined.list {
+        marked[e as usize] = true;
+    }
+    let mut cpu = twin::allocate(&marked, 1024);
+    let refine_list = &refined.refine_list;
+    assert!(
+        refine_list.iter().all(|&e| plain.table[e as usize] == 0),
+        "refinement asked for a page round 0 already holds"
+    );
+    let mut refine_marked = vec![false; marked.len()];
+    for &e in refine_list {
+        refine_marked[e as usize] = true;
+    }
+    let overflow = twin::allocate_after(&mut cpu, &refine_marked, 1024);
+    assert_eq!(u64::from(overflow), counter(f, "refine_overflow_pages"));
+    assert_eq!(refined.table, cpu.table, "page table after refinement");
+    eprintln!(
+        "misclassified: {plain_error:.5} without refinement, {refined_error:.5} with; \
+         {edges} edge samples"
+    );
+    assert!(
+        refined_error < plain_error,
+        "refinement did not reduce misclassification: {refined_error} vs {plain_error}"
+    );
     common::assert_clean(&engine.context().validation());
 }

@@ -3,7 +3,9 @@
 // first) takes slot i of the fixed pool while slots last; the rest overflow and their lookups fall
 // back to a coarser resident page (the root, entry 0, is always marked and so always slot 0).
 // Coarse-first is what makes the fallback safe: a page can only be served if the pages its
-// samples fall back to were served first. CPU twin: allocate() in src/cpu/rmsm.rs.
+// samples fall back to were served first. The refinement round (pc.round = 1) allocates its own
+// list the same way into the slots round 0 left. CPU twin: allocate() and allocate_after() in
+// src/cpu/rmsm.rs.
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
 #include "pages_push.glsl"
@@ -20,29 +22,39 @@ layout(set = 0, binding = 5) buffer Counters { uint counters[]; };
 void main() {
     uint i = gl_GlobalInvocationID.x;
     uint n = count;
+    // Round 1 takes the slots round 0 left; its counts go to their own slots, since every
+    // invocation reads round 0's allocated count.
+    uint first = ROUND_FIRST_SLOT(pc.round);
+    uint free_slots = pc.pool_pages - first;
     if (i == 0u) {
-        counters[C_UNIQUE] = n;
-        counters[C_ALLOCATED] = min(n, pc.pool_pages);
-        counters[C_OVERFLOW] = n > pc.pool_pages ? n - pc.pool_pages : 0u;
+        uint c = pc.round == 0u ? 0u : C_ROUND1;
+        counters[c + C_UNIQUE] = n;
+        counters[c + C_ALLOCATED] = min(n, free_slots);
+        counters[c + C_OVERFLOW] = n > free_slots ? n - free_slots : 0u;
     }
     if (i >= n) {
         return;
     }
     uint entry = list[i];
-    if (i >= pc.pool_pages) {
-        table[entry] = 0u;
+    if (i >= free_slots) {
+        // Round 1 marks in its own flags and never wrote the table: leave it.
+        if (pc.round == 0u) {
+            table[entry] = 0u;
+        }
         return;
     }
-    table[entry] = i + 1u;
+    uint slot = first + i;
+    table[entry] = slot + 1u;
     uint level = entry_level(pc.levels, entry);
     uint local = entry - level_offset(pc.levels, level);
     uint n_side = pages_per_side(pc.virtual_size, pc.page_size, level);
     uvec2 page = uvec2(local % n_side, local / n_side);
-    slot_info[i] = uvec4(level, page, entry);
-    atomicMax(level_info[level].first_slot_not, ~i);
-    atomicMax(level_info[level].end_slot, i + 1u);
-    atomicMax(level_info[level].min_x_not, ~page.x);
-    atomicMax(level_info[level].min_y_not, ~page.y);
-    atomicMax(level_info[level].max_x, page.x);
-    atomicMax(level_info[level].max_y, page.y);
+    slot_info[slot] = uvec4(level, page, entry);
+    uint li = pc.round * pc.levels + level;
+    atomicMax(level_info[li].first_slot_not, ~slot);
+    atomicMax(level_info[li].end_slot, slot + 1u);
+    atomicMax(level_info[li].min_x_not, ~page.x);
+    atomicMax(level_info[li].min_y_not, ~page.y);
+    atomicMax(level_info[li].max_x, page.x);
+    atomicMax(level_info[li].max_y, page.y);
 }

@@ -97,8 +97,10 @@ void main() {
         }
         bool culled = near_clipped || far_clipped || (projected && area == 0.0);
         uint binned = 0u;
+        // Round 1 bins only its own pages: round 0's bins are in place.
+        uint first_slot = ROUND_FIRST_SLOT(pc.round);
         for (uint level = 0u; level < pc.levels && !culled; ++level) {
-            LevelInfo info = level_info[level];
+            LevelInfo info = level_info[pc.round * pc.levels + level];
             if (info.end_slot == 0u) {
                 continue;
             }
@@ -118,7 +120,7 @@ void main() {
                     uvec2 page = uvec2(px, py);
                     uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page);
                     uint s = table[e];
-                    if (s == 0u) {
+                    if (s == 0u || s - 1u < first_slot) {
                         continue;
                     }
                     vec2 rlo = vec2(page) * texels;

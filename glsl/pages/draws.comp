@@ -25,8 +25,10 @@ uint bin_end(uint slot) {
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
-    uint allocated = counters[C_ALLOCATED];
-    if (i < allocated) {
+    // This round's slots: [first, end).
+    uint first_slot = ROUND_FIRST_SLOT(pc.round);
+    uint end_slot = first_slot + counters[(pc.round == 0u ? 0u : C_ROUND1) + C_ALLOCATED];
+    if (i >= first_slot && i < end_slot) {
         if (bin_end(i) > pc.capacity) {
             table[slot_info[i].w] = 0u;
             atomicAdd(counters[C_BIN_OVERFLOW], 1u);
@@ -35,7 +37,7 @@ void main() {
         }
     }
     if (i < pc.levels) {
-        LevelInfo info = level_info[i];
+        LevelInfo info = level_info[pc.round * pc.levels + i];
         uvec4 draw = uvec4(0u, 1u, 0u, 0u);
         if (info.end_slot > 0u) {
             uint first = ~info.first_slot_not;
@@ -62,6 +64,6 @@ void main() {
             }
             draw = uvec4(3u * (end - start), 1u, 3u * start, 0u);
         }
-        draws[i] = draw;
+        draws[pc.round * pc.levels + i] = draw;
     }
 }

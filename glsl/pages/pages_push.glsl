@@ -13,6 +13,12 @@ layout(push_constant) uniform Push {
     uint capacity;
     // bin.comp: 0 counts, 1 scatters.
     uint mode;
+    // 0: the requests' round; 1: the refinement round, which allocates after round 0's slots,
+    // bins and draws only its own pages, and keeps its level bookkeeping and draws apart.
+    uint round;
+    uint pad0;
+    uint pad1;
+    uint pad2;
 } pc;
 
 // Per-level bookkeeping written by allocate.comp with atomicMax only, so one fill with 0 resets
@@ -28,10 +34,15 @@ struct LevelInfo {
     uint pad1;
 };
 
-// Counter slots of the page machinery (PAGE_COUNTER_NAMES in src/passes/pages.rs).
+// Counter slots of the page machinery (PAGE_COUNTER_NAMES in src/passes/pages.rs); round 1's
+// unique/allocated/overflow follow round 0's.
 #define C_UNIQUE 0
 #define C_ALLOCATED 1
 #define C_OVERFLOW 2
 #define C_BINNED 3
 #define C_RENDERED 4
 #define C_BIN_OVERFLOW 5
+#define C_ROUND1 6
+
+// Slots of round 0 come first: round 1's start after them.
+#define ROUND_FIRST_SLOT(round) ((round) == 0u ? 0u : counters[C_ALLOCATED])

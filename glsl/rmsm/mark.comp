@@ -6,6 +6,7 @@
 // counts the marks before deduplication (a sample's distinct pages once each).
 // CPU twin: requests() in src/cpu/rmsm.rs.
 #extension GL_GOOGLE_include_directive : require
+#define TABLE_ACCESS
 #include "rmsm.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -13,7 +14,6 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
-layout(set = 0, binding = 4) buffer Table { uint table[]; };
 // [0] requested pages (marks before dedup)
 layout(set = 0, binding = 5) buffer Counters { uint counters[]; };
 

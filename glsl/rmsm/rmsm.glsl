@@ -17,7 +17,26 @@ layout(push_constant) uniform Push {
     uint filter_mode;
     // Added to log2 of the footprint: negative asks for finer pages than the screen needs.
     float lod_bias;
+    // Levels finer than its first page that a sample at a shadow edge asks for (0: off).
+    uint refine;
+    uint pad0;
+    uint pad1;
+    uint pad2;
 } pc;
+
+// A sample's refinement target: none.
+#define NO_REFINE 0xffffffffu
+
+// The page table (slot + 1 per resident page); writable where the includer defines TABLE_ACCESS
+// empty (the marking pass).
+#ifndef TABLE_ACCESS
+#define TABLE_ACCESS readonly
+#endif
+layout(set = 0, binding = 4) TABLE_ACCESS buffer Table { uint table[]; };
+
+#ifdef RMSM_ATLAS
+layout(set = 0, binding = 5) uniform sampler2D atlas;
+#endif
 
 // The camera that made the view samples (clip -> world, and its position), and the light's
 // clip -> world.
@@ -94,17 +113,96 @@ float plane_depth(vec2 t, vec3 r, vec3 n, float fallback) {
     return ok ? clip.z / clip.w : fallback;
 }
 
-// The receiver depth to compare with the texel whose level-0 centre is `centre`: the sample's
-// own depth z, moved along its tangent plane (r, n) from the sample's coordinates c to the
-// centre when camera.options.x is set. A nearest lookup otherwise compares the map's depth at
-// the texel centre with the receiver's depth up to half a texel away, which on a receiver
-// grazed by the light differs by more than any constant bias (shadow acne); the difference of
-// two plane depths cancels the plane intersection's own rounding at the sample.
-float compare_depth(vec2 centre, vec2 c, float z, vec3 r, vec3 n) {
-    if (camera.options.x == 0u) {
-        return z;
+// The receiver a lookup tests: level-0 coordinates c, depth z, and dz/dc, the depth gradient of
+// its tangent plane in level-0 texels (zero with camera.options.x off). A nearest lookup compares
+// the map's depth at a texel's centre; the receiver's depth up to half a texel away differs from
+// its depth there, on a receiver grazed by the light by more than any constant bias (acne), so
+// each texel is compared with the plane's depth at its centre, z + dz/dc . (centre - c).
+struct Receiver {
+    vec2 c;
+    float z;
+    vec2 dz;
+};
+
+// A planar receiver's NDC depth is affine in the light's texel coordinates (a projective map
+// keeps planes planar), so two plane depths `baseline` texels away give the gradient exactly up
+// to rounding; a long baseline keeps the difference well above the depth's f32 resolution. Zero
+// where the plane is seen edge-on or behind the light at either end.
+Receiver make_receiver(vec4 c, vec3 r, vec3 n, float baseline) {
+    Receiver rc = Receiver(c.xy, c.z, vec2(0.0));
+    if (camera.options.x != 0u) {
+        float z0 = plane_depth(c.xy, r, n, 2.0);
+        float zx = plane_depth(c.xy + vec2(baseline, 0.0), r, n, 2.0);
+        float zy = plane_depth(c.xy + vec2(0.0, baseline), r, n, 2.0);
+        if (z0 != 2.0 && zx != 2.0 && zy != 2.0) {
+            rc.dz = vec2(zx - z0, zy - z0) / baseline;
+        }
     }
-    float at_centre = plane_depth(centre, r, n, z);
-    float at_sample = plane_depth(c, r, n, z);
-    return z + (at_centre - at_sample);
+    return rc;
 }
+
+// Slot + 1 of the page holding level-l texel t; 0 if not resident; ~0u for a texel outside the
+// level (reads as lit, needs no page). Needs the including shader's `table`.
+uint texel_slot(ivec2 t, uint level) {
+    if (!texel_inside(t, pc.virtual_size, level)) {
+        return ~0u;
+    }
+    return table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level,
+                            texel_page(t, pc.page_size))];
+}
+
+// Whether every texel the filter reads at `level` is on a resident page (or outside the level).
+bool covered(vec2 c, uint level) {
+    ivec2 base = filter_base(c, level);
+    int taps = pc.filter_mode == 0u ? 1 : 2;
+    for (int j = 0; j < taps; ++j) {
+        for (int i = 0; i < taps; ++i) {
+            if (texel_slot(base + ivec2(i, j), level) == 0u) {
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
+// The first level from `wanted` up whose pages cover the filter's texels (the root always does).
+uint served_level(vec2 c, uint wanted) {
+    uint level = wanted;
+    for (int k = 0; k < MAX_PAGE_LEVELS && level + 1u < pc.levels && !covered(c, level); ++k) {
+        level += 1u;
+    }
+    return level;
+}
+
+#ifdef RMSM_ATLAS
+// 1 where the receiver is lit by level-l texel t of the atlas; texels outside the level or on no
+// page read as lit.
+float test_texel(ivec2 t, uint level, Receiver rc) {
+    uint s = texel_slot(t, level);
+    if (s == ~0u || s == 0u) {
+        return 1.0;
+    }
+    vec2 centre = (vec2(t) + 0.5) * float(1u << level);
+    float zt = rc.z + dot(rc.dz, centre - rc.c);
+    ivec2 a = atlas_texel(s - 1u, t, pc.page_size, pc.atlas_cols);
+    return zt <= texelFetch(atlas, a, 0).r ? 1.0 : 0.0;
+}
+
+// Visibility of the receiver read at `level` with the filter: the nearest texel, or a bilinear
+// 2x2 whose texels may sit on different pages.
+float filtered_test(uint level, Receiver rc) {
+    vec2 cl = rc.c / float(1u << level);
+    if (pc.filter_mode == 0u) {
+        return test_texel(ivec2(floor(cl)), level, rc);
+    }
+    vec2 t = cl - 0.5;
+    vec2 base = floor(t);
+    vec2 w = t - base;
+    ivec2 b = ivec2(base);
+    float s00 = test_texel(b, level, rc);
+    float s10 = test_texel(b + ivec2(1, 0), level, rc);
+    float s01 = test_texel(b + ivec2(0, 1), level, rc);
+    float s11 = test_texel(b + ivec2(1, 1), level, rc);
+    return mix(mix(s00, s10, w.x), mix(s01, s11, w.x), w.y);
+}
+#endif

@@ -405,6 +405,23 @@ pub fn allocate(marked: &[bool], pool_pages: u32) -> Allocation {
     }
 }
 
+/// The refinement round's allocation: the entries marked in `marked` (none of them resident),
+/// coarse first, take the slots from `first_slot` on while the pool lasts; `allocation` (round
+/// 0's) gains them. Returns how many overflowed.
+pub fn allocate_after(allocation: &mut Allocation, marked: &[bool], pool_pages: u32) -> u32 {
+    let mut overflow = 0u32;
+    for (entry, _) in marked.iter().enumerate().filter(|(_, &m)| m) {
+        let slot = allocation.slots.len() as u32;
+        if slot < pool_pages && entry < allocation.table.len() {
+            allocation.table[entry] = slot + 1;
+            allocation.slots.push(entry as u32);
+        } else {
+            overflow += 1;
+        }
+    }
+    overflow
+}
+
 /// Columns of the atlas, `ceil(sqrt(pool_pages))`, computed in integers.
 pub fn atlas_columns(pool_pages: u32) -> u32 {
     // Start from the float root and correct it: f32 loses precision past 2^24.

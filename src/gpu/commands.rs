@@ -151,12 +151,29 @@ impl Recorder<'_> {
     /// Begins dynamic rendering into `colors` (cleared to their values) and `depth` (cleared to
     /// the given depth), with a full-size viewport and scissor.
     pub fn begin_rendering(&mut self, colors: &[(&Image, [f32; 4])], depth: (&Image, f32)) {
+        self.begin_rendering_into(colors, depth, true);
+    }
+
+    /// Begins depth-only dynamic rendering that keeps `depth`'s contents (load, not clear), with a
+    /// full-size viewport and scissor: to draw more into an image rendered earlier.
+    pub fn continue_rendering(&mut self, depth: &Image) {
+        self.begin_rendering_into(&[], (depth, 1.0), false);
+    }
+
+    fn begin_rendering_into(
+        &mut self,
+        colors: &[(&Image, [f32; 4])],
+        depth: (&Image, f32),
+        clear: bool,
+    ) {
         let extent = depth.0.extent();
         for (img, _) in colors {
             self.discard(img);
             self.use_image(img, Access::ColorAttachment);
         }
-        self.discard(depth.0);
+        if clear {
+            self.discard(depth.0);
+        }
         self.use_image(depth.0, Access::DepthAttachment);
         let color_infos: Vec<_> = colors
             .iter()
@@ -174,7 +191,11 @@ impl Recorder<'_> {
         let depth_info = vk::RenderingAttachmentInfo::default()
             .image_view(depth.0.view)
             .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .load_op(if clear {
+                vk::AttachmentLoadOp::CLEAR
+            } else {
+                vk::AttachmentLoadOp::LOAD
+            })
             .store_op(vk::AttachmentStoreOp::STORE)
             .clear_value(vk::ClearValue {
                 depth_stencil: vk::ClearDepthStencilValue {

@@ -48,13 +48,16 @@ pub const MAX_PAGE_ENTRIES: u32 = 1 << 22;
 
 /// Counter names of the page machinery, in the order of its counters buffer
 /// (`glsl/pages/pages_push.glsl`'s `C_*`).
-pub const PAGE_COUNTER_NAMES: [&str; 6] = [
+pub const PAGE_COUNTER_NAMES: [&str; 9] = [
     "unique_pages",
     "allocated_pages",
     "overflow_pages",
     "triangles_binned",
     "rendered_pages",
     "bin_overflow_pages",
+    "refine_unique_pages",
+    "refine_allocated_pages",
+    "refine_overflow_pages",
 ];
 
 /// What a virtual map is made of.
@@ -159,6 +162,9 @@ pub struct VirtualPages<'a> {
     push: PagesPush,
     /// One `u32` per page: nonzero = marked (the technique writes 1), then slot + 1 / 0.
     pub table: Buffer,
+    /// One `u32` per page: nonzero = marked for the refinement round (only pages not resident
+    /// after round 0; the technique writes 1), see [`VirtualPages::record_refine`].
+    pub refine_flags: Buffer,
     /// The depth atlas: `pool_pages` slots of `page_size`² texels, row by row.
     pub atlas: Image,
     /// Nearest sampler for texel fetches from the atlas.
@@ -176,6 +182,10 @@ pub struct VirtualPages<'a> {
     counters: Buffer,
     compact: Compact,
     compact_binding: CompactBinding,
+    refine_list: Buffer,
+    refine_count: Buffer,
+    refine_compact_binding: CompactBinding,
+    refine_allocate: DescriptorSet,
     scan: Scan,
     scan_binding: ScanBinding,
     allocate: (Pipeline, DescriptorSet),
@@ -218,7 +228,8 @@ impl<'a> VirtualPages<'a> {
         let list = storage("page list", 4 * u64::from(entries))?;
         let count = storage("page count", 4)?;
         let slot_info = storage("page slots", 16 * u64::from(pool))?;
-        let level_info = storage("page levels", 32 * u64::from(levels))?;
+        // Two rounds of per-level bookkeeping and draws: the requests', then the refinement's.
+        let level_info = storage("page levels", 2 * 32 * u64::from(levels))?;
         let bin_count = storage("page bin counts", 4 * u64::from(pool))?;
         let bin_offset = storage("page bin offsets", 4 * u64::from(pool))?;
         let bin_cursor = storage("page bin cursors", 4 * u64::from(pool))?;
@@ -226,7 +237,7 @@ impl<'a> VirtualPages<'a> {
         let draws = Buffer::new(
             ctx,
             "page draws",
-            16 * u64::from(levels),
+            2 * 16 * u64::from(levels),
             vk::BufferUsageFlags::STORAGE_BUFFER
                 | vk::BufferUsageFlags::INDIRECT_BUFFER
                 | vk::BufferUsageFlags::TRANSFER_SRC,
@@ -250,6 +261,11 @@ impl<'a> VirtualPages<'a> {
 
         let compact = Compact::new(ctx)?;
         let compact_binding = compact.bind(&table, &list, &count, entries)?;
+        let refine_flags = storage("page refine flags", 4 * u64::from(entries))?;
+        let refine_list = storage("page refine list", 4 * u64::from(entries))?;
+        let refine_count = storage("page refine count", 4)?;
+        let refine_compact_binding =
+            compact.bind(&refine_flags, &refine_list, &refine_count, entries)?;
         let scan = Scan::new(ctx)?;
         let scan_binding = scan.bind(&bin_count, &bin_offset, pool)?;
         let with_set = |shader: &str, bindings: &[Binding<'_>]| -> Result<_> {
@@ -263,6 +279,18 @@ impl<'a> VirtualPages<'a> {
                 Binding::Buffer(&table),
                 Binding::Buffer(&list),
                 Binding::Buffer(&count),
+                Binding::Buffer(&slot_info),
+                Binding::Buffer(&level_info),
+                Binding::Buffer(&counters),
+            ],
+        )?;
+        let refine_allocate = DescriptorSet::new(
+            ctx,
+            &allocate.0,
+            &[
+                Binding::Buffer(&table),
+                Binding::Buffer(&refine_list),
+                Binding::Buffer(&refine_count),
                 Binding::Buffer(&slot_info),
                 Binding::Buffer(&level_info),
                 Binding::Buffer(&counters),
@@ -325,6 +353,8 @@ impl<'a> VirtualPages<'a> {
             triangles,
             capacity,
             mode: 0,
+            round: 0,
+            pad: [0; 3],
         };
         Ok(VirtualPages {
             ctx: ctx.clone(),
@@ -332,6 +362,7 @@ impl<'a> VirtualPages<'a> {
             desc,
             push,
             table,
+            refine_flags,
             atlas,
             sampler,
             list,
@@ -346,6 +377,10 @@ impl<'a> VirtualPages<'a> {
             counters,
             compact,
             compact_binding,
+            refine_list,
+            refine_count,
+            refine_compact_binding,
+            refine_allocate,
             scan,
             scan_binding,
             allocate,
@@ -366,9 +401,11 @@ impl<'a> VirtualPages<'a> {
         self.push.capacity
     }
 
-    /// Clears the page table for a frame's marks (record before the technique marks pages).
+    /// Clears the page table and the refinement flags for a frame's marks (record before the
+    /// technique marks pages).
     pub fn record_clear(&self, rec: &mut Recorder<'_>) {
         rec.fill(&self.table, 0);
+        rec.fill(&self.refine_flags, 0);
     }
 
     /// Records compaction, allocation, culling and rendering of the marked pages, each as its
@@ -400,40 +437,80 @@ impl<'a> VirtualPages<'a> {
         result
     }
 
+    /// Records the refinement round as one timed pass `<name>-refine`: the pages marked in
+    /// [`VirtualPages::refine_flags`] (after [`VirtualPages::record`]) are compacted, allocated
+    /// into the slots round 0 left (coarse first; the rest overflow, counted), binned and drawn
+    /// into the atlas without disturbing round 0's pages. A lookup afterwards sees both rounds.
+    pub fn record_refine(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        rec.begin_pass(&format!("{}-refine", self.name))?;
+        let result = self.record_refine_untimed(rec);
+        rec.end_pass();
+        result
+    }
+
+    fn record_refine_untimed(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        let round = PagesPush {
+            round: 1,
+            ..self.push
+        };
+        self.compact.record(rec, &self.refine_compact_binding)?;
+        let entries = self.desc.entries() as u32;
+        rec.dispatch(
+            &self.allocate.0,
+            &self.refine_allocate,
+            &round,
+            [entries, 1, 1],
+        )?;
+        self.record_bins(rec, &round)?;
+        self.record_draws(rec, &round, false)
+    }
+
     fn record_cull(&self, rec: &mut Recorder<'_>) -> Result<()> {
-        let triangles = self.push.triangles;
-        let (pipeline, set) = &self.bin;
         rec.fill(&self.bin_count, 0);
         rec.fill(&self.bin_cursor, 0);
-        rec.dispatch(pipeline, set, &self.push, [triangles, 1, 1])?;
+        self.record_bins(rec, &self.push)
+    }
+
+    /// Counts, scans and scatters the bins of `push.round`'s pages and writes its draws.
+    fn record_bins(&self, rec: &mut Recorder<'_>, push: &PagesPush) -> Result<()> {
+        let triangles = self.push.triangles;
+        let (pipeline, set) = &self.bin;
+        rec.dispatch(pipeline, set, push, [triangles, 1, 1])?;
         self.scan
             .record(rec, &self.scan_binding, ScanKind::Exclusive)?;
         let (draw_pipeline, draw_set) = &self.draw_args;
         let threads = self.desc.pool_pages.max(self.push.levels);
-        rec.dispatch(draw_pipeline, draw_set, &self.push, [threads, 1, 1])?;
-        let scatter = PagesPush {
-            mode: 1,
-            ..self.push
-        };
+        rec.dispatch(draw_pipeline, draw_set, push, [threads, 1, 1])?;
+        let scatter = PagesPush { mode: 1, ..*push };
         rec.dispatch(pipeline, set, &scatter, [triangles, 1, 1])
     }
 
     fn record_render(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        self.record_draws(rec, &self.push, true)
+    }
+
+    /// Draws `push.round`'s pages into the atlas, clearing it first (round 0) or keeping it.
+    fn record_draws(&self, rec: &mut Recorder<'_>, push: &PagesPush, clear: bool) -> Result<()> {
         let (pipeline, set) = &self.render;
         rec.use_set(set);
         rec.use_buffer(&self.draws, Access::IndirectRead);
-        rec.begin_rendering(&[], (&self.atlas, 1.0));
+        if clear {
+            rec.begin_rendering(&[], (&self.atlas, 1.0));
+        } else {
+            rec.continue_rendering(&self.atlas);
+        }
         let bias = self.desc.bias;
         let mut result = Ok(());
         for level in 0..self.push.levels {
             let scale = (1u32 << level) as f32;
             let depth_bias = [bias.constant * scale, bias.slope, bias.clamp * scale];
+            let draw = push.round * push.levels + level;
             result = rec.draw_indirect(
                 pipeline,
                 set,
-                &self.push,
+                push,
                 &self.draws,
-                16 * u64::from(level),
+                16 * u64::from(draw),
                 Some(depth_bias),
             );
             if result.is_err() {
@@ -460,6 +537,17 @@ impl<'a> VirtualPages<'a> {
         Ok(list)
     }
 
+    /// The last frame's compacted refinement list (ascending): for tests.
+    pub fn read_refine_list(&self) -> Result<Vec<u32>> {
+        let n = crate::gpu::u32s(&self.ctx.read_buffer(&self.refine_count)?)
+            .first()
+            .copied()
+            .unwrap_or(0) as usize;
+        let mut list = crate::gpu::u32s(&self.ctx.read_buffer(&self.refine_list)?);
+        list.truncate(n);
+        Ok(list)
+    }
+
     /// The page table after the last frame (slot + 1 or 0 per entry): for tests.
     pub fn read_table(&self) -> Result<Vec<u32>> {
         Ok(crate::gpu::u32s(&self.ctx.read_buffer(&self.table)?))
@@ -474,13 +562,17 @@ impl<'a> VirtualPages<'a> {
         Ok(raw.chunks_exact(2).take(n).map(|p| (p[0], p[1])).collect())
     }
 
-    /// (level, page x, page y, entry) of each allocated slot after the last frame: for tests.
+    /// (level, page x, page y, entry) of each allocated slot (both rounds) after the last
+    /// frame: for tests.
     pub fn read_slots(&self) -> Result<Vec<[u32; 4]>> {
         let counters = self.counters()?;
-        let allocated = counters
-            .iter()
-            .find(|(n, _)| n == "allocated_pages")
-            .map_or(0, |(_, v)| *v as usize);
+        let get = |name: &str| {
+            counters
+                .iter()
+                .find(|(n, _)| n == name)
+                .map_or(0, |(_, v)| *v as usize)
+        };
+        let allocated = get("allocated_pages") + get("refine_allocated_pages");
         let raw = crate::gpu::u32s(&self.ctx.read_buffer(&self.slot_info)?);
         Ok(raw
             .chunks_exact(4)

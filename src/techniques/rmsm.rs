@@ -21,13 +21,13 @@ use glam::{IVec2, Vec4};
 
 use super::{Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup};
 use crate::error::Result;
-use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
 use crate::passes::pages::{PagesDesc, VirtualPages};
 use crate::passes::DepthBias;
 use crate::shader_types::RmsmPush;
 
 /// Counter names of the view-sample passes, in the order of `glsl/rmsm/lookup.comp`'s buffer.
-pub const LOOKUP_COUNTER_NAMES: [&str; 8] = [
+pub const LOOKUP_COUNTER_NAMES: [&str; 9] = [
     "view_samples",
     "outside_light",
     "lit",
@@ -36,7 +36,11 @@ pub const LOOKUP_COUNTER_NAMES: [&str; 8] = [
     "fallback_lookups",
     "footprint_met",
     "virtual_too_coarse",
+    "refined_samples",
 ];
+
+/// Counter names of the edge pass, in the order of `glsl/rmsm/edges.comp`'s buffer.
+pub const EDGE_COUNTER_NAMES: [&str; 2] = ["edge_samples", "refine_requests"];
 
 const fn knob(name: &'static str, summary: &'static str, default: f64, min: f64, max: f64) -> Knob {
     Knob {
@@ -50,25 +54,25 @@ const fn knob(name: &'static str, summary: &'static str, default: f64, min: f64,
     }
 }
 
-const KNOBS: [Knob; 10] = [
+const KNOBS: [Knob; 11] = [
     knob(
         "virtual_size",
         "virtual shadow-map width and height in level-0 texels (power of two)",
-        16384.0,
+        32768.0,
         256.0,
         65536.0,
     ),
     knob(
         "page_size",
         "page width and height in texels (power of two)",
-        128.0,
+        64.0,
         16.0,
         1024.0,
     ),
     knob(
         "pool_pages",
-        "page slots in the physical atlas (256 pages of 128² = one 2048² map)",
-        256.0,
+        "page slots in the physical atlas (1024 pages of 64² = one 2048² map)",
+        1024.0,
         1.0,
         65536.0,
     ),
@@ -77,7 +81,7 @@ const KNOBS: [Knob; 10] = [
         ..knob(
             "lod_bias",
             "added to log2 of the footprint (negative: finer pages than the screen needs)",
-            0.0,
+            -1.0,
             -8.0,
             8.0,
         )
@@ -93,9 +97,16 @@ const KNOBS: [Knob; 10] = [
         )
     },
     knob(
+        "refine",
+        "levels finer for samples at a shadow edge, in a second round of pages (0: off)",
+        3.0,
+        0.0,
+        8.0,
+    ),
+    knob(
         "tangent_plane",
         "1: compare each texel with the receiver's tangent plane under its centre; 0: one depth",
-        1.0,
+        0.0,
         0.0,
         1.0,
     ),
@@ -128,9 +139,13 @@ pub struct Rmsm<'a> {
     /// The virtual map's page machinery (public for tests: page list, table, bins).
     pub pages: VirtualPages<'a>,
     mark: (Pipeline, DescriptorSet),
+    edges: (Pipeline, DescriptorSet),
     lookup: (Pipeline, DescriptorSet),
     mark_counters: Buffer,
+    edge_counters: Buffer,
     lookup_counters: Buffer,
+    // Written by the edge pass, read by the lookup.
+    _refine_level: Image,
     // Read by both sets.
     _camera: Buffer,
     push: RmsmPush,
@@ -204,6 +219,37 @@ impl<'a> Rmsm<'a> {
                 Binding::Buffer(&mark_counters),
             ],
         )?;
+        let refine_level = Image::new(
+            ctx,
+            "rmsm refine levels",
+            ImageDesc::new_2d(
+                ash::vk::Format::R32_UINT,
+                view.width,
+                view.height,
+                ash::vk::ImageUsageFlags::STORAGE,
+            ),
+        )?;
+        let edge_counters = Buffer::storage(
+            ctx,
+            "rmsm edge counters",
+            4 * EDGE_COUNTER_NAMES.len() as u64,
+        )?;
+        let edges_pipeline = Pipeline::compute(ctx, "rmsm/edges.comp")?;
+        let edges_set = DescriptorSet::new(
+            ctx,
+            &edges_pipeline,
+            &[
+                Binding::Image(&view.positions),
+                Binding::Image(&view.normals),
+                Binding::Image(setup.receivers),
+                Binding::Buffer(&camera_buffer),
+                Binding::Buffer(&pages.table),
+                Binding::Sampled(&pages.atlas, &pages.sampler),
+                Binding::Buffer(&pages.refine_flags),
+                Binding::Image(&refine_level),
+                Binding::Buffer(&edge_counters),
+            ],
+        )?;
         let lookup_pipeline = Pipeline::compute(ctx, "rmsm/lookup.comp")?;
         let lookup_set = DescriptorSet::new(
             ctx,
@@ -217,6 +263,7 @@ impl<'a> Rmsm<'a> {
                 Binding::Sampled(&pages.atlas, &pages.sampler),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&lookup_counters),
+                Binding::Image(&refine_level),
             ],
         )?;
         let view_size = IVec2::new(view.width as i32, view.height as i32);
@@ -229,14 +276,19 @@ impl<'a> Rmsm<'a> {
             atlas_cols: desc.atlas_cols(),
             filter_mode: params.u32("filter")?,
             lod_bias: params.f32("lod_bias")?,
+            refine: params.u32("refine")?,
+            pad: [0; 3],
         };
         Ok(Rmsm {
             ctx: ctx.clone(),
             pages,
             mark: (mark_pipeline, mark_set),
+            edges: (edges_pipeline, edges_set),
             lookup: (lookup_pipeline, lookup_set),
             mark_counters,
+            edge_counters,
             lookup_counters,
+            _refine_level: refine_level,
             _camera: camera_buffer,
             push,
             view_size,
@@ -258,6 +310,16 @@ impl Technique for Rmsm<'_> {
 
         self.pages.record(rec)?;
 
+        if self.push.refine > 0 {
+            rec.begin_pass("rmsm-edges")?;
+            rec.fill(&self.edge_counters, 0);
+            let (pipeline, set) = &self.edges;
+            let result = rec.dispatch(pipeline, set, &self.push, threads);
+            rec.end_pass();
+            result?;
+            self.pages.record_refine(rec)?;
+        }
+
         rec.begin_pass("rmsm-lookup")?;
         rec.fill(&self.lookup_counters, 0);
         let (pipeline, set) = &self.lookup;
@@ -274,10 +336,18 @@ impl Technique for Rmsm<'_> {
             &self.mark_counters,
             &["requested_pages"],
         )?);
+        if self.push.refine > 0 {
+            out.extend(super::read_counters(
+                &self.ctx,
+                &self.edge_counters,
+                &EDGE_COUNTER_NAMES,
+            )?);
+        }
         let pages = self.pages.counters()?;
         let get = |name: &str| pages.iter().find(|(n, _)| n == name).map_or(0, |(_, v)| *v);
         // Work skipped by culling: triangles not drawn into a page, summed over drawn pages.
-        let drawn_pages = get("allocated_pages").saturating_sub(get("bin_overflow_pages"));
+        let drawn_pages = (get("allocated_pages") + get("refine_allocated_pages"))
+            .saturating_sub(get("bin_overflow_pages"));
         let culled = (self.triangles * drawn_pages).saturating_sub(get("triangles_binned"));
         let samples = out.first().map_or(0, |(_, v)| *v).max(1);
         let page_texels = u64::from(self.push.page_size).pow(2);

@@ -99,7 +99,7 @@ const KNOBS: [Knob; 11] = [
     knob(
         "refine",
         "levels finer for samples at a shadow edge, in a second round of pages (0: off)",
-        3.0,
+        4.0,
         0.0,
         8.0,
     ),

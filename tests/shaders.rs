@@ -309,6 +309,42 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
+            vec![
+                "pages/allocate.comp",
+                "pages/bin.comp",
+                "pages/draws.comp",
+                "pages/page_depth.vert",
+            ],
+            twin!(PagesPush {
+                light_view_proj,
+                virtual_size,
+                page_size,
+                levels,
+                pool_pages,
+                atlas_cols,
+                triangles,
+                capacity,
+                mode,
+                round,
+                pad
+            }),
+        ),
+        (
+            vec!["rmsm/mark.comp", "rmsm/edges.comp", "rmsm/lookup.comp"],
+            twin!(RmsmPush {
+                light_view_proj,
+                view_size,
+                virtual_size,
+                page_size,
+                levels,
+                atlas_cols,
+                filter_mode,
+                lod_bias,
+                refine,
+                pad
+            }),
+        ),
+        (
             vec!["vssm/moments.comp", "vssm/lookup.comp"],
             twin!(VssmPush {
                 light_view_proj,

@@ -1,6 +1,9 @@
 //! CPU twin of the `rmsm` (resolution-matched virtual shadow map) passes: page-table layout,
-//! per-sample requested level and page marking, allocation by compaction, caster culling
-//! against a page, and the lookup's fallback to a coarser resident level.
+//! per-sample requested level and page marking (with each marked page's ancestors up to the
+//! root), allocation by compaction (and the refinement round's, after round 0's slots), caster
+//! culling against a page, and the lookup's fallback to a coarser resident level. The edge
+//! refinement's choice of samples depends on the rendered depths, so the tests check its
+//! allocation from the GPU's own refinement list, and its effect against the reference.
 //!
 //! It follows the shared rmsm specification the GPU shaders follow, each with its own code: a
 //! virtual map of `V`² level-0 texels in pages of `p`² texels, with `L = log2(V/p) + 1` levels

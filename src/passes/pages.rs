@@ -11,7 +11,8 @@
 //!    `pool_pages` page slots while slots last. The list runs coarse to fine, so when the pool is
 //!    full it is fine pages that overflow, and a lookup falls back to the coarser pages that were
 //!    served first; the root page (entry 0) is always marked by the technique and so always
-//!    slot 0. Overflows are counted (`overflow_pages`), never dropped silently;
+//!    slot 0. A technique that marks each page's ancestors too (rmsm does) makes every fallback
+//!    one level at a time. Overflows are counted (`overflow_pages`), never dropped silently;
 //! 3. **cull** (`<name>-cull`): every triangle is tested against the resident pages under its
 //!    bounding box (an exact separating-axis test in the light's texel grid) and binned —
 //!    counted, scanned, scattered as (triangle, slot) pairs — then one indirect draw per level is
@@ -24,6 +25,11 @@
 //!    `gl_ClipDistance`. Depth is the full light view's, so a level-0 page holds exactly the
 //!    depths of a full map of `virtual_size`²; the constant bias (and clamp) double per level,
 //!    the slope-scaled bias grows with the texel by itself.
+//!
+//! A second round ([`VirtualPages::record_refine`], `<name>-refine`) runs the same steps on the
+//! pages a technique marks in [`VirtualPages::refine_flags`] after looking at round 0's pages
+//! (rmsm: finer pages at shadow edges): they take the slots round 0 left, are binned and drawn
+//! without touching round 0's, and a lookup afterwards sees both rounds through the one table.
 //!
 //! Pages are allocated afresh every frame (no caching across frames). CPU twin of the request,
 //! allocation and culling rules: [`crate::cpu::rmsm`].

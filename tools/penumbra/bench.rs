@@ -147,16 +147,16 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
             ("map_size", vec![1024.0, 2048.0]),
             ("exponent", vec![40.0, 80.0, 200.0]),
         ],
-        // Resolution-matched virtual maps: the virtual size against `hard`'s map size, with the
-        // default pool (256 pages of 128², one 2048² map); lod_bias -2 asks for texels a quarter
-        // of the screen's footprint.
-        ("rmsm", true) => vec![("virtual_size", vec![2048.0, 16384.0])],
+        // Resolution-matched virtual maps, with the default pool (1024 pages of 64², one 2048²
+        // map): the virtual size against `hard`'s map size (the finest level it may reach), and
+        // the shadow-edge refinement off and on.
+        ("rmsm", true) => vec![("virtual_size", vec![2048.0, 32768.0])],
         ("rmsm", false) => vec![
             (
                 "virtual_size",
-                vec![1024.0, 2048.0, 4096.0, 8192.0, 16384.0],
+                vec![1024.0, 2048.0, 4096.0, 8192.0, 32768.0],
             ),
-            ("lod_bias", vec![0.0, -2.0]),
+            ("refine", vec![0.0, 4.0]),
         ],
         _ => Vec::new(),
     }

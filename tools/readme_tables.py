@@ -4,14 +4,18 @@ named command):
 
     python3 tools/readme_tables.py receivers DIR   # DIR from `penumbra bench --set light_clip=0,1`
     python3 tools/readme_tables.py soft DIR        # DIR from the soft-shadow bench (README)
+    python3 tools/readme_tables.py virtual DIR     # DIR from the virtual-map bench (README)
 
 `receivers`: per technique, the configuration with clipping on that has the lowest penumbra MAE
 on teapot-rect (lowest RMSE on spot-point), with the same configuration's clip-off figures and
 the light leak of docs/bench-full-lavapipe-2026-11-22.csv. `soft`: per scene (and light scale),
 per technique and map size, the configuration with the lowest penumbra MAE, its error against
-both references and its pass times; then the skip table (skip.csv).
+both references and its pass times; then the skip table (skip.csv). `virtual`: per scene, every
+`hard` and `rmsm` run and the best `pcf-coverage` per map size (by RMSE), with misclassification
+(also against `hard` at 2048²), memory and pages, from bench.json; then rmsm's passes.
 """
 import csv
+import json
 import sys
 from pathlib import Path
 
@@ -136,7 +140,56 @@ def soft(directory):
                   f"| {fmt(100 * num(r, 'skipped_fraction'), 1)} % | {r['differing_pixels']} |")
 
 
+def virtual(directory):
+    data = [r for r in json.loads((Path(directory) / "bench.json").read_text())
+            if "error" in r]
+    err = lambda r, k: r["error"].get(k)
+    ctr = lambda r, k: r.get("counters", {}).get(k)
+    scenes = []
+    for r in data:
+        if r["scene"] not in scenes:
+            scenes.append(r["scene"])
+    for scene in scenes:
+        here = [r for r in data if r["scene"] == scene]
+        base = next((r for r in here if r["technique"] == "hard"
+                     and r["label"] == "map_size=2048"), None)
+        print(f"\n{scene} ({here[0]['width']}x{here[0]['height']})\n")
+        print("| technique | knobs | GPU ms | misclassified | ÷ hard 2048² | RMSE "
+              "| penumbra MAE | memory MiB | pages (+ refinement) | fallbacks |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
+        rows_out = [r for r in here if r["technique"] in ("hard", "rmsm")]
+        for size in ("1024", "2048"):
+            cands = [r for r in here if r["technique"] == "pcf-coverage"
+                     and f"map_size={size}" in r["label"].split()]
+            if cands:
+                rows_out.append(min(cands, key=lambda r: err(r, "rmse")))
+        for r in rows_out:
+            ratio = (err(r, "misclassified") / err(base, "misclassified")
+                     if base and err(base, "misclassified") else None)
+            pages = ctr(r, "allocated_pages")
+            refine = ctr(r, "refine_allocated_pages")
+            pages_txt = "—" if pages is None else (
+                f"{pages}" + (f" + {refine}" if refine else ""))
+            print(f"| `{r['technique']}` | {r['label']} | {fmt(r.get('total_gpu_ms'), 1)} "
+                  f"| {fmt(err(r, 'misclassified'), 5)} | {fmt(ratio, 2)} "
+                  f"| {fmt(err(r, 'rmse'), 4)} | {fmt(err(r, 'penumbra_mae'), 4)} "
+                  f"| {fmt(r['memory_bytes'] / 2**20, 1)} | {pages_txt} "
+                  f"| {ctr(r, 'fallback_lookups') if pages is not None else '—'} |")
+    print("\nrmsm passes (ms)\n")
+    names = ["mark", "compact", "allocate", "cull", "render", "edges", "refine", "lookup"]
+    print("| scene | knobs | " + " | ".join(names) + " | total |")
+    print("|---|---|" + "---|" * (len(names) + 1))
+    for r in data:
+        if r["technique"] != "rmsm":
+            continue
+        ms = {p["name"][len("rmsm-"):]: p.get("gpu_ms") for p in r.get("passes", [])
+              if p["name"].startswith("rmsm-")}
+        print(f"| {r['scene']} | {r['label']} | "
+              + " | ".join(fmt(ms.get(n), 1) for n in names)
+              + f" | {fmt(r.get('total_gpu_ms'), 1)} |")
+
+
 if __name__ == "__main__":
-    if len(sys.argv) != 3 or sys.argv[1] not in ("receivers", "soft"):
+    if len(sys.argv) != 3 or sys.argv[1] not in ("receivers", "soft", "virtual"):
         sys.exit(__doc__)
-    {"receivers": receivers, "soft": soft}[sys.argv[1]](sys.argv[2])
+    {"receivers": receivers, "soft": soft, "virtual": virtual}[sys.argv[1]](sys.argv[2])

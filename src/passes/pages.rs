@@ -17,7 +17,9 @@
 //!    bounding box (an exact separating-axis test in the light's texel grid) and binned —
 //!    counted, scanned, scattered as (triangle, slot) pairs — then one indirect draw per level is
 //!    written from the bins. A page whose bins would run past the bin buffer's capacity
-//!    (`bin_factor` entries per triangle) is taken out of the page table, so lookups fall back
+//!    (`bin_factor` entries per triangle or per pool slot, whichever is more: a scene of a few
+//!    large triangles puts most of them in every page) is taken out of the page table, so lookups
+//!    fall back
 //!    instead of reading a page with missing casters (`bin_overflow_pages`);
 //! 4. **render** (`<name>-render`): the atlas is cleared and each level's bins are drawn with
 //!    one `vkCmdDrawIndirect`; the vertex shader pulls each triangle's corners by index, zooms
@@ -75,7 +77,8 @@ pub struct PagesDesc {
     pub page_size: u32,
     /// Page slots in the atlas.
     pub pool_pages: u32,
-    /// Bin entries per scene triangle (at least 1: the root page may need every triangle).
+    /// Bin entries per scene triangle or per pool slot, whichever gives more (at least 1: the
+    /// root page may need every triangle).
     pub bin_factor: u32,
     /// Depth bias of level 0 (constant and clamp double per level).
     pub bias: DepthBias,
@@ -214,7 +217,7 @@ impl<'a> VirtualPages<'a> {
     ) -> Result<Self> {
         desc.check(ctx, name)?;
         let triangles = geometry.index_count / 3;
-        let capacity = u64::from(desc.bin_factor) * u64::from(triangles);
+        let capacity = u64::from(desc.bin_factor) * u64::from(triangles.max(desc.pool_pages));
         let max_entries = u64::from(ctx.info().max_storage_buffer_range) / 8;
         let capacity = capacity.min(max_entries).min(u64::from(u32::MAX / 3));
         if capacity < u64::from(triangles) {

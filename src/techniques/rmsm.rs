@@ -27,7 +27,7 @@
 //! Knobs: `virtual_size`, `page_size`, `pool_pages` (the memory bound), `lod_bias`, `refine`,
 //! `filter` (nearest texel, or a bilinear 2×2 whose texels may sit on different pages),
 //! `tangent_plane` (compare each texel with the receiver's tangent plane under its centre),
-//! `bin_factor` (bin entries per triangle), and the depth bias of a level-0 page (constant and
+//! `bin_factor` (bin entries per triangle or per pool slot), and the depth bias of a level-0 page (constant and
 //! clamp double per level). The defaults — 32768² virtual, pages of 64² (finer pages waste less
 //! of the pool on the thin regions along edges than 128² pages: 9 against 19 misclassified on
 //! `spot-point` with the same memory, 256 pages of 128²), `lod_bias` −1, `refine` 4 — were
@@ -129,7 +129,7 @@ const KNOBS: [Knob; 11] = [
     ),
     knob(
         "bin_factor",
-        "caster bin entries per scene triangle (pages past it fall back)",
+        "caster bin entries per triangle or pool slot, whichever is more (pages past it fall back)",
         16.0,
         1.0,
         1024.0,

@@ -12,6 +12,7 @@ pub mod filtered;
 pub mod light_clip;
 pub mod minmax;
 pub mod nbuffer;
+pub mod pages;
 pub mod pcf;
 pub mod pcf_coverage;
 pub mod pcf_poisson;

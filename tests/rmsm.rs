@@ -343,6 +343,10 @@ fn bins_hold_exactly_the_triangles_that_touch_each_page() {
     let pairs = (clip.len() * gpu.slots.len()) as f64;
     let extra = binned.difference(&expected).count();
     let missing = expected.difference(&binned).count();
+    eprintln!(
+        "bins: {} of {pairs} (triangle, page) pairs; {extra} more, {missing} fewer than the twin",
+        binned.len()
+    );
     // Disagreement only where a triangle grazes a page's widened rectangle within rounding.
     assert!(
         (extra + missing) as f64 <= 1e-4 * pairs,

@@ -19,21 +19,6 @@ layout(set = 0, binding = 5) buffer Counters { uint counters[]; };
 
 shared uint group_marks;
 
-// Marks the coarser pages over `page` up to the root, so that when the pool runs out at a fine
-// level the samples there fall back one level, not to whatever coarse page happens to exist.
-// Allocation runs coarse first, so an ancestor is always served before its descendants. A walk
-// stops at an ancestor already marked: whoever marked it walks (or walked) on from there.
-void mark_ancestors(uint level, uvec2 page) {
-    for (uint l = level + 1u; l < pc.levels; ++l) {
-        page >>= 1u;
-        uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, l, page);
-        if (table[e] != 0u) {
-            break;
-        }
-        table[e] = 1u;
-    }
-}
-
 void main() {
     if (gl_LocalInvocationIndex == 0u) {
         group_marks = 0u;

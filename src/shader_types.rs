@@ -216,3 +216,40 @@ pub struct RmsmPush {
     /// Padding to the block's declared size.
     pub pad: [u32; 3],
 }
+
+/// `glsl/pvssm/pvssm.glsl` (shape and filter passes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct PvssmPush {
+    /// World → light clip space of the virtual map.
+    pub light_view_proj: Mat4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// Level-0 texels per side.
+    pub virtual_size: u32,
+    /// Texels per page side.
+    pub page_size: u32,
+    /// Mip levels.
+    pub levels: u32,
+    /// Slots per atlas row.
+    pub atlas_cols: u32,
+    /// Texels per side of the conservative low-resolution map.
+    pub lowres_size: u32,
+    /// Bit 0: analytic anti-aliasing; bit 1: the static metric.
+    pub options: u32,
+    /// The light's footprint factor for a map of `virtual_size` texels
+    /// ([`crate::techniques::soft_light::SoftLight::size`]).
+    pub light_size: glam::Vec2,
+    /// Near plane distance.
+    pub near: f32,
+    /// Far plane distance.
+    pub far: f32,
+    /// 1 for a perspective light view.
+    pub perspective: i32,
+    /// Multiplies ρ.
+    pub rho_scale: f32,
+    /// Widest blocker-search region, low-resolution texels.
+    pub max_search: f32,
+    /// NDC depth a low-resolution texel must be nearer than the receiver's plane to block.
+    pub search_bias: f32,
+}

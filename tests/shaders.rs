@@ -330,6 +330,26 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
+            vec!["pvssm/shape.comp", "pvssm/filter.comp"],
+            twin!(PvssmPush {
+                light_view_proj,
+                view_size,
+                virtual_size,
+                page_size,
+                levels,
+                atlas_cols,
+                lowres_size,
+                options,
+                light_size,
+                near,
+                far,
+                perspective,
+                rho_scale,
+                max_search,
+                search_bias
+            }),
+        ),
+        (
             vec!["rmsm/mark.comp", "rmsm/edges.comp", "rmsm/lookup.comp"],
             twin!(RmsmPush {
                 light_view_proj,

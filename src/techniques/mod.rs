@@ -15,6 +15,7 @@ pub mod pcf;
 pub mod pcf_coverage;
 pub mod pcf_poisson;
 pub mod pcss;
+pub mod pvssm;
 pub mod rmsm;
 pub mod savsm;
 pub mod soft_light;
@@ -160,6 +161,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         vssm::VSSM,
         essm::ESSM,
         rmsm::RMSM,
+        pvssm::PVSSM,
     ]
 }
 

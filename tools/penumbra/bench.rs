@@ -158,6 +158,12 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
             ),
             ("refine", vec![0.0, 4.0]),
         ],
+        // PVSSM: the perceptual metric's quality dial and the analytic anti-aliasing.
+        ("pvssm", true) => vec![("rho_scale", vec![1.0])],
+        ("pvssm", false) => vec![
+            ("rho_scale", vec![0.5, 1.0, 2.0]),
+            ("antialias", vec![0.0, 1.0]),
+        ],
         _ => Vec::new(),
     }
 }

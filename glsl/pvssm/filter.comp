@@ -1,0 +1,120 @@
+#version 460
+// pvssm filtering (§5.2 step 8): each sample the shape pass left undecided filters its sheared
+// kernel h with the exact texel-coverage weights (Eq. 2) — each one-texel column of the kernel
+// taken as an axis-aligned box at the column's centre (§4.2) — at its predicted level, or at the
+// first coarser level whose pages cover the whole kernel box when the pool ran out. Texels are
+// read through the page table, so a kernel straddling pages sums (sum c*o, sum c) over all of
+// them and divides once: splitting the map into pages changes nothing (the paper's tile merge).
+// CPU twin: coverage_filter() in src/cpu/pvssm.rs.
+#extension GL_GOOGLE_include_directive : require
+#define VIRTUAL_ATLAS
+#include "pvssm.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
+layout(set = 0, binding = 6, rgba32f) uniform readonly image2D shape;
+layout(set = 0, binding = 7, r32f) uniform writeonly image2D visibility;
+layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
+
+shared uint group_counts[COUNTERS];
+
+// Widest kernel, in texels of its level, one invocation filters (bounds the loops).
+const int MAX_SPAN = 256;
+
+// Whether every page under the kernel's box at `level` is resident (texels off the level need
+// none).
+bool kernel_covered(ivec4 box, uint level) {
+    int size = int(pc.virtual_size >> level);
+    ivec2 a = max(box.xy, ivec2(0));
+    ivec2 b = min(box.zw, ivec2(size - 1));
+    if (any(greaterThan(a, b))) {
+        return true;
+    }
+    ivec2 pa = a / int(pc.page_size);
+    ivec2 pb = b / int(pc.page_size);
+    for (int py = pa.y; py <= pb.y; ++py) {
+        for (int px = pa.x; px <= pb.x; ++px) {
+            uvec2 page = uvec2(px, py);
+            if (table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page)] == 0u) {
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
+void main() {
+    if (gl_LocalInvocationIndex < COUNTERS) {
+        group_counts[gl_LocalInvocationIndex] = 0u;
+    }
+    barrier();
+
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (all(lessThan(pixel, pc.view_size))) {
+        vec4 k = imageLoad(shape, pixel);
+        if (k.w != DECIDED) {
+            vec4 r = imageLoad(receivers, pixel);
+            vec3 n = imageLoad(normals, pixel).xyz;
+            vec4 c = shadow_coord(pc.light_view_proj, r.xyz, ivec2(pc.virtual_size));
+            vec2 u_h = k.xy;
+            vec2 v_h = vec2(0.0, k.z);
+            uint wanted = uint(k.w);
+            uint level = wanted;
+            for (int m = 0; m < MAX_PAGE_LEVELS && level + 1u < pc.levels
+                            && !kernel_covered(kernel_texels(c.xy, u_h, v_h, level), level);
+                 ++m) {
+                level += 1u;
+            }
+            if (level > wanted) {
+                atomicAdd(group_counts[C_FALLBACK], 1u);
+            }
+            float s = float(1u << level);
+            Receiver rc = make_receiver(c, r.xyz, n, 8.0 * s);
+            vec2 centre = c.xy / s;
+            vec2 u = u_h / s;
+            float vy = v_h.y / s;
+            // Columns of the kernel's x range [centre.x - u.x, centre.x + u.x].
+            float x_lo = centre.x - u.x;
+            float x_hi = centre.x + u.x;
+            int i0 = int(floor(x_lo));
+            int i1 = min(int(ceil(x_hi)) - 1, i0 + MAX_SPAN - 1);
+            float slope = u.y / u.x;
+            vec2 sum = vec2(0.0);
+            uint texels = 0u;
+            for (int i = i0; i <= i1; ++i) {
+                float x0 = max(float(i), x_lo);
+                float x1 = min(float(i + 1), x_hi);
+                float wx = x1 - x0;
+                if (wx <= 0.0) {
+                    continue;
+                }
+                float yc = centre.y + (0.5 * (x0 + x1) - centre.x) * slope;
+                float y_lo = yc - vy;
+                float y_hi = yc + vy;
+                int j0 = int(floor(y_lo));
+                int j1 = min(int(ceil(y_hi)) - 1, j0 + MAX_SPAN - 1);
+                for (int j = j0; j <= j1; ++j) {
+                    float wy = min(float(j + 1), y_hi) - max(float(j), y_lo);
+                    if (wy <= 0.0) {
+                        continue;
+                    }
+                    float w = wx * wy;
+                    sum += vec2(w * test_texel(ivec2(i, j), level, rc), w);
+                    texels += 1u;
+                }
+            }
+            float v = sum.y > 0.0 ? sum.x / sum.y : 1.0;
+            imageStore(visibility, pixel, vec4(v));
+            atomicAdd(group_counts[v >= 1.0 ? C_LIT : (v <= 0.0 ? C_UMBRA : C_PENUMBRA)], 1u);
+            atomicAdd(group_counts[C_FILTER_TEXELS], texels);
+        }
+    }
+
+    barrier();
+    if (gl_LocalInvocationIndex < COUNTERS && group_counts[gl_LocalInvocationIndex] > 0u) {
+        atomicAdd(counters[gl_LocalInvocationIndex], group_counts[gl_LocalInvocationIndex]);
+    }
+}

@@ -1,0 +1,121 @@
+// pvssm's shared parts: the push block, the counters and the kernel math of Predicted Virtual
+// Soft Shadow Maps (Shen et al. 2011): the light kernel s_alpha (Eq. 1), the pixel footprint
+// phi' and their Gaussian convolution by a 2x2 Cholesky factorisation (Eq. 3 and Appendix), the
+// perceptual metric rho(n) and the predicted texel size (Eqs. 4-5), and the exact coverage
+// filter of the sheared kernel (Eq. 2, panel approximation of §4.2). 2-D quantities are in
+// level-0 texels of the virtual map; kernel axes are half-axes. CPU twin: src/cpu/pvssm.rs.
+
+#extension GL_GOOGLE_include_directive : require
+#include "shadow_map.glsl"
+#include "soft_light.glsl"
+
+layout(push_constant) uniform Push {
+    mat4 light_view_proj;
+    ivec2 view_size;
+    uint virtual_size;
+    uint page_size;
+    uint levels;
+    uint atlas_cols;
+    // Texels per side of the conservative low-resolution map.
+    uint lowres_size;
+    // OPT_* bits.
+    uint options;
+    // soft_light.glsl's footprint factor for a map of virtual_size texels.
+    vec2 light_size;
+    float near;
+    float far;
+    int perspective;
+    // Multiplies rho: more texels across each kernel (finer pages) above 1.
+    float rho_scale;
+    // Widest blocker-search region, low-resolution texels.
+    float max_search;
+    // How much nearer than the receiver's plane a low-resolution texel must be to block (NDC).
+    float search_bias;
+} pc;
+
+#define OPT_ANTIALIAS 1u
+#define OPT_RHO_STATIC 2u
+
+#include "virtual_map.glsl"
+
+// Counter slots, shared by the shape and filter passes.
+#define C_SAMPLES 0
+#define C_OUTSIDE 1
+#define C_LIT 2
+#define C_UMBRA 3
+#define C_PENUMBRA 4
+#define C_FULLY_LIT 5
+#define C_SEARCH_CLAMPED 6
+#define C_REQUESTED 7
+#define C_FALLBACK 8
+#define C_FILTER_TEXELS 9
+#define COUNTERS 10
+
+// A shape that needs no filtering: the shape pass decided V.
+#define DECIDED -1.0
+
+// Smallest kernel half-axis, level-0 texels: a point light without anti-aliasing still filters
+// a finite box.
+const float MIN_HALF = 1.0 / 64.0;
+
+// The Appendix's convolution of two parallelograms (half-axes u0, v0 and u1, v1) as Gaussians:
+// the summed variance V_h = L L^T, whose Cholesky columns are the result's half-axes, v_h
+// vertical. The last square root is clamped (det(V_h) / m00 >= 0 in exact arithmetic).
+void convolve(vec2 u0, vec2 v0, vec2 u1, vec2 v1, out vec2 u_h, out vec2 v_h) {
+    float m00 = u0.x * u0.x + v0.x * v0.x + u1.x * u1.x + v1.x * v1.x;
+    float m10 = u0.x * u0.y + v0.x * v0.y + u1.x * u1.y + v1.x * v1.y;
+    float m11 = u0.y * u0.y + v0.y * v0.y + u1.y * u1.y + v1.y * v1.y;
+    float a = sqrt(m00);
+    u_h = a > 0.0 ? vec2(a, m10 / a) : vec2(0.0);
+    v_h = vec2(0.0, sqrt(max(m11 - u_h.y * u_h.y, 0.0)));
+}
+
+// The perceptual metric (§5.1): the fewest texels a kernel n pixels wide must span, the user
+// study's cubic in log2 n, with log2 n clamped to [0, the cubic's peak] (it turns over beyond).
+float rho(float n) {
+    bool fixed_scene = (pc.options & OPT_RHO_STATIC) != 0u;
+    float x = clamp(log2(max(n, 1.0)), 0.0, fixed_scene ? 7.6 : 10.6);
+    if (isnan(x)) {
+        x = fixed_scene ? 7.6 : 10.6;
+    }
+    return fixed_scene ? 0.5477 + x * (1.406 + x * (-0.04687 + x * -0.003944))
+                       : 0.667 + x * (0.7794 + x * (0.3967 + x * -0.02716));
+}
+
+// Eq. 4: the kernel's full widths along the map's axes, in pixels, through the pixel footprint
+// F = [2 u_phi, 2 v_phi]; +inf where the footprint is undefined or singular.
+vec2 screen_sizes(bool has_pixel, vec2 u_phi, vec2 v_phi, vec2 u_h, vec2 v_h) {
+    const float INF = 1.0 / 0.0;
+    vec2 f0 = 2.0 * u_phi;
+    vec2 f1 = 2.0 * v_phi;
+    float det = f0.x * f1.y - f1.x * f0.y;
+    float scale = dot(f0, f0) + dot(f1, f1);
+    if (!has_pixel || abs(det) < 1e-12 * (scale * scale + 1e-30)) {
+        return vec2(INF);
+    }
+    // F^-1 = [[f1.y, -f1.x], [-f0.y, f0.x]] / det, applied to (W0, 0) and (0, W1).
+    float w0 = 2.0 * u_h.x;
+    float w1 = 2.0 * v_h.y;
+    vec2 n0 = vec2(f1.y, -f0.y) * (w0 / det);
+    vec2 n1 = vec2(-f1.x, f0.x) * (w1 / det);
+    return vec2(length(n0), length(n1));
+}
+
+// Eq. 5 and the level whose texels are no larger than the required size.
+uint predicted_level(vec2 u_h, vec2 v_h, vec2 n) {
+    float r0 = 2.0 * u_h.x / (pc.rho_scale * rho(n.x));
+    float r1 = 2.0 * v_h.y / (pc.rho_scale * rho(n.y));
+    float r = min(r0, r1);
+    if (!(r > 1.0)) {
+        return 0u;
+    }
+    return min(uint(floor(log2(r))), pc.levels - 1u);
+}
+
+// The kernel's bounding box at `level`, in that level's texels: (lo, hi) inclusive.
+ivec4 kernel_texels(vec2 c, vec2 u_h, vec2 v_h, uint level) {
+    float s = float(1u << level);
+    vec2 half_ext = vec2(u_h.x, abs(u_h.y) + v_h.y) / s;
+    vec2 centre = c / s;
+    return ivec4(ivec2(floor(centre - half_ext)), ivec2(ceil(centre + half_ext)) - 1);
+}

@@ -1,0 +1,147 @@
+#version 460
+// pvssm kernel shape (§5.2 step 3) and requests (steps 4-5 with pages): per view sample, the
+// blocker search over the light's pyramid (widened by the pixel footprint) in the conservative
+// low-resolution map gives z_avg, or proves the sample fully lit — no texel of any caster lies
+// nearer than its tangent plane there, and the map is conservative, so V = 1 and it is skipped
+// from then on. Otherwise the light kernel s_alpha (Eq. 1) and the pixel footprint phi'
+// (pixel axes through the tangent plane) are convolved into the filter h (Eq. 3), rho predicts
+// the texel size (Eqs. 4-5), and every page of that level the kernel's box touches is marked,
+// with its ancestors — not only the page under the kernel's centre (notes A4's seeding pitfall).
+// CPU twin: src/cpu/pvssm.rs.
+#extension GL_GOOGLE_include_directive : require
+#define TABLE_ACCESS
+#include "pvssm.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
+// The conservative low-resolution map: float bits of each texel's minimum depth.
+layout(set = 0, binding = 5) readonly buffer Lowres { uint lowres[]; };
+// (u_h.x, u_h.y, v_h.y, predicted level), or w = DECIDED.
+layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D shape;
+layout(set = 0, binding = 7, r32f) uniform writeonly image2D visibility;
+layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
+
+shared uint group_counts[COUNTERS];
+
+void count(int slot, uint n) {
+    atomicAdd(group_counts[slot], n);
+}
+
+void decide(ivec2 pixel, float v) {
+    imageStore(visibility, pixel, vec4(v));
+    imageStore(shape, pixel, vec4(0.0, 0.0, 0.0, DECIDED));
+}
+
+void main() {
+    if (gl_LocalInvocationIndex < COUNTERS) {
+        group_counts[gl_LocalInvocationIndex] = 0u;
+    }
+    barrier();
+
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (pixel == ivec2(0)) {
+        table[0] = 1u;
+    }
+    if (all(lessThan(pixel, pc.view_size))) {
+        vec4 p = imageLoad(positions, pixel);
+        vec4 r = imageLoad(receivers, pixel);
+        vec4 c = shadow_coord(pc.light_view_proj, r.xyz, ivec2(pc.virtual_size));
+        if (!(p.w > 0.0 && r.w > 0.0)) {
+            decide(pixel, 1.0);
+        } else if (!inside_map(c, ivec2(pc.virtual_size))) {
+            count(C_SAMPLES, 1u);
+            count(C_OUTSIDE, 1u);
+            count(C_LIT, 1u);
+            decide(pixel, 1.0);
+        } else {
+            count(C_SAMPLES, 1u);
+            vec3 n = imageLoad(normals, pixel).xyz;
+            vec2 dx, dy;
+            bool has_pixel = pixel_steps(pixel, p.xyz, n, dx, dy);
+            vec2 u_phi = 0.5 * dx;
+            vec2 v_phi = 0.5 * dy;
+            float lowres_texel = float(pc.virtual_size) / float(pc.lowres_size);
+            Receiver rc = make_receiver(c, r.xyz, n, 8.0 * lowres_texel);
+            float dr = soft_light_distance(c.z, pc.near, pc.far, pc.perspective);
+
+            // Blocker search: the light's pyramid at the near plane, widened by the pixel.
+            vec2 search = soft_light_footprint(pc.light_size, pc.perspective, dr, pc.near);
+            vec2 half_ext = 0.5 * search + abs(u_phi) + abs(v_phi);
+            vec2 centre = c.xy / lowres_texel;
+            vec2 half_low = half_ext / lowres_texel;
+            if (any(greaterThan(2.0 * half_low, vec2(pc.max_search)))) {
+                count(C_SEARCH_CLAMPED, 1u);
+                half_low = min(half_low, vec2(0.5 * pc.max_search));
+            }
+            vec2 lo = centre - half_low;
+            vec2 hi = centre + half_low;
+            int size = int(pc.lowres_size);
+            ivec2 a = max(ivec2(floor(lo)), ivec2(0));
+            ivec2 b = min(ivec2(ceil(hi)) - 1, ivec2(size - 1));
+            // The receiver plane's lowest depth over a low-res texel: its corners' minimum.
+            vec2 g = rc.dz * lowres_texel;
+            float plane_drop = 0.5 * (abs(g.x) + abs(g.y));
+            vec2 sum = vec2(0.0);
+            for (int j = a.y; j <= b.y; ++j) {
+                float wy = min(float(j + 1), hi.y) - max(float(j), lo.y);
+                for (int i = a.x; i <= b.x; ++i) {
+                    float d = uintBitsToFloat(lowres[j * size + i]);
+                    vec2 at = (vec2(i, j) + 0.5) * lowres_texel;
+                    float z_plane = rc.z + dot(rc.dz, at - rc.c) - plane_drop;
+                    if (d < z_plane - pc.search_bias) {
+                        float w = (min(float(i + 1), hi.x) - max(float(i), lo.x)) * wy;
+                        // A region thinner than a texel still weighs its one texel.
+                        w = max(w, 1e-6);
+                        sum += vec2(w * soft_light_distance(d, pc.near, pc.far, pc.perspective),
+                                    w);
+                    }
+                }
+            }
+            if (sum.y == 0.0) {
+                count(C_FULLY_LIT, 1u);
+                count(C_LIT, 1u);
+                decide(pixel, 1.0);
+            } else {
+                float d_avg = sum.x / sum.y;
+                vec2 w = soft_light_footprint(pc.light_size, pc.perspective, dr, d_avg);
+                vec2 u_s = vec2(0.5 * w.x, 0.0);
+                vec2 v_s = vec2(0.0, 0.5 * w.y);
+                vec2 u_h = u_s;
+                vec2 v_h = v_s;
+                if ((pc.options & OPT_ANTIALIAS) != 0u && has_pixel) {
+                    convolve(u_phi, v_phi, u_s, v_s, u_h, v_h);
+                }
+                u_h.x = max(u_h.x, MIN_HALF);
+                v_h.y = max(v_h.y, MIN_HALF);
+                uint level = predicted_level(u_h, v_h,
+                                             screen_sizes(has_pixel, u_phi, v_phi, u_h, v_h));
+                imageStore(shape, pixel, vec4(u_h, v_h.y, float(level)));
+                // Every page of that level under the kernel's box (one texel of margin for the
+                // panel approximation's rounding), and their ancestors.
+                ivec4 box = kernel_texels(c.xy, u_h, v_h, level);
+                int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
+                ivec2 pa = clamp((box.xy - 1) / int(pc.page_size), ivec2(0), ivec2(n_side - 1));
+                ivec2 pb = clamp((box.zw + 1) / int(pc.page_size), ivec2(0), ivec2(n_side - 1));
+                uint marks = 0u;
+                for (int py = pa.y; py <= pb.y; ++py) {
+                    for (int px = pa.x; px <= pb.x; ++px) {
+                        uvec2 page = uvec2(px, py);
+                        table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level,
+                                         page)] = 1u;
+                        mark_ancestors(level, page);
+                        marks += 1u;
+                    }
+                }
+                count(C_REQUESTED, marks);
+            }
+        }
+    }
+
+    barrier();
+    if (gl_LocalInvocationIndex < COUNTERS && group_counts[gl_LocalInvocationIndex] > 0u) {
+        atomicAdd(counters[gl_LocalInvocationIndex], group_counts[gl_LocalInvocationIndex]);
+    }
+}

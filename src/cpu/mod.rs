@@ -17,6 +17,7 @@ pub mod pcf;
 pub mod pcf_coverage;
 pub mod pcf_poisson;
 pub mod pcss;
+pub mod pvssm;
 pub mod raster;
 pub mod ray_cast;
 pub mod receiver_bounds;

@@ -41,7 +41,7 @@ fn inside_virtual(c: Vec3, virtual_size: u32) -> bool {
 
 /// The world point where the ray through the centre of `pixel` meets the plane through
 /// `position` with `normal`; `None` when parallel, behind the eye or not finite.
-fn tangent_hit(
+pub(crate) fn tangent_hit(
     camera: &Camera,
     inv: Mat4,
     pixel: (u32, u32),

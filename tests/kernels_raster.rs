@@ -51,13 +51,13 @@ fn check_against_twin(
     let twin = rasterize(positions, indices, view_proj, n, EPS, SMALL_TEXELS);
     assert_eq!(gpu.len(), (n * n) as usize);
     let mut bad = Vec::new();
-    for i in 0..gpu.len() {
-        let ok = gpu[i] <= tight.depth[i] + DEPTH_TOL && gpu[i] >= loose.depth[i] - DEPTH_TOL;
+    for (i, &g) in gpu.iter().enumerate() {
+        let ok = g <= tight.depth[i] + DEPTH_TOL && g >= loose.depth[i] - DEPTH_TOL;
         if !ok {
             bad.push((
                 i % n as usize,
                 i / n as usize,
-                gpu[i],
+                g,
                 tight.depth[i],
                 loose.depth[i],
             ));

@@ -139,7 +139,7 @@ type Twin = (&'static str, Vec<RustField>, usize);
 
 /// Every shader with a push-constant block and its Rust twin.
 fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
-    use kernels::{compact, minmax, nbuffer, reduce, sat, scan, sort};
+    use kernels::{compact, minmax, nbuffer, raster, reduce, sat, scan, sort};
     use penumbra::shader_types::*;
     use penumbra::techniques::cssm::{CssmPreparePush, CssmPush};
     use penumbra::techniques::essm::{EssmBuildPush, EssmPush};
@@ -471,6 +471,16 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 size,
                 max_level,
                 count
+            }),
+        ),
+        (
+            vec!["kernels/raster_conservative.comp"],
+            twin!(raster::RasterPush {
+                light_view_proj,
+                triangles,
+                map_size,
+                phase,
+                pad
             }),
         ),
         (

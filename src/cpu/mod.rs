@@ -6,6 +6,7 @@
 
 pub mod average_maps;
 pub mod compact;
+pub mod conservative_raster;
 pub mod cssm;
 pub mod essm;
 pub mod filtered;

@@ -1,10 +1,12 @@
 //! Compute primitives shared by the techniques: prefix sums, stream compaction, sorting,
-//! reductions, summed-area tables, N-buffers and min/max pyramids. Each has a CPU twin in
-//! `src/cpu/` and a row in `penumbra bench --suite kernels`.
+//! reductions, summed-area tables, N-buffers, min/max pyramids and conservative rasterization.
+//! Each has a CPU twin in `src/cpu/`; all but the rasterizer have a row in
+//! `penumbra bench --suite kernels`.
 
 pub mod compact;
 pub mod minmax;
 pub mod nbuffer;
+pub mod raster;
 pub mod reduce;
 pub mod sat;
 mod sat_bench;

@@ -1,0 +1,306 @@
+//! Conservative software rasterization of a triangle list into a low-resolution light-view depth
+//! buffer, in compute: every texel any triangle touches gets a depth no larger than the true
+//! minimum depth of the triangles over that texel. It feeds a blocker search whose "fully lit"
+//! early-out is only valid when no occluder texel is ever missed; lavapipe has no
+//! conservative-rasterization extension. CPU twin: [`crate::cpu::conservative_raster`].
+//!
+//! Rule (`glsl/kernels/raster_conservative.comp`): texel coordinates are those of
+//! `shadow_coord` (`c = (ndc.xy · 0.5 + 0.5) · N`, no y flip). Texel `[x, x+1] × [y, y+1]`,
+//! expanded by [`EPS`] texels on every side so float rounding never loses coverage, is covered
+//! when the projected triangle overlaps it: bounding boxes overlap and no edge has all four
+//! corners strictly outside. Its depth is `max(min vertex NDC z, min of the triangle's plane
+//! depth at the four expanded corners)` clamped to `[0, 1]` (NDC z is affine in screen x, y for
+//! a planar triangle, so the plane's minimum over the square is at a corner). Texels combine
+//! with `atomicMin` on the float bits.
+//!
+//! Design: one invocation per triangle sets it up and rasterizes it when its clamped texel range
+//! has at most 64 texels (nearly every triangle of a scene at these resolutions); bigger ones are
+//! appended to a list, which [`LARGE_GROUPS`] workgroups then grid-stride over, the 64
+//! invocations of a group striding over the triangle's texels. Fixed groups keep per-workgroup
+//! overhead bounded; lavapipe's loop limiter (65 535 loop passes per SIMD group and dispatch)
+//! bounds the texels one group may handle, hence [`MAX_MAP_SIZE`]; a guard loop counts
+//! invocations the limiter cut short ([`RasterCounters::cut`]).
+//!
+//! Skipped triangles (counted): a vertex at `w ≤ 0` (behind the light: not conservative, the
+//! caller must not rely on the map for such geometry — [`RasterCounters::behind_light`] says
+//! whether any was there), entirely in front of the near or behind the far plane, zero area.
+//!
+//! Use: [`ConservativeRaster::new`] once, [`ConservativeRaster::bind`] to the geometry and the
+//! output, then [`ConservativeRaster::record`]; [`ConservativeRaster::run`] is the
+//! upload/run/readback convenience for tests.
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+
+use super::scan::{check_buffer, param_error};
+use crate::error::{Error, Result};
+use crate::gpu::{f32s, u32s, Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
+
+/// Texels the coverage square is expanded by on every side.
+pub const EPS: f32 = 1e-3;
+
+/// A triangle whose clamped texel range has more texels than this goes to the large pass.
+pub const SMALL_TEXELS: u32 = 64;
+
+/// Workgroups of the large-triangle pass.
+pub const LARGE_GROUPS: u32 = 256;
+
+/// Largest map side: one triangle covering a 1024² map takes 16 384 loop passes of one
+/// workgroup, leaving room under lavapipe's 65 535 for a few more in the same group.
+pub const MAX_MAP_SIZE: u32 = 1024;
+
+/// Invocations per workgroup of `raster_conservative.comp`.
+const WG: u32 = 64;
+
+/// The float bits of depth 1.0: "nothing covers this texel".
+pub const EMPTY_DEPTH_BITS: u32 = 0x3F80_0000;
+
+/// Push constants of `kernels/raster_conservative.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct RasterPush {
+    /// World → light clip space (Vulkan clip, depth 0..1).
+    pub light_view_proj: Mat4,
+    /// Triangles in the index buffer.
+    pub triangles: u32,
+    /// The map is `map_size × map_size` texels.
+    pub map_size: u32,
+    /// 0: per-triangle pass; 1: large-triangle pass.
+    pub phase: u32,
+    /// Padding.
+    pub pad: u32,
+}
+
+/// What a rasterization counted (the GPU's counters buffer, in this order, `u32` each).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct RasterCounters {
+    /// Triangles read.
+    pub triangles: u32,
+    /// Triangles skipped: behind the light, outside the depth range, or of zero area.
+    pub skipped: u32,
+    /// Triangles handed to the large pass (more than [`SMALL_TEXELS`] texels in range).
+    pub large: u32,
+    /// Covered (triangle, texel) pairs: `atomicMin`s done.
+    pub texels: u32,
+    /// Of `skipped`, triangles with a vertex at `w ≤ 0`: where nonzero the map is not
+    /// conservative for them.
+    pub behind_light: u32,
+    /// Invocations whose loops lavapipe's loop limiter cut short; nonzero means a wrong map.
+    pub cut: u32,
+}
+
+/// Counters in the counters buffer.
+const COUNTERS: u64 = (std::mem::size_of::<RasterCounters>() / 4) as u64;
+
+/// A [`ConservativeRaster`] bound to geometry and an output buffer, with its scratch (the
+/// large-triangle list and the counters). Borrows the bound buffers.
+pub struct RasterBinding<'a> {
+    triangles: u32,
+    map_size: u32,
+    set: DescriptorSet,
+    depth: &'a Buffer,
+    counters: Buffer,
+    _large: Buffer,
+    _geometry: (&'a Buffer, &'a Buffer),
+}
+
+impl RasterBinding<'_> {
+    /// Triangles bound.
+    pub fn triangles(&self) -> u32 {
+        self.triangles
+    }
+
+    /// The map side N.
+    pub fn map_size(&self) -> u32 {
+        self.map_size
+    }
+
+    /// The counters buffer ([`RasterCounters`] layout), written by each recording.
+    pub fn counters(&self) -> &Buffer {
+        &self.counters
+    }
+
+    /// Reads the counters of the last recording that executed.
+    pub fn read_counters(&self, ctx: &Context) -> Result<RasterCounters> {
+        let words = u32s(&ctx.read_buffer(&self.counters)?);
+        let mut out = RasterCounters::zeroed();
+        let dst: &mut [u32] = bytemuck::cast_slice_mut(std::slice::from_mut(&mut out));
+        for (d, s) in dst.iter_mut().zip(words) {
+            *d = s;
+        }
+        Ok(out)
+    }
+}
+
+/// The conservative rasterizer's pipeline. Create once per context.
+pub struct ConservativeRaster {
+    ctx: Context,
+    pipeline: Pipeline,
+}
+
+impl ConservativeRaster {
+    /// Creates the pipeline.
+    pub fn new(ctx: &Context) -> Result<ConservativeRaster> {
+        Ok(ConservativeRaster {
+            ctx: ctx.clone(),
+            pipeline: Pipeline::compute(ctx, "kernels/raster_conservative.comp")?,
+        })
+    }
+
+    /// Binds `triangles` triangles of `indices` (a `u32` triangle list, at least 12 ×
+    /// `triangles` bytes) over `vertices` (`f32` xyz tightly packed; every index must be in
+    /// range, as [`crate::passes::SceneGeometry`] guarantees) to `depth`, at least 4 · N² bytes
+    /// for the N × N map (`map_size` = N, 1 ..= [`MAX_MAP_SIZE`]), row-major, one `u32` per
+    /// texel holding the float bits of its conservative minimum depth.
+    pub fn bind<'a>(
+        &self,
+        vertices: &'a Buffer,
+        indices: &'a Buffer,
+        triangles: u32,
+        depth: &'a Buffer,
+        map_size: u32,
+    ) -> Result<RasterBinding<'a>> {
+        const NAME: &str = "conservative raster";
+        if map_size == 0 || map_size > MAX_MAP_SIZE {
+            return Err(param_error(
+                NAME,
+                format!("map size {map_size}; 1 ..= {MAX_MAP_SIZE} supported"),
+            ));
+        }
+        let max_triangles = super::scan::MAX_GROUPS * WG;
+        if triangles > max_triangles {
+            return Err(param_error(
+                NAME,
+                format!("{triangles} triangles; at most {max_triangles} in one dispatch"),
+            ));
+        }
+        check_buffer(NAME, indices, 12 * triangles as u64)?;
+        check_buffer(NAME, depth, 4 * map_size as u64 * map_size as u64)?;
+        if triangles > 0 {
+            check_buffer(NAME, vertices, 12)?;
+        }
+        let large = Buffer::storage(&self.ctx, "conservative raster large triangles", {
+            4 * triangles.max(1) as u64
+        })?;
+        let counters = Buffer::storage(&self.ctx, "conservative raster counters", 4 * COUNTERS)?;
+        let set = DescriptorSet::new(
+            &self.ctx,
+            &self.pipeline,
+            &[
+                Binding::Buffer(vertices),
+                Binding::Buffer(indices),
+                Binding::Buffer(depth),
+                Binding::Buffer(&large),
+                Binding::Buffer(&counters),
+            ],
+        )?;
+        Ok(RasterBinding {
+            triangles,
+            map_size,
+            set,
+            depth,
+            counters,
+            _large: large,
+            _geometry: (vertices, indices),
+        })
+    }
+
+    /// Records the rasterization: fills the depth buffer with [`EMPTY_DEPTH_BITS`] and the
+    /// counters with 0, then the per-triangle and the large-triangle dispatches.
+    pub fn record(
+        &self,
+        rec: &mut Recorder<'_>,
+        binding: &RasterBinding<'_>,
+        light_view_proj: Mat4,
+    ) -> Result<()> {
+        rec.fill(binding.depth, EMPTY_DEPTH_BITS);
+        rec.fill(&binding.counters, 0);
+        let mut push = RasterPush {
+            light_view_proj,
+            triangles: binding.triangles,
+            map_size: binding.map_size,
+            phase: 0,
+            pad: 0,
+        };
+        // With no triangle one invocation still runs the limiter guard.
+        let threads = binding.triangles.max(1);
+        rec.dispatch(&self.pipeline, &binding.set, &push, [threads, 1, 1])?;
+        push.phase = 1;
+        rec.dispatch(
+            &self.pipeline,
+            &binding.set,
+            &push,
+            [LARGE_GROUPS * WG, 1, 1],
+        )
+    }
+
+    /// Uploads `positions` and `indices` (a triangle list), rasterizes them into a
+    /// `map_size²` map and reads back the depths (row-major) and the counters. One submission;
+    /// for tests. Fails when the loop limiter cut the rasterization short.
+    pub fn run(
+        &self,
+        positions: &[Vec3],
+        indices: &[u32],
+        light_view_proj: Mat4,
+        map_size: u32,
+    ) -> Result<(Vec<f32>, RasterCounters)> {
+        if indices.len() % 3 != 0 || indices.iter().any(|&i| i as usize >= positions.len()) {
+            return Err(param_error(
+                "conservative raster",
+                format!(
+                    "{} indices over {} vertices is not a valid triangle list",
+                    indices.len(),
+                    positions.len()
+                ),
+            ));
+        }
+        let triangles = u32::try_from(indices.len() / 3)
+            .map_err(|_| param_error("conservative raster", "too many triangles".into()))?;
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let flat: Vec<f32> = positions.iter().flat_map(|p| p.to_array()).collect();
+        let vertices = self.ctx.buffer_with("raster vertices", usage, &flat)?;
+        let index_buffer = self.ctx.buffer_with("raster indices", usage, indices)?;
+        let depth = Buffer::storage(
+            &self.ctx,
+            "conservative depth",
+            4 * map_size as u64 * map_size as u64,
+        )?;
+        let binding = self.bind(&vertices, &index_buffer, triangles, &depth, map_size)?;
+        self.ctx
+            .submit(None, |rec| self.record(rec, &binding, light_view_proj))?;
+        let counters = binding.read_counters(&self.ctx)?;
+        if counters.cut > 0 {
+            return Err(Error::Shader {
+                name: "kernels/raster_conservative.comp".into(),
+                message: format!(
+                    "the driver's loop limiter cut {} invocations short: the map is wrong",
+                    counters.cut
+                ),
+            });
+        }
+        let mut out = f32s(&self.ctx.read_buffer(&depth)?);
+        out.truncate(map_size as usize * map_size as usize);
+        Ok((out, counters))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::shader_interface;
+    use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn raster_push_layout() {
+        assert_eq!(offset_of!(RasterPush, triangles), 64);
+        let declared = shader_interface("kernels/raster_conservative.comp")
+            .expect("embedded shader")
+            .1;
+        assert_eq!(
+            declared.push_constant_size as usize,
+            size_of::<RasterPush>()
+        );
+    }
+}

@@ -1,0 +1,346 @@
+//! The conservative compute rasterizer against its CPU twin (bracketed between the twin at half
+//! and twice the GPU's coverage epsilon), against the ordinary rasterizer (never deeper where
+//! that one covers a texel centre), on a sliver, and on one triangle covering a 1024² map (the
+//! large path, under lavapipe's loop limiter), all under validation.
+
+mod common;
+
+use glam::{Mat4, Vec3};
+use penumbra::cpu::conservative_raster::{rasterize, ConservativeDepth};
+use penumbra::cpu::raster::rasterize_depth;
+use penumbra::kernels::raster::{ConservativeRaster, RasterCounters, EPS, SMALL_TEXELS};
+
+/// Depths may differ by a few ulp (FMA contraction, division order).
+const DEPTH_TOL: f32 = 1e-6;
+
+/// xorshift32 floats in [0, 1): deterministic inputs without an RNG crate.
+struct Rng(u32);
+
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 17;
+        self.0 ^= self.0 << 5;
+        (self.0 >> 8) as f32 / (1u32 << 24) as f32
+    }
+
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.next()
+    }
+}
+
+/// Texel coordinates (and a depth) to the NDC point that an identity light matrix maps there.
+fn texel_point(x: f32, y: f32, z: f32, n: u32) -> Vec3 {
+    Vec3::new(x / n as f32 * 2.0 - 1.0, y / n as f32 * 2.0 - 1.0, z)
+}
+
+/// Checks the GPU's map and counters against the twin: every texel's depth lies between the
+/// twin's at 2·EPS and at EPS/2 (coverage only grows and depths only fall with the epsilon), the
+/// skip counts match exactly, the covered-pair count lies in the same bracket. Writes a diff
+/// image on failure.
+fn check_against_twin(
+    what: &str,
+    (positions, indices): (&[Vec3], &[u32]),
+    view_proj: Mat4,
+    n: u32,
+    gpu: &[f32],
+    counters: &RasterCounters,
+) -> ConservativeDepth {
+    let tight = rasterize(positions, indices, view_proj, n, EPS * 0.5, SMALL_TEXELS);
+    let loose = rasterize(positions, indices, view_proj, n, EPS * 2.0, SMALL_TEXELS);
+    let twin = rasterize(positions, indices, view_proj, n, EPS, SMALL_TEXELS);
+    assert_eq!(gpu.len(), (n * n) as usize);
+    let mut bad = Vec::new();
+    for (i, &g) in gpu.iter().enumerate() {
+        let ok = g <= tight.depth[i] + DEPTH_TOL && g >= loose.depth[i] - DEPTH_TOL;
+        if !ok {
+            bad.push((
+                i % n as usize,
+                i / n as usize,
+                g,
+                tight.depth[i],
+                loose.depth[i],
+            ));
+        }
+    }
+    if !bad.is_empty() {
+        let dir = common::write_diff(what, n, n, &twin.depth, gpu);
+        panic!(
+            "{what}: {} texels outside the twin's bracket (x, y, gpu, eps/2, 2eps), first: \
+             {:?}; images in {}",
+            bad.len(),
+            &bad[..bad.len().min(8)],
+            dir.display()
+        );
+    }
+    assert_eq!(counters.triangles, twin.triangles, "{what}: triangles");
+    assert_eq!(counters.skipped, twin.skipped, "{what}: skipped");
+    assert_eq!(counters.behind_light, twin.behind_light, "{what}: behind");
+    assert_eq!(counters.large, twin.large, "{what}: large");
+    assert!(
+        (tight.texels..=loose.texels).contains(&counters.texels),
+        "{what}: {} covered pairs, twin {}..={}",
+        counters.texels,
+        tight.texels,
+        loose.texels
+    );
+    assert_eq!(counters.cut, 0, "{what}: loop limiter");
+    twin
+}
+
+/// Every texel the ordinary rasterizer covers (centre inside, depth in range) is covered here
+/// at no larger depth. Triangles behind the light are left out (the ordinary rasterizer does not
+/// clip them).
+fn check_conservative(
+    what: &str,
+    (positions, indices): (&[Vec3], &[u32]),
+    view_proj: Mat4,
+    n: u32,
+    gpu: &[f32],
+) {
+    let front: Vec<u32> = indices
+        .chunks_exact(3)
+        .filter(|t| {
+            t.iter()
+                .all(|&i| (view_proj * positions[i as usize].extend(1.0)).w > 0.0)
+        })
+        .flatten()
+        .copied()
+        .collect();
+    let raster = rasterize_depth(positions, &front, view_proj, n, n, 0.0);
+    let covered = raster.depth.iter().filter(|&&d| d < 1.0).count();
+    let deeper: Vec<_> = (0..gpu.len())
+        .filter(|&i| gpu[i] > raster.depth[i] + DEPTH_TOL)
+        .map(|i| (i % n as usize, i / n as usize, gpu[i], raster.depth[i]))
+        .collect();
+    if !deeper.is_empty() {
+        let dir = common::write_diff(&format!("{what}-raster"), n, n, &raster.depth, gpu);
+        panic!(
+            "{what}: {} of {covered} rasterized texels deeper here (x, y, here, raster): {:?}; \
+             images in {}",
+            deeper.len(),
+            &deeper[..deeper.len().min(8)],
+            dir.display()
+        );
+    }
+    assert!(
+        covered > 0,
+        "{what}: the ordinary rasterizer covered nothing"
+    );
+}
+
+/// Random triangles of three size classes through a perspective light: some behind it, some in
+/// front of the near or past the far plane, some degenerate, small, large and off-map ones.
+fn random_triangles(count: usize, seed: u32) -> (Vec<Vec3>, Vec<u32>) {
+    let mut rng = Rng(seed);
+    let mut positions = Vec::new();
+    for t in 0..count {
+        let centre = Vec3::new(
+            rng.range(-3.5, 3.5),
+            rng.range(-3.5, 3.5),
+            rng.range(-4.0, 5.5),
+        );
+        let size = [0.02, 0.15, 1.5][t % 3];
+        let mut v = [0; 3].map(|_| {
+            centre
+                + Vec3::new(
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                ) * size
+        });
+        if t % 97 == 0 {
+            v[2] = v[1]; // zero area
+        }
+        positions.extend(v);
+    }
+    let indices = (0..positions.len() as u32).collect();
+    (positions, indices)
+}
+
+fn perspective_light() -> Mat4 {
+    let view = Mat4::look_at_rh(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y);
+    Mat4::perspective_rh(60f32.to_radians(), 1.0, 1.0, 8.0) * view
+}
+
+#[test]
+fn random_triangles_match_the_twin_and_are_conservative() {
+    let ctx = common::context();
+    let raster = ConservativeRaster::new(&ctx).expect("pipeline");
+    let (positions, indices) = random_triangles(3000, 12345);
+    let vp = perspective_light();
+    for n in [128, 256] {
+        let (gpu, counters) = raster.run(&positions, &indices, vp, n).expect("run");
+        let what = format!("random-{n}");
+        let twin = check_against_twin(&what, (&positions, &indices), vp, n, &gpu, &counters);
+        assert!(twin.behind_light > 0 && twin.skipped > twin.behind_light + 30);
+        assert!(
+            twin.large > 50,
+            "{what}: only {} large triangles",
+            twin.large
+        );
+        check_conservative(&what, (&positions, &indices), vp, n, &gpu);
+    }
+    common::assert_clean(&ctx.validation());
+}
+
+#[test]
+fn a_scene_mesh_matches_the_twin_and_is_conservative() {
+    let ctx = common::context();
+    let raster = ConservativeRaster::new(&ctx).expect("pipeline");
+    let scene = penumbra::scene::Scene::open("scenes/spot-point.toml").expect("scene");
+    let (positions, indices) = scene.merged();
+    let light = penumbra::passes::LightView::fit(&scene.light, &scene.bounds()).expect("fit");
+    for n in [128, 256] {
+        let (gpu, counters) = raster
+            .run(&positions, &indices, light.view_proj, n)
+            .expect("run");
+        let what = format!("spot-point-{n}");
+        check_against_twin(
+            &what,
+            (&positions, &indices),
+            light.view_proj,
+            n,
+            &gpu,
+            &counters,
+        );
+        assert_eq!(
+            counters.behind_light, 0,
+            "{what}: the fitted light sees everything"
+        );
+        check_conservative(&what, (&positions, &indices), light.view_proj, n, &gpu);
+    }
+    common::assert_clean(&ctx.validation());
+}
+
+#[test]
+fn the_bound_api_rasterizes_scene_geometry() {
+    let ctx = common::context();
+    let raster = ConservativeRaster::new(&ctx).expect("pipeline");
+    let scene = penumbra::scene::Scene::open("scenes/spot-point.toml").expect("scene");
+    let geometry = penumbra::passes::SceneGeometry::upload(&ctx, &scene).expect("upload");
+    let light = penumbra::passes::LightView::fit(&scene.light, &scene.bounds()).expect("fit");
+    let n = 64;
+    let depth =
+        penumbra::gpu::Buffer::storage(&ctx, "depth", 4 * n as u64 * n as u64).expect("buffer");
+    let triangles = geometry.index_count / 3;
+    let binding = raster
+        .bind(&geometry.vertices, &geometry.indices, triangles, &depth, n)
+        .expect("bind");
+    // Twice in one submission: the second recording starts from a cleared map.
+    ctx.submit(None, |rec| {
+        raster.record(rec, &binding, light.view_proj)?;
+        raster.record(rec, &binding, light.view_proj)
+    })
+    .expect("submit");
+    let gpu = penumbra::gpu::f32s(&ctx.read_buffer(&depth).expect("read"));
+    let counters = binding.read_counters(&ctx).expect("counters");
+    let (positions, indices) = scene.merged();
+    check_against_twin(
+        "bound-64",
+        (&positions, &indices),
+        light.view_proj,
+        n,
+        &gpu,
+        &counters,
+    );
+    assert!(raster
+        .bind(&geometry.vertices, &geometry.indices, triangles, &depth, 65)
+        .is_err());
+    assert!(raster
+        .bind(&geometry.vertices, &geometry.indices, triangles, &depth, 0)
+        .is_err());
+    common::assert_clean(&ctx.validation());
+}
+
+#[test]
+fn a_sliver_marks_every_texel_it_crosses() {
+    let ctx = common::context();
+    let raster = ConservativeRaster::new(&ctx).expect("pipeline");
+    let n = 256;
+    let (a, b) = (glam::Vec2::new(10.3, 20.2), glam::Vec2::new(200.7, 150.9));
+    let normal = (b - a).perp().normalize() * 0.01;
+    let c = b + normal;
+    let z = 0.3;
+    let positions = vec![
+        texel_point(a.x, a.y, z, n),
+        texel_point(b.x, b.y, z, n),
+        texel_point(c.x, c.y, z, n),
+    ];
+    let indices = [0, 1, 2];
+    let (gpu, counters) = raster
+        .run(&positions, &indices, Mat4::IDENTITY, n)
+        .expect("run");
+    let mut crossed = std::collections::BTreeSet::new();
+    for s in 0..=200_000 {
+        let p = a + (b - a) * (s as f32 / 200_000.0);
+        crossed.insert((p.x.floor() as usize, p.y.floor() as usize));
+    }
+    for &(x, y) in &crossed {
+        let d = gpu[y * n as usize + x];
+        assert!(
+            d <= z + DEPTH_TOL,
+            "texel ({x}, {y}) crossed but not marked: {d}"
+        );
+    }
+    let marked = gpu.iter().filter(|&&d| d < 1.0).count();
+    assert!(
+        marked >= crossed.len() && marked <= crossed.len() + 8,
+        "{marked} texels marked, {} crossed",
+        crossed.len()
+    );
+    assert_eq!(
+        (counters.triangles, counters.skipped, counters.large),
+        (1, 0, 1)
+    );
+    check_against_twin(
+        "sliver",
+        (&positions, &indices),
+        Mat4::IDENTITY,
+        n,
+        &gpu,
+        &counters,
+    );
+    common::assert_clean(&ctx.validation());
+}
+
+#[test]
+fn one_triangle_fills_a_1024_map_through_the_large_path() {
+    let ctx = common::context();
+    let raster = ConservativeRaster::new(&ctx).expect("pipeline");
+    let n = 1024;
+    let positions = vec![
+        Vec3::new(-1.0, -1.0, 0.25),
+        Vec3::new(3.0, -1.0, 0.25),
+        Vec3::new(-1.0, 3.0, 0.25),
+    ];
+    let (gpu, counters) = raster
+        .run(&positions, &[0, 1, 2], Mat4::IDENTITY, n)
+        .expect("run (fails if the loop limiter cut it short)");
+    let wrong = gpu.iter().filter(|&&d| d != 0.25).count();
+    assert_eq!(wrong, 0, "{wrong} texels not at depth 0.25");
+    assert_eq!(
+        counters,
+        RasterCounters {
+            triangles: 1,
+            skipped: 0,
+            large: 1,
+            texels: n * n,
+            behind_light: 0,
+            cut: 0,
+        }
+    );
+    common::assert_clean(&ctx.validation());
+}
+
+#[test]
+fn an_empty_list_leaves_the_map_empty() {
+    let ctx = common::context();
+    let raster = ConservativeRaster::new(&ctx).expect("pipeline");
+    let (gpu, counters) = raster
+        .run(&[Vec3::ZERO], &[], Mat4::IDENTITY, 16)
+        .expect("run");
+    assert!(gpu.iter().all(|&d| d == 1.0));
+    assert_eq!(counters, RasterCounters::default());
+    common::assert_clean(&ctx.validation());
+}

@@ -253,3 +253,17 @@ pub struct PvssmPush {
     /// NDC depth a low-resolution texel must be nearer than the receiver's plane to block.
     pub search_bias: f32,
 }
+
+/// `glsl/pvssm/lowres_mip.comp`: one level of the low-resolution map's min pyramid.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Pod, Zeroable)]
+pub struct PvssmMipPush {
+    /// First texel of the level read.
+    pub src_offset: u32,
+    /// First texel of the level written.
+    pub dst_offset: u32,
+    /// Side of the level written.
+    pub dst_size: u32,
+    /// Padding to the block's declared size.
+    pub pad0: u32,
+}

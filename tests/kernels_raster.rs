@@ -221,11 +221,9 @@ fn the_bound_api_rasterizes_scene_geometry() {
     let geometry = penumbra::passes::SceneGeometry::upload(&ctx, &scene).expect("upload");
     let light = penumbra::passes::LightView::fit(&scene.light, &scene.bounds()).expect("fit");
     let n = 64;
-    let depth =
-        penumbra::gpu::Buffer::storage(&ctx, "depth", 4 * n as u64 * n as u64).expect("buffer");
     let triangles = geometry.index_count / 3;
     let binding = raster
-        .bind(&geometry.vertices, &geometry.indices, triangles, &depth, n)
+        .bind(&geometry.vertices, &geometry.indices, triangles, n)
         .expect("bind");
     // Twice in one submission: the second recording starts from a cleared map.
     ctx.submit(None, |rec| {
@@ -233,7 +231,7 @@ fn the_bound_api_rasterizes_scene_geometry() {
         raster.record(rec, &binding, light.view_proj)
     })
     .expect("submit");
-    let gpu = penumbra::gpu::f32s(&ctx.read_buffer(&depth).expect("read"));
+    let gpu = penumbra::gpu::f32s(&ctx.read_buffer(binding.depth()).expect("read"));
     let counters = binding.read_counters(&ctx).expect("counters");
     let (positions, indices) = scene.merged();
     check_against_twin(
@@ -245,10 +243,10 @@ fn the_bound_api_rasterizes_scene_geometry() {
         &counters,
     );
     assert!(raster
-        .bind(&geometry.vertices, &geometry.indices, triangles, &depth, 65)
+        .bind(&geometry.vertices, &geometry.indices, triangles, 65)
         .is_err());
     assert!(raster
-        .bind(&geometry.vertices, &geometry.indices, triangles, &depth, 0)
+        .bind(&geometry.vertices, &geometry.indices, triangles, 0)
         .is_err());
     common::assert_clean(&ctx.validation());
 }

@@ -28,20 +28,26 @@ fn render(engine: &Engine, prepared: &PreparedScene, set: &[(&str, &str)]) -> Fr
         .render(prepared, "pvssm", &knobs(set), 1)
         .expect("render");
     assert_eq!(frame.stats.nan_count, 0, "NaN with {set:?}");
-    assert_eq!(frame.stats.out_of_range_count, 0, "V outside [0,1] with {set:?}");
+    assert_eq!(
+        frame.stats.out_of_range_count, 0,
+        "V outside [0,1] with {set:?}"
+    );
     frame
 }
 
 /// PCSS's assumptions hold exactly on parallel planes: V is the linear ramp of width
 /// w·h/(H − h); the width grows linearly with the light; touching, the ramp shrinks to the step.
+/// Without the analytic anti-aliasing: with it the ramp is further convolved with each pixel's
+/// footprint (wider by about a pixel, ~0.02 here), which is its purpose.
 #[test]
 fn parallel_planes_ramp() {
     let engine = common::engine();
     let (h, big_h) = (1.0f32, 4.0f32);
+    let exact = knobs(&[("antialias", "0")]);
     let mut widths = Vec::new();
     for w in [0.75f32, 1.5] {
         let (frame, positions) =
-            common::render_parallel_planes(&engine, "pvssm", (w, h, big_h), &knobs(&[]));
+            common::render_parallel_planes(&engine, "pvssm", (w, h, big_h), &exact);
         let profile = common::parallel_planes_ground(&frame.visibility, &positions, 1.5);
         assert!(profile.len() > 500, "only {} ground samples", profile.len());
         let mut worst = 0.0f32;
@@ -60,12 +66,18 @@ fn parallel_planes_ramp() {
 
     // Contact hardening: an occluder 0.02 above the ground leaves a ramp of 0.01.
     let (frame, positions) =
-        common::render_parallel_planes(&engine, "pvssm", (1.5, 0.02, big_h), &knobs(&[]));
+        common::render_parallel_planes(&engine, "pvssm", (1.5, 0.02, big_h), &exact);
     for (x, v) in common::parallel_planes_ground(&frame.visibility, &positions, 1.5) {
         if x < -0.1 {
-            assert!(v < 1e-3, "light leaks under the touching occluder at x = {x}: {v}");
+            assert!(
+                v < 1e-3,
+                "light leaks under the touching occluder at x = {x}: {v}"
+            );
         } else if x > 0.1 {
-            assert!(v > 1.0 - 1e-3, "shadow beyond the touching occluder at x = {x}: {v}");
+            assert!(
+                v > 1.0 - 1e-3,
+                "shadow beyond the touching occluder at x = {x}: {v}"
+            );
         }
     }
     common::assert_clean(&engine.context().validation());
@@ -176,18 +188,23 @@ fn fully_lit_flag_is_conservative() {
     let prepared = engine
         .prepare(&common::small("scenes/teapot-rect.toml"))
         .expect("prepare");
-    let frame = render(&engine, &prepared, &[("light_clip", "0")]);
-    assert!(counter(&frame, "fully_lit") > 1000, "{:?}", frame.stats.counters);
+    let frame = render(&engine, &prepared, &[]);
+    assert!(
+        counter(&frame, "fully_lit") > 1000,
+        "{:?}",
+        frame.stats.counters
+    );
     let reference = engine
         .render(
             &prepared,
             "reference-single-layer",
-            &knobs(&[("samples", "8"), ("light_clip", "0")]),
+            &knobs(&[("samples", "8")]),
             1,
         )
         .expect("reference");
-    // The shape pass writes exactly 1.0 for the flagged samples; the filter can also give 1.0,
-    // so this checks every sample at 1.0 — stricter than the flagged ones alone.
+    // The shape pass writes exactly 1.0 for the flagged samples (and the receivers pass keeps it
+    // where the whole light is in front); the filter can also give 1.0, so this checks every
+    // sample at 1.0 — stricter than the flagged ones alone.
     let mut bad = 0;
     for (v, r) in frame.visibility.iter().zip(&reference.visibility) {
         if *v == 1.0 && *r < 1.0 - 1e-6 {
@@ -209,10 +226,158 @@ fn larger_lights_need_fewer_pages() {
     let engine = common::engine();
     let mut pages = Vec::new();
     for w in [0.25f32, 1.0, 4.0] {
-        let (frame, _) = common::render_parallel_planes(&engine, "pvssm", (w, 1.0, 4.0), &knobs(&[]));
+        let (frame, _) =
+            common::render_parallel_planes(&engine, "pvssm", (w, 1.0, 4.0), &knobs(&[]));
         pages.push(counter(&frame, "allocated_pages"));
     }
     eprintln!("pages for lights 0.25, 1, 4: {pages:?}");
     assert!(pages[0] > pages[1] && pages[1] > pages[2], "{pages:?}");
     common::assert_clean(&engine.context().validation());
+}
+
+/// The filter and the prediction against the twin (`src/cpu/pvssm.rs`), reading the GPU's own
+/// kernel shapes and pages: every filtered sample's V equals the twin's coverage filter over the
+/// same atlas texels at the level the twin finds served (1e-4; depth ties capped at 1 % of the
+/// samples), and its predicted level is the twin's from the same kernel (levels within rounding of
+/// a power of two excepted, same cap).
+#[test]
+fn filter_and_prediction_match_cpu() {
+    use glam::Vec2;
+    use penumbra::cpu::pages::{atlas_columns, PageLayout};
+    use penumbra::cpu::pvssm as twin;
+    use penumbra::cpu::shadow_map::shadow_coord;
+    let engine = common::engine();
+    let ctx = engine.context().clone();
+    let prepared = engine
+        .prepare(&common::small("scenes/teapot-rect.toml"))
+        .expect("prepare");
+    let (v_size, page, pool) = (4096u32, 64u32, 1024u32);
+    let mut set = knobs(&[
+        ("virtual_size", "4096"),
+        ("page_size", "64"),
+        ("pool_pages", "1024"),
+        ("tangent_plane", "0"),
+    ]);
+    for (k, v) in common::KERNEL_ONLY {
+        set.insert(k.into(), v.into());
+    }
+    let (mut shape, mut table, mut atlas, mut atlas_width) = (vec![], vec![], vec![], 0u32);
+    let frame = engine
+        .render_inspect(&prepared, "pvssm", &set, 1, |t| {
+            let pages = t.virtual_pages().expect("pages");
+            table = pages.read_table()?;
+            atlas = penumbra::gpu::f32s(&ctx.read_image(&pages.atlas)?);
+            atlas_width = pages.atlas.extent().width;
+            let (_, image) = t
+                .images()
+                .into_iter()
+                .find(|(n, _)| *n == "shape")
+                .expect("shape");
+            shape = penumbra::gpu::f32s(&ctx.read_image(image)?);
+            Ok(())
+        })
+        .expect("render");
+    let layout = PageLayout::new(v_size, page).expect("layout");
+    let cols = i64::from(atlas_columns(pool));
+    let positions = prepared.view.read_positions(&ctx).expect("positions");
+    let normals = prepared.view.read_normals(&ctx).expect("normals");
+    let m = prepared.light_view.view_proj;
+    let p = i64::from(page);
+    let slot_of = |level: u32, i: i64, j: i64| -> Option<u32> {
+        let side = i64::from(v_size >> level);
+        if i < 0 || j < 0 || i >= side || j >= side {
+            return None;
+        }
+        Some(table[layout.entry(level, (i / p) as u32, (j / p) as u32) as usize])
+    };
+    let width = prepared.view.width as usize;
+    let (mut filtered, mut off_v, mut off_level) = (0usize, 0usize, 0usize);
+    let mut worst = 0.0f32;
+    for (k, px) in positions.iter().enumerate() {
+        let s = &shape[4 * k..4 * k + 4];
+        if px.w <= 0.0 || s[3] < 0.0 {
+            continue;
+        }
+        filtered += 1;
+        let (u_h, v_h) = (Vec2::new(s[0], s[1]), Vec2::new(0.0, s[2]));
+        let wanted = s[3] as u32;
+        let c = shadow_coord(m, px.truncate(), glam::IVec2::splat(v_size as i32));
+        // The prediction from the GPU's kernel, by the twin.
+        let pixel = ((k % width) as u32, (k / width) as u32);
+        let axes = twin::pixel_axes(
+            &prepared.camera,
+            pixel,
+            px.truncate(),
+            normals[k].truncate(),
+            m,
+            v_size,
+        );
+        let n = twin::screen_sizes(axes, u_h, v_h);
+        let r = twin::required_texel(u_h, v_h, n, twin::Rho::Dynamic, 1.0);
+        if twin::predicted_level(r, layout.levels) != wanted {
+            off_level += 1;
+        }
+        // The served level: the first whose pages hold the kernel's box.
+        let mut level = wanted;
+        while level + 1 < layout.levels {
+            let sc = (1u32 << level) as f32;
+            let half = Vec2::new(u_h.x, u_h.y.abs() + v_h.y) / sc;
+            let centre = Vec2::new(c.x, c.y) / sc;
+            let (lo, hi) = ((centre - half).floor(), (centre + half).ceil() - 1.0);
+            let mut all = true;
+            let mut j = lo.y as i64;
+            while j <= hi.y as i64 && all {
+                let mut i = lo.x as i64;
+                while i <= hi.x as i64 && all {
+                    all = slot_of(level, i, j).is_none_or(|s| s != 0);
+                    i += p;
+                }
+                all = all && slot_of(level, hi.x as i64, j).is_none_or(|s| s != 0);
+                j += p;
+            }
+            let mut i = lo.x as i64;
+            while i <= hi.x as i64 && all {
+                all = slot_of(level, i, hi.y as i64).is_none_or(|s| s != 0);
+                i += p;
+            }
+            all = all && slot_of(level, hi.x as i64, hi.y as i64).is_none_or(|s| s != 0);
+            if all {
+                break;
+            }
+            level += 1;
+        }
+        let depth = |i: i64, j: i64| -> f32 {
+            match slot_of(level, i, j) {
+                Some(s) if s != 0 => {
+                    let s = i64::from(s - 1);
+                    let ax = (s % cols) * p + i.rem_euclid(p);
+                    let ay = (s / cols) * p + j.rem_euclid(p);
+                    atlas[(ay * i64::from(atlas_width) + ax) as usize]
+                }
+                _ => 1.0,
+            }
+        };
+        let (sum_co, sum_c) =
+            twin::coverage_filter(Vec2::new(c.x, c.y), c.z, Vec2::ZERO, u_h, v_h, level, depth);
+        let cpu = if sum_c > 0.0 { sum_co / sum_c } else { 1.0 };
+        let d = (cpu - frame.visibility[k]).abs();
+        if d > 1e-4 {
+            off_v += 1;
+        }
+        worst = worst.max(d);
+    }
+    eprintln!(
+        "{filtered} filtered samples: {off_v} differ from the twin by more than 1e-4 (max {worst}), \
+         {off_level} predicted at another level"
+    );
+    assert!(filtered > 1000, "only {filtered} samples filtered");
+    assert!(
+        off_v * 100 <= filtered,
+        "{off_v} of {filtered} samples off (max {worst})"
+    );
+    assert!(
+        off_level * 100 <= filtered,
+        "{off_level} of {filtered} levels off"
+    );
+    common::assert_clean(&ctx.validation());
 }

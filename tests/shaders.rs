@@ -330,6 +330,15 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
+            vec!["pvssm/lowres_mip.comp"],
+            twin!(PvssmMipPush {
+                src_offset,
+                dst_offset,
+                dst_size,
+                pad0
+            }),
+        ),
+        (
             vec!["pvssm/shape.comp", "pvssm/filter.comp"],
             twin!(PvssmPush {
                 light_view_proj,

@@ -1,7 +1,9 @@
 #version 460
 // pvssm kernel shape (§5.2 step 3) and requests (steps 4-5 with pages): per view sample, the
 // blocker search over the light's pyramid (widened by the pixel footprint) in the conservative
-// low-resolution map gives z_avg, or proves the sample fully lit — no texel of any caster lies
+// low-resolution map — at the level of its min pyramid where the region spans at most 8x8
+// cells, so its cost is bounded for any light; the average blocker distance is then that of
+// the cells' minima — gives z_avg, or proves the sample fully lit — no texel of any caster lies
 // nearer than its tangent plane there, and the map is conservative, so V = 1 and it is skipped
 // from then on. Otherwise the light kernel s_alpha (Eq. 1) and the pixel footprint phi'
 // (pixel axes through the tangent plane) are convolved into the filter h (Eq. 3), rho predicts
@@ -17,8 +19,19 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
-// The conservative low-resolution map: float bits of each texel's minimum depth.
+// The conservative low-resolution map and its min pyramid (lowres_mip.comp): float bits of each
+// texel's minimum depth, level after level.
 layout(set = 0, binding = 5) readonly buffer Lowres { uint lowres[]; };
+
+// Where level `level` of the pyramid starts: the levels before it, (N >> k)^2 texels each.
+uint mip_offset(uint level) {
+    uint offset = 0u;
+    for (uint k = 0u; k < level; ++k) {
+        uint n = pc.lowres_size >> k;
+        offset += n * n;
+    }
+    return offset;
+}
 // (u_h.x, u_h.y, v_h.y, predicted level), or w = DECIDED.
 layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D shape;
 layout(set = 0, binding = 7, r32f) uniform writeonly image2D visibility;
@@ -76,24 +89,32 @@ void main() {
                 count(C_SEARCH_CLAMPED, 1u);
                 half_low = min(half_low, vec2(0.5 * pc.max_search));
             }
-            vec2 lo = centre - half_low;
-            vec2 hi = centre + half_low;
-            int size = int(pc.lowres_size);
+            // The pyramid level where the region spans at most 8 cells per axis.
+            uint level = 0u;
+            while (level < 12u && (pc.lowres_size >> level) > 1u
+                   && 2.0 * max(half_low.x, half_low.y) > 32.0 * float(1u << level)) {
+                level += 1u;
+            }
+            float cell = float(1u << level);
+            vec2 lo = (centre - half_low) / cell;
+            vec2 hi = (centre + half_low) / cell;
+            int size = int(pc.lowres_size >> level);
+            uint offset = mip_offset(level);
             ivec2 a = max(ivec2(floor(lo)), ivec2(0));
             ivec2 b = min(ivec2(ceil(hi)) - 1, ivec2(size - 1));
-            // The receiver plane's lowest depth over a low-res texel: its corners' minimum.
-            vec2 g = rc.dz * lowres_texel;
+            // The receiver plane's lowest depth over a cell: its corners' minimum.
+            vec2 g = rc.dz * (lowres_texel * cell);
             float plane_drop = 0.5 * (abs(g.x) + abs(g.y));
             vec2 sum = vec2(0.0);
             for (int j = a.y; j <= b.y; ++j) {
                 float wy = min(float(j + 1), hi.y) - max(float(j), lo.y);
                 for (int i = a.x; i <= b.x; ++i) {
-                    float d = uintBitsToFloat(lowres[j * size + i]);
-                    vec2 at = (vec2(i, j) + 0.5) * lowres_texel;
+                    float d = uintBitsToFloat(lowres[offset + uint(j * size + i)]);
+                    vec2 at = (vec2(i, j) + 0.5) * (lowres_texel * cell);
                     float z_plane = rc.z + dot(rc.dz, at - rc.c) - plane_drop;
                     if (d < z_plane - pc.search_bias) {
                         float w = (min(float(i + 1), hi.x) - max(float(i), lo.x)) * wy;
-                        // A region thinner than a texel still weighs its one texel.
+                        // A region thinner than a cell still weighs its one cell.
                         w = max(w, 1e-6);
                         sum += vec2(w * soft_light_distance(d, pc.near, pc.far, pc.perspective),
                                     w);

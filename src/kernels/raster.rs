@@ -100,7 +100,7 @@ pub struct RasterBinding<'a> {
     triangles: u32,
     map_size: u32,
     set: DescriptorSet,
-    depth: &'a Buffer,
+    depth: Buffer,
     counters: Buffer,
     _large: Buffer,
     _geometry: (&'a Buffer, &'a Buffer),
@@ -115,6 +115,11 @@ impl RasterBinding<'_> {
     /// The map side N.
     pub fn map_size(&self) -> u32 {
         self.map_size
+    }
+
+    /// The depth map: N² `u32`, the float bits of each texel's conservative minimum depth.
+    pub fn depth(&self) -> &Buffer {
+        &self.depth
     }
 
     /// The counters buffer ([`RasterCounters`] layout), written by each recording.
@@ -151,15 +156,15 @@ impl ConservativeRaster {
 
     /// Binds `triangles` triangles of `indices` (a `u32` triangle list, at least 12 ×
     /// `triangles` bytes) over `vertices` (`f32` xyz tightly packed; every index must be in
-    /// range, as [`crate::passes::SceneGeometry`] guarantees) to `depth`, at least 4 · N² bytes
-    /// for the N × N map (`map_size` = N, 1 ..= [`MAX_MAP_SIZE`]), row-major, one `u32` per
-    /// texel holding the float bits of its conservative minimum depth.
+    /// range, as [`crate::passes::SceneGeometry`] guarantees) to a depth buffer the binding
+    /// owns ([`RasterBinding::depth`]): 4 · N² bytes for the N × N map (`map_size` = N, 1 ..=
+    /// [`MAX_MAP_SIZE`]), row-major, one `u32` per texel holding the float bits of its
+    /// conservative minimum depth.
     pub fn bind<'a>(
         &self,
         vertices: &'a Buffer,
         indices: &'a Buffer,
         triangles: u32,
-        depth: &'a Buffer,
         map_size: u32,
     ) -> Result<RasterBinding<'a>> {
         const NAME: &str = "conservative raster";
@@ -177,7 +182,11 @@ impl ConservativeRaster {
             ));
         }
         check_buffer(NAME, indices, 12 * triangles as u64)?;
-        check_buffer(NAME, depth, 4 * map_size as u64 * map_size as u64)?;
+        let depth = Buffer::storage(
+            &self.ctx,
+            "conservative depth",
+            4 * map_size as u64 * map_size as u64,
+        )?;
         if triangles > 0 {
             check_buffer(NAME, vertices, 12)?;
         }
@@ -191,7 +200,7 @@ impl ConservativeRaster {
             &[
                 Binding::Buffer(vertices),
                 Binding::Buffer(indices),
-                Binding::Buffer(depth),
+                Binding::Buffer(&depth),
                 Binding::Buffer(&large),
                 Binding::Buffer(&counters),
             ],
@@ -215,7 +224,7 @@ impl ConservativeRaster {
         binding: &RasterBinding<'_>,
         light_view_proj: Mat4,
     ) -> Result<()> {
-        rec.fill(binding.depth, EMPTY_DEPTH_BITS);
+        rec.fill(&binding.depth, EMPTY_DEPTH_BITS);
         rec.fill(&binding.counters, 0);
         let mut push = RasterPush {
             light_view_proj,
@@ -262,12 +271,7 @@ impl ConservativeRaster {
         let flat: Vec<f32> = positions.iter().flat_map(|p| p.to_array()).collect();
         let vertices = self.ctx.buffer_with("raster vertices", usage, &flat)?;
         let index_buffer = self.ctx.buffer_with("raster indices", usage, indices)?;
-        let depth = Buffer::storage(
-            &self.ctx,
-            "conservative depth",
-            4 * map_size as u64 * map_size as u64,
-        )?;
-        let binding = self.bind(&vertices, &index_buffer, triangles, &depth, map_size)?;
+        let binding = self.bind(&vertices, &index_buffer, triangles, map_size)?;
         self.ctx
             .submit(None, |rec| self.record(rec, &binding, light_view_proj))?;
         let counters = binding.read_counters(&self.ctx)?;
@@ -280,7 +284,7 @@ impl ConservativeRaster {
                 ),
             });
         }
-        let mut out = f32s(&self.ctx.read_buffer(&depth)?);
+        let mut out = f32s(&self.ctx.read_buffer(binding.depth())?);
         out.truncate(map_size as usize * map_size as usize);
         Ok((out, counters))
     }

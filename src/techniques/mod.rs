@@ -76,6 +76,12 @@ pub trait Technique {
     fn virtual_pages(&self) -> Option<&crate::passes::pages::VirtualPages<'_>> {
         None
     }
+
+    /// Intermediate per-view-sample images by name (e.g. pvssm's kernel shapes): for tests and
+    /// debugging views.
+    fn images(&self) -> Vec<(&'static str, &Image)> {
+        Vec::new()
+    }
 }
 
 /// Reads a counters buffer back as `(name, value)` pairs, one u32 slot per name in order: what

@@ -37,7 +37,7 @@ use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipe
 use crate::kernels::raster::{ConservativeRaster, RasterBinding};
 use crate::passes::pages::{PagesDesc, VirtualPages};
 use crate::passes::{DepthBias, LightProjection};
-use crate::shader_types::PvssmPush;
+use crate::shader_types::{PvssmMipPush, PvssmPush};
 
 /// Counter names, in the order of `glsl/pvssm/pvssm.glsl`'s `C_*` slots.
 pub const COUNTER_NAMES: [&str; 10] = [
@@ -78,7 +78,7 @@ const KNOBS: [Knob; 14] = [
         "conservative low-resolution map for the blocker search, texels per side",
         1024.0,
         64.0,
-        4096.0,
+        1024.0,
     ),
     knob(
         "virtual_size",
@@ -128,9 +128,9 @@ const KNOBS: [Knob; 14] = [
     real(knob(
         "max_search",
         "widest blocker-search region, low-resolution texels (wider ones are clamped, counted)",
-        64.0,
+        1024.0,
         1.0,
-        512.0,
+        4096.0,
     )),
     real(knob(
         "search_bias",
@@ -176,9 +176,14 @@ pub struct Pvssm<'a> {
     /// The virtual map's page machinery (public for tests).
     pub pages: VirtualPages<'a>,
     raster: ConservativeRaster,
-    raster_binding: RasterBinding,
-    /// The conservative low-resolution map: float bits of each texel's minimum depth.
-    pub lowres: Buffer,
+    /// The conservative low-resolution map (its depth buffer: float bits of each texel's
+    /// minimum depth).
+    pub lowres: RasterBinding<'a>,
+    /// The low-resolution map's min pyramid, level after level (level 0 a copy of the map).
+    pub pyramid: Buffer,
+    mip: (Pipeline, DescriptorSet),
+    // (source offset, destination offset, destination size) of each level above 0.
+    mip_levels: Vec<PvssmMipPush>,
     /// Per view sample: (u_h.x, u_h.y, v_h.y, predicted level), w < 0 where V was decided.
     pub shape: Image,
     shape_pass: (Pipeline, DescriptorSet),
@@ -218,19 +223,36 @@ impl<'a> Pvssm<'a> {
         let light = soft_light(setup.light, view, virtual_size)?;
         let pages = VirtualPages::new(ctx, "pvssm", view, setup.geometry, desc)?;
         let raster = ConservativeRaster::new(ctx)?;
-        let lowres = Buffer::storage(
-            ctx,
-            "pvssm low-res map",
-            4 * u64::from(lowres_size) * u64::from(lowres_size),
-        )?;
         let triangles = setup.geometry.index_count / 3;
-        let raster_binding = raster.bind(
+        let lowres = raster.bind(
             &setup.geometry.vertices,
             &setup.geometry.indices,
             triangles,
-            &lowres,
             lowres_size,
         )?;
+        if !lowres_size.is_power_of_two() {
+            return Err(crate::error::Error::Parameter {
+                technique: "pvssm".into(),
+                message: format!("lowres_size {lowres_size} must be a power of two"),
+            });
+        }
+        let mut mip_levels = Vec::new();
+        let mut offset = 0u32;
+        let mut side = lowres_size;
+        while side > 1 {
+            let next = offset + side * side;
+            mip_levels.push(PvssmMipPush {
+                src_offset: offset,
+                dst_offset: next,
+                dst_size: side / 2,
+                pad0: 0,
+            });
+            offset = next;
+            side /= 2;
+        }
+        let pyramid = Buffer::storage(ctx, "pvssm low-res pyramid", 4 * u64::from(offset + 1))?;
+        let mip_pipeline = Pipeline::compute(ctx, "pvssm/lowres_mip.comp")?;
+        let mip_set = DescriptorSet::new(ctx, &mip_pipeline, &[Binding::Buffer(&pyramid)])?;
         let camera = setup.camera;
         let inv = camera.view_projection().inverse();
         let light_inv = view.view_proj.inverse();
@@ -260,7 +282,7 @@ impl<'a> Pvssm<'a> {
                 ash::vk::Format::R32G32B32A32_SFLOAT,
                 samples.width,
                 samples.height,
-                ash::vk::ImageUsageFlags::STORAGE,
+                ash::vk::ImageUsageFlags::STORAGE | ash::vk::ImageUsageFlags::TRANSFER_SRC,
             ),
         )?;
         let counters = Buffer::storage(ctx, "pvssm counters", 4 * COUNTER_NAMES.len() as u64)?;
@@ -274,7 +296,7 @@ impl<'a> Pvssm<'a> {
                 Binding::Image(setup.receivers),
                 Binding::Buffer(&camera_buffer),
                 Binding::Buffer(&pages.table),
-                Binding::Buffer(&lowres),
+                Binding::Buffer(&pyramid),
                 Binding::Image(&shape),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&counters),
@@ -285,7 +307,6 @@ impl<'a> Pvssm<'a> {
             ctx,
             &filter_pipeline,
             &[
-                Binding::Image(&samples.positions),
                 Binding::Image(&samples.normals),
                 Binding::Image(setup.receivers),
                 Binding::Buffer(&camera_buffer),
@@ -328,8 +349,10 @@ impl<'a> Pvssm<'a> {
             ctx: ctx.clone(),
             pages,
             raster,
-            raster_binding,
             lowres,
+            pyramid,
+            mip: (mip_pipeline, mip_set),
+            mip_levels,
             shape,
             shape_pass: (shape_pipeline, shape_set),
             filter: (filter_pipeline, filter_set),
@@ -342,13 +365,25 @@ impl<'a> Pvssm<'a> {
     }
 }
 
+impl Pvssm<'_> {
+    /// The conservative low-resolution map and its min pyramid.
+    fn record_lowres(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        self.raster
+            .record(rec, &self.lowres, self.push.light_view_proj)?;
+        rec.copy_buffer(self.lowres.depth(), &self.pyramid);
+        let (pipeline, set) = &self.mip;
+        for level in &self.mip_levels {
+            rec.dispatch(pipeline, set, level, [level.dst_size, level.dst_size, 1])?;
+        }
+        Ok(())
+    }
+}
+
 impl Technique for Pvssm<'_> {
     fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
         let threads = [self.view_size.x as u32, self.view_size.y as u32, 1];
         rec.begin_pass("pvssm-lowres")?;
-        let result = self
-            .raster
-            .record(rec, &self.raster_binding, self.push.light_view_proj);
+        let result = self.record_lowres(rec);
         rec.end_pass();
         result?;
 
@@ -372,24 +407,19 @@ impl Technique for Pvssm<'_> {
     fn counters(&self) -> Result<Vec<(String, u64)>> {
         let mut out = super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)?;
         let pages = self.pages.counters()?;
-        let get = |name: &str| {
-            pages
-                .iter()
-                .find(|(n, _)| n == name)
-                .map_or(0, |(_, v)| *v)
-        };
+        let get = |name: &str| pages.iter().find(|(n, _)| n == name).map_or(0, |(_, v)| *v);
         let drawn = get("allocated_pages").saturating_sub(get("bin_overflow_pages"));
         let culled = (self.triangles * drawn).saturating_sub(get("triangles_binned"));
-        out.extend(
-            pages
-                .into_iter()
-                .filter(|(n, _)| !n.starts_with("refine_")),
-        );
+        out.extend(pages.into_iter().filter(|(n, _)| !n.starts_with("refine_")));
         out.push(("triangles_culled".into(), culled));
         Ok(out)
     }
 
     fn virtual_pages(&self) -> Option<&VirtualPages<'_>> {
         Some(&self.pages)
+    }
+
+    fn images(&self) -> Vec<(&'static str, &Image)> {
+        vec![("shape", &self.shape)]
     }
 }

@@ -243,7 +243,12 @@ fn the_bound_api_rasterizes_scene_geometry() {
         &counters,
     );
     assert!(raster
-        .bind(&geometry.vertices, &geometry.indices, triangles, 65)
+        .bind(
+            &geometry.vertices,
+            &geometry.indices,
+            triangles,
+            penumbra::kernels::raster::MAX_MAP_SIZE + 1
+        )
         .is_err());
     assert!(raster
         .bind(&geometry.vertices, &geometry.indices, triangles, 0)

@@ -434,11 +434,15 @@ pub fn count_bad(visibility: &[f32], positions: &[Vec4]) -> (u64, u64) {
     (nan, range)
 }
 
-/// Texels per side of the grid a shadow-map technique's finest level samples: `map_size`, or a
-/// virtual map's `virtual_size` (what the normal offset's texel unit and `map_texels_used`
-/// count in).
+/// Texels per side of the grid a shadow-map technique's texel unit refers to: `map_size`, a
+/// virtual map's `virtual_size`, or pvssm's `lowres_size` (what the normal offset's texel unit
+/// and `map_texels_used` count in).
 fn texel_grid(params: &techniques::Params) -> Result<u32> {
-    if params.values().contains_key("virtual_size") {
+    if params.values().contains_key("lowres_size") {
+        // pvssm: the receivers' offset is measured in the blocker search's texels, the map whose
+        // depths a receiver must clear to find no false blocker in its own surface.
+        params.u32("lowres_size")
+    } else if params.values().contains_key("virtual_size") {
         params.u32("virtual_size")
     } else {
         params.u32("map_size")

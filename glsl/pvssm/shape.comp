@@ -1,7 +1,7 @@
 #version 460
 // pvssm kernel shape (§5.2 step 3) and requests (steps 4-5 with pages): per view sample, the
 // blocker search over the light's pyramid (widened by the pixel footprint) in the conservative
-// low-resolution map — at the level of its min pyramid where the region spans at most 8x8
+// low-resolution map — at the level of its min pyramid where the region spans at most 32x32
 // cells, so its cost is bounded for any light; the average blocker distance is then that of
 // the cells' minima — gives z_avg, or proves the sample fully lit — no texel of any caster lies
 // nearer than its tangent plane there, and the map is conservative, so V = 1 and it is skipped
@@ -89,7 +89,7 @@ void main() {
                 count(C_SEARCH_CLAMPED, 1u);
                 half_low = min(half_low, vec2(0.5 * pc.max_search));
             }
-            // The pyramid level where the region spans at most 8 cells per axis.
+            // The pyramid level where the region spans at most 32 cells per axis (8 cells: 8 % more penumbra error on teapot-rect at a tenth of the search time).
             uint level = 0u;
             while (level < 12u && (pc.lowres_size >> level) > 1u
                    && 2.0 * max(half_low.x, half_low.y) > 32.0 * float(1u << level)) {

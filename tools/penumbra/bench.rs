@@ -225,16 +225,25 @@ struct SkipRun {
     counters: BTreeMap<String, u64>,
 }
 
-/// Scales a light's size by `s` (rect edges, angular diameter); false for a point light.
+/// Scales a light's size by `s` (rect edges, angular diameter); false for a point light. A
+/// rect light scaled by 0 becomes a point light at its centre (the same scene lit hard, to
+/// compare a technique's soft and hard costs).
 fn scale_light(light: &mut penumbra::scene::Light, s: f32) -> bool {
     use penumbra::scene::Light;
     match light {
         Light::Point { .. } => false,
+        Light::Rect { position, .. } if s == 0.0 => {
+            *light = Light::Point {
+                position: *position,
+            };
+            true
+        }
         Light::Rect { u, v, .. } => {
             *u *= s;
             *v *= s;
             true
         }
+        Light::Directional { .. } if s == 0.0 => false,
         Light::Directional {
             angular_diameter_deg,
             ..
@@ -323,9 +332,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     if let Some(bad) = args
         .light_scales
         .iter()
-        .find(|s| !(s.is_finite() && **s > 0.0 && **s <= 100.0))
+        .find(|s| !(s.is_finite() && **s >= 0.0 && **s <= 100.0))
     {
-        anyhow::bail!("--light-scale {bad}: expected a factor in (0, 100]");
+        anyhow::bail!("--light-scale {bad}: expected a factor in [0, 100] (0: a rect light's centre as a point light)");
     }
     if let Some(bad) = args
         .camera_scales

@@ -235,7 +235,8 @@ pub struct PvssmPush {
     pub atlas_cols: u32,
     /// Texels per side of the conservative low-resolution map.
     pub lowres_size: u32,
-    /// Bit 0: analytic anti-aliasing; bit 1: the static metric.
+    /// Bit 0: analytic anti-aliasing; bit 1: the static metric; bits 8..15: the blocker
+    /// search's cells per side.
     pub options: u32,
     /// The light's footprint factor for a map of `virtual_size` texels
     /// ([`crate::techniques::soft_light::SoftLight::size`]).

@@ -18,7 +18,7 @@ layout(push_constant) uniform Push {
     uint atlas_cols;
     // Texels per side of the conservative low-resolution map.
     uint lowres_size;
-    // OPT_* bits.
+    // OPT_* bits, and the search's cells per side in bits 8..15.
     uint options;
     // soft_light.glsl's footprint factor for a map of virtual_size texels.
     vec2 light_size;
@@ -35,6 +35,8 @@ layout(push_constant) uniform Push {
 
 #define OPT_ANTIALIAS 1u
 #define OPT_RHO_STATIC 2u
+// Bits 8..15: the blocker search's cells per side (the push block has no room left).
+#define OPT_CELLS_SHIFT 8u
 
 #include "virtual_map.glsl"
 

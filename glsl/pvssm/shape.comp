@@ -1,8 +1,8 @@
 #version 460
 // pvssm kernel shape (§5.2 step 3) and requests (steps 4-5 with pages): per view sample, the
 // blocker search over the light's pyramid (widened by the pixel footprint) in the conservative
-// low-resolution map — at the level of its min pyramid where the region spans at most 32x32
-// cells, so its cost is bounded for any light; the average blocker distance is then that of
+// low-resolution map — at the level of its min pyramid where the region spans at most
+// `search_cells` (32) cells a side, so its cost is bounded for any light; the average blocker distance is then that of
 // the cells' minima — gives z_avg, or proves the sample fully lit — no texel of any caster lies
 // nearer than its tangent plane there, and the map is conservative, so V = 1 and it is skipped
 // from then on. Otherwise the light kernel s_alpha (Eq. 1) and the pixel footprint phi'
@@ -89,12 +89,13 @@ void main() {
                 count(C_SEARCH_CLAMPED, 1u);
                 half_low = min(half_low, vec2(0.5 * pc.max_search));
             }
-            // The pyramid level where the region spans at most 32 cells per axis (at 8 cells
-            // teapot-rect measured 0.052 against 0.050 penumbra MAE, at about a sixth of the
-            // search time).
+            // The pyramid level where the region spans at most `search_cells` cells per axis
+            // (the default 32; at 8 cells teapot-rect measured 0.052 against 0.050 penumbra MAE,
+            // at about a sixth of the search time).
+            float cells = float((pc.options >> OPT_CELLS_SHIFT) & 0xffu);
             uint level = 0u;
             while (level < 12u && (pc.lowres_size >> level) > 1u
-                   && 2.0 * max(half_low.x, half_low.y) > 32.0 * float(1u << level)) {
+                   && 2.0 * max(half_low.x, half_low.y) > cells * float(1u << level)) {
                 level += 1u;
             }
             float cell = float(1u << level);

@@ -25,6 +25,7 @@
 //!
 //! Knobs: `lowres_size`, `virtual_size`, `page_size`, `pool_pages`, `rho` (`dynamic` | `static`),
 //! `rho_scale` (the quality/speed dial: texels across a kernel ×), `antialias`, `max_search`,
+//! `search_cells` (the search's cost bound: cells per side of the min-pyramid level it reads),
 //! `search_bias`, `tangent_plane`, `bin_factor`, and the depth bias of a level-0 page.
 //! CPU twin: [`crate::cpu::pvssm`] (kernel math and filter), [`crate::cpu::pages`] (pages).
 
@@ -72,7 +73,7 @@ const fn real(knob: Knob) -> Knob {
     }
 }
 
-const KNOBS: [Knob; 14] = [
+const KNOBS: [Knob; 15] = [
     knob(
         "lowres_size",
         "conservative low-resolution map for the blocker search, texels per side",
@@ -132,6 +133,13 @@ const KNOBS: [Knob; 14] = [
         1.0,
         4096.0,
     )),
+    knob(
+        "search_cells",
+        "blocker-search cells per side: the min-pyramid level is chosen to span at most this",
+        32.0,
+        2.0,
+        64.0,
+    ),
     real(knob(
         "search_bias",
         "how much nearer (NDC depth) than the receiver's plane a low-res texel must be to block",
@@ -324,6 +332,7 @@ impl<'a> Pvssm<'a> {
         if params.u32("rho")? == 1 {
             options |= 2;
         }
+        options |= params.u32("search_cells")? << 8;
         let view_size = IVec2::new(samples.width as i32, samples.height as i32);
         let push = PvssmPush {
             light_view_proj: view.view_proj,

@@ -223,7 +223,7 @@ fn the_bound_api_rasterizes_scene_geometry() {
     let n = 64;
     let triangles = geometry.index_count / 3;
     let binding = raster
-        .bind(&geometry.vertices, &geometry.indices, triangles, n)
+        .bind(&geometry.vertices, &geometry.indices, triangles, n, 0)
         .expect("bind");
     // Twice in one submission: the second recording starts from a cleared map.
     ctx.submit(None, |rec| {
@@ -247,11 +247,12 @@ fn the_bound_api_rasterizes_scene_geometry() {
             &geometry.vertices,
             &geometry.indices,
             triangles,
-            penumbra::kernels::raster::MAX_MAP_SIZE + 1
+            penumbra::kernels::raster::MAX_MAP_SIZE + 1,
+            0,
         )
         .is_err());
     assert!(raster
-        .bind(&geometry.vertices, &geometry.indices, triangles, 0)
+        .bind(&geometry.vertices, &geometry.indices, triangles, 0, 0)
         .is_err());
     common::assert_clean(&ctx.validation());
 }

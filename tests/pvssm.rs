@@ -212,8 +212,9 @@ fn fully_lit_flag_is_conservative() {
         }
     }
     eprintln!("{bad} samples lit in pvssm but not in the single-layer reference");
+    // 2 of 12 288 measured: samples the PCSS model's filter (not the flag) rounds to exactly 1.
     assert!(
-        bad * 200 <= frame.visibility.len(),
+        bad * 1000 <= frame.visibility.len(),
         "{bad} lit samples the reference shadows"
     );
     common::assert_clean(&engine.context().validation());

@@ -194,6 +194,7 @@ mod tests {
     //! `glsl/include/light_clip.glsl`.
 
     use super::*;
+    use crate::cpu::test_support::Rng;
 
     /// `light_clip_asin_half` of the shader: asin's Maclaurin series to x¹⁹, |x| ≤ ½.
     fn shader_asin_half(x: f32) -> f32 {
@@ -286,32 +287,6 @@ mod tests {
         shader_disk(n.dot(d), e1.length() * n.cross(d).length())
     }
 
-    /// SplitMix64, as a source of reproducible test inputs.
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> f32 {
-            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-        }
-
-        fn vec(&mut self) -> Vec3 {
-            Vec3::new(self.next(), self.next(), self.next())
-        }
-
-        fn unit(&mut self) -> Vec3 {
-            loop {
-                let v = self.vec();
-                if (0.01..=1.0).contains(&v.length_squared()) {
-                    return v.normalize();
-                }
-            }
-        }
-    }
-
     #[test]
     fn shader_acos_is_within_4e_7() {
         let mut worst = 0.0f64;
@@ -334,14 +309,14 @@ mod tests {
         let mut rng = Rng(7);
         let (mut worst_rect, mut worst_sun) = (0.0f32, 0.0f32);
         for _ in 0..20_000 {
-            let c = rng.vec() * 10.0;
-            let (u, v) = (rng.vec() * 2.0, rng.vec() * 2.0);
+            let c = rng.vec3() * 10.0;
+            let (u, v) = (rng.vec3() * 2.0, rng.vec3() * 2.0);
             let n = rng.unit();
             // Half the planes pass through the light's span, where f is fractional.
             let p = if rng.next() > 0.0 {
                 c + u * 0.5 * rng.next() + v * 0.5 * rng.next() + n * rng.next() * 0.1
             } else {
-                rng.vec() * 10.0
+                rng.vec3() * 10.0
             };
             let cpu = rect_fraction(p, n, c, u, v);
             worst_rect = worst_rect.max((cpu - shader_rect(p, n, c, u, v)).abs());

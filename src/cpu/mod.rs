@@ -31,4 +31,6 @@ pub mod savsm;
 pub mod scan;
 pub mod shadow_map;
 pub mod sort;
+#[cfg(test)]
+pub(crate) mod test_support;
 pub mod vssm;

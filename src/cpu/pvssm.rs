@@ -277,24 +277,8 @@ pub fn coverage_filter(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::test_support::{straight_down, Rng};
     use glam::{Mat2, Vec3};
-
-    /// SplitMix64, as a source of reproducible test inputs in [−1, 1).
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> f32 {
-            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-        }
-
-        fn vec(&mut self, scale: f32) -> Vec2 {
-            Vec2::new(self.next(), self.next()) * scale
-        }
-    }
 
     /// `Σ a·aᵀ` over the given axes.
     fn variance(axes: &[Vec2]) -> Mat2 {
@@ -313,8 +297,8 @@ mod tests {
     fn cholesky_identities() {
         let mut rng = Rng(7);
         for _ in 0..1000 {
-            let (u0, v0) = (rng.vec(3.0), rng.vec(3.0));
-            let (u1, v1) = (rng.vec(20.0), rng.vec(20.0));
+            let (u0, v0) = (rng.vec2(3.0), rng.vec2(3.0));
+            let (u1, v1) = (rng.vec2(20.0), rng.vec2(20.0));
             let (u_h, v_h) = convolve(u0, v0, u1, v1);
             assert_eq!(v_h.x, 0.0);
             let want = variance(&[u0, v0, u1, v1]);
@@ -324,7 +308,7 @@ mod tests {
         }
         // φ' = 0 and an axis-aligned light box: h is the light's box, bit for bit.
         for _ in 0..100 {
-            let w = rng.vec(50.0).abs() + Vec2::splat(0.1);
+            let w = rng.vec2(50.0).abs() + Vec2::splat(0.1);
             let (u_s, v_s) = light_axes(w);
             assert_eq!(convolve(Vec2::ZERO, Vec2::ZERO, u_s, v_s), (u_s, v_s));
             assert_eq!(kernel_axes(None, (u_s, v_s), true), (u_s, v_s));
@@ -350,8 +334,8 @@ mod tests {
     fn cholesky_limits() {
         let mut rng = Rng(11);
         for _ in 0..200 {
-            let (u_p, v_p) = (rng.vec(1e-2), rng.vec(1e-2));
-            let w = rng.vec(100.0).abs() + Vec2::splat(10.0);
+            let (u_p, v_p) = (rng.vec2(1e-2), rng.vec2(1e-2));
+            let w = rng.vec2(100.0).abs() + Vec2::splat(10.0);
             let light = light_axes(w);
             let (u_h, v_h) = kernel_axes(Some((u_p, v_p)), light, true);
             assert!(
@@ -365,7 +349,7 @@ mod tests {
                 light.1
             );
 
-            let (u_p, v_p) = (rng.vec(100.0), rng.vec(100.0));
+            let (u_p, v_p) = (rng.vec2(100.0), rng.vec2(100.0));
             if (u_p.perp_dot(v_p)).abs() < 100.0 {
                 continue; // a nearly flat footprint: the relative test below would be ill-posed
             }
@@ -476,27 +460,10 @@ mod tests {
         assert_eq!(predicted_level((64.0, 64.0), 1), 0);
     }
 
-    /// The rmsm footprint scene: a camera 2 above y = 0 looking straight down (90°, 256²) and an
-    /// orthographic light straight down over [−1, 1]² with V = 1024: a pixel is 1/64 world
-    /// units, a world unit 512 texels, so the pixel box is 8 texels wide: half-axes of 4.
+    /// The straight-down scene: the pixel box is 8 texels wide, so half-axes of 4.
     #[test]
     fn pixel_axes_straight_down() {
-        let h = 2.0;
-        let camera = Camera {
-            position: Vec3::new(0.0, h, 0.0),
-            target: Vec3::ZERO,
-            up: Vec3::NEG_Z,
-            fov_y_deg: 90.0,
-            width: 256,
-            height: 256,
-            near: 0.1,
-            far: 10.0,
-        };
-        let light = Mat4::orthographic_rh(-1.0, 1.0, -1.0, 1.0, 0.1, 10.0)
-            * Mat4::look_at_rh(Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO, Vec3::NEG_Z);
-        let pixel = (140u32, 110u32);
-        let ndc = |i: u32| (i as f32 + 0.5) / 256.0 * 2.0 - 1.0;
-        let p = Vec3::new(ndc(pixel.0) * h, 0.0, ndc(pixel.1) * h);
+        let (camera, light, pixel, p) = straight_down();
         let (u, v) = pixel_axes(&camera, pixel, p, Vec3::Y, light, 1024).expect("defined");
         assert!((u.length() - 4.0).abs() < 1e-2, "u = {u}");
         assert!((v.length() - 4.0).abs() < 1e-2, "v = {v}");
@@ -517,10 +484,10 @@ mod tests {
 
     /// A random sheared kernel (the shape `kernel_axes` produces) and a centre.
     fn random_kernel(rng: &mut Rng) -> (Vec2, Vec2, Vec2) {
-        let c = rng.vec(50.0) + Vec2::splat(100.0);
+        let c = rng.vec2(50.0) + Vec2::splat(100.0);
         let (u_h, v_h) = kernel_axes(
-            Some((rng.vec(3.0), rng.vec(3.0))),
-            light_axes(rng.vec(12.0).abs()),
+            Some((rng.vec2(3.0), rng.vec2(3.0))),
+            light_axes(rng.vec2(12.0).abs()),
             true,
         );
         (c, u_h, v_h)

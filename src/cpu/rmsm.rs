@@ -275,6 +275,7 @@ pub fn lookup_level(table: &[u32], layout: &PageLayout, c: Vec2, desired: u32, f
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::test_support::straight_down;
 
     fn layout_512() -> PageLayout {
         PageLayout::new(512, 128).expect("valid layout")
@@ -300,23 +301,7 @@ mod tests {
     /// 2·h/W = 1/64 world units, a world unit V/2 = 512 texels, so f = 8.
     #[test]
     fn footprint_straight_down() {
-        let h = 2.0;
-        let camera = Camera {
-            position: Vec3::new(0.0, h, 0.0),
-            target: Vec3::ZERO,
-            up: Vec3::NEG_Z,
-            fov_y_deg: 90.0,
-            width: 256,
-            height: 256,
-            near: 0.1,
-            far: 10.0,
-        };
-        let light = Mat4::orthographic_rh(-1.0, 1.0, -1.0, 1.0, 0.1, 10.0)
-            * Mat4::look_at_rh(Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO, Vec3::NEG_Z);
-        let pixel = (140u32, 110u32);
-        // View x is world x, image rows grow with world z (tan(45°) = 1).
-        let ndc = |i: u32| (i as f32 + 0.5) / 256.0 * 2.0 - 1.0;
-        let p = Vec3::new(ndc(pixel.0) * h, 0.0, ndc(pixel.1) * h);
+        let (camera, light, pixel, p) = straight_down();
         let f = footprint(&camera, pixel, p, Vec3::Y, light, 1024);
         assert!((f - 8.0).abs() < 1e-2, "f = {f}");
         let layout = PageLayout::new(1024, 128).expect("valid layout");
@@ -336,7 +321,8 @@ mod tests {
         let (w, hgt) = (camera.width as usize, camera.height as usize);
         let mut positions = vec![Vec4::ZERO; w * hgt];
         for (i, pos) in positions.iter_mut().enumerate() {
-            let q = Vec3::new(ndc((i % w) as u32) * h, 0.0, ndc((i / w) as u32) * h);
+            let ndc = |i: usize| (i as f32 + 0.5) / 256.0 * 2.0 - 1.0;
+            let q = Vec3::new(ndc(i % w) * 2.0, 0.0, ndc(i / w) * 2.0);
             if q.x.abs() < 0.9 && q.z.abs() < 0.9 {
                 *pos = q.extend(1.0);
             }

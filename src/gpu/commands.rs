@@ -419,6 +419,15 @@ impl Recorder<'_> {
         };
     }
 
+    /// Records `body` as one named pass ([`Recorder::begin_pass`]), closing it whether or not
+    /// `body` fails.
+    pub fn pass(&mut self, name: &str, body: impl FnOnce(&mut Self) -> Result<()>) -> Result<()> {
+        self.begin_pass(name)?;
+        let result = body(self);
+        self.end_pass();
+        result
+    }
+
     /// Opens a named pass: a debug label, and a timestamp if the submit has a query pool.
     /// Passes do not nest.
     pub fn begin_pass(&mut self, name: &str) -> Result<()> {

@@ -160,12 +160,17 @@ impl ConservativeRaster {
     /// owns ([`RasterBinding::depth`]): 4 · N² bytes for the N × N map (`map_size` = N, 1 ..=
     /// [`MAX_MAP_SIZE`]), row-major, one `u32` per texel holding the float bits of its
     /// conservative minimum depth.
+    ///
+    /// `spare_texels` more `u32` follow the map in the same buffer, for the caller to derive
+    /// from it in place (pvssm keeps the map's min pyramid there); [`ConservativeRaster::record`]
+    /// fills them with 1.0 too.
     pub fn bind<'a>(
         &self,
         vertices: &'a Buffer,
         indices: &'a Buffer,
         triangles: u32,
         map_size: u32,
+        spare_texels: u64,
     ) -> Result<RasterBinding<'a>> {
         const NAME: &str = "conservative raster";
         if map_size == 0 || map_size > MAX_MAP_SIZE {
@@ -185,7 +190,7 @@ impl ConservativeRaster {
         let depth = Buffer::storage(
             &self.ctx,
             "conservative depth",
-            4 * map_size as u64 * map_size as u64,
+            4 * (map_size as u64 * map_size as u64 + spare_texels),
         )?;
         if triangles > 0 {
             check_buffer(NAME, vertices, 12)?;
@@ -271,7 +276,7 @@ impl ConservativeRaster {
         let flat: Vec<f32> = positions.iter().flat_map(|p| p.to_array()).collect();
         let vertices = self.ctx.buffer_with("raster vertices", usage, &flat)?;
         let index_buffer = self.ctx.buffer_with("raster indices", usage, indices)?;
-        let binding = self.bind(&vertices, &index_buffer, triangles, map_size)?;
+        let binding = self.bind(&vertices, &index_buffer, triangles, map_size, 0)?;
         self.ctx
             .submit(None, |rec| self.record(rec, &binding, light_view_proj))?;
         let counters = binding.read_counters(&self.ctx)?;

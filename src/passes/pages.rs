@@ -422,28 +422,17 @@ impl<'a> VirtualPages<'a> {
     pub fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
         let name = self.name;
         let entries = self.desc.entries() as u32;
-        rec.begin_pass(&format!("{name}-compact"))?;
-        let result = self.compact.record(rec, &self.compact_binding);
-        rec.end_pass();
-        result?;
-
-        rec.begin_pass(&format!("{name}-allocate"))?;
-        rec.fill(&self.counters, 0);
-        rec.fill(&self.level_info, 0);
-        let (pipeline, set) = &self.allocate;
-        let result = rec.dispatch(pipeline, set, &self.push, [entries, 1, 1]);
-        rec.end_pass();
-        result?;
-
-        rec.begin_pass(&format!("{name}-cull"))?;
-        let result = self.record_cull(rec);
-        rec.end_pass();
-        result?;
-
-        rec.begin_pass(&format!("{name}-render"))?;
-        let result = self.record_render(rec);
-        rec.end_pass();
-        result
+        rec.pass(&format!("{name}-compact"), |rec| {
+            self.compact.record(rec, &self.compact_binding)
+        })?;
+        rec.pass(&format!("{name}-allocate"), |rec| {
+            rec.fill(&self.counters, 0);
+            rec.fill(&self.level_info, 0);
+            let (pipeline, set) = &self.allocate;
+            rec.dispatch(pipeline, set, &self.push, [entries, 1, 1])
+        })?;
+        rec.pass(&format!("{name}-cull"), |rec| self.record_cull(rec))?;
+        rec.pass(&format!("{name}-render"), |rec| self.record_render(rec))
     }
 
     /// Records the refinement round as one timed pass `<name>-refine`: the pages marked in
@@ -451,10 +440,9 @@ impl<'a> VirtualPages<'a> {
     /// into the slots round 0 left (coarse first; the rest overflow, counted), binned and drawn
     /// into the atlas without disturbing round 0's pages. A lookup afterwards sees both rounds.
     pub fn record_refine(&self, rec: &mut Recorder<'_>) -> Result<()> {
-        rec.begin_pass(&format!("{}-refine", self.name))?;
-        let result = self.record_refine_untimed(rec);
-        rec.end_pass();
-        result
+        rec.pass(&format!("{}-refine", self.name), |rec| {
+            self.record_refine_untimed(rec)
+        })
     }
 
     fn record_refine_untimed(&self, rec: &mut Recorder<'_>) -> Result<()> {
@@ -530,9 +518,20 @@ impl<'a> VirtualPages<'a> {
         result
     }
 
-    /// Counters of the last frame ([`PAGE_COUNTER_NAMES`]).
+    /// Counters of the last frame: [`PAGE_COUNTER_NAMES`], then `drawn_pages` (allocated in
+    /// both rounds, less those dropped for full bins) and `triangles_culled` (scene triangles
+    /// not drawn into a drawn page, summed over them: the work the binning skipped).
     pub fn counters(&self) -> Result<Vec<(String, u64)>> {
-        crate::techniques::read_counters(&self.ctx, &self.counters, &PAGE_COUNTER_NAMES)
+        let mut out =
+            crate::techniques::read_counters(&self.ctx, &self.counters, &PAGE_COUNTER_NAMES)?;
+        let get = |name: &str| out.iter().find(|(n, _)| n == name).map_or(0, |(_, v)| *v);
+        let drawn = (get("allocated_pages") + get("refine_allocated_pages"))
+            .saturating_sub(get("bin_overflow_pages"));
+        let culled =
+            (u64::from(self.push.triangles) * drawn).saturating_sub(get("triangles_binned"));
+        out.push(("drawn_pages".into(), drawn));
+        out.push(("triangles_culled".into(), culled));
+        Ok(out)
     }
 
     /// The last frame's compacted page list (the marked entries, ascending): for tests.

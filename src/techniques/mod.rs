@@ -19,6 +19,7 @@ pub mod pvssm;
 pub mod rmsm;
 pub mod savsm;
 pub mod soft_light;
+pub mod virtual_map;
 pub mod vssm;
 
 pub use params::{

@@ -36,6 +36,40 @@ pub struct Knob {
     pub names: &'static [&'static str],
 }
 
+impl Knob {
+    /// An integer knob with a fixed default.
+    pub const fn int(
+        name: &'static str,
+        summary: &'static str,
+        default: f64,
+        min: f64,
+        max: f64,
+    ) -> Knob {
+        Knob {
+            name,
+            summary,
+            default: KnobDefault::Value(default),
+            min,
+            max,
+            integer: true,
+            names: &[],
+        }
+    }
+
+    /// The same knob taking any real value in its range.
+    pub const fn real(self) -> Knob {
+        Knob {
+            integer: false,
+            ..self
+        }
+    }
+
+    /// The same knob with names for its integer values 0, 1, …
+    pub const fn named(self, names: &'static [&'static str]) -> Knob {
+        Knob { names, ..self }
+    }
+}
+
 /// The knobs every shadow-map technique has.
 pub const SHADOW_MAP_KNOBS: [Knob; 4] = [
     Knob {

@@ -29,15 +29,15 @@
 //! `search_bias`, `tangent_plane`, `bin_factor`, and the depth bias of a level-0 page.
 //! CPU twin: [`crate::cpu::pvssm`] (kernel math and filter), [`crate::cpu::pages`] (pages).
 
-use glam::{IVec2, Vec4};
+use glam::IVec2;
 
 use super::soft_light::soft_light;
-use super::{Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup};
+use super::{virtual_map, Knob, Params, Technique, TechniqueInfo, TechniqueSetup};
 use crate::error::Result;
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
 use crate::kernels::raster::{ConservativeRaster, RasterBinding};
-use crate::passes::pages::{PagesDesc, VirtualPages};
-use crate::passes::{DepthBias, LightProjection};
+use crate::passes::pages::VirtualPages;
+use crate::passes::LightProjection;
 use crate::shader_types::{PvssmMipPush, PvssmPush};
 
 /// Counter names, in the order of `glsl/pvssm/pvssm.glsl`'s `C_*` slots.
@@ -54,113 +54,67 @@ pub const COUNTER_NAMES: [&str; 10] = [
     "filter_texels",
 ];
 
-const fn knob(name: &'static str, summary: &'static str, default: f64, min: f64, max: f64) -> Knob {
-    Knob {
-        name,
-        summary,
-        default: KnobDefault::Value(default),
-        min,
-        max,
-        integer: true,
-        names: &[],
-    }
-}
-
-const fn real(knob: Knob) -> Knob {
-    Knob {
-        integer: false,
-        ..knob
-    }
-}
+const PAGE_KNOBS: [Knob; 4] = virtual_map::page_knobs(16384.0);
 
 const KNOBS: [Knob; 15] = [
-    knob(
+    Knob::int(
         "lowres_size",
         "conservative low-resolution map for the blocker search, texels per side",
         1024.0,
         64.0,
         1024.0,
     ),
-    knob(
-        "virtual_size",
-        "virtual shadow-map width and height in level-0 texels (power of two)",
-        16384.0,
-        256.0,
-        65536.0,
-    ),
-    knob(
-        "page_size",
-        "page width and height in texels (power of two)",
-        64.0,
-        16.0,
-        1024.0,
-    ),
-    knob(
-        "pool_pages",
-        "page slots in the physical atlas (1024 pages of 64² = one 2048² map)",
-        1024.0,
+    PAGE_KNOBS[0],
+    PAGE_KNOBS[1],
+    PAGE_KNOBS[2],
+    Knob::int(
+        "rho",
+        "perceptual metric: the user study's dynamic-occluder or static cubic",
+        0.0,
+        0.0,
         1.0,
-        65536.0,
-    ),
-    Knob {
-        names: &["dynamic", "static"],
-        ..knob(
-            "rho",
-            "perceptual metric: the user study's dynamic-occluder or static cubic",
-            0.0,
-            0.0,
-            1.0,
-        )
-    },
-    real(knob(
+    )
+    .named(&["dynamic", "static"]),
+    Knob::int(
         "rho_scale",
         "texels across a kernel relative to the metric (the quality/speed dial)",
         1.0,
         0.125,
         16.0,
-    )),
-    knob(
+    )
+    .real(),
+    Knob::int(
         "antialias",
         "1: convolve the kernel with the pixel's footprint (analytic anti-aliasing); 0: light only",
         1.0,
         0.0,
         1.0,
     ),
-    real(knob(
+    Knob::int(
         "max_search",
         "widest blocker-search region, low-resolution texels (wider ones are clamped, counted)",
         1024.0,
         1.0,
         4096.0,
-    )),
-    knob(
+    )
+    .real(),
+    Knob::int(
         "search_cells",
         "blocker-search cells per side: the min-pyramid level is chosen to span at most this",
         32.0,
         2.0,
         64.0,
     ),
-    real(knob(
+    Knob::int(
         "search_bias",
         "how much nearer (NDC depth) than the receiver's plane a low-res texel must be to block",
         1e-5,
         0.0,
         0.01,
-    )),
-    knob(
-        "tangent_plane",
-        "1: test each texel at the receiver's tangent plane under its centre; 0: one depth",
-        1.0,
-        0.0,
-        1.0,
-    ),
-    knob(
-        "bin_factor",
-        "caster bin entries per triangle or pool slot, whichever is more",
-        16.0,
-        1.0,
-        1024.0,
-    ),
+    )
+    .real(),
+    virtual_map::tangent_plane_knob(1.0),
+    PAGE_KNOBS[3],
     super::SHADOW_MAP_KNOBS[1],
     super::SHADOW_MAP_KNOBS[2],
     super::SHADOW_MAP_KNOBS[3],
@@ -184,11 +138,9 @@ pub struct Pvssm<'a> {
     /// The virtual map's page machinery (public for tests).
     pub pages: VirtualPages<'a>,
     raster: ConservativeRaster,
-    /// The conservative low-resolution map (its depth buffer: float bits of each texel's
-    /// minimum depth).
+    /// The conservative low-resolution map and, after it in the same buffer, its min pyramid
+    /// level after level: float bits of each texel's minimum depth.
     pub lowres: RasterBinding<'a>,
-    /// The low-resolution map's min pyramid, level after level (level 0 a copy of the map).
-    pub pyramid: Buffer,
     mip: (Pipeline, DescriptorSet),
     // (source offset, destination offset, destination size) of each level above 0.
     mip_levels: Vec<PvssmMipPush>,
@@ -201,49 +153,25 @@ pub struct Pvssm<'a> {
     _camera: Buffer,
     push: PvssmPush,
     view_size: IVec2,
-    triangles: u64,
 }
 
 impl<'a> Pvssm<'a> {
     /// Builds the passes and their resources.
     pub fn new(setup: &TechniqueSetup<'a>, params: &Params) -> Result<Self> {
         let ctx = setup.ctx;
-        let virtual_size = params.u32("virtual_size")?;
         let lowres_size = params.u32("lowres_size")?;
-        let desc = PagesDesc {
-            virtual_size,
-            page_size: params.u32("page_size")?,
-            pool_pages: params.u32("pool_pages")?,
-            bin_factor: params.u32("bin_factor")?,
-            bias: DepthBias {
-                constant: params.f32("bias_constant")?,
-                slope: params.f32("bias_slope")?,
-                clamp: params.f32("bias_clamp")?,
-            },
-        };
-        if desc.bias.clamp != 0.0 {
-            ctx.require(
-                ctx.info().depth_bias_clamp,
-                "depthBiasClamp (set bias_clamp = 0)",
-            )?;
-        }
+        let desc = virtual_map::pages_desc(ctx, params)?;
         let view = setup.light_view;
+        let virtual_size = desc.virtual_size;
         let light = soft_light(setup.light, view, virtual_size)?;
         let pages = VirtualPages::new(ctx, "pvssm", view, setup.geometry, desc)?;
-        let raster = ConservativeRaster::new(ctx)?;
-        let triangles = setup.geometry.index_count / 3;
-        let lowres = raster.bind(
-            &setup.geometry.vertices,
-            &setup.geometry.indices,
-            triangles,
-            lowres_size,
-        )?;
         if !lowres_size.is_power_of_two() {
             return Err(crate::error::Error::Parameter {
                 technique: "pvssm".into(),
                 message: format!("lowres_size {lowres_size} must be a power of two"),
             });
         }
+        // The pyramid's levels above the map, each read from the one below.
         let mut mip_levels = Vec::new();
         let mut offset = 0u32;
         let mut side = lowres_size;
@@ -258,30 +186,19 @@ impl<'a> Pvssm<'a> {
             offset = next;
             side /= 2;
         }
-        let pyramid = Buffer::storage(ctx, "pvssm low-res pyramid", 4 * u64::from(offset + 1))?;
-        let mip_pipeline = Pipeline::compute(ctx, "pvssm/lowres_mip.comp")?;
-        let mip_set = DescriptorSet::new(ctx, &mip_pipeline, &[Binding::Buffer(&pyramid)])?;
-        let camera = setup.camera;
-        let inv = camera.view_projection().inverse();
-        let light_inv = view.view_proj.inverse();
-        let tangent_plane = params.u32("tangent_plane")?;
-        let camera_data: [Vec4; 10] = [
-            inv.x_axis,
-            inv.y_axis,
-            inv.z_axis,
-            inv.w_axis,
-            camera.position.extend(1.0),
-            light_inv.x_axis,
-            light_inv.y_axis,
-            light_inv.z_axis,
-            light_inv.w_axis,
-            Vec4::new(f32::from_bits(tangent_plane), 0.0, 0.0, 0.0),
-        ];
-        let camera_buffer = ctx.buffer_with(
-            "pvssm camera",
-            ash::vk::BufferUsageFlags::STORAGE_BUFFER,
-            &camera_data,
+        let raster = ConservativeRaster::new(ctx)?;
+        let triangles = setup.geometry.index_count / 3;
+        let lowres = raster.bind(
+            &setup.geometry.vertices,
+            &setup.geometry.indices,
+            triangles,
+            lowres_size,
+            u64::from(offset + 1 - lowres_size * lowres_size),
         )?;
+        let mip_pipeline = Pipeline::compute(ctx, "pvssm/lowres_mip.comp")?;
+        let mip_set = DescriptorSet::new(ctx, &mip_pipeline, &[Binding::Buffer(lowres.depth())])?;
+        let camera_buffer =
+            virtual_map::view_camera(ctx, "pvssm camera", setup, params.u32("tangent_plane")?)?;
         let samples = setup.view;
         let shape = Image::new(
             ctx,
@@ -304,7 +221,7 @@ impl<'a> Pvssm<'a> {
                 Binding::Image(setup.receivers),
                 Binding::Buffer(&camera_buffer),
                 Binding::Buffer(&pages.table),
-                Binding::Buffer(&pyramid),
+                Binding::Buffer(lowres.depth()),
                 Binding::Image(&shape),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&counters),
@@ -359,7 +276,6 @@ impl<'a> Pvssm<'a> {
             pages,
             raster,
             lowres,
-            pyramid,
             mip: (mip_pipeline, mip_set),
             mip_levels,
             shape,
@@ -369,7 +285,6 @@ impl<'a> Pvssm<'a> {
             _camera: camera_buffer,
             push,
             view_size,
-            triangles: u64::from(triangles),
         })
     }
 }
@@ -379,7 +294,6 @@ impl Pvssm<'_> {
     fn record_lowres(&self, rec: &mut Recorder<'_>) -> Result<()> {
         self.raster
             .record(rec, &self.lowres, self.push.light_view_proj)?;
-        rec.copy_buffer(self.lowres.depth(), &self.pyramid);
         let (pipeline, set) = &self.mip;
         for level in &self.mip_levels {
             rec.dispatch(pipeline, set, level, [level.dst_size, level.dst_size, 1])?;
@@ -391,36 +305,29 @@ impl Pvssm<'_> {
 impl Technique for Pvssm<'_> {
     fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
         let threads = [self.view_size.x as u32, self.view_size.y as u32, 1];
-        rec.begin_pass("pvssm-lowres")?;
-        let result = self.record_lowres(rec);
-        rec.end_pass();
-        result?;
-
-        rec.begin_pass("pvssm-shape")?;
-        self.pages.record_clear(rec);
-        rec.fill(&self.counters, 0);
-        let (pipeline, set) = &self.shape_pass;
-        let result = rec.dispatch(pipeline, set, &self.push, threads);
-        rec.end_pass();
-        result?;
-
+        rec.pass("pvssm-lowres", |rec| self.record_lowres(rec))?;
+        rec.pass("pvssm-shape", |rec| {
+            self.pages.record_clear(rec);
+            rec.fill(&self.counters, 0);
+            let (pipeline, set) = &self.shape_pass;
+            rec.dispatch(pipeline, set, &self.push, threads)
+        })?;
         self.pages.record(rec)?;
-
-        rec.begin_pass("pvssm-filter")?;
-        let (pipeline, set) = &self.filter;
-        let result = rec.dispatch(pipeline, set, &self.push, threads);
-        rec.end_pass();
-        result
+        rec.pass("pvssm-filter", |rec| {
+            let (pipeline, set) = &self.filter;
+            rec.dispatch(pipeline, set, &self.push, threads)
+        })
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
         let mut out = super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)?;
-        let pages = self.pages.counters()?;
-        let get = |name: &str| pages.iter().find(|(n, _)| n == name).map_or(0, |(_, v)| *v);
-        let drawn = get("allocated_pages").saturating_sub(get("bin_overflow_pages"));
-        let culled = (self.triangles * drawn).saturating_sub(get("triangles_binned"));
-        out.extend(pages.into_iter().filter(|(n, _)| !n.starts_with("refine_")));
-        out.push(("triangles_culled".into(), culled));
+        // Its pages have no refinement round.
+        out.extend(
+            self.pages
+                .counters()?
+                .into_iter()
+                .filter(|(n, _)| !n.starts_with("refine_")),
+        );
         Ok(out)
     }
 

@@ -16,8 +16,9 @@
 //! where a coarser texel gives the same answer. So a second round (`rmsm-edges`, `rmsm-refine`)
 //! finds the samples whose 3×3 texels at their served level disagree — those near an edge — and
 //! gives them `refine` levels finer, allocated into the slots round 0 left. On `spot-point` this
-//! takes `rmsm`, with a pool of one 2048² map, from 20 to 9 misclassified samples (`hard` at 2048²:
-//! 60); without it the same pool spent uniformly (`lod_bias` −2) gives 41.
+//! takes `rmsm`, with a pool of one 2048² map, from 80 to 9 misclassified samples (`hard` at
+//! 2048²: 60; README); the same pool spent uniformly instead (`--set lod_bias=-2 --set
+//! refine=0`) gives 41.
 //!
 //! The lookup (`rmsm-lookup`) reads each sample's level (its refined one at an edge) through the
 //! page table, falling back level by level to the first coarser one whose pages cover its
@@ -27,20 +28,21 @@
 //! Knobs: `virtual_size`, `page_size`, `pool_pages` (the memory bound), `lod_bias`, `refine`,
 //! `filter` (nearest texel, or a bilinear 2×2 whose texels may sit on different pages),
 //! `tangent_plane` (compare each texel with the receiver's tangent plane under its centre),
-//! `bin_factor` (bin entries per triangle or per pool slot), and the depth bias of a level-0 page (constant and
-//! clamp double per level). The defaults — 32768² virtual, pages of 64² (finer pages waste less
-//! of the pool on the thin regions along edges than 128² pages: 9 against 19 misclassified on
-//! `spot-point` with the same memory, 256 pages of 128²), `lod_bias` −1, `refine` 4 — were
-//! measured on the bundled scenes (README). CPU twin of the request, allocation, culling and fallback rules:
+//! `bin_factor` (bin entries per triangle or per pool slot), and the depth bias of a level-0
+//! page (constant and clamp double per level). The defaults — 32768² virtual, pages of 64²
+//! (finer pages waste less of the pool on the thin regions along edges than 128² pages: 9
+//! against 19 misclassified on `spot-point` with the same memory, `--set page_size=128 --set
+//! pool_pages=256`), `lod_bias` −1, `refine` 4 — were measured on the bundled scenes with
+//! `penumbra render SCENE --technique rmsm --compare-to reference` (misclassified × samples in
+//! `stats.json`). CPU twin of the request, allocation, culling and fallback rules:
 //! [`crate::cpu::rmsm`].
 
-use glam::{IVec2, Vec4};
+use glam::IVec2;
 
-use super::{Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup};
+use super::{virtual_map, Knob, Params, Technique, TechniqueInfo, TechniqueSetup};
 use crate::error::Result;
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
-use crate::passes::pages::{PagesDesc, VirtualPages};
-use crate::passes::DepthBias;
+use crate::passes::pages::VirtualPages;
 use crate::shader_types::RmsmPush;
 
 /// Counter names of the view-sample passes, in the order of `glsl/rmsm/lookup.comp`'s buffer.
@@ -59,81 +61,37 @@ pub const LOOKUP_COUNTER_NAMES: [&str; 9] = [
 /// Counter names of the edge pass, in the order of `glsl/rmsm/edges.comp`'s buffer.
 pub const EDGE_COUNTER_NAMES: [&str; 2] = ["edge_samples", "refine_requests"];
 
-const fn knob(name: &'static str, summary: &'static str, default: f64, min: f64, max: f64) -> Knob {
-    Knob {
-        name,
-        summary,
-        default: KnobDefault::Value(default),
-        min,
-        max,
-        integer: true,
-        names: &[],
-    }
-}
+const PAGE_KNOBS: [Knob; 4] = virtual_map::page_knobs(32768.0);
 
 const KNOBS: [Knob; 11] = [
-    knob(
-        "virtual_size",
-        "virtual shadow-map width and height in level-0 texels (power of two)",
-        32768.0,
-        256.0,
-        65536.0,
-    ),
-    knob(
-        "page_size",
-        "page width and height in texels (power of two)",
-        64.0,
-        16.0,
-        1024.0,
-    ),
-    knob(
-        "pool_pages",
-        "page slots in the physical atlas (1024 pages of 64² = one 2048² map)",
-        1024.0,
+    PAGE_KNOBS[0],
+    PAGE_KNOBS[1],
+    PAGE_KNOBS[2],
+    Knob::int(
+        "lod_bias",
+        "added to log2 of the footprint (negative: finer pages than the screen needs)",
+        -1.0,
+        -8.0,
+        8.0,
+    )
+    .real(),
+    Knob::int(
+        "filter",
+        "nearest: one texel; bilinear: 2x2 texels, across page borders",
+        0.0,
+        0.0,
         1.0,
-        65536.0,
-    ),
-    Knob {
-        integer: false,
-        ..knob(
-            "lod_bias",
-            "added to log2 of the footprint (negative: finer pages than the screen needs)",
-            -1.0,
-            -8.0,
-            8.0,
-        )
-    },
-    Knob {
-        names: &["nearest", "bilinear"],
-        ..knob(
-            "filter",
-            "nearest: one texel; bilinear: 2x2 texels, across page borders",
-            0.0,
-            0.0,
-            1.0,
-        )
-    },
-    knob(
+    )
+    .named(&["nearest", "bilinear"]),
+    Knob::int(
         "refine",
         "levels finer for samples at a shadow edge, in a second round of pages (0: off)",
         4.0,
         0.0,
         8.0,
     ),
-    knob(
-        "tangent_plane",
-        "1: compare each texel with the receiver's tangent plane under its centre; 0: one depth",
-        0.0,
-        0.0,
-        1.0,
-    ),
-    knob(
-        "bin_factor",
-        "caster bin entries per triangle or pool slot, whichever is more (pages past it fall back)",
-        16.0,
-        1.0,
-        1024.0,
-    ),
+    virtual_map::tangent_plane_knob(0.0),
+    PAGE_KNOBS[3],
     super::SHADOW_MAP_KNOBS[1],
     super::SHADOW_MAP_KNOBS[2],
     super::SHADOW_MAP_KNOBS[3],
@@ -167,55 +125,16 @@ pub struct Rmsm<'a> {
     _camera: Buffer,
     push: RmsmPush,
     view_size: IVec2,
-    triangles: u64,
 }
 
 impl<'a> Rmsm<'a> {
     /// Builds the pages, the passes and their bindings.
     pub fn new(setup: &TechniqueSetup<'a>, params: &Params) -> Result<Self> {
         let ctx = setup.ctx;
-        let desc = PagesDesc {
-            virtual_size: params.u32("virtual_size")?,
-            page_size: params.u32("page_size")?,
-            pool_pages: params.u32("pool_pages")?,
-            bin_factor: params.u32("bin_factor")?,
-            bias: DepthBias {
-                constant: params.f32("bias_constant")?,
-                slope: params.f32("bias_slope")?,
-                clamp: params.f32("bias_clamp")?,
-            },
-        };
-        if desc.bias.clamp != 0.0 {
-            ctx.require(
-                ctx.info().depth_bias_clamp,
-                "depthBiasClamp (set bias_clamp = 0)",
-            )?;
-        }
+        let desc = virtual_map::pages_desc(ctx, params)?;
         let pages = VirtualPages::new(ctx, "rmsm", setup.light_view, setup.geometry, desc)?;
-        let camera = setup.camera;
-        let eye = camera.position;
-        let tangent_plane = params.u32("tangent_plane")?;
-        let camera_data: [Vec4; 10] = {
-            let inv = camera.view_projection().inverse();
-            let light_inv = setup.light_view.view_proj.inverse();
-            [
-                inv.x_axis,
-                inv.y_axis,
-                inv.z_axis,
-                inv.w_axis,
-                eye.extend(1.0),
-                light_inv.x_axis,
-                light_inv.y_axis,
-                light_inv.z_axis,
-                light_inv.w_axis,
-                Vec4::new(f32::from_bits(tangent_plane), 0.0, 0.0, 0.0),
-            ]
-        };
-        let camera_buffer = ctx.buffer_with(
-            "rmsm camera",
-            ash::vk::BufferUsageFlags::STORAGE_BUFFER,
-            &camera_data,
-        )?;
+        let camera_buffer =
+            virtual_map::view_camera(ctx, "rmsm camera", setup, params.u32("tangent_plane")?)?;
         let mark_counters = Buffer::storage(ctx, "rmsm mark counters", 4)?;
         let lookup_counters = Buffer::storage(
             ctx,
@@ -309,7 +228,6 @@ impl<'a> Rmsm<'a> {
             _camera: camera_buffer,
             push,
             view_size,
-            triangles: setup.indices.len() as u64 / 3,
         })
     }
 }
@@ -317,32 +235,26 @@ impl<'a> Rmsm<'a> {
 impl Technique for Rmsm<'_> {
     fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
         let threads = [self.view_size.x as u32, self.view_size.y as u32, 1];
-        rec.begin_pass("rmsm-mark")?;
-        self.pages.record_clear(rec);
-        rec.fill(&self.mark_counters, 0);
-        let (pipeline, set) = &self.mark;
-        let result = rec.dispatch(pipeline, set, &self.push, threads);
-        rec.end_pass();
-        result?;
-
+        rec.pass("rmsm-mark", |rec| {
+            self.pages.record_clear(rec);
+            rec.fill(&self.mark_counters, 0);
+            let (pipeline, set) = &self.mark;
+            rec.dispatch(pipeline, set, &self.push, threads)
+        })?;
         self.pages.record(rec)?;
-
         if self.push.refine > 0 {
-            rec.begin_pass("rmsm-edges")?;
-            rec.fill(&self.edge_counters, 0);
-            let (pipeline, set) = &self.edges;
-            let result = rec.dispatch(pipeline, set, &self.push, threads);
-            rec.end_pass();
-            result?;
+            rec.pass("rmsm-edges", |rec| {
+                rec.fill(&self.edge_counters, 0);
+                let (pipeline, set) = &self.edges;
+                rec.dispatch(pipeline, set, &self.push, threads)
+            })?;
             self.pages.record_refine(rec)?;
         }
-
-        rec.begin_pass("rmsm-lookup")?;
-        rec.fill(&self.lookup_counters, 0);
-        let (pipeline, set) = &self.lookup;
-        let result = rec.dispatch(pipeline, set, &self.push, threads);
-        rec.end_pass();
-        result
+        rec.pass("rmsm-lookup", |rec| {
+            rec.fill(&self.lookup_counters, 0);
+            let (pipeline, set) = &self.lookup;
+            rec.dispatch(pipeline, set, &self.push, threads)
+        })
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
@@ -361,19 +273,17 @@ impl Technique for Rmsm<'_> {
             )?);
         }
         let pages = self.pages.counters()?;
-        let get = |name: &str| pages.iter().find(|(n, _)| n == name).map_or(0, |(_, v)| *v);
-        // Work skipped by culling: triangles not drawn into a page, summed over drawn pages.
-        let drawn_pages = (get("allocated_pages") + get("refine_allocated_pages"))
-            .saturating_sub(get("bin_overflow_pages"));
-        let culled = (self.triangles * drawn_pages).saturating_sub(get("triangles_binned"));
+        let drawn = pages
+            .iter()
+            .find(|(n, _)| n == "drawn_pages")
+            .map_or(0, |(_, v)| *v);
         let samples = out.first().map_or(0, |(_, v)| *v).max(1);
         let page_texels = u64::from(self.push.page_size).pow(2);
         out.extend(pages);
-        out.push(("triangles_culled".into(), culled));
-        // Texels of the allocated pages per view sample, in thousandths.
+        // Texels of the drawn pages per view sample, in thousandths.
         out.push((
             "texels_per_sample_milli".into(),
-            drawn_pages * page_texels * 1000 / samples,
+            drawn * page_texels * 1000 / samples,
         ));
         Ok(out)
     }

@@ -1,0 +1,105 @@
+//! What the virtual-shadow-map techniques (`rmsm`, `pvssm`) share on the host side: the page
+//! knobs, the pages' description from them, and the camera block of
+//! `glsl/include/view_camera.glsl` that their view-sample passes bind.
+
+use glam::Vec4;
+
+use super::{Knob, Params, TechniqueSetup};
+use crate::error::Result;
+use crate::gpu::{Buffer, Context};
+use crate::passes::pages::PagesDesc;
+use crate::passes::DepthBias;
+
+/// `virtual_size` (with the technique's default), `page_size`, `pool_pages` and `bin_factor`.
+pub const fn page_knobs(virtual_size: f64) -> [Knob; 4] {
+    [
+        Knob::int(
+            "virtual_size",
+            "virtual shadow-map width and height in level-0 texels (power of two)",
+            virtual_size,
+            256.0,
+            65536.0,
+        ),
+        Knob::int(
+            "page_size",
+            "page width and height in texels (power of two)",
+            64.0,
+            16.0,
+            1024.0,
+        ),
+        Knob::int(
+            "pool_pages",
+            "page slots in the physical atlas (1024 pages of 64² = one 2048² map)",
+            1024.0,
+            1.0,
+            65536.0,
+        ),
+        Knob::int(
+            "bin_factor",
+            "caster bin entries per triangle or pool slot, whichever is more (pages past it fall \
+             back)",
+            16.0,
+            1.0,
+            1024.0,
+        ),
+    ]
+}
+
+/// `tangent_plane` with the technique's default.
+pub const fn tangent_plane_knob(default: f64) -> Knob {
+    Knob::int(
+        "tangent_plane",
+        "1: test each texel at the receiver's tangent plane under its centre; 0: one depth",
+        default,
+        0.0,
+        1.0,
+    )
+}
+
+/// The pages [`page_knobs`] and the shadow-map bias knobs describe; fails where the device
+/// cannot clamp the bias asked for.
+pub fn pages_desc(ctx: &Context, params: &Params) -> Result<PagesDesc> {
+    let desc = PagesDesc {
+        virtual_size: params.u32("virtual_size")?,
+        page_size: params.u32("page_size")?,
+        pool_pages: params.u32("pool_pages")?,
+        bin_factor: params.u32("bin_factor")?,
+        bias: DepthBias {
+            constant: params.f32("bias_constant")?,
+            slope: params.f32("bias_slope")?,
+            clamp: params.f32("bias_clamp")?,
+        },
+    };
+    if desc.bias.clamp != 0.0 {
+        ctx.require(
+            ctx.info().depth_bias_clamp,
+            "depthBiasClamp (set bias_clamp = 0)",
+        )?;
+    }
+    Ok(desc)
+}
+
+/// The `Camera` block of `glsl/include/view_camera.glsl`: the view samples' clip → world and
+/// eye, the light's clip → world, and `tangent_plane` (its `options.x`).
+pub fn view_camera(
+    ctx: &Context,
+    name: &str,
+    setup: &TechniqueSetup<'_>,
+    tangent_plane: u32,
+) -> Result<Buffer> {
+    let inv = setup.camera.view_projection().inverse();
+    let light_inv = setup.light_view.view_proj.inverse();
+    let data: [Vec4; 10] = [
+        inv.x_axis,
+        inv.y_axis,
+        inv.z_axis,
+        inv.w_axis,
+        setup.camera.position.extend(1.0),
+        light_inv.x_axis,
+        light_inv.y_axis,
+        light_inv.z_axis,
+        light_inv.w_axis,
+        Vec4::new(f32::from_bits(tangent_plane), 0.0, 0.0, 0.0),
+    ];
+    ctx.buffer_with(name, ash::vk::BufferUsageFlags::STORAGE_BUFFER, &data)
+}

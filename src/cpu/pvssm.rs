@@ -20,7 +20,7 @@
 
 use glam::{Mat4, Vec2, Vec3};
 
-use super::rmsm::{light_texel, tangent_hit};
+use super::rmsm::pixel_steps;
 use crate::scene::Camera;
 
 /// Floor on the kernel's half-widths `u_h.x` and `v_h.y`, level-0 texels: a point light without
@@ -58,14 +58,15 @@ pub fn pixel_axes(
     light_view_proj: Mat4,
     virtual_size: u32,
 ) -> Option<(Vec2, Vec2)> {
-    let inv = camera.view_projection().inverse();
-    let (x, y) = pixel;
-    let hx = tangent_hit(camera, inv, (x.saturating_add(1), y), position, normal)?;
-    let hy = tangent_hit(camera, inv, (x, y.saturating_add(1)), position, normal)?;
-    let texel = |w: Vec3| light_texel(light_view_proj, w, virtual_size).map(|c| c.truncate());
-    let cp = texel(position)?;
-    let u = 0.5 * (texel(hx)? - cp);
-    let v = 0.5 * (texel(hy)? - cp);
+    let (dx, dy) = pixel_steps(
+        camera,
+        pixel,
+        position,
+        normal,
+        light_view_proj,
+        virtual_size,
+    )?;
+    let (u, v) = (0.5 * dx, 0.5 * dy);
     // A non-finite hit (e.g. an inverse of a degenerate camera) is as undefined as a miss.
     (u.is_finite() && v.is_finite()).then_some((u, v))
 }

@@ -63,11 +63,30 @@ pub(crate) fn tangent_hit(
     Some(camera.position + t * d)
 }
 
-/// The footprint `f` of the spec: level-0 texels per camera pixel, the larger of the light-space
-/// distances from `position` to where the rays of the right and lower neighbour pixels meet its
-/// tangent plane. `f32::INFINITY` when undefined (a ray parallel to or away from the plane, or a
-/// point behind the light). The neighbours need not lie inside the image: only their rays are
-/// used.
+/// The pixel's steps in the light's level-0 texel grid (twin of `pixel_steps` in
+/// `glsl/include/view_camera.glsl`): where the rays through the centres of the right and lower
+/// neighbour pixels meet the tangent plane through `position` with `normal`, relative to
+/// `position`. `None` when a ray is parallel to or points away from the plane, or a point lies
+/// behind the light. The neighbours need not lie inside the image: only their rays are used.
+pub fn pixel_steps(
+    camera: &Camera,
+    pixel: (u32, u32),
+    position: Vec3,
+    normal: Vec3,
+    light_view_proj: Mat4,
+    virtual_size: u32,
+) -> Option<(Vec2, Vec2)> {
+    let inv = camera.view_projection().inverse();
+    let (x, y) = pixel;
+    let hx = tangent_hit(camera, inv, (x.saturating_add(1), y), position, normal)?;
+    let hy = tangent_hit(camera, inv, (x, y.saturating_add(1)), position, normal)?;
+    let texel = |w: Vec3| light_texel(light_view_proj, w, virtual_size).map(|c| c.truncate());
+    let cp = texel(position)?;
+    Some((texel(hx)? - cp, texel(hy)? - cp))
+}
+
+/// The footprint `f` of the spec: level-0 texels per camera pixel, the longer of the pixel's
+/// two [`pixel_steps`]; `f32::INFINITY` where they are undefined.
 pub fn footprint(
     camera: &Camera,
     pixel: (u32, u32),
@@ -76,21 +95,15 @@ pub fn footprint(
     light_view_proj: Mat4,
     virtual_size: u32,
 ) -> f32 {
-    let inv = camera.view_projection().inverse();
-    let (x, y) = pixel;
-    let hits = (
-        tangent_hit(camera, inv, (x.saturating_add(1), y), position, normal),
-        tangent_hit(camera, inv, (x, y.saturating_add(1)), position, normal),
-    );
-    let (Some(hx), Some(hy)) = hits else {
-        return f32::INFINITY;
-    };
-    let texel = |w: Vec3| light_texel(light_view_proj, w, virtual_size);
-    let (Some(cp), Some(cx), Some(cy)) = (texel(position), texel(hx), texel(hy)) else {
-        return f32::INFINITY;
-    };
-    let xy = |c: Vec3| Vec2::new(c.x, c.y);
-    (xy(cx) - xy(cp)).length().max((xy(cy) - xy(cp)).length())
+    pixel_steps(
+        camera,
+        pixel,
+        position,
+        normal,
+        light_view_proj,
+        virtual_size,
+    )
+    .map_or(f32::INFINITY, |(dx, dy)| dx.length().max(dy.length()))
 }
 
 /// Requested level from a footprint: `clamp(floor(log2(f) + lod_bias), 0, L − 1)`, with

@@ -248,6 +248,7 @@ impl Engine {
             camera: &prepared.camera,
             light_view: &light_view,
             visibility: &prepared.visibility,
+            receiver_bounds: &prepared.receiver_bounds,
         };
         let before = ctx.live_bytes();
         let mut instance = (info.create)(&setup, &params)?;

@@ -51,27 +51,11 @@ float dot3(vec3 a, vec3 b) {
     return r;
 }
 
-// Jarzynski and Olano's PCG hash (JCGT 2020).
-uint pcg(uint v) {
-    uint state = v * 747796405u + 2891336453u;
-    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
-}
-
-// The top 24 bits as a float in [0, 1), exactly.
-float unit_float(uint h) {
-    return float(h >> 8u) * (1.0 / 16777216.0);
-}
+#include "light_samples.glsl"
 
 // Sample of cell (i, j) in [0, 1)^2: jittered by a hash of (pixel seed, cell), or the centre.
 vec2 cell_point(uint seed, int i, int j) {
-    uint cell = uint(j * pc.samples + i);
-    vec2 jit = vec2(0.5);
-    if (pc.jitter != 0) {
-        jit = vec2(unit_float(pcg(seed + 2u * cell)), unit_float(pcg(seed + 2u * cell + 1u)));
-    }
-    precise vec2 x = (vec2(float(i), float(j)) + jit) * pc.inv_samples;
-    return x;
+    return light_cell_point(seed, i, j, pc.samples, vec2(pc.inv_samples), pc.jitter != 0);
 }
 
 // Shirley and Chiu's concentric square-to-disk map (area-preserving).

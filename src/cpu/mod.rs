@@ -10,6 +10,7 @@ pub mod conservative_raster;
 pub mod cssm;
 pub mod essm;
 pub mod filtered;
+pub mod izb;
 pub mod light_clip;
 pub mod minmax;
 pub mod nbuffer;

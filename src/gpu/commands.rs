@@ -148,6 +148,37 @@ impl Recorder<'_> {
         Ok(())
     }
 
+    /// Dispatches the workgroup counts the GPU wrote: one `VkDispatchIndirectCommand` (three
+    /// `u32`, 12 bytes) at `offset` in `args`, after the barriers the set's resources and the
+    /// arguments (read as [`Access::IndirectRead`]) need. Counts of 0 dispatch nothing.
+    pub fn dispatch_indirect<T: Pod>(
+        &mut self,
+        pipeline: &Pipeline,
+        set: &DescriptorSet,
+        push: &T,
+        args: &Buffer,
+        offset: u64,
+    ) -> Result<()> {
+        if offset % 4 != 0 || offset + 12 > args.size {
+            return Err(Error::Shader {
+                name: pipeline.name.clone(),
+                message: format!(
+                    "indirect dispatch arguments at {offset} do not fit the {}-byte buffer {}",
+                    args.size, args.name
+                ),
+            });
+        }
+        self.use_buffer(args, Access::IndirectRead);
+        self.use_set(set);
+        self.bind_and_push(pipeline, Some(set), push)?;
+        unsafe {
+            self.ctx
+                .device()
+                .cmd_dispatch_indirect(self.cmd, args.raw, offset)
+        };
+        Ok(())
+    }
+
     /// Begins dynamic rendering into `colors` (cleared to their values) and `depth` (cleared to
     /// the given depth), with a full-size viewport and scissor.
     pub fn begin_rendering(&mut self, colors: &[(&Image, [f32; 4])], depth: (&Image, f32)) {

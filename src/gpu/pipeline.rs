@@ -329,6 +329,17 @@ impl Pipeline {
         self.layout.layout
     }
 
+    /// The binding numbers the shaders declare, in order: what a [`DescriptorSet`] for this
+    /// pipeline takes (the compiler drops bindings a shader never uses, so passes that include
+    /// one shared binding list may each declare a different subset of it).
+    pub fn binding_numbers(&self) -> Vec<u32> {
+        self.layout
+            .bindings
+            .iter()
+            .map(|(b, _)| b.binding)
+            .collect()
+    }
+
     /// Size of the push-constant block the shaders declare.
     pub fn push_constant_size(&self) -> u32 {
         self.layout.push_constant_size

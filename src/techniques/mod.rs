@@ -10,6 +10,7 @@ pub mod average_maps;
 pub mod cssm;
 pub mod essm;
 pub mod filtered;
+pub mod izb;
 mod params;
 pub mod pcf;
 pub mod pcf_coverage;
@@ -28,7 +29,7 @@ pub use params::{
 
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Image, Recorder};
-use crate::passes::{LightView, SceneGeometry, ViewSamples};
+use crate::passes::{LightView, ReceiverBounds, SceneGeometry, ViewSamples};
 use crate::scene::{Camera, Light};
 use glam::Vec3;
 
@@ -58,6 +59,9 @@ pub struct TechniqueSetup<'a> {
     pub light_view: &'a LightView,
     /// Where visibility goes (R32F, one texel per view sample).
     pub visibility: &'a Image,
+    /// The view samples' bounds in the light's view space (the view of `light_view` and of the
+    /// scene fit alike: both look from the same origin in the same direction).
+    pub receiver_bounds: &'a ReceiverBounds,
 }
 
 /// A technique instance, ready to record frames. It borrows the setup's resources (`'a`).
@@ -169,6 +173,8 @@ pub fn registry() -> &'static [TechniqueInfo] {
         essm::ESSM,
         rmsm::RMSM,
         pvssm::PVSSM,
+        izb::IZB,
+        izb::IZB_SOFT,
     ]
 }
 

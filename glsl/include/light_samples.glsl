@@ -1,0 +1,28 @@
+// Stratified light samples: cell (i, j) of an n_a × n_b grid over [0, 1)², jittered inside its
+// cell by a hash of (pixel seed, cell) or at its centre. The reference (N × N) and izb-soft
+// (n_a × n_b) draw the same points for the same grid; the CPU side (src/cpu/ray_cast.rs
+// `cell_point`) generates them independently, bit for bit.
+
+// Jarzynski and Olano's PCG hash (JCGT 2020).
+uint pcg(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// The top 24 bits as a float in [0, 1), exactly.
+float unit_float(uint h) {
+    return float(h >> 8u) * (1.0 / 16777216.0);
+}
+
+// The point of cell (i, j) in [0, 1)²; `inv` = (1 / n_a, 1 / n_b) as f32 from the host, `seed`
+// = pcg(pixel index). Cell index j · n_a + i keys the hash.
+vec2 light_cell_point(uint seed, int i, int j, int n_a, vec2 inv, bool jitter) {
+    uint cell = uint(j * n_a + i);
+    vec2 jit = vec2(0.5);
+    if (jitter) {
+        jit = vec2(unit_float(pcg(seed + 2u * cell)), unit_float(pcg(seed + 2u * cell + 1u)));
+    }
+    precise vec2 x = (vec2(float(i), float(j)) + jit) * inv;
+    return x;
+}

@@ -1,0 +1,222 @@
+#version 460
+// izb passes 4 and 6 (per triangle): the grid cells whose samples a triangle may shadow, and a
+// (triangle, cell, chunk) pair for every chunk of CHUNK samples of every such cell that holds
+// samples. Phase 0 counts the pairs of triangles with at most SMALL_CELLS cells in range (and
+// lists the others), phase 1 counts the listed ones (a workgroup per triangle, its invocations
+// striding over the cells), phase 2 and 3 write the pairs the same two ways at the triangle's
+// first pair (the prefix sum of the counts) plus a per-triangle cursor.
+//
+// Footprint (src/techniques/izb.rs, "Footprints"): the triangle's projection, grown for a rect
+// light by the light's half extents times k = 1/z_tri - 1/z_cell, z_tri its nearest depth and
+// z_cell the cell's deepest sample; every vertex nearer than the depth floor: every cell.
+// Cells whose samples all lie nearer the light than the whole triangle are skipped.
+#include "izb.glsl"
+
+layout(local_size_x = 64) in;
+
+struct Tri {
+    vec2 g[3];        // grid coordinates of the projected vertices
+    float zmin;       // nearest depth
+    bool full;        // a vertex at or behind the depth floor: every cell
+    bool flat_edges;  // zero projected area: bounding box only
+    ivec2 lo;         // cell range (inclusive)
+    ivec2 hi;
+};
+
+Tri setup(uint t, bool keep) {
+    Tri tri;
+    vec3 q[3];
+    for (int k = 0; k < 3; ++k) {
+        vec3 w = vertex(indices[3u * t + uint(k)]);
+        q[k] = light_space(w);
+        if (keep) {
+            tri_verts[3u * t + uint(k)] = vec4(w, q[k].z);
+        }
+    }
+    tri.zmin = min(q[0].z, min(q[1].z, q[2].z));
+    tri.full = P.sizes.w != 0u && tri.zmin <= P.light_half.z;
+    tri.flat_edges = true;
+    int last = grid_size() - 1;
+    tri.lo = ivec2(0);
+    tri.hi = ivec2(last);
+    if (tri.full) {
+        return tri;
+    }
+    for (int k = 0; k < 3; ++k) {
+        tri.g[k] = grid_coord(q[k]);
+    }
+    vec2 bmin = min(tri.g[0], min(tri.g[1], tri.g[2]));
+    vec2 bmax = max(tri.g[0], max(tri.g[1], tri.g[2]));
+    vec2 e1 = tri.g[1] - tri.g[0];
+    vec2 e2 = tri.g[2] - tri.g[0];
+    float area = e1.x * e2.y - e1.y * e2.x;
+    vec2 size = bmax - bmin;
+    tri.flat_edges = abs(area) <= 1e-6 * max(size.x * size.x + size.y * size.y, 1e-30);
+    vec2 grow = vec2(CELL_MARGIN);
+    if (P.view.w == KIND_RECT) {
+        float deepest = uintBitsToFloat(counters[C_MAX_DEPTH]);
+        float k = max(1.0 / tri.zmin - 1.0 / deepest, 0.0) * (1.0 + K_MARGIN);
+        grow += k * P.light_half.xy * P.grid_map.zw;
+    }
+    // Clamped in float first: a far-off projection must not overflow int.
+    vec2 lo = clamp(floor(bmin - grow), vec2(0.0), vec2(float(last)));
+    vec2 hi = clamp(floor(bmax + grow), vec2(0.0), vec2(float(last)));
+    tri.lo = ivec2(lo);
+    tri.hi = ivec2(hi);
+    if (bmax.x + grow.x < 0.0 || bmax.y + grow.y < 0.0 || bmin.x - grow.x > float(grid_size()) ||
+        bmin.y - grow.y > float(grid_size())) {
+        tri.hi = tri.lo - 1;  // misses the grid: no cell
+    }
+    return tri;
+}
+
+uint range_cells(Tri tri) {
+    ivec2 span = max(tri.hi - tri.lo + 1, ivec2(0));
+    return uint(span.x) * uint(span.y);
+}
+
+uint chunks(uint count) {
+    return (count + P.sizes.z - 1u) / P.sizes.z;
+}
+
+// Chunks of cell (x, y) the triangle may shadow (0 if none).
+uint visit(Tri tri, ivec2 xy) {
+    uint cell = uint(xy.y * grid_size() + xy.x);
+    uint count = cell_count[cell];
+    if (count == 0u) {
+        return 0u;
+    }
+    if (tri.full) {
+        return chunks(count);
+    }
+    float deepest = uintBitsToFloat(cell_depth[cell]);
+    if (tri.zmin > deepest * (1.0 + 1e-5)) {
+        return 0u;  // every sample of the cell is nearer the light than the triangle
+    }
+    vec2 grow = vec2(CELL_MARGIN);
+    if (P.view.w == KIND_RECT) {
+        float k = max(1.0 / tri.zmin - 1.0 / deepest, 0.0) * (1.0 + K_MARGIN);
+        grow += k * P.light_half.xy * P.grid_map.zw;
+    }
+    vec2 lo = vec2(xy) - grow;
+    vec2 hi = vec2(xy) + 1.0 + grow;
+    vec2 bmin = min(tri.g[0], min(tri.g[1], tri.g[2]));
+    vec2 bmax = max(tri.g[0], max(tri.g[1], tri.g[2]));
+    if (any(lessThan(bmax, lo)) || any(greaterThan(bmin, hi))) {
+        return 0u;
+    }
+    if (!tri.flat_edges) {
+        vec2 e1 = tri.g[1] - tri.g[0];
+        vec2 e2 = tri.g[2] - tri.g[0];
+        float s = e1.x * e2.y - e1.y * e2.x > 0.0 ? 1.0 : -1.0;
+        for (int k = 0; k < 3; ++k) {
+            vec2 a = tri.g[k];
+            vec2 d = tri.g[(k + 1) % 3] - a;
+            // Inside: s * cross(d, x - a) >= 0; its largest value over the box's corners.
+            vec2 coeff = s * vec2(-d.y, d.x);
+            vec2 x = vec2(coeff.x >= 0.0 ? hi.x : lo.x, coeff.y >= 0.0 ? hi.y : lo.y);
+            if (dot(coeff, x - a) < 0.0) {
+                return 0u;
+            }
+        }
+    }
+    return chunks(count);
+}
+
+void emit(uint t, uint cell, uint n) {
+    uint first = tri_first[t] + atomicAdd(tri_cursor[t], n);
+    uint start = cell_start[cell];
+    uint end = start + cell_count[cell];
+    for (uint c = 0u; c < n; ++c) {
+        uint at = first + c;
+        if (at < P.sizes.y) {
+            uint s = start + c * P.sizes.z;
+            pairs[at] = uvec4(t, s, min(s + P.sizes.z, end), cell);
+        } else {
+            atomicAdd(counters[C_PAIR_OVERFLOW], 1u);
+        }
+    }
+}
+
+// Cell j of the triangle's range.
+ivec2 range_cell(Tri tri, uint j) {
+    uint w = uint(tri.hi.x - tri.lo.x + 1);
+    return tri.lo + ivec2(int(j % w), int(j / w));
+}
+
+void small_pass(bool write) {
+    uint t = gl_GlobalInvocationID.x;
+    if (t >= P.sizes.x) {
+        return;
+    }
+    if (write && tri_pairs[t] == 0u) {
+        atomicAdd(counters[C_CULLED], 1u);
+        return;
+    }
+    Tri tri = setup(t, !write);
+    uint cells = range_cells(tri);
+    uint total = 0u;
+    // The samples no projection reaches: every triangle may shadow them.
+    uint spill = cell_count[overflow_cell()];
+    if (spill > 0u) {
+        if (write) {
+            emit(t, overflow_cell(), chunks(spill));
+        } else {
+            total += chunks(spill);
+        }
+    }
+    if (cells > SMALL_CELLS) {
+        if (!write) {
+            large[atomicAdd(counters[C_LARGE], 1u)] = t;
+            atomicAdd(tri_pairs[t], total);
+        }
+        return;
+    }
+    for (uint j = 0u; j < cells; ++j) {
+        ivec2 xy = range_cell(tri, j);
+        uint n = visit(tri, xy);
+        if (n > 0u) {
+            if (write) {
+                emit(t, uint(xy.y * grid_size() + xy.x), n);
+            } else {
+                total += n;
+            }
+        }
+    }
+    if (!write) {
+        atomicAdd(tri_pairs[t], total);
+    }
+}
+
+void large_pass(bool write) {
+    uint count = counters[C_LARGE];
+    for (uint l = gl_WorkGroupID.x; l < count; l += LARGE_GROUPS) {
+        uint t = large[l];
+        Tri tri = setup(t, false);
+        uint cells = range_cells(tri);
+        uint total = 0u;
+        for (uint j = gl_LocalInvocationID.x; j < cells; j += 64u) {
+            ivec2 xy = range_cell(tri, j);
+            uint n = visit(tri, xy);
+            if (n > 0u) {
+                if (write) {
+                    emit(t, uint(xy.y * grid_size() + xy.x), n);
+                } else {
+                    total += n;
+                }
+            }
+        }
+        if (!write && total > 0u) {
+            atomicAdd(tri_pairs[t], total);
+        }
+    }
+}
+
+void main() {
+    if (pc.phase == 0u || pc.phase == 2u) {
+        small_pass(pc.phase == 2u);
+    } else {
+        large_pass(pc.phase == 3u);
+    }
+    limiter_guard();
+}

@@ -1,0 +1,173 @@
+// izb and izb-soft's shared parts: the parameter block, the bindings, the counters and the
+// light-space grid. Design: src/techniques/izb.rs. CPU twin: src/cpu/izb.rs.
+
+#extension GL_GOOGLE_include_directive : require
+
+struct IzbParams {
+    mat4 light_view;   // world -> the light's view space (looking down -z)
+    vec4 light_c;      // point / rect: centre (world); directional: unit vector towards the sun
+    vec4 light_u;      // rect: full edge u (world)
+    vec4 light_v;      // rect: full edge v (world)
+    vec4 grid_map;     // (min.x, min.y, scale.x, scale.y): grid coordinate g = (pi - min) * scale
+    vec4 light_half;   // (hx, hy): the light's half extents in view space; z: depth floor; w: ray offset
+    ivec4 view;        // (width, height, G, kind)
+    ivec4 pattern;     // (n_a, n_b, jitter, mask words per sample)
+    vec4 pattern_f;    // (1 / n_a, 1 / n_b, t_far, unused)
+    uvec4 sizes;       // (triangles, pair capacity, samples per chunk, perspective)
+};
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
+layout(set = 0, binding = 2) readonly buffer Params { IzbParams P; };
+layout(set = 0, binding = 3) readonly buffer Vertices { float vertices[]; };
+layout(set = 0, binding = 4) readonly buffer Indices { uint indices[]; };
+// Per cell (G * G, then the overflow cell of samples no projection reaches): samples binned.
+layout(set = 0, binding = 5) buffer CellCount { uint cell_count[]; };
+// Exclusive prefix sum of cell_count: where a cell's samples start in cell_samples.
+layout(set = 0, binding = 6) buffer CellStart { uint cell_start[]; };
+// Per cell: the largest light-space depth of its samples (float bits; depths are > 0).
+layout(set = 0, binding = 7) buffer CellDepth { uint cell_depth[]; };
+// Per pixel: (cell, index in the cell | ALL_IN_FRONT), cell = NOT_BINNED for samples left out.
+layout(set = 0, binding = 8) buffer Binned { uvec2 binned[]; };
+// The binned samples' pixel indices (| ALL_IN_FRONT), cell by cell.
+layout(set = 0, binding = 9) buffer CellSamples { uint cell_samples[]; };
+// Per pixel: the shadow ray's origin o = p + offset * n, and its light-space depth.
+layout(set = 0, binding = 10) buffer Origins { vec4 origins[]; };
+// Per triangle: its (triangle, cell, chunk) pairs; then their exclusive prefix sum; a cursor.
+layout(set = 0, binding = 11) buffer TriPairs { uint tri_pairs[]; };
+layout(set = 0, binding = 12) buffer TriFirst { uint tri_first[]; };
+layout(set = 0, binding = 13) buffer TriCursor { uint tri_cursor[]; };
+// Triangles whose footprint spans more than SMALL_CELLS cells: the large passes stride over them.
+layout(set = 0, binding = 14) buffer Large { uint large[]; };
+// The pairs: (triangle, first sample, end of the samples in cell_samples, cell).
+layout(set = 0, binding = 15) buffer Pairs { uvec4 pairs[]; };
+// Per pixel: `words` words of blocked light samples (izb: word 0 != 0 means shadowed).
+layout(set = 0, binding = 16) buffer Masks { uint masks[]; };
+layout(set = 0, binding = 17) buffer Counters { uint counters[]; };
+// Indirect dispatch arguments of the test pass.
+layout(set = 0, binding = 18) buffer Args { uint args[]; };
+// Per triangle, written by the footprint pass: its vertices (world xyz, light-space depth).
+layout(set = 0, binding = 20) buffer TriVerts { vec4 tri_verts[]; };
+
+layout(push_constant) uniform Push {
+    uint phase;
+} pc;
+
+#define KIND_POINT 0
+#define KIND_RECT 1
+#define KIND_DIRECTIONAL 2
+
+#define NOT_BINNED 0xFFFFFFFFu
+// binned[].y: the whole light is in front of the sample's tangent plane (bit 31), local index.
+#define ALL_IN_FRONT 0x80000000u
+#define LOCAL_INDEX 0x7FFFFFFFu
+// A footprint with more cells than this goes to the large passes.
+#define SMALL_CELLS 256u
+// Invocations of a large pass: LARGE_GROUPS workgroups of 64.
+#define LARGE_GROUPS 1024u
+// Grid cells a footprint is grown by on every side, so f32 rounding of a projection never
+// loses a cell (projections round at ~1e-7 relative: ~4e-4 cells of a 4096-cell grid).
+#define CELL_MARGIN 0.01
+// Soft footprints: relative margin on the depth factor k.
+#define K_MARGIN 1e-4
+
+// Counter slots (src/techniques/izb.rs COUNTER_NAMES, same order).
+#define C_VIEW_SAMPLES 0
+#define C_BINNED 1
+#define C_BEHIND 2
+#define C_CELLS_USED 3
+#define C_LONGEST 4
+#define C_PAIRS 5
+#define C_PAIR_OVERFLOW 6
+#define C_CULLED 7
+#define C_LARGE 8
+#define C_SAMPLE_TESTS 9   // 64-bit: 9 (lo), 10 (hi)
+#define C_RAY_TESTS 11     // 64-bit: 11 (lo), 12 (hi)
+#define C_OVERFLOW_SAMPLES 13
+#define C_MAX_DEPTH 14     // float bits: the deepest binned sample
+#define C_CUT 15
+#define C_LIT 16
+#define C_UMBRA 17
+#define C_PENUMBRA 18
+#define COUNTERS 19
+
+int grid_size() {
+    return P.view.z;
+}
+
+uint overflow_cell() {
+    return uint(grid_size() * grid_size());
+}
+
+vec3 vertex(uint v) {
+    return vec3(vertices[3u * v], vertices[3u * v + 1u], vertices[3u * v + 2u]);
+}
+
+// Light view space: xy across, depth along the view direction.
+vec3 light_space(vec3 w) {
+    vec4 q = P.light_view * vec4(w, 1.0);
+    return vec3(q.xy, -q.z);
+}
+
+// Grid coordinate of a light-space point at depth > the floor (perspective: its projection).
+vec2 grid_coord(vec3 q) {
+    vec2 pi = P.sizes.w != 0u ? q.xy / q.z : q.xy;
+    return (pi - P.grid_map.xy) * P.grid_map.zw;
+}
+
+// Per-workgroup counter sums: invocations add here, one invocation adds the group's totals to
+// the global counters (atomics on one address from every invocation serialize on lavapipe).
+shared uint group_counters[COUNTERS];
+
+void group_counters_clear() {
+    for (uint i = gl_LocalInvocationIndex; i < COUNTERS; i += gl_WorkGroupSize.x * gl_WorkGroupSize.y) {
+        group_counters[i] = 0u;
+    }
+    barrier();
+}
+
+void count(uint slot, uint value) {
+    if (value != 0u) {
+        atomicAdd(group_counters[slot], value);
+    }
+}
+
+// Adds to a 64-bit counter (lo, lo + 1): the carry goes to the high word.
+void add64(uint lo, uint value) {
+    if (value == 0u) {
+        return;
+    }
+    uint old = atomicAdd(counters[lo], value);
+    if (old + value < old) {
+        atomicAdd(counters[lo + 1u], 1u);
+    }
+}
+
+// Adds the group's sums to the global counters (64-bit for the test counts, max for the
+// depth); call from uniform control flow.
+void group_counters_flush() {
+    barrier();
+    uint i = gl_LocalInvocationIndex;
+    if (i < COUNTERS && group_counters[i] != 0u) {
+        if (i == C_SAMPLE_TESTS || i == C_RAY_TESTS) {
+            add64(i, group_counters[i]);
+        } else if (i == C_MAX_DEPTH) {
+            atomicMax(counters[i], group_counters[i]);
+        } else if (i != C_SAMPLE_TESTS + 1u && i != C_RAY_TESTS + 1u) {
+            atomicAdd(counters[i], group_counters[i]);
+        }
+    }
+}
+
+// lavapipe stops every loop of a SIMD group once the group has made 65 535 loop passes in one
+// dispatch, silently. This loop makes two passes (the compiler cannot know) unless the limiter
+// ran out, in which case the invocation's work is wrong and the host fails the frame.
+void limiter_guard() {
+    int passes = 0;
+    for (uint i = 0u; i < min(P.sizes.z, 1u) + 1u; ++i) {
+        passes += 1;
+    }
+    if (passes < 2) {
+        atomicAdd(counters[C_CUT], 1u);
+    }
+}

@@ -1,0 +1,69 @@
+#version 460
+// izb pass 8 (per view sample): visibility from the mask. izb: 0 if any triangle blocked the
+// ray. izb-soft: the light samples in front of the tangent plane that no triangle blocked, over
+// all light samples (the reference's count, the same way round). Background: 1; samples left
+// out by the binning (all light behind the tangent plane): 0.
+#include "izb.glsl"
+#include "light_samples.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = 19, r32f) uniform writeonly image2D visibility;
+
+float dot3(vec3 a, vec3 b) {
+    precise float r = a.x * b.x + a.y * b.y + a.z * b.z;
+    return r;
+}
+
+void main() {
+    group_counters_clear();
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (all(lessThan(pixel, P.view.xy))) {
+        uint index = uint(pixel.y * P.view.x + pixel.x);
+        vec4 p = imageLoad(positions, pixel);
+        float v = 1.0;
+        if (p.w > 0.0) {
+            v = 0.0;
+            if (binned[index].x != NOT_BINNED) {
+                if (P.view.w != KIND_RECT) {
+                    v = masks[index] == 0u ? 1.0 : 0.0;
+                } else if ((binned[index].y & ALL_IN_FRONT) != 0u) {
+                    uint blocked = 0u;
+                    for (int k = 0; k < P.pattern.w; ++k) {
+                        blocked += uint(bitCount(masks[index * uint(P.pattern.w) + uint(k)]));
+                    }
+                    uint total = uint(P.pattern.x * P.pattern.y);
+                    v = blocked == 0u ? 1.0
+                        : (blocked == total ? 0.0 : float(total - blocked) / float(total));
+                } else {
+                    vec3 n = imageLoad(normals, pixel).xyz;
+                    int na = P.pattern.x;
+                    int total = na * P.pattern.y;
+                    uint seed = pcg(index);
+                    uint base = index * uint(P.pattern.w);
+                    uint visible = 0u;
+                    for (int k = 0; k < total; ++k) {
+                        int j = k / na;
+                        int i = k - j * na;
+                        if ((masks[base + uint(k) / 32u] & (1u << (uint(k) % 32u))) != 0u) {
+                            continue;
+                        }
+                        vec2 x = light_cell_point(seed, i, j, na, P.pattern_f.xy, P.pattern.z != 0);
+                        precise float sx = x.x - 0.5;
+                        precise float sy = x.y - 0.5;
+                        precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx + P.light_v.xyz * sy;
+                        precise vec3 to_light = ls - p.xyz;
+                        if (dot3(n, to_light) > 0.0) {
+                            visible += 1u;
+                        }
+                    }
+                    v = visible == uint(total) ? 1.0
+                        : (visible == 0u ? 0.0 : float(visible) / float(total));
+                }
+            }
+            count(v >= 1.0 ? C_LIT : (v <= 0.0 ? C_UMBRA : C_PENUMBRA), 1u);
+        }
+        imageStore(visibility, pixel, vec4(v));
+    }
+    group_counters_flush();
+    limiter_guard();
+}

@@ -1,0 +1,557 @@
+//! `izb` and `izb-soft`: the irregular z-buffer (book §4.5, §7.4; Johnson et al. 2005, Sintorn
+//! et al. 2008) — shadows evaluated exactly at the view samples, with no shadow-map resolution
+//! and no depth bias, in compute (lavapipe has neither conservative rasterization nor fragment
+//! interlock).
+//!
+//! **Passes** (`glsl/izb/`, one frame, no readback):
+//! 1. `bin`: each view sample whose light is not entirely behind its tangent plane gets the
+//!    reference's shadow-ray origin `o = p + δ·n` and is counted into the light-space grid cell
+//!    its projection from the light centre falls in (its local index from the `atomicAdd`);
+//!    each cell keeps its deepest sample. Samples no projection reaches (at or behind a
+//!    perspective light's plane) go to one extra *overflow* cell.
+//! 2. `bin-scan` and `bin-scatter`: the exclusive prefix sum of the counts, and a compacted list
+//!    of view samples per cell (the book's count → scan → scatter).
+//! 3. `footprint`: per triangle, the cells whose samples it may shadow (below), as
+//!    (triangle, cell, chunk) pairs — a chunk is up to [`HARD_CHUNK`] / [`SOFT_CHUNK`] samples
+//!    of the cell, so no invocation's work grows with a grazing cell's list — counted, scanned
+//!    and written at the triangle's offset. Footprints of more than 256 cells go to a second
+//!    pass where a workgroup strides over one triangle's cells.
+//! 4. `test` (dispatched indirectly, one invocation per pair): each sample of the chunk is
+//!    tested against the triangle with the reference's watertight shadow-ray test
+//!    (`glsl/include/watertight.glsl`, bit for bit the same arithmetic on the same origin and
+//!    direction) and what it blocks is OR-ed into the sample's mask.
+//! 5. `resolve`: visibility from the masks.
+//!
+//! **izb** tests the ray from `o` to the light's centre (a rect light counts as a point at its
+//! centre; a sun as its centre direction): visibility is exact per view sample, equal to the
+//! ray-cast `reference` with a point light but for rays the two could only decide differently
+//! through a triangle the footprint test left out — none, since the footprint is grown by a
+//! margin far above its rounding (the tests check bit-equality). **izb-soft** keeps a bitmask of
+//! `samples` light samples per view sample: an `n_a × n_b` stratified grid over the rect light
+//! (n_b the largest divisor of `samples` not above its square root), jittered in its cells by
+//! the reference's hash (`glsl/include/light_samples.glsl`), so `samples = N²` draws exactly the
+//! reference's N × N points. A triangle back-projected from `o` onto the light (4 half-planes of
+//! the light's square: beyond the triangle's plane and inside its three edge planes through
+//! `o`, each grown by a tolerance) bounds the light samples it can block; only those of the
+//! strata that box touches take the exact ray test. Light samples behind the tangent plane are
+//! never tested and count as blocked, as in the reference. Occluder fusion is exact for the
+//! chosen samples: the mask is the union of what each triangle blocks.
+//!
+//! **Footprints.** A perspective grid coordinate is `(x/z, y/z)` in the light's view space (z
+//! the depth), mapped onto `grid × grid` cells over the view samples' bounds
+//! ([`crate::passes::ReceiverBounds`]); projections outside clamp to the border cells, which
+//! keeps every footprint test conservative. Every point of the segment from `o` to the light
+//! centre projects to `o`'s cell, so the hard footprint is the triangle's projection, grown by
+//! 0.01 cell. A point x of the segment from `o` (depth z_o) to a light sample at lateral offset
+//! ℓ (depth 0) projects to `π(o) + ℓ·(1/z_x − 1/z_o)`, so the soft footprint of a cell is the
+//! projection grown by the light's half extents times `1/z_tri − 1/z_cell`, z_tri the triangle's
+//! nearest depth and z_cell the cell's deepest sample. A cell whose samples are all nearer the
+//! light than the whole triangle is skipped, and so is every cell without samples (work
+//! skipping: only cells holding view samples are visited; a triangle with no pair is culled).
+//!
+//! **Limits.** Pairs beyond `pair_capacity` million are not stored: the frame then fails with
+//! a clear error naming the knob rather than return wrong shadows, as it does when lavapipe's
+//! loop limiter (65 535 loop passes per SIMD group and dispatch) cut a pass short.
+//!
+//! **Counters**: `view_samples`, `samples_binned`, `behind_tangent_plane` (never binned: V = 0),
+//! `cells_used`, `longest_cell` (samples), `pairs` (triangle, cell, chunk), `triangles_culled`,
+//! `large_triangles`, `sample_tests` (triangle–sample tests), `ray_tests` (exact ray–triangle
+//! tests), `overflow_samples`, `lit`, `umbra`, `penumbra`. CPU twin: [`crate::cpu::izb`].
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3, Vec4};
+
+use super::{read_counters, Knob, Params, Technique, TechniqueInfo, TechniqueSetup};
+use crate::error::{Error, Result};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, MemoryLocation, Pipeline, Recorder};
+use crate::kernels::scan::{Scan, ScanBinding, ScanKind};
+use crate::reference::bvh::scene_scale;
+use crate::reference::{light_encoding, KIND_DIRECTIONAL, KIND_POINT, KIND_RECT};
+use crate::scene::Light;
+
+/// Samples per (triangle, cell) pair of `izb`: one ray each.
+pub const HARD_CHUNK: u32 = 32;
+/// Samples per pair of `izb-soft`: up to `samples` rays each.
+pub const SOFT_CHUNK: u32 = 8;
+/// Workgroups of the large-footprint passes (`LARGE_GROUPS` in `glsl/izb/izb.glsl`).
+const LARGE_GROUPS: u32 = 1024;
+
+/// The shader's counter words, in its order (`glsl/izb/izb.glsl`, `C_*`).
+const COUNTER_WORDS: [&str; 19] = [
+    "view_samples",
+    "samples_binned",
+    "behind_tangent_plane",
+    "cells_used",
+    "longest_cell",
+    "pairs",
+    "pair_overflow",
+    "triangles_culled",
+    "large_triangles",
+    "sample_tests",
+    "sample_tests_hi",
+    "ray_tests",
+    "ray_tests_hi",
+    "overflow_samples",
+    "max_depth_bits",
+    "cut",
+    "lit",
+    "umbra",
+    "penumbra",
+];
+
+const GRID: Knob = Knob::int(
+    "grid",
+    "light-space grid cells per side over the view samples' bounds",
+    512.0,
+    8.0,
+    4096.0,
+);
+const PAIR_CAPACITY: Knob = Knob::int(
+    "pair_capacity",
+    "(triangle, cell, chunk) pairs the test pass can hold, millions (16 bytes each)",
+    4.0,
+    1.0,
+    256.0,
+);
+const RAY_OFFSET: Knob = Knob::int(
+    "ray_offset",
+    "shadow-ray origin offset along the receiver's camera-facing normal, as a fraction of the \
+     scene's largest coordinate (the reference's)",
+    1.0 / 65536.0,
+    0.0,
+    0.01,
+)
+.real();
+
+const HARD_KNOBS: [Knob; 3] = [GRID, PAIR_CAPACITY, RAY_OFFSET];
+
+const SOFT_KNOBS: [Knob; 5] = [
+    Knob {
+        default: super::KnobDefault::Value(128.0),
+        ..GRID
+    },
+    Knob::int(
+        "samples",
+        "light samples per view sample (bits of its mask): an n_a x n_b stratified grid",
+        32.0,
+        1.0,
+        1024.0,
+    ),
+    Knob::int(
+        "jitter",
+        "1: each light sample jittered in its stratum by the reference's hash of (pixel, \
+         stratum); 0: stratum centres",
+        1.0,
+        0.0,
+        1.0,
+    ),
+    Knob {
+        default: super::KnobDefault::Value(8.0),
+        ..PAIR_CAPACITY
+    },
+    RAY_OFFSET,
+];
+
+/// `izb`: alias-free hard shadows.
+pub const IZB: TechniqueInfo = TechniqueInfo {
+    name: "izb",
+    summary: "irregular z-buffer: exact hard shadows at the view samples (rect lights: centre)",
+    knobs: &HARD_KNOBS,
+    cacheable: false,
+    shadow_map: false,
+    per_light_sample: false,
+    create: |setup, params| Ok(Box::new(Izb::new(setup, params, false)?)),
+};
+
+/// `izb-soft`: soft shadows by view-sample mapping with light-sample bitmasks.
+pub const IZB_SOFT: TechniqueInfo = TechniqueInfo {
+    name: "izb-soft",
+    summary: "irregular z-buffer with a light-sample bitmask per view sample: exact soft shadows \
+              for the chosen samples",
+    knobs: &SOFT_KNOBS,
+    cacheable: false,
+    shadow_map: false,
+    per_light_sample: false,
+    create: |setup, params| Ok(Box::new(Izb::new(setup, params, true)?)),
+};
+
+/// `IzbParams` of `glsl/izb/izb.glsl` (std430).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct IzbParams {
+    /// World → the light's view space.
+    pub light_view: Mat4,
+    /// Point / rect: centre; directional: unit vector towards the sun.
+    pub light_c: Vec4,
+    /// Rect: full edge u.
+    pub light_u: Vec4,
+    /// Rect: full edge v.
+    pub light_v: Vec4,
+    /// (min.x, min.y, scale.x, scale.y): grid coordinate `(π − min)·scale`.
+    pub grid_map: Vec4,
+    /// (hx, hy): the light's half extents in view space; z: depth floor; w: ray offset.
+    pub light_half: Vec4,
+    /// (width, height, grid, kind).
+    pub view: [i32; 4],
+    /// (n_a, n_b, jitter, mask words per sample).
+    pub pattern: [i32; 4],
+    /// (1 / n_a, 1 / n_b, t_far, 0).
+    pub pattern_f: [f32; 4],
+    /// (triangles, pair capacity, samples per chunk, perspective).
+    pub sizes: [u32; 4],
+}
+
+/// `izb-soft`'s light-sample grid for `samples` samples: `(n_a, n_b)` with `n_b` the largest
+/// divisor not above the square root (32 → 8 × 4, 1024 → 32 × 32).
+pub fn sample_grid(samples: u32) -> (u32, u32) {
+    let samples = samples.max(1);
+    let mut nb = (samples as f64).sqrt() as u32;
+    while nb > 1 && samples % nb != 0 {
+        nb -= 1;
+    }
+    let nb = nb.max(1);
+    (samples / nb, nb)
+}
+
+/// The grid's mapping `(min.x, min.y, scale.x, scale.y)` over the receivers' bounds: 0.1 %
+/// margin, and a floor on the extent so one receiver still gets cells of non-zero size.
+pub fn grid_map(bounds: &crate::passes::ReceiverBounds, grid: u32) -> Vec4 {
+    if bounds.is_empty() {
+        return Vec4::new(-1.0, -1.0, grid as f32 / 2.0, grid as f32 / 2.0);
+    }
+    let (lo, hi) = (bounds.min.truncate(), bounds.max.truncate());
+    let size = (hi - lo).max(glam::Vec2::splat(
+        1e-6 * (lo.abs().max_element() + hi.abs().max_element()).max(1e-20),
+    ));
+    let lo = lo - 1e-3 * size;
+    let size = size * 1.002;
+    Vec4::new(lo.x, lo.y, grid as f32 / size.x, grid as f32 / size.y)
+}
+
+struct Izb<'a> {
+    ctx: Context,
+    soft: bool,
+    view_size: [u32; 2],
+    triangles: u32,
+    bin: (Pipeline, DescriptorSet),
+    scatter: (Pipeline, DescriptorSet),
+    footprint: (Pipeline, DescriptorSet),
+    args_pass: (Pipeline, DescriptorSet),
+    test: (Pipeline, DescriptorSet),
+    resolve: (Pipeline, DescriptorSet),
+    scan: Scan,
+    cell_scan: ScanBinding,
+    tri_scan: Option<ScanBinding>,
+    cell_count: Buffer,
+    cell_depth: Buffer,
+    tri_pairs: Buffer,
+    tri_cursor: Buffer,
+    masks: Buffer,
+    counters: Buffer,
+    args: Buffer,
+    _buffers: Vec<Buffer>,
+    _visibility: &'a crate::gpu::Image,
+}
+
+/// Push constants of `footprint.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct IzbPush {
+    phase: u32,
+}
+
+/// A descriptor set for `pipeline` from `all` (binding number, resource): the bindings the
+/// shader declares, in order.
+fn set_for(
+    ctx: &Context,
+    pipeline: &Pipeline,
+    all: &[(u32, Binding<'_>)],
+) -> Result<DescriptorSet> {
+    let mut chosen = Vec::new();
+    for b in pipeline.binding_numbers() {
+        let r = all
+            .iter()
+            .find(|(n, _)| *n == b)
+            .ok_or_else(|| Error::Shader {
+                name: pipeline.name.clone(),
+                message: format!("binding {b} is not one izb provides"),
+            })?;
+        chosen.push(r.1);
+    }
+    DescriptorSet::new(ctx, pipeline, &chosen)
+}
+
+impl<'a> Izb<'a> {
+    fn new(setup: &TechniqueSetup<'a>, params: &Params, soft: bool) -> Result<Izb<'a>> {
+        let ctx = setup.ctx;
+        let name = if soft { IZB_SOFT.name } else { IZB.name };
+        let bad = |message: String| Error::Parameter {
+            technique: name.to_string(),
+            message,
+        };
+        let grid = params.u32("grid")?;
+        let capacity = u64::from(params.u32("pair_capacity")?) * 1_000_000;
+        let (mut kind, centre, u, v) = light_encoding(setup.light, name)?;
+        let extent = u != Vec3::ZERO || v != Vec3::ZERO;
+        if kind == KIND_DIRECTIONAL && extent {
+            if soft {
+                return Err(Error::Unsupported {
+                    device: ctx.info().name.clone(),
+                    feature: "izb-soft for a sun disk (angular diameter > 0): rect, point and \
+                              hard directional lights only"
+                        .into(),
+                });
+            }
+        } else if kind == KIND_RECT && !(soft && extent) {
+            // izb, or a rect of zero extent: a point at the centre.
+            kind = KIND_POINT;
+        }
+        let (na, nb) = if kind == KIND_RECT {
+            sample_grid(params.u32("samples")?)
+        } else {
+            (1, 1)
+        };
+        let words = (na * nb).div_ceil(32);
+        let jitter = if soft { params.u32("jitter")? } else { 0 };
+        let perspective = !matches!(setup.light, Light::Directional { .. });
+        if perspective != setup.receiver_bounds.perspective && !setup.receiver_bounds.is_empty() {
+            return Err(bad(
+                "the receivers' bounds are not in the light's projection".into(),
+            ));
+        }
+        let view = setup.light_view.view;
+        // The rect's half extents in view space (it lies in the plane z = 0 of its own view).
+        let mut half = glam::Vec2::ZERO;
+        if kind == KIND_RECT {
+            for (a, b) in [(0.5, 0.5), (0.5, -0.5), (-0.5, 0.5), (-0.5, -0.5)] {
+                let corner = view.transform_point3(centre + u * a + v * b);
+                half = half.max(corner.truncate().abs());
+            }
+            half *= 1.0 + 1e-4;
+        }
+        let scale = scene_scale(setup.positions);
+        let deepest = setup.receiver_bounds.max.z;
+        let floor = if perspective && deepest.is_finite() {
+            1e-4 * deepest.max(1e-20)
+        } else {
+            0.0
+        };
+        let triangles = u32::try_from(setup.indices.len() / 3)
+            .map_err(|_| bad("more than 2^32 triangles".into()))?;
+        let (w, h) = (setup.view.width, setup.view.height);
+        let chunk = if soft { SOFT_CHUNK } else { HARD_CHUNK };
+        let izb_params = IzbParams {
+            light_view: view,
+            light_c: centre.extend(1.0),
+            light_u: u.extend(0.0),
+            light_v: v.extend(0.0),
+            grid_map: grid_map(setup.receiver_bounds, grid),
+            light_half: Vec4::new(half.x, half.y, floor, params.f32("ray_offset")? * scale),
+            view: [w as i32, h as i32, grid as i32, kind],
+            pattern: [na as i32, nb as i32, jitter as i32, words as i32],
+            pattern_f: [1.0 / na as f32, 1.0 / nb as f32, 4.0 * scale + 1.0, 0.0],
+            sizes: [
+                triangles,
+                u32::try_from(capacity).map_err(|_| bad("pair capacity too large".into()))?,
+                chunk,
+                u32::from(perspective),
+            ],
+        };
+
+        let storage = |label: &str, bytes: u64| Buffer::storage(ctx, label, bytes.max(4));
+        let pixels = u64::from(w) * u64::from(h);
+        let cells = u64::from(grid) * u64::from(grid) + 1;
+        let tris = u64::from(triangles);
+        let params_buffer = ctx.buffer_with(
+            "izb params",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            std::slice::from_ref(&izb_params),
+        )?;
+        let cell_count = storage("izb cell counts", 4 * cells)?;
+        let cell_start = storage("izb cell starts", 4 * cells)?;
+        let cell_depth = storage("izb cell depths", 4 * cells)?;
+        let binned = storage("izb binned", 8 * pixels)?;
+        let cell_samples = storage("izb cell samples", 4 * pixels)?;
+        let origins = storage("izb origins", 16 * pixels)?;
+        let tri_pairs = storage("izb triangle pairs", 4 * tris)?;
+        let tri_first = storage("izb triangle first pair", 4 * tris)?;
+        let tri_cursor = storage("izb triangle cursors", 4 * tris)?;
+        let large = storage("izb large triangles", 4 * tris)?;
+        let pairs = storage("izb pairs", 16 * capacity)?;
+        let tri_verts = storage("izb triangle vertices", 48 * tris)?;
+        let masks = storage("izb masks", 4 * pixels * u64::from(words))?;
+        let counters = storage("izb counters", 4 * COUNTER_WORDS.len() as u64)?;
+        let args = Buffer::new(
+            ctx,
+            "izb test dispatch",
+            12,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::INDIRECT_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
+
+        let all = [
+            (0, Binding::Image(&setup.view.positions)),
+            (1, Binding::Image(&setup.view.normals)),
+            (2, Binding::Buffer(&params_buffer)),
+            (3, Binding::Buffer(&setup.geometry.vertices)),
+            (4, Binding::Buffer(&setup.geometry.indices)),
+            (5, Binding::Buffer(&cell_count)),
+            (6, Binding::Buffer(&cell_start)),
+            (7, Binding::Buffer(&cell_depth)),
+            (8, Binding::Buffer(&binned)),
+            (9, Binding::Buffer(&cell_samples)),
+            (10, Binding::Buffer(&origins)),
+            (11, Binding::Buffer(&tri_pairs)),
+            (12, Binding::Buffer(&tri_first)),
+            (13, Binding::Buffer(&tri_cursor)),
+            (14, Binding::Buffer(&large)),
+            (15, Binding::Buffer(&pairs)),
+            (16, Binding::Buffer(&masks)),
+            (17, Binding::Buffer(&counters)),
+            (18, Binding::Buffer(&args)),
+            (19, Binding::Image(setup.visibility)),
+            (20, Binding::Buffer(&tri_verts)),
+        ];
+        let pass = |shader: &str| -> Result<(Pipeline, DescriptorSet)> {
+            let p = Pipeline::compute(ctx, shader)?;
+            let s = set_for(ctx, &p, &all)?;
+            Ok((p, s))
+        };
+        let scan = Scan::new(ctx)?;
+        let cell_len = u32::try_from(cells).map_err(|_| bad(format!("grid {grid} too large")))?;
+        let cell_scan = scan.bind(&cell_count, &cell_start, cell_len)?;
+        let tri_scan = if triangles > 0 {
+            Some(scan.bind(&tri_pairs, &tri_first, triangles)?)
+        } else {
+            None
+        };
+        Ok(Izb {
+            ctx: ctx.clone(),
+            soft,
+            view_size: [w, h],
+            triangles,
+            bin: pass("izb/bin.comp")?,
+            scatter: pass("izb/scatter.comp")?,
+            footprint: pass("izb/footprint.comp")?,
+            args_pass: pass("izb/args.comp")?,
+            test: pass(if soft {
+                "izb/test_soft.comp"
+            } else {
+                "izb/test_hard.comp"
+            })?,
+            resolve: pass("izb/resolve.comp")?,
+            scan,
+            cell_scan,
+            tri_scan,
+            cell_count,
+            cell_depth,
+            tri_pairs,
+            tri_cursor,
+            masks,
+            counters,
+            args,
+            _buffers: vec![
+                params_buffer,
+                cell_start,
+                binned,
+                cell_samples,
+                origins,
+                tri_first,
+                large,
+                pairs,
+                tri_verts,
+            ],
+            _visibility: setup.visibility,
+        })
+    }
+}
+
+/// Dispatches `pass` with the phase as its push constant when the shader declares one.
+fn run(
+    rec: &mut Recorder<'_>,
+    pass: &(Pipeline, DescriptorSet),
+    phase: u32,
+    threads: [u32; 3],
+) -> Result<()> {
+    if pass.0.push_constant_size() > 0 {
+        rec.dispatch(&pass.0, &pass.1, &IzbPush { phase }, threads)
+    } else {
+        rec.dispatch(&pass.0, &pass.1, &(), threads)
+    }
+}
+
+impl Technique for Izb<'_> {
+    fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
+        let [w, h] = self.view_size;
+        let pixels = [w, h, 1];
+        rec.pass("bin", |rec| {
+            rec.fill(&self.cell_count, 0);
+            rec.fill(&self.cell_depth, 0);
+            rec.fill(&self.counters, 0);
+            rec.fill(&self.masks, 0);
+            run(rec, &self.bin, 0, pixels)?;
+            self.scan
+                .record(rec, &self.cell_scan, ScanKind::Exclusive)?;
+            run(rec, &self.scatter, 0, pixels)
+        })?;
+        rec.pass("footprint", |rec| {
+            if let Some(tri_scan) = &self.tri_scan {
+                rec.fill(&self.tri_pairs, 0);
+                rec.fill(&self.tri_cursor, 0);
+                let tris = [self.triangles, 1, 1];
+                let large = [LARGE_GROUPS * 64, 1, 1];
+                run(rec, &self.footprint, 0, tris)?;
+                run(rec, &self.footprint, 1, large)?;
+                self.scan.record(rec, tri_scan, ScanKind::Exclusive)?;
+                run(rec, &self.footprint, 2, tris)?;
+                run(rec, &self.footprint, 3, large)?;
+            }
+            run(rec, &self.args_pass, 0, [1, 1, 1])
+        })?;
+        rec.pass("test", |rec| {
+            rec.dispatch_indirect(&self.test.0, &self.test.1, &(), &self.args, 0)
+        })?;
+        rec.pass("resolve", |rec| run(rec, &self.resolve, 0, pixels))
+    }
+
+    fn counters(&self) -> Result<Vec<(String, u64)>> {
+        let words = read_counters(&self.ctx, &self.counters, &COUNTER_WORDS)?;
+        let get = |n: &str| words.iter().find(|(k, _)| k == n).map_or(0, |(_, v)| *v);
+        let name = if self.soft { IZB_SOFT.name } else { IZB.name };
+        if get("cut") > 0 {
+            return Err(Error::Shader {
+                name: format!("izb/{name}"),
+                message: format!(
+                    "the driver's loop limiter cut {} invocations short: the frame is wrong \
+                     (a smaller `grid` or fewer `samples` shortens the loops)",
+                    get("cut")
+                ),
+            });
+        }
+        if get("pair_overflow") > 0 {
+            return Err(Error::Parameter {
+                technique: name.to_string(),
+                message: format!(
+                    "{} (triangle, cell, chunk) pairs exceed pair_capacity: raise `pair_capacity` \
+                     (millions) or lower `grid`",
+                    get("pairs")
+                ),
+            });
+        }
+        let mut out = Vec::new();
+        for (k, v) in &words {
+            match k.as_str() {
+                "sample_tests" | "ray_tests" => {
+                    out.push((k.clone(), v + (get(&format!("{k}_hi")) << 32)));
+                }
+                "sample_tests_hi" | "ray_tests_hi" | "max_depth_bits" | "cut" | "pair_overflow" => {
+                }
+                _ => out.push((k.clone(), *v)),
+            }
+        }
+        Ok(out)
+    }
+}

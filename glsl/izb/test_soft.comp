@@ -84,13 +84,38 @@ void main() {
             }
             vec2 lo;
             vec2 hi;
+            // The projected triangle's edges as signed distances (inside > 0), for deciding
+            // light samples well inside or outside it without a ray; `band` = 0: no such
+            // shortcut (every candidate takes the exact test).
+            vec2 q0 = vec2(0.0);
+            vec2 q1 = vec2(0.0);
+            vec2 q2 = vec2(0.0);
+            vec2 n0 = vec2(0.0);
+            vec2 n1 = vec2(0.0);
+            vec2 n2 = vec2(0.0);
+            float band = 0.0;
             if (zmin > 0.0 && zmax < 0.99 * origin.w) {
-                vec2 pa = project(o, va, origin.w, inv_uv);
-                vec2 pb = project(o, vb, origin.w, inv_uv);
-                vec2 pc_ = project(o, vc, origin.w, inv_uv);
-                lo = min(pa, min(pb, pc_));
-                hi = max(pa, max(pb, pc_));
+                q0 = project(o, va, origin.w, inv_uv);
+                q1 = project(o, vb, origin.w, inv_uv);
+                q2 = project(o, vc, origin.w, inv_uv);
+                lo = min(q0, min(q1, q2));
+                hi = max(q0, max(q1, q2));
                 vec2 margin = 1e-3 * (1.0 + max(abs(lo), abs(hi)));
+                vec2 d0 = q1 - q0;
+                vec2 d1 = q2 - q1;
+                vec2 d2 = q0 - q2;
+                float area = d0.x * d2.y - d0.y * d2.x;
+                float l0 = length(d0);
+                float l1 = length(d1);
+                float l2 = length(d2);
+                // A line light (uu or vv = 0) collapses an axis: no shortcut then.
+                if (uu > 0.0 && vv > 0.0 && min(l0, min(l1, l2)) > 0.0 && area != 0.0) {
+                    float s = area > 0.0 ? -1.0 : 1.0;
+                    n0 = s * vec2(-d0.y, d0.x) / l0;
+                    n1 = s * vec2(-d1.y, d1.x) / l1;
+                    n2 = s * vec2(-d2.y, d2.x) / l2;
+                    band = max(margin.x, margin.y);
+                }
                 lo -= margin;
                 hi += margin;
                 if (uu == 0.0) { lo.x = 0.0; hi.x = 1.0; }
@@ -137,16 +162,13 @@ void main() {
             }
             uint seed = pcg(index);
             uint base = index * words;
-            int width = c1.x - c0.x + 1;
-            int cells = width * (c1.y - c0.y + 1);
             // The mask word in use, read once and OR-ed back once (memory accesses are the
             // expensive part of this loop on a CPU driver, not the arithmetic).
             uint cur_word = 0xFFFFFFFFu;
             uint cur_bits = 0u;
             uint new_bits = 0u;
-            for (int k = 0; k < cells; ++k) {
-                int j = c0.y + k / width;
-                int i = c0.x + k % width;
+            for (int j = c0.y; j <= c1.y; ++j) {
+                for (int i = c0.x; i <= c1.x; ++i) {
                 uint bit = uint(j * na + i);
                 uint word = base + bit / 32u;
                 uint mask = 1u << (bit % 32u);
@@ -170,6 +192,19 @@ void main() {
                 if (!all_front && dot3(n, to_light) <= 0.0) {
                     continue;  // behind the tangent plane: the resolve pass leaves it out
                 }
+                if (band > 0.0) {
+                    // Well outside the projected triangle: no ray can hit; well inside (and the
+                    // triangle strictly between o and the light): every ray does.
+                    vec3 dist = vec3(dot(n0, x - q0), dot(n1, x - q1), dot(n2, x - q2));
+                    float nearest = min(dist.x, min(dist.y, dist.z));
+                    if (nearest < -band) {
+                        continue;
+                    }
+                    if (nearest > band) {
+                        new_bits |= mask;
+                        continue;
+                    }
+                }
                 precise vec3 d = ls - o;
                 Ray r = make_ray(o, d, 1.0);
                 vec4 w;
@@ -177,6 +212,7 @@ void main() {
                 if (hit_triangle(r, va.xyz, vb.xyz, vc.xyz, w)) {
                     new_bits |= mask;
                 }
+            }
             }
             if (new_bits != 0u) {
                 atomicOr(masks[cur_word], new_bits);

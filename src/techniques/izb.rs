@@ -340,7 +340,10 @@ impl<'a> Izb<'a> {
         let triangles = u32::try_from(setup.indices.len() / 3)
             .map_err(|_| bad("more than 2^32 triangles".into()))?;
         let (w, h) = (setup.view.width, setup.view.height);
-        let chunk = if soft { SOFT_CHUNK } else { HARD_CHUNK };
+        // One ray per sample unless a rect light is sampled: izb-soft with a point light, a hard
+        // sun or a rect of zero extent runs izb's test.
+        let sampled = kind == KIND_RECT;
+        let chunk = if sampled { SOFT_CHUNK } else { HARD_CHUNK };
         let izb_params = IzbParams {
             light_view: view,
             light_c: centre.extend(1.0),

@@ -75,7 +75,13 @@ fn izb_equals_the_reference_with_point_lights() {
         scene.camera.height = 144;
         let prepared = engine.prepare(&scene).expect("prepare");
         let reference = render(&engine, &prepared, "reference", &[]);
-        for grid in ["512", "64", "8"] {
+        // 2048: the ground's two triangles take the huge-footprint path of the large pass.
+        let grids: &[&str] = if spec.starts_with("scenes/spot") {
+            &["2048", "128", "8"]
+        } else {
+            &["512", "64", "8"]
+        };
+        for &grid in grids {
             let izb = render(&engine, &prepared, "izb", &[("grid", grid)]);
             assert_eq!(
                 differ(&format!("izb-{}-{grid}", scene.name), &reference, &izb),

@@ -2,8 +2,7 @@
 // izb passes 4 and 6 (per triangle): the grid cells whose samples a triangle may shadow, and a
 // (triangle, cell, chunk) pair for every chunk of CHUNK samples of every such cell that holds
 // samples. Phase 0 counts the pairs of triangles with at most SMALL_CELLS cells in range (and
-// lists the others), phase 1 counts the listed ones (a workgroup per triangle, its invocations
-// striding over the cells), phase 2 and 3 write the pairs the same two ways at the triangle's
+// lists the others), phase 1 counts the listed ones (workgroups share a triangle's cells), phase 2 and 3 write the pairs the same two ways at the triangle's
 // first pair (the prefix sum of the counts) plus a per-triangle cursor.
 //
 // Footprint (src/techniques/izb.rs, "Footprints"): the triangle's projection, grown for a rect
@@ -167,7 +166,11 @@ void small_pass(bool write) {
     }
     if (cells > SMALL_CELLS) {
         if (!write) {
-            large[atomicAdd(counters[C_LARGE], 1u)] = t;
+            if (cells > HUGE_CELLS) {
+                large[P.sizes.x - 1u - atomicAdd(counters[C_HUGE], 1u)] = t;
+            } else {
+                large[atomicAdd(counters[C_LARGE], 1u)] = t;
+            }
             atomicAdd(tri_pairs[t], total);
         }
         return;
@@ -188,24 +191,43 @@ void small_pass(bool write) {
     }
 }
 
+// The cells j = first, first + stride, ... of a listed triangle's range.
+uint large_cells(uint t, uint first, uint stride, bool write) {
+    Tri tri = setup(t, false);
+    uint cells = range_cells(tri);
+    uint total = 0u;
+    for (uint j = first; j < cells; j += stride) {
+        ivec2 xy = range_cell(tri, j);
+        uint n = visit(tri, xy);
+        if (n > 0u) {
+            if (write) {
+                emit(t, uint(xy.y * grid_size() + xy.x), n);
+            } else {
+                total += n;
+            }
+        }
+    }
+    return total;
+}
+
+// Listed triangles of up to HUGE_CELLS cells: one workgroup each (at most 256 passes of its
+// loop); huger ones: every workgroup takes a share of each one's cells (a 2048² grid's
+// full-screen triangle is 64 passes a group), so no workgroup's loops outgrow lavapipe's loop
+// limiter.
 void large_pass(bool write) {
     uint count = counters[C_LARGE];
     for (uint l = gl_WorkGroupID.x; l < count; l += LARGE_GROUPS) {
         uint t = large[l];
-        Tri tri = setup(t, false);
-        uint cells = range_cells(tri);
-        uint total = 0u;
-        for (uint j = gl_LocalInvocationID.x; j < cells; j += 64u) {
-            ivec2 xy = range_cell(tri, j);
-            uint n = visit(tri, xy);
-            if (n > 0u) {
-                if (write) {
-                    emit(t, uint(xy.y * grid_size() + xy.x), n);
-                } else {
-                    total += n;
-                }
-            }
+        uint total = large_cells(t, gl_LocalInvocationID.x, 64u, write);
+        if (!write && total > 0u) {
+            atomicAdd(tri_pairs[t], total);
         }
+    }
+    uint huge = counters[C_HUGE];
+    for (uint h = 0u; h < huge; ++h) {
+        uint t = large[P.sizes.x - 1u - h];
+        uint first = gl_WorkGroupID.x * 64u + gl_LocalInvocationID.x;
+        uint total = large_cells(t, first, LARGE_GROUPS * 64u, write);
         if (!write && total > 0u) {
             atomicAdd(tri_pairs[t], total);
         }

@@ -37,7 +37,8 @@ layout(set = 0, binding = 10) buffer Origins { vec4 origins[]; };
 layout(set = 0, binding = 11) buffer TriPairs { uint tri_pairs[]; };
 layout(set = 0, binding = 12) buffer TriFirst { uint tri_first[]; };
 layout(set = 0, binding = 13) buffer TriCursor { uint tri_cursor[]; };
-// Triangles whose footprint spans more than SMALL_CELLS cells: the large passes stride over them.
+// Triangles whose footprint spans more than SMALL_CELLS cells, from the front; those with more
+// than HUGE_CELLS, from the back: the large passes stride over them.
 layout(set = 0, binding = 14) buffer Large { uint large[]; };
 // The pairs: (triangle, first sample, end of the samples in cell_samples, cell).
 layout(set = 0, binding = 15) buffer Pairs { uvec4 pairs[]; };
@@ -61,8 +62,10 @@ layout(push_constant) uniform Push {
 // binned[].y: the whole light is in front of the sample's tangent plane (bit 31), local index.
 #define ALL_IN_FRONT 0x80000000u
 #define LOCAL_INDEX 0x7FFFFFFFu
-// A footprint with more cells than this goes to the large passes.
+// A footprint with more cells than this goes to the large passes; with more than HUGE_CELLS,
+// every workgroup of the large passes takes a share of its cells.
 #define SMALL_CELLS 256u
+#define HUGE_CELLS 16384u
 // Invocations of a large pass: LARGE_GROUPS workgroups of 64.
 #define LARGE_GROUPS 1024u
 // Grid cells a footprint is grown by on every side, so f32 rounding of a projection never
@@ -89,7 +92,8 @@ layout(push_constant) uniform Push {
 #define C_LIT 16
 #define C_UMBRA 17
 #define C_PENUMBRA 18
-#define COUNTERS 19
+#define C_HUGE 19
+#define COUNTERS 20
 
 int grid_size() {
     return P.view.z;

@@ -15,7 +15,9 @@
 //!    (triangle, cell, chunk) pairs — a chunk is up to [`HARD_CHUNK`] / [`SOFT_CHUNK`] samples
 //!    of the cell, so no invocation's work grows with a grazing cell's list — counted, scanned
 //!    and written at the triangle's offset. Footprints of more than 256 cells go to a second
-//!    pass where a workgroup strides over one triangle's cells.
+//!    pass of 1024 workgroups: one workgroup a triangle up to 16 384 cells, and every workgroup
+//!    a share of each larger one's (a full-screen triangle), so no loop outgrows lavapipe's
+//!    loop limiter.
 //! 4. `test` (dispatched indirectly, one invocation per pair): each sample of the chunk is
 //!    tested against the triangle with the reference's watertight shadow-ray test
 //!    (`glsl/include/watertight.glsl`, bit for bit the same arithmetic on the same origin and
@@ -55,7 +57,7 @@
 //!
 //! **Counters**: `view_samples`, `samples_binned`, `behind_tangent_plane` (never binned: V = 0),
 //! `cells_used`, `longest_cell` (samples), `pairs` (triangle, cell, chunk), `triangles_culled`,
-//! `large_triangles`, `sample_tests` (triangle–sample tests), `ray_tests` (exact ray–triangle
+//! `large_triangles`, `huge_triangles`, `sample_tests` (triangle–sample tests), `ray_tests` (exact ray–triangle
 //! tests), `overflow_samples`, `lit`, `umbra`, `penumbra`. CPU twin: [`crate::cpu::izb`].
 
 use ash::vk;
@@ -78,7 +80,7 @@ pub const SOFT_CHUNK: u32 = 8;
 const LARGE_GROUPS: u32 = 1024;
 
 /// The shader's counter words, in its order (`glsl/izb/izb.glsl`, `C_*`).
-const COUNTER_WORDS: [&str; 19] = [
+const COUNTER_WORDS: [&str; 20] = [
     "view_samples",
     "samples_binned",
     "behind_tangent_plane",
@@ -98,12 +100,13 @@ const COUNTER_WORDS: [&str; 19] = [
     "lit",
     "umbra",
     "penumbra",
+    "huge_triangles",
 ];
 
 const GRID: Knob = Knob::int(
     "grid",
     "light-space grid cells per side over the view samples' bounds",
-    512.0,
+    128.0,
     8.0,
     4096.0,
 );

@@ -33,6 +33,8 @@ pub struct BenchArgs {
     /// Camera-distance factors: each scene is also run with its camera moved along its view
     /// ray to this multiple of its distance from the target; 1 is the scene as written.
     pub camera_scales: Vec<f32>,
+    /// Image-size factors: each scene also runs with its camera's width and height scaled.
+    pub view_scales: Vec<f32>,
     pub device: Option<String>,
     pub validation: bool,
     pub cache: Option<PathBuf>,
@@ -164,6 +166,12 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
             ("rho_scale", vec![0.5, 1.0, 2.0]),
             ("antialias", vec![0.0, 1.0]),
         ],
+        // Irregular z-buffer: the grid (cells per side over the view samples' bounds) and, soft,
+        // the light samples per view sample.
+        ("izb", true) => vec![("grid", vec![128.0])],
+        ("izb", false) => vec![("grid", vec![64.0, 128.0, 512.0, 2048.0])],
+        ("izb-soft", true) => vec![("samples", vec![32.0])],
+        ("izb-soft", false) => vec![("samples", vec![32.0, 128.0, 512.0])],
         _ => Vec::new(),
     }
 }
@@ -343,11 +351,22 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     {
         anyhow::bail!("--camera-scale {bad}: expected a factor in (0, 100]");
     }
-    // Every (light scale, camera scale) a scene is run with.
-    let variants: Vec<(f32, f32)> = args
+    if let Some(bad) = args
+        .view_scales
+        .iter()
+        .find(|s| !(s.is_finite() && **s > 0.0 && **s <= 8.0))
+    {
+        anyhow::bail!("--view-scale {bad}: expected a factor in (0, 8]");
+    }
+    // Every (light scale, camera scale, view scale) a scene is run with.
+    let variants: Vec<(f32, f32, f32)> = args
         .light_scales
         .iter()
-        .flat_map(|&l| args.camera_scales.iter().map(move |&c| (l, c)))
+        .flat_map(|&l| {
+            args.camera_scales
+                .iter()
+                .flat_map(move |&c| args.view_scales.iter().map(move |&v| (l, c, v)))
+        })
         .collect();
     let frames = args.frames.unwrap_or(3);
     let ref_samples = if args.quick { "8" } else { "32" };
@@ -412,7 +431,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         .context("at least one --reference is needed")?
         .clone();
     for spec in &scenes {
-        for &(light_scale, camera_scale) in &variants {
+        for &(light_scale, camera_scale, view_scale) in &variants {
             let mut scene = Scene::open(spec)?;
             if args.quick {
                 scene.camera.width = (scene.camera.width / 2).max(16);
@@ -425,6 +444,12 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                     continue;
                 }
                 scene.name = format!("{}-light{light_scale}", scene.name);
+            }
+            if view_scale != 1.0 {
+                let camera = &mut scene.camera;
+                camera.width = ((camera.width as f32 * view_scale).round() as u32).max(16);
+                camera.height = ((camera.height as f32 * view_scale).round() as u32).max(16);
+                scene.name = format!("{}-view{view_scale}", scene.name);
             }
             if camera_scale != 1.0 {
                 let camera = &mut scene.camera;
@@ -463,6 +488,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                     "scene_source": prepared.source,
                     "light_scale": light_scale,
                     "camera_scale": camera_scale,
+                    "view_scale": view_scale,
                     "technique": technique,
                     "label": label(overrides),
                     "device": ctx.info().name,
@@ -537,6 +563,10 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "scene",
         "light_scale",
         "camera_scale",
+        "view_scale",
+        "width",
+        "height",
+        "triangles",
         "technique",
         "label",
         "total_gpu_ms",

@@ -125,6 +125,11 @@ enum Command {
         /// to see how many pages a virtual map renders as the camera closes in).
         #[arg(long, default_value = "1", value_delimiter = ',')]
         camera_scale: Vec<f32>,
+        /// Image-size factors, comma-separated: each scene also runs with its camera's width and
+        /// height scaled (e.g. `0.5,1,2` for a technique's time against the number of view
+        /// samples); applied after `--quick`'s halving.
+        #[arg(long, default_value = "1", value_delimiter = ',')]
+        view_scale: Vec<f32>,
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
@@ -545,6 +550,7 @@ fn main() {
             reference,
             light_scale,
             camera_scale,
+            view_scale,
             out,
             device,
             cache,
@@ -558,6 +564,7 @@ fn main() {
             references: reference.clone(),
             light_scales: light_scale.clone(),
             camera_scales: camera_scale.clone(),
+            view_scales: view_scale.clone(),
             device: device.device.clone(),
             validation: !device.no_validation,
             cache: cache.dir(),

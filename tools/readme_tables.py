@@ -5,6 +5,7 @@ named command):
     python3 tools/readme_tables.py receivers DIR   # DIR from `penumbra bench --set light_clip=0,1`
     python3 tools/readme_tables.py soft DIR        # DIR from the soft-shadow bench (README)
     python3 tools/readme_tables.py virtual DIR     # DIR from the virtual-map bench (README)
+    python3 tools/readme_tables.py izb DIR...      # DIRs from the irregular z-buffer benches
 
 `receivers`: per technique, the configuration with clipping on that has the lowest penumbra MAE
 on teapot-rect (lowest RMSE on spot-point), with the same configuration's clip-off figures and
@@ -13,6 +14,8 @@ per technique and map size, the configuration with the lowest penumbra MAE, its 
 both references and its pass times; then the skip table (skip.csv). `virtual`: per scene, every
 `hard` and `rmsm` run and the best `pcf-coverage` per map size (by RMSE), with misclassification
 (also against `hard` at 2048²), memory and pages, from bench.json; then rmsm's passes.
+`izb`: per scene of each DIR, every run (failures with their reason) with time, error, pairs,
+tests and the izb passes, from bench.json.
 """
 import csv
 import json
@@ -189,7 +192,38 @@ def virtual(directory):
               + f" | {fmt(r.get('total_gpu_ms'), 1)} |")
 
 
+def izb(directories):
+    for directory in directories:
+        data = json.loads((Path(directory) / "bench.json").read_text())
+        print(f"\n{directory}\n")
+        print("| scene | view | triangles | technique | knobs | GPU ms | bin / footprint / test / "
+              "resolve ms | penumbra MAE | RMSE | misclassified | pairs | sample tests "
+              "| ray tests | memory MiB |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        for r in data:
+            e = r.get("error", {})
+            c = r.get("counters", {})
+            ms = {p["name"]: p.get("gpu_ms") for p in r.get("passes", [])}
+            izb_passes = " / ".join(fmt(ms.get(n), 1) for n in ("bin", "footprint", "test",
+                                                                  "resolve"))
+            if r.get("failure"):
+                print(f"| {r['scene']} | {r['width']}x{r['height']} | {r['triangles']} "
+                      f"| `{r['technique']}` | {r['label']} | failed: {r['failure'][:60]} "
+                      "| | | | | | | | |")
+                continue
+            is_izb = r["technique"].startswith("izb")
+            print(f"| {r['scene']} | {r['width']}x{r['height']} | {r['triangles']} "
+                  f"| `{r['technique']}` | {r['label']} | {fmt(r.get('total_gpu_ms'), 1)} "
+                  f"| {izb_passes if is_izb else '—'} | {fmt(e.get('penumbra_mae'), 4)} "
+                  f"| {fmt(e.get('rmse'), 4)} | {fmt(e.get('misclassified'), 5)} "
+                  f"| {c.get('pairs', '—')} | {c.get('sample_tests', '—')} "
+                  f"| {c.get('ray_tests', '—')} | {fmt(r['memory_bytes'] / 2**20, 1)} |")
+
+
 if __name__ == "__main__":
+    if len(sys.argv) >= 3 and sys.argv[1] == "izb":
+        izb(sys.argv[2:])
+        sys.exit(0)
     if len(sys.argv) != 3 or sys.argv[1] not in ("receivers", "soft", "virtual"):
         sys.exit(__doc__)
     {"receivers": receivers, "soft": soft, "virtual": virtual}[sys.argv[1]](sys.argv[2])

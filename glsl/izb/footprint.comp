@@ -20,6 +20,7 @@ struct Tri {
     bool flat_edges;  // zero projected area: bounding box only
     ivec2 lo;         // cell range (inclusive)
     ivec2 hi;
+    vec2 grow;        // how far the range reaches beyond the projection, cells
 };
 
 Tri setup(uint t, bool keep) {
@@ -35,6 +36,7 @@ Tri setup(uint t, bool keep) {
     tri.zmin = min(q[0].z, min(q[1].z, q[2].z));
     tri.full = P.sizes.w != 0u && tri.zmin <= P.light_half.z;
     tri.flat_edges = true;
+    tri.grow = vec2(0.0);
     int last = grid_size() - 1;
     tri.lo = ivec2(0);
     tri.hi = ivec2(last);
@@ -62,6 +64,7 @@ Tri setup(uint t, bool keep) {
     vec2 hi = clamp(floor(bmax + grow), vec2(0.0), vec2(float(last)));
     tri.lo = ivec2(lo);
     tri.hi = ivec2(hi);
+    tri.grow = grow;
     if (bmax.x + grow.x < 0.0 || bmax.y + grow.y < 0.0 || bmin.x - grow.x > float(grid_size()) ||
         bmin.y - grow.y > float(grid_size())) {
         tri.hi = tri.lo - 1;  // misses the grid: no cell
@@ -137,10 +140,65 @@ void emit(uint t, uint cell, uint n) {
     }
 }
 
-// Cell j of the triangle's range.
-ivec2 range_cell(Tri tri, uint j) {
-    uint w = uint(tri.hi.x - tri.lo.x + 1);
-    return tri.lo + ivec2(int(j % w), int(j / w));
+// The cells of row y the triangle's grown footprint may reach, as [x0, x1] (empty: x1 < x0):
+// the projection's x extent over the row's slab (vertices inside it, edges crossing its two
+// borders), grown like the range. Long thin triangles visit only the cells along them.
+ivec2 row_span(Tri tri, int y) {
+    if (tri.full || tri.flat_edges) {
+        return ivec2(tri.lo.x, tri.hi.x);
+    }
+    float y0 = float(y) - tri.grow.y;
+    float y1 = float(y) + 1.0 + tri.grow.y;
+    float xmin = 1e30;
+    float xmax = -1e30;
+    for (int k = 0; k < 3; ++k) {
+        vec2 a = tri.g[k];
+        vec2 b = tri.g[(k + 1) % 3];
+        if (a.y >= y0 && a.y <= y1) {
+            xmin = min(xmin, a.x);
+            xmax = max(xmax, a.x);
+        }
+        if ((a.y - y0) * (b.y - y0) < 0.0) {
+            float x = a.x + (y0 - a.y) / (b.y - a.y) * (b.x - a.x);
+            xmin = min(xmin, x);
+            xmax = max(xmax, x);
+        }
+        if ((a.y - y1) * (b.y - y1) < 0.0) {
+            float x = a.x + (y1 - a.y) / (b.y - a.y) * (b.x - a.x);
+            xmin = min(xmin, x);
+            xmax = max(xmax, x);
+        }
+    }
+    if (xmin > xmax) {
+        return ivec2(0, -1);
+    }
+    float last = float(grid_size() - 1);
+    int x0 = int(clamp(floor(xmin - tri.grow.x), 0.0, last));
+    int x1 = int(clamp(floor(xmax + tri.grow.x), 0.0, last));
+    return ivec2(max(x0, tri.lo.x), min(x1, tri.hi.x));
+}
+
+// Visits the cells of rows y = first, first + stride, ... of the triangle's range: counts their
+// chunks (write = false) or writes their pairs.
+uint visit_rows(uint t, Tri tri, uint first, uint stride, bool write) {
+    uint total = 0u;
+    uint rows = uint(max(tri.hi.y - tri.lo.y + 1, 0));
+    for (uint r = first; r < rows; r += stride) {
+        int y = tri.lo.y + int(r);
+        ivec2 span = row_span(tri, y);
+        for (int x = span.x; x <= span.y; ++x) {
+            ivec2 xy = ivec2(x, y);
+            uint n = visit(tri, xy);
+            if (n > 0u) {
+                if (write) {
+                    emit(t, uint(xy.y * grid_size() + xy.x), n);
+                } else {
+                    total += n;
+                }
+            }
+        }
+    }
+    return total;
 }
 
 void small_pass(bool write) {
@@ -175,59 +233,37 @@ void small_pass(bool write) {
         }
         return;
     }
-    for (uint j = 0u; j < cells; ++j) {
-        ivec2 xy = range_cell(tri, j);
-        uint n = visit(tri, xy);
-        if (n > 0u) {
-            if (write) {
-                emit(t, uint(xy.y * grid_size() + xy.x), n);
-            } else {
-                total += n;
-            }
-        }
-    }
+    total += visit_rows(t, tri, 0u, 1u, write);
     if (!write) {
         atomicAdd(tri_pairs[t], total);
     }
 }
 
-// The cells j = first, first + stride, ... of a listed triangle's range.
-uint large_cells(uint t, uint first, uint stride, bool write) {
-    Tri tri = setup(t, false);
-    uint cells = range_cells(tri);
-    uint total = 0u;
-    for (uint j = first; j < cells; j += stride) {
-        ivec2 xy = range_cell(tri, j);
-        uint n = visit(tri, xy);
-        if (n > 0u) {
-            if (write) {
-                emit(t, uint(xy.y * grid_size() + xy.x), n);
-            } else {
-                total += n;
-            }
-        }
-    }
-    return total;
+// Rows first, first + stride, ... of a listed triangle.
+uint large_rows(uint t, uint first, uint stride, bool write) {
+    return visit_rows(t, setup(t, false), first, stride, write);
 }
 
-// Listed triangles of up to HUGE_CELLS cells: one workgroup each (at most 256 passes of its
-// loop); huger ones: every workgroup takes a share of each one's cells (a 2048² grid's
-// full-screen triangle is 64 passes a group), so no workgroup's loops outgrow lavapipe's loop
-// limiter.
+// Listed triangles of up to HUGE_CELLS cells in range: one workgroup each, its invocations
+// taking rows in turn; huger ones: LARGE_GROUPS / (their number) workgroups share each one's
+// rows (a lone 4096² full-screen triangle: one row of at most 4096 cells an invocation), so no
+// workgroup's loops outgrow lavapipe's loop limiter.
 void large_pass(bool write) {
     uint count = counters[C_LARGE];
     for (uint l = gl_WorkGroupID.x; l < count; l += LARGE_GROUPS) {
         uint t = large[l];
-        uint total = large_cells(t, gl_LocalInvocationID.x, 64u, write);
+        uint total = large_rows(t, gl_LocalInvocationID.x, 64u, write);
         if (!write && total > 0u) {
             atomicAdd(tri_pairs[t], total);
         }
     }
+    // Each huge triangle's rows are shared by `per` workgroups (all of them for one triangle).
     uint huge = counters[C_HUGE];
-    for (uint h = 0u; h < huge; ++h) {
-        uint t = large[P.sizes.x - 1u - h];
-        uint first = gl_WorkGroupID.x * 64u + gl_LocalInvocationID.x;
-        uint total = large_cells(t, first, LARGE_GROUPS * 64u, write);
+    uint per = max(LARGE_GROUPS / max(huge, 1u), 1u);
+    for (uint u = gl_WorkGroupID.x; u < huge * per; u += LARGE_GROUPS) {
+        uint t = large[P.sizes.x - 1u - u / per];
+        uint first = (u % per) * 64u + gl_LocalInvocationID.x;
+        uint total = large_rows(t, first, per * 64u, write);
         if (!write && total > 0u) {
             atomicAdd(tri_pairs[t], total);
         }

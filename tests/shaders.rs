@@ -152,6 +152,10 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             twin!(LightDepthPush { light_view_proj }),
         ),
         (
+            vec!["izb/footprint.comp"],
+            twin!(penumbra::techniques::izb::IzbPush { phase }),
+        ),
+        (
             vec!["passes/view_samples.vert", "passes/view_samples.frag"],
             twin!(ViewSamplesPush {
                 view_proj,

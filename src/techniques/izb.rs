@@ -257,11 +257,12 @@ struct Izb<'a> {
     _visibility: &'a crate::gpu::Image,
 }
 
-/// Push constants of `footprint.comp`.
+/// Push constants of `glsl/izb/footprint.comp` (the other passes read [`IzbParams`] only).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct IzbPush {
-    phase: u32,
+pub struct IzbPush {
+    /// 0/1: count the pairs of small/large footprints; 2/3: write them.
+    pub phase: u32,
 }
 
 /// A descriptor set for `pipeline` from `all` (binding number, resource): the bindings the
@@ -299,10 +300,10 @@ impl<'a> Izb<'a> {
         let extent = u != Vec3::ZERO || v != Vec3::ZERO;
         if kind == KIND_DIRECTIONAL && extent {
             if soft {
-                return Err(Error::Unsupported {
-                    device: ctx.info().name.clone(),
-                    feature: "izb-soft for a sun disk (angular diameter > 0): rect, point and \
-                              hard directional lights only"
+                return Err(Error::NotApplicable {
+                    technique: name.to_string(),
+                    what: "a sun disk (angular diameter > 0): rect, point and hard directional \
+                           lights only"
                         .into(),
                 });
             }
@@ -559,5 +560,32 @@ impl Technique for Izb<'_> {
             }
         }
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    /// `IzbParams` is read as std430 by `glsl/izb/izb.glsl`: a mat4, five vec4 and four
+    /// 4-component vectors, each 16-byte aligned, in this order.
+    #[test]
+    fn params_match_the_std430_block() {
+        assert_eq!(offset_of!(IzbParams, light_c), 64);
+        assert_eq!(offset_of!(IzbParams, grid_map), 112);
+        assert_eq!(offset_of!(IzbParams, light_half), 128);
+        assert_eq!(offset_of!(IzbParams, view), 144);
+        assert_eq!(offset_of!(IzbParams, pattern), 160);
+        assert_eq!(offset_of!(IzbParams, pattern_f), 176);
+        assert_eq!(offset_of!(IzbParams, sizes), 192);
+        assert_eq!(size_of::<IzbParams>(), 208);
+    }
+
+    #[test]
+    fn sample_grids_are_near_square() {
+        assert_eq!(sample_grid(32), (8, 4));
+        assert_eq!(sample_grid(64), (8, 8));
+        assert_eq!(sample_grid(0), (1, 1));
     }
 }

@@ -544,6 +544,12 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                                 });
                         }
                     }
+                    // A technique that does not handle this scene (izb-soft and a sun disk) or
+                    // this device is not run there: recorded, not a failure.
+                    Err(
+                        e @ (penumbra::Error::NotApplicable { .. }
+                        | penumbra::Error::Unsupported { .. }),
+                    ) => row["unsupported"] = serde_json::json!(e.to_string()),
                     Err(e) => row["failure"] = serde_json::json!(e.to_string()),
                 }
                 row["validation"] =
@@ -587,6 +593,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "skipped_umbra",
         "passes",
         "failure",
+        "unsupported",
     ]
     .iter()
     .map(|c| c.to_string())
@@ -740,6 +747,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         );
         if let Some(failure) = r.get("failure") {
             println!("    failed: {failure}");
+        }
+        if let Some(reason) = r.get("unsupported") {
+            println!("    not run: {reason}");
         }
     }
     let counts = ctx.validation().counts();

@@ -2,6 +2,13 @@
 // izb): Woop, Benthin and Wald's watertight test, division-free and `precise`, so a CPU twin
 // (src/cpu/ray_cast.rs) computes the same bits and two techniques that use it agree ray by ray.
 
+// A dot product written out so that the order of the additions is the CPU twins' (`dot3` of
+// src/cpu/ray_cast.rs): the tangent-plane test of a light sample.
+float dot3(vec3 a, vec3 b) {
+    precise float r = a.x * b.x + a.y * b.y + a.z * b.z;
+    return r;
+}
+
 // o + t d for t in (0, tmax). k: the axis permutation of the watertight test (kz = largest |d|).
 struct Ray {
     vec3 o;

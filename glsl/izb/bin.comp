@@ -3,13 +3,9 @@
 // behind their tangent plane, compute the shadow ray's origin and bin it into the light-space
 // grid cell its projection falls in (count, local index), keeping each cell's deepest sample.
 #include "izb.glsl"
+#include "watertight.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-
-float dot3(vec3 a, vec3 b) {
-    precise float r = a.x * b.x + a.y * b.y + a.z * b.z;
-    return r;
-}
 
 // How much of the light lies in front of the sample's tangent plane: 0 none, 1 some, 2 all.
 // Rect: by its corners, with a tolerance either way, so "none" and "all" also hold for every

@@ -4,15 +4,11 @@
 // all light samples (the reference's count, the same way round). Background: 1; samples left
 // out by the binning (all light behind the tangent plane): 0.
 #include "izb.glsl"
+#include "watertight.glsl"
 #include "light_samples.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 19, r32f) uniform writeonly image2D visibility;
-
-float dot3(vec3 a, vec3 b) {
-    precise float r = a.x * b.x + a.y * b.y + a.z * b.z;
-    return r;
-}
 
 void main() {
     group_counters_clear();

@@ -14,11 +14,6 @@
 
 layout(local_size_x = 64) in;
 
-float dot3(vec3 a, vec3 b) {
-    precise float r = a.x * b.x + a.y * b.y + a.z * b.z;
-    return r;
-}
-
 // Box of the (a, b) square where the affine f = A + B (a - 1/2) + C (b - 1/2) (f = (A, B, C))
 // is at least -tolerance: the kept corners and the edge crossings. False if none is kept.
 bool half_square_box(vec3 f, out vec2 lo, out vec2 hi) {

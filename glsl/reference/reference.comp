@@ -45,12 +45,6 @@ const float HALF_PI = 1.57079632679489661923;
 
 shared uint group_counts[6];
 
-// Written out so that the order of the additions is the twin's.
-float dot3(vec3 a, vec3 b) {
-    precise float r = a.x * b.x + a.y * b.y + a.z * b.z;
-    return r;
-}
-
 #include "light_samples.glsl"
 
 // Sample of cell (i, j) in [0, 1)^2: jittered by a hash of (pixel seed, cell), or the centre.

@@ -12,7 +12,7 @@
 
 use glam::{Mat4, Vec3, Vec4};
 
-use super::ray_cast::{intersect, pcg, triangles, Ray, Triangle};
+use super::ray_cast::{dot3, intersect, pcg, stratum_point, sub3, triangles, Ray, Triangle};
 use crate::scene::Light;
 
 /// `n_a × n_b` light samples for `samples`: `n_b` the largest divisor of `samples` not above
@@ -171,14 +171,6 @@ impl Binning {
     }
 }
 
-fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
 /// The ray origin `p + offset·n`, as the shader rounds it.
 fn origin(p: [f32; 3], n: [f32; 3], offset: f32) -> [f32; 3] {
     std::array::from_fn(|k| p[k] + n[k] * offset)
@@ -190,9 +182,9 @@ fn sees_light(light: &LightTwin, p: [f32; 3], n: [f32; 3]) -> bool {
     let c = light.centre.to_array();
     match light.area {
         None if light.directional => dot3(n, c) > 0.0,
-        None => dot3(n, sub(c, p)) > 0.0,
+        None => dot3(n, sub3(c, p)) > 0.0,
         Some((u, v, ..)) => {
-            let (nv, cp) = (Vec3::from(n), Vec3::from(sub(c, p)));
+            let (nv, cp) = (Vec3::from(n), Vec3::from(sub3(c, p)));
             let (hu, hv) = (0.5 * u, 0.5 * v);
             let tol = 1e-5 * (nv.dot(cp).abs() + nv.dot(hu).abs() + nv.dot(hv).abs());
             [cp + hu + hv, cp + hu - hv, cp - hu + hv, cp - hu - hv]
@@ -235,24 +227,6 @@ pub fn bin(
     out
 }
 
-/// The point of stratum (i, j) of an `na × nb` grid, the shader's `light_cell_point`.
-fn stratum_point(seed: u32, i: u32, j: u32, na: u32, nb: u32, jitter: bool) -> [f32; 2] {
-    let cell = j * na + i;
-    let unit = |h: u32| (h >> 8) as f32 * (1.0 / 16_777_216.0);
-    let jit = if jitter {
-        [
-            unit(pcg(seed.wrapping_add(2 * cell))),
-            unit(pcg(seed.wrapping_add(2 * cell + 1))),
-        ]
-    } else {
-        [0.5, 0.5]
-    };
-    [
-        (i as f32 + jit[0]) * (1.0 / na as f32),
-        (j as f32 + jit[1]) * (1.0 / nb as f32),
-    ]
-}
-
 fn blocked(ray: &Ray, tris: &[Triangle]) -> bool {
     tris.iter().any(|t| intersect(ray, t).hit)
 }
@@ -282,7 +256,7 @@ pub fn visibility(
                 let (dir, tmax, to_light) = if light.directional {
                     (c, light.t_far, c)
                 } else {
-                    (sub(c, o), 1.0, sub(c, p))
+                    (sub3(c, o), 1.0, sub3(c, p))
                 };
                 if dot3(n, to_light) <= 0.0 {
                     return 0.0;
@@ -296,16 +270,17 @@ pub fn visibility(
             let (u, v) = (u.to_array(), v.to_array());
             let seed = pcg(index as u32);
             let total = na * nb;
+            let inv = [1.0 / na as f32, 1.0 / nb as f32];
             let mut visible = 0u32;
             for j in 0..nb {
                 for i in 0..na {
-                    let x = stratum_point(seed, i, j, na, nb, jitter);
+                    let x = stratum_point(seed, i, j, na, inv, jitter);
                     let (sx, sy) = (x[0] - 0.5, x[1] - 0.5);
                     let s: [f32; 3] = std::array::from_fn(|k| c[k] + u[k] * sx + v[k] * sy);
-                    if dot3(n, sub(s, p)) <= 0.0 {
+                    if dot3(n, sub3(s, p)) <= 0.0 {
                         continue;
                     }
-                    if !blocked(&Ray::new(o, sub(s, o), 1.0), &tris) {
+                    if !blocked(&Ray::new(o, sub3(s, o), 1.0), &tris) {
                         visible += 1;
                     }
                 }

@@ -378,7 +378,8 @@ fn occluded_axes<const KX: usize, const KY: usize, const KZ: usize>(
     Occlusion { blocked, tie }
 }
 
-fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
+/// `dot3` of the shaders (`glsl/include/watertight.glsl`): the same order of additions.
+pub(crate) fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
@@ -387,7 +388,7 @@ fn dot3_bound(a: [f32; 3], b: [f32; 3]) -> f32 {
     TIE_EPSILON * ((a[0] * b[0]).abs() + (a[1] * b[1]).abs() + (a[2] * b[2]).abs())
 }
 
-fn sub3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+pub(crate) fn sub3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
@@ -481,11 +482,12 @@ fn unit(h: u32) -> f32 {
     (h >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
-/// `cell_point` of the shader: the sample of cell (i, j) in [0, 1)², jittered by a hash of the
-/// pixel's seed and the cell, or the cell centre without jitter.
-pub fn cell_point(setup: &Setup, seed: u32, i: u32, j: u32) -> [f32; 2] {
-    let cell = j * setup.samples + i;
-    let jit = if setup.jitter {
+/// `light_cell_point` of `glsl/include/light_samples.glsl`: the point of cell (i, j) of an
+/// `na`-wide grid over [0, 1)² (`inv` = 1 / the grid's sides, rounded once), jittered by a hash
+/// of the pixel's seed and the cell, or the cell centre without jitter.
+pub fn stratum_point(seed: u32, i: u32, j: u32, na: u32, inv: [f32; 2], jitter: bool) -> [f32; 2] {
+    let cell = j * na + i;
+    let jit = if jitter {
         [
             unit(pcg(seed.wrapping_add(2 * cell))),
             unit(pcg(seed.wrapping_add(2 * cell + 1))),
@@ -493,10 +495,13 @@ pub fn cell_point(setup: &Setup, seed: u32, i: u32, j: u32) -> [f32; 2] {
     } else {
         [0.5, 0.5]
     };
-    [
-        (i as f32 + jit[0]) * setup.inv_samples,
-        (j as f32 + jit[1]) * setup.inv_samples,
-    ]
+    [(i as f32 + jit[0]) * inv[0], (j as f32 + jit[1]) * inv[1]]
+}
+
+/// `cell_point` of the reference shader: [`stratum_point`] on its N × N grid.
+pub fn cell_point(setup: &Setup, seed: u32, i: u32, j: u32) -> [f32; 2] {
+    let inv = [setup.inv_samples; 2];
+    stratum_point(seed, i, j, setup.samples, inv, setup.jitter)
 }
 
 /// `concentric` of the shader: Shirley and Chiu's area-preserving square-to-disk map.

@@ -159,15 +159,7 @@ impl Recorder<'_> {
         args: &Buffer,
         offset: u64,
     ) -> Result<()> {
-        if offset % 4 != 0 || offset + 12 > args.size {
-            return Err(Error::Shader {
-                name: pipeline.name.clone(),
-                message: format!(
-                    "indirect dispatch arguments at {offset} do not fit the {}-byte buffer {}",
-                    args.size, args.name
-                ),
-            });
-        }
+        check_indirect(pipeline, args, offset, 12)?;
         self.use_buffer(args, Access::IndirectRead);
         self.use_set(set);
         self.bind_and_push(pipeline, Some(set), push)?;
@@ -304,15 +296,7 @@ impl Recorder<'_> {
         offset: u64,
         depth_bias: Option<[f32; 3]>,
     ) -> Result<()> {
-        if offset + 16 > args.size {
-            return Err(Error::Shader {
-                name: pipeline.name.clone(),
-                message: format!(
-                    "indirect arguments at {offset} overrun the {}-byte buffer {}",
-                    args.size, args.name
-                ),
-            });
-        }
+        check_indirect(pipeline, args, offset, 16)?;
         self.bind_and_push(pipeline, Some(set), push)?;
         let device = self.ctx.device();
         unsafe {
@@ -620,6 +604,21 @@ fn mapped_bytes(device: &str, buffer: &str, mapped: Option<&[u8]>) -> Result<Vec
             device: device.to_string(),
             feature: format!("host-mapped memory to read back '{buffer}'"),
         })
+}
+
+/// That `bytes` of indirect arguments at `offset` (4-byte aligned, as Vulkan requires) fit
+/// `args`.
+fn check_indirect(pipeline: &Pipeline, args: &Buffer, offset: u64, bytes: u64) -> Result<()> {
+    if offset % 4 != 0 || offset + bytes > args.size {
+        return Err(Error::Shader {
+            name: pipeline.name.clone(),
+            message: format!(
+                "indirect arguments at {offset} ({bytes} bytes) do not fit the {}-byte buffer {}",
+                args.size, args.name
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// Reinterprets read-back bytes as `f32`s (copying: the bytes need not be aligned).

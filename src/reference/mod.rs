@@ -99,17 +99,21 @@ const KNOBS: [Knob; 3] = [
         integer: true,
         names: &[],
     },
-    Knob {
-        name: "ray_offset",
-        summary: "shadow-ray origin offset along the receiver's camera-facing normal, as a \
-                  fraction of the scene's largest coordinate",
-        default: KnobDefault::Value(1.0 / 65536.0),
-        min: 0.0,
-        max: 0.01,
-        integer: false,
-        names: &[],
-    },
+    RAY_OFFSET,
 ];
+
+/// `ray_offset`: the shadow rays' origin offset, shared by every technique that casts the
+/// reference's rays (`izb`, `izb-soft`), so equal settings give equal rays.
+pub const RAY_OFFSET: Knob = Knob {
+    name: "ray_offset",
+    summary: "shadow-ray origin offset along the receiver's camera-facing normal, as a \
+              fraction of the scene's largest coordinate",
+    default: KnobDefault::Value(1.0 / 65536.0),
+    min: 0.0,
+    max: 0.01,
+    integer: false,
+    names: &[],
+};
 
 /// `reference`: every occluder counts.
 pub const REFERENCE: TechniqueInfo = TechniqueInfo {

@@ -69,7 +69,7 @@ use crate::error::{Error, Result};
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, MemoryLocation, Pipeline, Recorder};
 use crate::kernels::scan::{Scan, ScanBinding, ScanKind};
 use crate::reference::bvh::scene_scale;
-use crate::reference::{light_encoding, KIND_DIRECTIONAL, KIND_POINT, KIND_RECT};
+use crate::reference::{light_encoding, KIND_DIRECTIONAL, KIND_POINT, KIND_RECT, RAY_OFFSET};
 use crate::scene::Light;
 
 /// Samples per (triangle, cell) pair of `izb`: one ray each.
@@ -117,15 +117,6 @@ const PAIR_CAPACITY: Knob = Knob::int(
     1.0,
     256.0,
 );
-const RAY_OFFSET: Knob = Knob::int(
-    "ray_offset",
-    "shadow-ray origin offset along the receiver's camera-facing normal, as a fraction of the \
-     scene's largest coordinate (the reference's)",
-    1.0 / 65536.0,
-    0.0,
-    0.01,
-)
-.real();
 
 const HARD_KNOBS: [Knob; 3] = [GRID, PAIR_CAPACITY, RAY_OFFSET];
 
@@ -234,7 +225,7 @@ pub fn grid_map(bounds: &crate::passes::ReceiverBounds, grid: u32) -> Vec4 {
 
 struct Izb<'a> {
     ctx: Context,
-    soft: bool,
+    name: &'static str,
     view_size: [u32; 2],
     triangles: u32,
     bin: (Pipeline, DescriptorSet),
@@ -437,14 +428,14 @@ impl<'a> Izb<'a> {
         };
         Ok(Izb {
             ctx: ctx.clone(),
-            soft,
+            name,
             view_size: [w, h],
             triangles,
             bin: pass("izb/bin.comp")?,
             scatter: pass("izb/scatter.comp")?,
             footprint: pass("izb/footprint.comp")?,
             args_pass: pass("izb/args.comp")?,
-            test: pass(if soft {
+            test: pass(if sampled {
                 "izb/test_soft.comp"
             } else {
                 "izb/test_hard.comp"
@@ -527,7 +518,7 @@ impl Technique for Izb<'_> {
     fn counters(&self) -> Result<Vec<(String, u64)>> {
         let words = read_counters(&self.ctx, &self.counters, &COUNTER_WORDS)?;
         let get = |n: &str| words.iter().find(|(k, _)| k == n).map_or(0, |(_, v)| *v);
-        let name = if self.soft { IZB_SOFT.name } else { IZB.name };
+        let name = self.name;
         if get("cut") > 0 {
             return Err(Error::Shader {
                 name: format!("izb/{name}"),

@@ -99,6 +99,42 @@ fn pcf_interface_reflects_as_declared() {
     );
 }
 
+/// The izb test passes read their parameters as a uniform block and the triangles through
+/// texel buffers (`samplerBuffer`, `usamplerBuffer`): the reflection must name those kinds, or
+/// the descriptor sets would be built with the wrong descriptor types.
+#[test]
+fn izb_test_interfaces_reflect_uniform_blocks_and_texel_buffers() {
+    for shader in ["izb/test_hard.comp", "izb/test_soft.comp"] {
+        let (_, i) = shader_interface(shader).expect("reflect");
+        assert_eq!(i.local_size, [8, 1, 1], "{shader}");
+        let kind = |n: u32| {
+            i.bindings
+                .iter()
+                .find(|b| b.binding == n)
+                .map(|b| (b.kind, b.read_only))
+        };
+        assert_eq!(
+            kind(2),
+            Some((vk::DescriptorType::UNIFORM_BUFFER, true)),
+            "{shader}"
+        );
+        assert_eq!(
+            kind(24),
+            Some((vk::DescriptorType::UNIFORM_TEXEL_BUFFER, true)),
+            "{shader}"
+        );
+        assert_eq!(
+            kind(25),
+            Some((vk::DescriptorType::UNIFORM_TEXEL_BUFFER, true)),
+            "{shader}"
+        );
+        assert_eq!(
+            kind(16).map(|k| k.0),
+            Some(vk::DescriptorType::STORAGE_BUFFER)
+        );
+    }
+}
+
 #[test]
 fn raster_interfaces_reflect_as_declared() {
     let (_, v) = shader_interface("passes/light_depth.vert").expect("reflect");
@@ -152,7 +188,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             twin!(LightDepthPush { light_view_proj }),
         ),
         (
-            vec!["izb/footprint.comp"],
+            vec!["izb/footprint.comp", "izb/args.comp"],
             twin!(penumbra::techniques::izb::IzbPush { phase }),
         ),
         (

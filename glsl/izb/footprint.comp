@@ -1,9 +1,9 @@
 #version 460
-// izb passes 4 and 6 (per triangle): the grid cells whose samples a triangle may shadow, and a
-// (triangle, cell, chunk) pair for every chunk of CHUNK samples of every such cell that holds
-// samples. Phase 0 counts the pairs of triangles with at most SMALL_CELLS cells in range (and
-// lists the others), phase 1 counts the listed ones (workgroups share a triangle's cells), phase 2 and 3 write the pairs the same two ways at the triangle's
-// first pair (the prefix sum of the counts) plus a per-triangle cursor.
+// izb passes 4 and 6 (per triangle): the grid cells holding samples that a triangle may shadow,
+// as a (triangle, cell) pair in the cell's triangle list. Phase 0 counts, per cell, the pairs of
+// triangles with at most SMALL_CELLS cells in range (and lists the others), phase 1 counts the
+// listed ones (workgroups share a triangle's cells); phases 2 and 3 write the pairs the same two
+// ways at the cell's first pair (the prefix sum of the counts) plus a per-cell cursor.
 //
 // Footprint (src/techniques/izb.rs, "Footprints"): the triangle's projection, grown for a rect
 // light by the light's half extents times k = 1/z_tri - 1/z_cell, z_tri its nearest depth and
@@ -77,19 +77,14 @@ uint range_cells(Tri tri) {
     return uint(span.x) * uint(span.y);
 }
 
-uint chunks(uint count) {
-    return (count + P.sizes.z - 1u) / P.sizes.z;
-}
-
-// Chunks of cell (x, y) the triangle may shadow (0 if none).
+// 1 if the triangle may shadow samples of cell (x, y), else 0.
 uint visit(Tri tri, ivec2 xy) {
     uint cell = uint(xy.y * grid_size() + xy.x);
-    uint count = cell_count[cell];
-    if (count == 0u) {
+    if (cell_count[cell] == 0u) {
         return 0u;
     }
     if (tri.full) {
-        return chunks(count);
+        return 1u;
     }
     float deepest = uintBitsToFloat(cell_depth[cell]);
     if (tri.zmin > deepest * (1.0 + 1e-5)) {
@@ -122,21 +117,18 @@ uint visit(Tri tri, ivec2 xy) {
             }
         }
     }
-    return chunks(count);
+    return 1u;
 }
 
-void emit(uint t, uint cell, uint n) {
-    uint first = tri_first[t] + atomicAdd(tri_cursor[t], n);
-    uint start = cell_start[cell];
-    uint end = start + cell_count[cell];
-    for (uint c = 0u; c < n; ++c) {
-        uint at = first + c;
-        if (at < P.sizes.y) {
-            uint s = start + c * P.sizes.z;
-            pairs[at] = uvec4(t, s, min(s + P.sizes.z, end), cell);
-        } else {
-            atomicAdd(counters[C_PAIR_OVERFLOW], 1u);
-        }
+// Counts (write = false) or writes the pair (t, cell).
+void emit(uint t, uint cell, bool write) {
+    if (!write) {
+        atomicAdd(cell_tris[cell], 1u);
+        return;
+    }
+    uint at = cell_tri_start[cell] + atomicAdd(cell_cursor[cell], 1u);
+    if (at < P.sizes.y) {
+        tri_list[at] = t;
     }
 }
 
@@ -179,7 +171,7 @@ ivec2 row_span(Tri tri, int y) {
 }
 
 // Visits the cells of rows y = first, first + stride, ... of the triangle's range: counts their
-// chunks (write = false) or writes their pairs.
+// pairs (write = false) or writes them; returns the pairs.
 uint visit_rows(uint t, Tri tri, uint first, uint stride, bool write) {
     uint total = 0u;
     uint rows = uint(max(tri.hi.y - tri.lo.y + 1, 0));
@@ -188,13 +180,9 @@ uint visit_rows(uint t, Tri tri, uint first, uint stride, bool write) {
         ivec2 span = row_span(tri, y);
         for (int x = span.x; x <= span.y; ++x) {
             ivec2 xy = ivec2(x, y);
-            uint n = visit(tri, xy);
-            if (n > 0u) {
-                if (write) {
-                    emit(t, uint(xy.y * grid_size() + xy.x), n);
-                } else {
-                    total += n;
-                }
+            if (visit(tri, xy) != 0u) {
+                emit(t, uint(xy.y * grid_size() + xy.x), write);
+                total += 1u;
             }
         }
     }
@@ -206,7 +194,7 @@ void small_pass(bool write) {
     if (t >= P.sizes.x) {
         return;
     }
-    if (write && tri_pairs[t] == 0u) {
+    if (write && tri_cells[t] == 0u) {
         atomicAdd(counters[C_CULLED], 1u);
         return;
     }
@@ -214,13 +202,9 @@ void small_pass(bool write) {
     uint cells = range_cells(tri);
     uint total = 0u;
     // The samples no projection reaches: every triangle may shadow them.
-    uint spill = cell_count[overflow_cell()];
-    if (spill > 0u) {
-        if (write) {
-            emit(t, overflow_cell(), chunks(spill));
-        } else {
-            total += chunks(spill);
-        }
+    if (cell_count[overflow_cell()] > 0u) {
+        emit(t, overflow_cell(), write);
+        total += 1u;
     }
     if (cells > SMALL_CELLS) {
         if (!write) {
@@ -229,13 +213,13 @@ void small_pass(bool write) {
             } else {
                 large[atomicAdd(counters[C_LARGE], 1u)] = t;
             }
-            atomicAdd(tri_pairs[t], total);
+            atomicAdd(tri_cells[t], total);
         }
         return;
     }
     total += visit_rows(t, tri, 0u, 1u, write);
     if (!write) {
-        atomicAdd(tri_pairs[t], total);
+        atomicAdd(tri_cells[t], total);
     }
 }
 
@@ -254,7 +238,7 @@ void large_pass(bool write) {
         uint t = large[l];
         uint total = large_rows(t, gl_LocalInvocationID.x, 64u, write);
         if (!write && total > 0u) {
-            atomicAdd(tri_pairs[t], total);
+            atomicAdd(tri_cells[t], total);
         }
     }
     // Each huge triangle's rows are shared by `per` workgroups (all of them for one triangle).
@@ -265,7 +249,7 @@ void large_pass(bool write) {
         uint first = (u % per) * 64u + gl_LocalInvocationID.x;
         uint total = large_rows(t, first, per * 64u, write);
         if (!write && total > 0u) {
-            atomicAdd(tri_pairs[t], total);
+            atomicAdd(tri_cells[t], total);
         }
     }
 }

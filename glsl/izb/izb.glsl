@@ -13,12 +13,12 @@ struct IzbParams {
     ivec4 view;        // (width, height, G, kind)
     ivec4 pattern;     // (n_a, n_b, jitter, mask words per sample)
     vec4 pattern_f;    // (1 / n_a, 1 / n_b, t_far, unused)
-    uvec4 sizes;       // (triangles, pair capacity, samples per chunk, perspective)
+    uvec4 sizes;       // (triangles, pair capacity, triangles per work item, perspective)
 };
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
-layout(set = 0, binding = 2) readonly buffer Params { IzbParams P; };
+layout(set = 0, binding = 2) uniform Params { IzbParams P; };
 layout(set = 0, binding = 3) readonly buffer Vertices { float vertices[]; };
 layout(set = 0, binding = 4) readonly buffer Indices { uint indices[]; };
 // Per cell (G * G, then the overflow cell of samples no projection reaches): samples binned.
@@ -33,15 +33,22 @@ layout(set = 0, binding = 8) buffer Binned { uvec2 binned[]; };
 layout(set = 0, binding = 9) buffer CellSamples { uint cell_samples[]; };
 // Per pixel: the shadow ray's origin o = p + offset * n, and its light-space depth.
 layout(set = 0, binding = 10) buffer Origins { vec4 origins[]; };
-// Per triangle: its (triangle, cell, chunk) pairs; then their exclusive prefix sum; a cursor.
-layout(set = 0, binding = 11) buffer TriPairs { uint tri_pairs[]; };
-layout(set = 0, binding = 12) buffer TriFirst { uint tri_first[]; };
-layout(set = 0, binding = 13) buffer TriCursor { uint tri_cursor[]; };
+// Per triangle: the cells its footprint keeps (0: culled).
+layout(set = 0, binding = 11) buffer TriCells { uint tri_cells[]; };
+// Per cell: the triangles that may shadow its samples; their exclusive prefix sum (where the
+// cell's triangles start in tri_list); a write cursor.
+layout(set = 0, binding = 12) buffer CellTris { uint cell_tris[]; };
+layout(set = 0, binding = 13) buffer CellTriStart { uint cell_tri_start[]; };
+layout(set = 0, binding = 21) buffer CellCursor { uint cell_cursor[]; };
 // Triangles whose footprint spans more than SMALL_CELLS cells, from the front; those with more
 // than HUGE_CELLS, from the back: the large passes stride over them.
 layout(set = 0, binding = 14) buffer Large { uint large[]; };
-// The pairs: (triangle, first sample, end of the samples in cell_samples, cell).
-layout(set = 0, binding = 15) buffer Pairs { uvec4 pairs[]; };
+// The (triangle, cell) pairs as triangle indices, cell by cell.
+layout(set = 0, binding = 15) buffer TriList { uint tri_list[]; };
+// Per cell: its work items for the test pass (sample chunks x triangle chunks); their exclusive
+// prefix sum.
+layout(set = 0, binding = 22) buffer CellItems { uint cell_items[]; };
+layout(set = 0, binding = 23) buffer ItemStart { uint item_start[]; };
 // Per pixel: `words` words of blocked light samples (izb: word 0 != 0 means shadowed).
 layout(set = 0, binding = 16) buffer Masks { uint masks[]; };
 layout(set = 0, binding = 17) buffer Counters { uint counters[]; };
@@ -68,11 +75,19 @@ layout(push_constant) uniform Push {
 #define HUGE_CELLS 16384u
 // Invocations of a large pass: LARGE_GROUPS workgroups of 64.
 #define LARGE_GROUPS 1024u
+// Samples of a cell that one work item of the test pass takes, one an invocation (its
+// workgroup size).
+#define ITEM_SAMPLES 8u
 // Grid cells a footprint is grown by on every side, so f32 rounding of a projection never
 // loses a cell (projections round at ~1e-7 relative: ~4e-4 cells of a 4096-cell grid).
 #define CELL_MARGIN 0.01
 // Soft footprints: relative margin on the depth factor k.
 #define K_MARGIN 1e-4
+
+// `WHEN(c) { ... }`: a branch taken by few invocations, as a loop of at most one pass. lavapipe
+// runs both sides of an `if` for the whole SIMD group under a lane mask, whether any lane takes
+// it or not, but skips a loop that no lane enters; other compilers treat the two alike.
+#define WHEN(c) for (int when_ = (c) ? 0 : 1; when_ < 1; ++when_)
 
 // Counter slots (src/techniques/izb.rs COUNTER_NAMES, same order).
 #define C_VIEW_SAMPLES 0
@@ -93,7 +108,8 @@ layout(push_constant) uniform Push {
 #define C_UMBRA 17
 #define C_PENUMBRA 18
 #define C_HUGE 19
-#define COUNTERS 20
+#define C_ITEMS 20
+#define COUNTERS 21
 
 int grid_size() {
     return P.view.z;
@@ -123,9 +139,13 @@ vec2 grid_coord(vec3 q) {
 // the global counters (atomics on one address from every invocation serialize on lavapipe).
 shared uint group_counters[COUNTERS];
 
+// The group's first invocation clears and flushes them all (this file is included before the
+// shader declares its workgroup size, so no loop here may stride by it).
 void group_counters_clear() {
-    for (uint i = gl_LocalInvocationIndex; i < COUNTERS; i += gl_WorkGroupSize.x * gl_WorkGroupSize.y) {
-        group_counters[i] = 0u;
+    if (gl_LocalInvocationIndex == 0u) {
+        for (uint i = 0u; i < COUNTERS; ++i) {
+            group_counters[i] = 0u;
+        }
     }
     barrier();
 }
@@ -151,14 +171,20 @@ void add64(uint lo, uint value) {
 // depth); call from uniform control flow.
 void group_counters_flush() {
     barrier();
-    uint i = gl_LocalInvocationIndex;
-    if (i < COUNTERS && group_counters[i] != 0u) {
+    if (gl_LocalInvocationIndex != 0u) {
+        return;
+    }
+    for (uint i = 0u; i < COUNTERS; ++i) {
+        uint v = group_counters[i];
+        if (v == 0u) {
+            continue;
+        }
         if (i == C_SAMPLE_TESTS || i == C_RAY_TESTS) {
-            add64(i, group_counters[i]);
+            add64(i, v);
         } else if (i == C_MAX_DEPTH) {
-            atomicMax(counters[i], group_counters[i]);
+            atomicMax(counters[i], v);
         } else if (i != C_SAMPLE_TESTS + 1u && i != C_RAY_TESTS + 1u) {
-            atomicAdd(counters[i], group_counters[i]);
+            atomicAdd(counters[i], v);
         }
     }
 }
@@ -174,4 +200,44 @@ void limiter_guard() {
     if (passes < 2) {
         atomicAdd(counters[C_CUT], 1u);
     }
+}
+
+// A work item of the test pass: samples [s0, s1) of cell_samples against triangles [t0, t1) of
+// tri_list, all of one cell.
+struct Item {
+    uint s0;
+    uint s1;
+    uint t0;
+    uint t1;
+};
+
+// This workgroup's work item (false past the last): the cell is the last one whose first item
+// is at or before the workgroup's index (a binary search of the items' prefix sum; cells
+// without items share the next one's start), then its sample chunk and triangle chunk.
+bool work_item(out Item item) {
+    uint w = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    item = Item(0u, 0u, 0u, 0u);
+    if (w >= counters[C_ITEMS]) {
+        return false;
+    }
+    uint lo = 0u;
+    uint hi = overflow_cell() + 1u;
+    while (hi - lo > 1u) {
+        uint mid = (lo + hi) / 2u;
+        if (item_start[mid] <= w) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    uint r = w - item_start[lo];
+    uint samples = cell_count[lo];
+    uint sample_chunks = (samples + ITEM_SAMPLES - 1u) / ITEM_SAMPLES;
+    uint first = cell_start[lo] + (r % sample_chunks) * ITEM_SAMPLES;
+    item.s0 = first;
+    item.s1 = min(first + ITEM_SAMPLES, cell_start[lo] + samples);
+    uint tri = cell_tri_start[lo] + (r / sample_chunks) * P.sizes.z;
+    item.t0 = tri;
+    item.t1 = min(min(tri + P.sizes.z, cell_tri_start[lo] + cell_tris[lo]), P.sizes.y);
+    return true;
 }

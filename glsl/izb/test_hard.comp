@@ -1,40 +1,53 @@
 #version 460
-// izb pass 7 (per (triangle, cell, chunk) pair, dispatched indirectly): each sample of the chunk
-// not yet shadowed takes the reference's watertight test of its ray towards the light's centre
-// (or the sun) against the triangle; a hit shadows it.
+// izb pass 7 (one workgroup per work item, dispatched indirectly): an invocation per sample of
+// the item; the item's triangles in turn, the same for every invocation (their loads are
+// uniform), each taking the reference's watertight test of the sample's ray towards the light's
+// centre (or the sun) until one hits. The verdict stays in a register and is stored once.
 #include "izb.glsl"
 #include "watertight.glsl"
 
-layout(local_size_x = 64) in;
+layout(local_size_x = 8) in;
+// tri_list and tri_verts through texel views (src/techniques/izb.rs says why).
+layout(set = 0, binding = 24) uniform usamplerBuffer tri_list_texels;
+layout(set = 0, binding = 25) uniform samplerBuffer tri_vert_texels;
 
 void main() {
-    uint at = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 64u +
-              gl_LocalInvocationID.x;
-    if (at < min(counters[C_PAIRS], P.sizes.y)) {
-        uvec4 pair = pairs[at];
-        vec3 va = tri_verts[3u * pair.x].xyz;
-        vec3 vb = tri_verts[3u * pair.x + 1u].xyz;
-        vec3 vc = tri_verts[3u * pair.x + 2u].xyz;
+    group_counters_clear();
+    Item item;
+    if (work_item(item)) {
+        uint s = item.s0 + gl_LocalInvocationID.x;
+        bool live = s < item.s1;
+        uint index = live ? cell_samples[s] & LOCAL_INDEX : 0u;
+        // Another item of the cell may have shadowed the sample already.
+        bool shadowed = !live || masks[index] != 0u;
+        vec3 o = live ? origins[index].xyz : vec3(0.0);
         bool point = P.view.w == KIND_POINT;
-        float tmax = point ? 1.0 : P.pattern_f.z;
+        // The reference's direction, to the bit.
+        precise vec3 d = point ? P.light_c.xyz - o : P.light_c.xyz;
+        Ray r = make_ray(o, d, point ? 1.0 : P.pattern_f.z);
+        bool was = shadowed;
         uint rays = 0u;
-        for (uint s = pair.y; s < pair.z; ++s) {
-            uint index = cell_samples[s] & LOCAL_INDEX;
-            if (masks[index] != 0u) {
-                continue;  // already shadowed by another triangle
-            }
-            vec3 o = origins[index].xyz;
-            // The reference's direction, to the bit.
-            precise vec3 d = point ? P.light_c.xyz - o : P.light_c.xyz;
-            Ray r = make_ray(o, d, tmax);
-            vec4 w;
-            rays += 1u;
-            if (hit_triangle(r, va, vb, vc, w)) {
-                atomicOr(masks[index], 1u);
+        for (uint k = item.t0; k < item.t1; ++k) {
+            int t = int(texelFetch(tri_list_texels, int(k)).x);
+            vec3 va = texelFetch(tri_vert_texels, 3 * t).xyz;
+            vec3 vb = texelFetch(tri_vert_texels, 3 * t + 1).xyz;
+            vec3 vc = texelFetch(tri_vert_texels, 3 * t + 2).xyz;
+            // Skipped by the whole SIMD group once every sample is shadowed (WHEN: an `if`
+            // would run the test under a mask anyway on lavapipe).
+            WHEN(!shadowed) {
+                vec4 w;
+                rays += 1u;
+                shadowed = hit_triangle(r, va, vb, vc, w);
             }
         }
-        add64(C_SAMPLE_TESTS, pair.z - pair.y);
-        add64(C_RAY_TESTS, rays);
+        if (shadowed && !was) {
+            masks[index] = 1u;
+        }
+        if (live) {
+            count(C_SAMPLE_TESTS, item.t1 - item.t0);
+            count(C_RAY_TESTS, rays);
+        }
     }
+    group_counters_flush();
     limiter_guard();
 }

@@ -96,6 +96,8 @@ pub struct DeviceInfo {
     pub max_shared_memory: u32,
     /// `maxStorageBufferRange` in bytes.
     pub max_storage_buffer_range: u32,
+    /// `maxTexelBufferElements`: the most texels one texel-buffer view may address.
+    pub max_texel_buffer_elements: u32,
     /// `maxImageDimension2D`.
     pub max_image_dimension_2d: u32,
     /// `subPixelPrecisionBits`: vertices snap to 1/2^bits of a pixel before rasterization.
@@ -375,6 +377,7 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<Device
             .contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR),
         max_shared_memory: props.limits.max_compute_shared_memory_size,
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
+        max_texel_buffer_elements: props.limits.max_texel_buffer_elements,
         max_image_dimension_2d: props.limits.max_image_dimension2_d,
         sub_pixel_precision_bits: props.limits.sub_pixel_precision_bits,
         usable,

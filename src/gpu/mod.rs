@@ -20,7 +20,7 @@ pub use context::{enumerate_devices, Context, ContextDesc, DeviceInfo};
 pub use pipeline::{
     shader_interface, shader_names, shader_spirv, Binding, DescriptorSet, GraphicsDesc, Pipeline,
 };
-pub use resources::{Buffer, Image, ImageDesc, MemoryLocation, Sampler};
+pub use resources::{Buffer, Image, ImageDesc, MemoryLocation, Sampler, TexelView};
 pub use sync::Access;
 pub use timestamps::{PassTime, Timestamps};
 pub use validation::{ValidationCounts, ValidationLog};

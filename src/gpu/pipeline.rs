@@ -12,7 +12,7 @@ use ash::vk;
 
 use super::reflect::{reflect, words_from_bytes, BindingInfo, ShaderInterface};
 use super::sync::{Access, Tracker};
-use super::{Buffer, Context, Image, Sampler};
+use super::{Buffer, Context, Image, Sampler, TexelView};
 use crate::error::{Error, Result, VkResultExt};
 
 include!(concat!(env!("OUT_DIR"), "/embedded_spirv.rs"));
@@ -385,6 +385,8 @@ pub enum Binding<'a> {
     Image(&'a Image),
     /// A sampled image with its sampler (combined image sampler).
     Sampled(&'a Image, &'a Sampler),
+    /// A uniform texel buffer (`samplerBuffer` / `textureBuffer`).
+    Texels(&'a TexelView),
 }
 
 pub(crate) enum Resource {
@@ -455,6 +457,7 @@ impl DescriptorSet {
 
         let mut buffer_infos = Vec::new();
         let mut image_infos = Vec::new();
+        let mut texel_views = Vec::new();
         for ((b, stages), r) in declared.iter().zip(resources) {
             let compute = stages.contains(vk::ShaderStageFlags::COMPUTE);
             let fragment = stages.contains(vk::ShaderStageFlags::FRAGMENT);
@@ -479,10 +482,23 @@ impl DescriptorSet {
                             range: vk::WHOLE_SIZE,
                         },
                     ));
+                    let uniform = b.kind == vk::DescriptorType::UNIFORM_BUFFER && compute;
                     set.uses.push(Use {
                         tracker: buf.tracker.clone(),
                         resource: Resource::Buffer(buf.raw),
-                        access: access(false),
+                        access: if uniform {
+                            Access::ComputeUniform
+                        } else {
+                            access(false)
+                        },
+                    });
+                }
+                (vk::DescriptorType::UNIFORM_TEXEL_BUFFER, Binding::Texels(view)) => {
+                    texel_views.push((b.binding, b.kind, view.raw));
+                    set.uses.push(Use {
+                        tracker: view.tracker.clone(),
+                        resource: Resource::Buffer(view.buffer),
+                        access: access(true),
                     });
                 }
                 (vk::DescriptorType::STORAGE_IMAGE, Binding::Image(img)) => {
@@ -542,6 +558,15 @@ impl DescriptorSet {
                     .dst_binding(*binding)
                     .descriptor_type(*kind)
                     .image_info(std::slice::from_ref(info)),
+            );
+        }
+        for (binding, kind, view) in &texel_views {
+            writes.push(
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set.raw)
+                    .dst_binding(*binding)
+                    .descriptor_type(*kind)
+                    .texel_buffer_view(std::slice::from_ref(view)),
             );
         }
         unsafe { device.update_descriptor_sets(&writes, &[]) };

@@ -141,6 +141,8 @@ const OP_TYPE_FLOAT: u32 = 22;
 const OP_TYPE_VECTOR: u32 = 23;
 const OP_TYPE_MATRIX: u32 = 24;
 const OP_TYPE_IMAGE: u32 = 25;
+/// `Dim` operand of `OpTypeImage` for texel buffers.
+const DIM_BUFFER: u32 = 5;
 const OP_TYPE_SAMPLER: u32 = 26;
 const OP_TYPE_SAMPLED_IMAGE: u32 = 27;
 const OP_TYPE_ARRAY: u32 = 28;
@@ -384,13 +386,23 @@ pub fn reflect(name: &str, words: &[u32]) -> Result<ShaderInterface> {
                     return Err(err(format!("binding {binding}: uniform without Block")));
                 }
             }
-            (SC_UNIFORM_CONSTANT, OP_TYPE_IMAGE) => match t.get(7) {
-                Some(2) => (vk::DescriptorType::STORAGE_IMAGE, var_read_only),
-                Some(1) => (vk::DescriptorType::SAMPLED_IMAGE, true),
+            (SC_UNIFORM_CONSTANT, OP_TYPE_IMAGE) => match (t.get(3), t.get(7)) {
+                (Some(&DIM_BUFFER), Some(2)) => {
+                    (vk::DescriptorType::STORAGE_TEXEL_BUFFER, var_read_only)
+                }
+                (Some(&DIM_BUFFER), Some(1)) => (vk::DescriptorType::UNIFORM_TEXEL_BUFFER, true),
+                (_, Some(2)) => (vk::DescriptorType::STORAGE_IMAGE, var_read_only),
+                (_, Some(1)) => (vk::DescriptorType::SAMPLED_IMAGE, true),
                 _ => return Err(err(format!("binding {binding}: unknown image kind"))),
             },
             (SC_UNIFORM_CONSTANT, OP_TYPE_SAMPLED_IMAGE) => {
-                (vk::DescriptorType::COMBINED_IMAGE_SAMPLER, true)
+                // A samplerBuffer: the sampled image of a buffer-dimensioned image.
+                let image = t.get(2).and_then(|i| module.types.get(i));
+                if image.and_then(|i| i.get(3)) == Some(&DIM_BUFFER) {
+                    (vk::DescriptorType::UNIFORM_TEXEL_BUFFER, true)
+                } else {
+                    (vk::DescriptorType::COMBINED_IMAGE_SAMPLER, true)
+                }
             }
             (SC_UNIFORM_CONSTANT, OP_TYPE_SAMPLER) => (vk::DescriptorType::SAMPLER, true),
             _ => {

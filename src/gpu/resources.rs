@@ -64,6 +64,23 @@ pub struct Buffer {
     pub(crate) tracker: Arc<Tracker>,
 }
 
+/// A texel-buffer view of a [`Buffer`] ([`Buffer::texel_view`]); it shares the buffer's state
+/// tracking, so barriers see writes through the buffer and reads through the view alike. The
+/// buffer must outlive it.
+pub struct TexelView {
+    ctx: Context,
+    /// The Vulkan handle.
+    pub raw: vk::BufferView,
+    pub(crate) buffer: vk::Buffer,
+    pub(crate) tracker: Arc<Tracker>,
+}
+
+impl Drop for TexelView {
+    fn drop(&mut self) {
+        unsafe { self.ctx.device().destroy_buffer_view(self.raw, None) };
+    }
+}
+
 impl Buffer {
     /// Creates a buffer of `size` bytes (at least 4: Vulkan forbids empty buffers).
     pub fn new(
@@ -119,6 +136,37 @@ impl Buffer {
                 | vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuOnly,
         )
+    }
+
+    /// A view of the whole buffer as `format` texels, for a `samplerBuffer` / `textureBuffer`
+    /// (uniform texel buffer) binding: reads through it are the texture unit's gathers, which a
+    /// CPU driver vectorises where storage-buffer reads in divergent code go lane by lane. The
+    /// buffer needs `UNIFORM_TEXEL_BUFFER` usage; `texel_bytes` is the format's size.
+    pub fn texel_view(&self, format: vk::Format, texel_bytes: u64) -> Result<TexelView> {
+        let texels = self.size / texel_bytes.max(1);
+        let limit = u64::from(self.ctx.info().max_texel_buffer_elements);
+        if texels > limit {
+            return Err(Error::Unsupported {
+                device: self.ctx.info().name.clone(),
+                feature: format!(
+                    "a texel buffer of {texels} texels for {} (maxTexelBufferElements is {limit})",
+                    self.name
+                ),
+            });
+        }
+        let info = vk::BufferViewCreateInfo::default()
+            .buffer(self.raw)
+            .format(format)
+            .offset(0)
+            .range(texels * texel_bytes);
+        let raw = unsafe { self.ctx.device().create_buffer_view(&info, None) }
+            .vk("vkCreateBufferView")?;
+        Ok(TexelView {
+            ctx: self.ctx.clone(),
+            raw,
+            buffer: self.raw,
+            tracker: self.tracker.clone(),
+        })
     }
 
     /// The mapped bytes, for host-visible buffers.

@@ -24,6 +24,8 @@ pub enum Access {
     ComputeSampled,
     /// Read as a storage buffer or image in a compute shader.
     ComputeRead,
+    /// Read as a uniform buffer in a compute shader.
+    ComputeUniform,
     /// Written (or read and written) as a storage buffer or image in a compute shader.
     ComputeWrite,
     /// Read through a sampler or as storage in a fragment shader.
@@ -58,6 +60,7 @@ impl Access {
                 L::SHADER_READ_ONLY_OPTIMAL,
             ),
             Access::ComputeRead => (S::COMPUTE_SHADER, A::SHADER_STORAGE_READ, L::GENERAL),
+            Access::ComputeUniform => (S::COMPUTE_SHADER, A::UNIFORM_READ, L::UNDEFINED),
             Access::ComputeWrite => (
                 S::COMPUTE_SHADER,
                 A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,

@@ -127,13 +127,25 @@ impl Buffer {
 
     /// A device-local storage buffer that can also be copied to and from.
     pub fn storage(ctx: &Context, name: &str, size: u64) -> Result<Buffer> {
+        Buffer::storage_with(ctx, name, size, vk::BufferUsageFlags::empty())
+    }
+
+    /// [`Buffer::storage`] with `extra` usage (e.g. `UNIFORM_TEXEL_BUFFER` for a
+    /// [`Buffer::texel_view`]).
+    pub fn storage_with(
+        ctx: &Context,
+        name: &str,
+        size: u64,
+        extra: vk::BufferUsageFlags,
+    ) -> Result<Buffer> {
         Buffer::new(
             ctx,
             name,
             size,
             vk::BufferUsageFlags::STORAGE_BUFFER
                 | vk::BufferUsageFlags::TRANSFER_SRC
-                | vk::BufferUsageFlags::TRANSFER_DST,
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | extra,
             MemoryLocation::GpuOnly,
         )
     }
@@ -143,7 +155,17 @@ impl Buffer {
     /// CPU driver vectorises where storage-buffer reads in divergent code go lane by lane. The
     /// buffer needs `UNIFORM_TEXEL_BUFFER` usage; `texel_bytes` is the format's size.
     pub fn texel_view(&self, format: vk::Format, texel_bytes: u64) -> Result<TexelView> {
+        // A view must address at least one texel (Vulkan forbids an empty range).
         let texels = self.size / texel_bytes.max(1);
+        if texels == 0 {
+            return Err(Error::Unsupported {
+                device: self.ctx.info().name.clone(),
+                feature: format!(
+                    "a texel view of {} ({} bytes hold no {texel_bytes}-byte texel)",
+                    self.name, self.size
+                ),
+            });
+        }
         let limit = u64::from(self.ctx.info().max_texel_buffer_elements);
         if texels > limit {
             return Err(Error::Unsupported {

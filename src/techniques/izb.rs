@@ -428,14 +428,13 @@ impl<'a> Izb<'a> {
         let large = storage("izb large triangles", 4 * tris)?;
         // Read by the test pass through texel views (below).
         let texel_storage = |label: &str, bytes: u64| {
-            Buffer::new(
+            // At least one texel: a view of an empty scene's triangles still needs one.
+            let bytes = bytes.max(16);
+            Buffer::storage_with(
                 ctx,
                 label,
                 bytes,
-                vk::BufferUsageFlags::STORAGE_BUFFER
-                    | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_DST,
-                MemoryLocation::GpuOnly,
+                vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
             )
         };
         let tri_list = texel_storage("izb pairs", 4 * capacity)?;

@@ -2,14 +2,15 @@
 // izb-soft pass 7 (one workgroup per work item, dispatched indirectly): an invocation per sample
 // of the item; the item's triangles in turn, the same for every invocation (their loads are
 // uniform). For each, the triangle back-projected from the sample's ray origin o onto the light
-// bounds, in the light's (a, b) square, the light samples it can block; only the light samples
-// of the strata that box touches take the reference's exact watertight ray test, and what they
-// block is OR-ed into the mask, kept in registers a word at a time. The box: the triangle's
-// central projection from o onto the light's plane when the triangle lies between the two (its
-// vertices at light-space depths in (0, 0.99 z_o)); otherwise (a neighbour of the receiver, a
-// triangle crossing the light's plane) the intersection of the boxes of the four half-planes
-// that bound the back-projection: beyond the triangle's plane, inside each edge's plane
-// through o.
+// bounds, in the light's (a, b) square, the light samples it can block; the strata that box
+// touches and no triangle has blocked yet are decided one by one (by their distance to the
+// projected edges, or within 10^-3 of one by the reference's exact watertight ray test), and
+// what they block is OR-ed into the mask, kept in registers a word at a time. The box: the
+// triangle's central projection from o onto the light's plane when the triangle lies between
+// the two (its vertices at light-space depths in (0, 0.99 z_o)); otherwise (a neighbour of the
+// receiver, a triangle crossing the light's plane) the intersection of the boxes of the four
+// half-planes that bound the back-projection: beyond the triangle's plane, inside each edge's
+// plane through o.
 #include "izb.glsl"
 #include "watertight.glsl"
 #include "light_samples.glsl"

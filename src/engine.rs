@@ -218,7 +218,7 @@ impl Engine {
                 light_clip: params.u32("light_clip")? == 1,
                 normal_offset: params.f32("normal_offset")?,
                 map_size: texel_grid(&params)?,
-                clips_itself: info.per_light_sample,
+                clips_itself: info.clips_light,
             };
             if desc.needed() {
                 Some(Receivers::new(

@@ -84,10 +84,7 @@ layout(push_constant) uniform Push {
 // Soft footprints: relative margin on the depth factor k.
 #define K_MARGIN 1e-4
 
-// `WHEN(c) { ... }`: a branch taken by few invocations, as a loop of at most one pass. lavapipe
-// runs both sides of an `if` for the whole SIMD group under a lane mask, whether any lane takes
-// it or not, but skips a loop that no lane enters; other compilers treat the two alike.
-#define WHEN(c) for (int when_ = (c) ? 0 : 1; when_ < 1; ++when_)
+#include "when.glsl"
 
 // Counter slots (src/techniques/izb.rs COUNTER_NAMES, same order).
 #define C_VIEW_SAMPLES 0

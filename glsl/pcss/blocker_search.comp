@@ -121,7 +121,7 @@ void main() {
                 vec2 mm = pc.skip == SKIP_PYRAMID ? pyramid_minmax_rect(grown.xy, grown.zw)
                                                   : nbuffer_minmax_rect(grown.xy, grown.zw);
                 // Rounding is monotone, so no tap's plane depth lies outside the corners'.
-                vec2 z_range = pcss_depth_range(c.z, c.xy, grown, g);
+                vec2 z_range = rp_depth_range(c.z, c.xy, grown, g);
                 // Texels off the map read as the far plane (1.0): lit, never blocking.
                 bool off_map = any(lessThan(grown.xy, ivec2(0)))
                     || any(greaterThanEqual(grown.zw, map_size));

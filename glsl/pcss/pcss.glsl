@@ -78,16 +78,4 @@ vec3 pcss_plane(ivec2 pixel, vec4 p, vec4 c) {
     return receiver_plane(pixel, pc.view_size, pc.light_view_proj, ivec2(pc.map_size), p, c);
 }
 
-// The receiver-plane depths (min, max) over the centres of texels box.xy ..= box.zw: the plane is
-// linear, so its extremes are at the corners (each clamped to the far plane like every tap).
-vec2 pcss_depth_range(float z, vec2 centre, ivec4 box, vec2 dz_duv) {
-    vec2 a = vec2(box.xy) + 0.5 - centre;
-    vec2 b = vec2(box.zw) + 0.5 - centre;
-    float z00 = rp_tap_depth(z, a, dz_duv);
-    float z10 = rp_tap_depth(z, vec2(b.x, a.y), dz_duv);
-    float z01 = rp_tap_depth(z, vec2(a.x, b.y), dz_duv);
-    float z11 = rp_tap_depth(z, b, dz_duv);
-    return vec2(min(min(z00, z10), min(z01, z11)), max(max(z00, z10), max(z01, z11)));
-}
-
 #endif

@@ -258,10 +258,9 @@ impl Pipeline {
         let viewport = vk::PipelineViewportStateCreateInfo::default()
             .viewport_count(1)
             .scissor_count(1);
-        // No culling: shadow casters are not guaranteed closed or consistently wound.
         let raster = vk::PipelineRasterizationStateCreateInfo::default()
             .polygon_mode(vk::PolygonMode::FILL)
-            .cull_mode(vk::CullModeFlags::NONE)
+            .cull_mode(desc.cull_mode)
             .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
             .depth_bias_enable(desc.depth_bias)
             .line_width(1.0);
@@ -270,7 +269,7 @@ impl Pipeline {
         let depth = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_test_enable(true)
             .depth_write_enable(true)
-            .depth_compare_op(vk::CompareOp::LESS_OR_EQUAL);
+            .depth_compare_op(desc.depth_compare);
         let attachments: Vec<_> = desc
             .color_formats
             .iter()
@@ -374,6 +373,12 @@ pub struct GraphicsDesc<'a> {
     /// Whether the vertex shader reads the position stream; `false` for shaders that pull
     /// their vertices from storage buffers by `gl_VertexIndex`.
     pub vertex_input: bool,
+    /// Faces to cull (counter-clockwise triangles are front faces); `NONE` for casters that
+    /// are not guaranteed closed or consistently wound.
+    pub cull_mode: vk::CullModeFlags,
+    /// The depth test: `LESS_OR_EQUAL` keeps the nearest surface, `GREATER_OR_EQUAL` (with
+    /// a clear to 0) the farthest.
+    pub depth_compare: vk::CompareOp,
 }
 
 /// One resource bound to a descriptor, in binding order.

@@ -32,6 +32,22 @@ pub struct ShadowMapDesc {
     pub bias: DepthBias,
 }
 
+/// Which surface a shadow map keeps per texel.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MapLayer {
+    /// The nearest surface, either facing (every technique's map).
+    #[default]
+    Nearest,
+    /// The farthest surface facing away from the light, 0 where there is none: the second map
+    /// of Atty et al.'s two-sided soft shadow maps (faces towards the light culled, depth test
+    /// reversed). Facing comes from the winding (counter-clockwise seen from outside, as OBJ
+    /// files wind), so it needs consistently wound casters. The light's clip space has y up
+    /// and Vulkan's framebuffer y down, which mirrors every triangle: a face towards the light,
+    /// counter-clockwise in the view, is clockwise on the framebuffer, a Vulkan back face — so
+    /// this culls `BACK` (measured: culling `FRONT` kept the ground instead).
+    FarthestBackFacing,
+}
+
 /// A shadow map: the depth image, the pipeline that renders it, and the view it was fitted to.
 pub struct ShadowMap {
     pipeline: Pipeline,
@@ -43,6 +59,8 @@ pub struct ShadowMap {
     pub view: LightView,
     /// Size and bias.
     pub desc: ShadowMapDesc,
+    /// The surface it keeps.
+    pub layer: MapLayer,
 }
 
 /// The depth format of every shadow map.
@@ -51,6 +69,16 @@ pub const SHADOW_MAP_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 impl ShadowMap {
     /// Creates the map's resources.
     pub fn new(ctx: &Context, view: LightView, desc: ShadowMapDesc) -> Result<ShadowMap> {
+        ShadowMap::with_layer(ctx, view, desc, MapLayer::Nearest)
+    }
+
+    /// [`ShadowMap::new`] keeping `layer`.
+    pub fn with_layer(
+        ctx: &Context,
+        view: LightView,
+        desc: ShadowMapDesc,
+        layer: MapLayer,
+    ) -> Result<ShadowMap> {
         if desc.bias.clamp != 0.0 && !ctx.info().depth_bias_clamp {
             return Err(Error::Unsupported {
                 device: ctx.info().name.clone(),
@@ -66,6 +94,14 @@ impl ShadowMap {
                 depth_format: SHADOW_MAP_FORMAT,
                 depth_bias: true,
                 vertex_input: true,
+                cull_mode: match layer {
+                    MapLayer::Nearest => vk::CullModeFlags::NONE,
+                    MapLayer::FarthestBackFacing => vk::CullModeFlags::BACK,
+                },
+                depth_compare: match layer {
+                    MapLayer::Nearest => vk::CompareOp::LESS_OR_EQUAL,
+                    MapLayer::FarthestBackFacing => vk::CompareOp::GREATER_OR_EQUAL,
+                },
             },
         )?;
         let depth = Image::new(
@@ -87,6 +123,7 @@ impl ShadowMap {
             sampler,
             view,
             desc,
+            layer,
         })
     }
 
@@ -102,7 +139,11 @@ impl ShadowMap {
     pub fn record_untimed(&self, rec: &mut Recorder<'_>, geometry: &SceneGeometry) -> Result<()> {
         rec.use_buffer(&geometry.vertices, Access::VertexInput);
         rec.use_buffer(&geometry.indices, Access::VertexInput);
-        rec.begin_rendering(&[], (&self.depth, 1.0));
+        let clear = match self.layer {
+            MapLayer::Nearest => 1.0,
+            MapLayer::FarthestBackFacing => 0.0,
+        };
+        rec.begin_rendering(&[], (&self.depth, clear));
         let bias = self.desc.bias;
         let result = rec.draw_indexed(
             &self.pipeline,

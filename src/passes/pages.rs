@@ -340,6 +340,8 @@ impl<'a> VirtualPages<'a> {
                 depth_format: SHADOW_MAP_FORMAT,
                 depth_bias: true,
                 vertex_input: false,
+                cull_mode: vk::CullModeFlags::NONE,
+                depth_compare: vk::CompareOp::LESS_OR_EQUAL,
             },
         )?;
         let render_set = DescriptorSet::new(

@@ -43,6 +43,8 @@ impl ViewSamples {
                 depth_format: vk::Format::D32_SFLOAT,
                 depth_bias: false,
                 vertex_input: true,
+                cull_mode: vk::CullModeFlags::NONE,
+                depth_compare: vk::CompareOp::LESS_OR_EQUAL,
             },
         )?;
         let (w, h) = (camera.width, camera.height);

@@ -123,6 +123,7 @@ pub const REFERENCE: TechniqueInfo = TechniqueInfo {
     cacheable: true,
     shadow_map: false,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| {
         let settings = Settings::from_params(params, false)?;
         Ok(Box::new(Reference::new(setup, &settings, "reference")?))
@@ -138,6 +139,7 @@ pub const REFERENCE_SINGLE_LAYER: TechniqueInfo = TechniqueInfo {
     cacheable: true,
     shadow_map: false,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| {
         let settings = Settings::from_params(params, true)?;
         Ok(Box::new(Reference::new(

@@ -72,6 +72,7 @@ pub const AVERAGE_MAPS: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: true,
+    clips_light: true,
     create: |setup, params| Ok(Box::new(AverageMaps::new(setup, params)?)),
 };
 

@@ -125,6 +125,7 @@ pub const CSSM: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| Ok(Box::new(Cssm::new(setup, params)?)),
 };
 

@@ -77,6 +77,7 @@ pub const ESSM: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| Ok(Box::new(Essm::new(setup, params)?)),
 };
 

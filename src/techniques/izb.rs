@@ -82,7 +82,7 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
 
-use super::{read_counters, Knob, Params, Technique, TechniqueInfo, TechniqueSetup};
+use super::{read_counters, set_for, Knob, Params, Technique, TechniqueInfo, TechniqueSetup};
 use crate::error::{Error, Result};
 use crate::gpu::{
     Binding, Buffer, Context, DescriptorSet, MemoryLocation, Pipeline, Recorder, TexelView,
@@ -192,6 +192,7 @@ pub const IZB: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: false,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| Ok(Box::new(Izb::new(setup, params, false)?)),
 };
 
@@ -204,6 +205,7 @@ pub const IZB_SOFT: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: false,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| Ok(Box::new(Izb::new(setup, params, true)?)),
 };
 
@@ -296,27 +298,6 @@ pub struct IzbPush {
     /// footprint.comp: 0/1 count the pairs of small/large footprints, 2/3 write them.
     /// args.comp: 0 the cells' work items, 1 the totals and dispatch arguments.
     pub phase: u32,
-}
-
-/// A descriptor set for `pipeline` from `all` (binding number, resource): the bindings the
-/// shader declares, in order.
-fn set_for(
-    ctx: &Context,
-    pipeline: &Pipeline,
-    all: &[(u32, Binding<'_>)],
-) -> Result<DescriptorSet> {
-    let mut chosen = Vec::new();
-    for b in pipeline.binding_numbers() {
-        let r = all
-            .iter()
-            .find(|(n, _)| *n == b)
-            .ok_or_else(|| Error::Shader {
-                name: pipeline.name.clone(),
-                message: format!("binding {b} is not one izb provides"),
-            })?;
-        chosen.push(r.1);
-    }
-    DescriptorSet::new(ctx, pipeline, &chosen)
 }
 
 impl<'a> Izb<'a> {

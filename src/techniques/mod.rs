@@ -6,7 +6,9 @@
 //! (timestamps and debug labels) and reports counters — what it measured and what it skipped —
 //! after each frame.
 
+pub mod atty;
 pub mod average_maps;
+pub mod bitmask;
 pub mod cssm;
 pub mod essm;
 pub mod filtered;
@@ -104,6 +106,27 @@ pub(crate) fn read_counters(
         .collect())
 }
 
+/// A descriptor set for `pipeline` from `all` (binding number, resource): the bindings the
+/// shader declares, in order, so several passes can share one table of resources.
+pub(crate) fn set_for(
+    ctx: &crate::gpu::Context,
+    pipeline: &crate::gpu::Pipeline,
+    all: &[(u32, crate::gpu::Binding<'_>)],
+) -> Result<crate::gpu::DescriptorSet> {
+    let mut chosen = Vec::new();
+    for b in pipeline.binding_numbers() {
+        let r = all
+            .iter()
+            .find(|(n, _)| *n == b)
+            .ok_or_else(|| Error::Shader {
+                name: pipeline.name.clone(),
+                message: format!("binding {b} is not one the technique provides"),
+            })?;
+        chosen.push(r.1);
+    }
+    crate::gpu::DescriptorSet::new(ctx, pipeline, &chosen)
+}
+
 /// A registered technique: its stable name, knobs and constructor.
 pub struct TechniqueInfo {
     /// Stable kebab-case name.
@@ -122,6 +145,10 @@ pub struct TechniqueInfo {
     /// and leaves out the samples behind the receiver's tangent plane itself (`average-maps`):
     /// the engine then neither scales its result by the clipped fraction nor offers `fit`.
     pub per_light_sample: bool,
+    /// Whether it leaves out the light samples behind the receiver's tangent plane itself, with
+    /// `light_clip` on (`average-maps`, `bitmask`): the engine then does not scale its result by
+    /// the clipped fraction (it still writes horizon umbra).
+    pub clips_light: bool,
     /// Builds an instance.
     pub create: for<'a> fn(&TechniqueSetup<'a>, &Params) -> Result<Box<dyn Technique + 'a>>,
 }
@@ -175,6 +202,8 @@ pub fn registry() -> &'static [TechniqueInfo] {
         pvssm::PVSSM,
         izb::IZB,
         izb::IZB_SOFT,
+        atty::ATTY,
+        bitmask::BITMASK,
     ]
 }
 

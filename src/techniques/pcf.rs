@@ -51,6 +51,7 @@ pub const HARD: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| Ok(Box::new(pcf(setup, params, 0, 1, 0)?)),
 };
 
@@ -71,6 +72,7 @@ pub const PCF: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| {
         let kernel = params.u32("kernel")? as i32;
         let receiver_plane = params.u32("receiver_plane_bias")? as i32;

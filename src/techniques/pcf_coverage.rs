@@ -45,6 +45,7 @@ pub const PCF_COVERAGE: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| Ok(Box::new(pcf_coverage(setup, params)?)),
 };
 

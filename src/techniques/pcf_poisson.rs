@@ -54,6 +54,7 @@ pub const PCF_POISSON: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| Ok(Box::new(pcf_poisson(setup, params)?)),
 };
 

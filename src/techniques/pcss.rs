@@ -149,6 +149,7 @@ pub const PCSS: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| Ok(Box::new(Pcss::new(setup, params)?)),
 };
 

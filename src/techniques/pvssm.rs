@@ -129,6 +129,7 @@ pub const PVSSM: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| Ok(Box::new(Pvssm::new(setup, params)?)),
 };
 

@@ -105,6 +105,7 @@ pub const RMSM: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| Ok(Box::new(Rmsm::new(setup, params)?)),
 };
 

@@ -90,6 +90,7 @@ pub const SAVSM: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| Ok(Box::new(Savsm::new(setup, params)?)),
 };
 

@@ -94,6 +94,7 @@ pub const VSSM: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| Ok(Box::new(Vssm::new(setup, params)?)),
 };
 

@@ -111,6 +111,7 @@ pub const CSM: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| create(setup, params, "csm", config(params)?),
 };
 

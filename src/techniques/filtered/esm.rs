@@ -53,6 +53,7 @@ pub const ESM: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| create(setup, params, "esm", config(params)?),
 };
 

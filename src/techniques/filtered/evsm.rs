@@ -92,6 +92,7 @@ pub const EVSM: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| create(setup, params, "evsm", config(params)?),
 };
 

@@ -68,6 +68,7 @@ pub const MSM: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| create(setup, params, "msm", config(params)?),
 };
 

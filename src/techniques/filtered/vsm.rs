@@ -62,6 +62,7 @@ pub const VSM: TechniqueInfo = TechniqueInfo {
     cacheable: false,
     shadow_map: true,
     per_light_sample: false,
+    clips_light: false,
     create: |setup, params| create(setup, params, "vsm", config(params)?),
 };
 

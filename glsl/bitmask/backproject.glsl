@@ -1,0 +1,262 @@
+// bitmask: occlusion-bitmask soft shadows (Schwarz & Stamminger 2007; book §6.7.2), one view
+// sample per invocation. The micropatch of every texel in the sample's search region that lies
+// in front of the sample (tested at the receiver plane's depth under the texel) is back-projected
+// onto the light (backprojection.glsl) and sets the bits of the light samples its rectangle holds
+// — four lookups in per-axis tables, X[i] = the samples whose snapped x index is below i, so a
+// rectangle's samples are X[i1] & ~X[i0] & Y[j1] & ~Y[j0], exact for any pattern — OR-ed into a
+// mask in registers; V = popcount(front & ~blocked) / n, `front` being the samples in front of
+// the receiver's tangent plane. `combine = add` instead sums the patches' hidden areas (Atty's
+// saturation product), the classic additive back-projection that over-darkens overlaps.
+//
+// Search region: the light's footprint through the near plane (every texel that can block),
+// capped at max_width texels. A sample whose region holds no texel in front of it is lit, one
+// whose every texel is in front of it (max depth below the lowest receiver-plane depth) is umbra
+// — its patches' gaps are closed, as a height field in front of a receiver hides the whole light
+// — and otherwise its region shrinks to the footprint through the nearest texel. With skip on the
+// N-buffer answers these min/max questions in a few lookups instead of a scan, the same values
+// (exact), so the result is identical bit for bit. Mask bits come in groups of 256 (two uvec4),
+// the region's loop run once per group. Gap filling is a compile-time switch (GAP_FILL, set by
+// bitmask.comp and bitmask_gap_fill.comp): as a run-time branch, even one no invocation takes,
+// it made lavapipe's loop 60 % slower. CPU twin: src/cpu/bitmask.rs.
+#include "shadow_map.glsl"
+#include "soft_light.glsl"
+#include "backprojection.glsl"
+#include "bitmask.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D receivers;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
+layout(set = 0, binding = 3) uniform sampler2D shadow_map;
+layout(set = 0, binding = 4, r32f) uniform writeonly image2D visibility;
+layout(set = 0, binding = 5) buffer Counters { uint counters[]; };
+// The per-axis tables, uvec4 texels: ((axis * (Q + 1) + i) * groups + g) * 2 + half.
+layout(set = 0, binding = 6) uniform usamplerBuffer tables;
+// The light samples on the light's plane (view-space x, y; slopes for a directional light).
+layout(set = 0, binding = 7) uniform samplerBuffer samples;
+layout(set = 0, binding = 8, rgba32f) uniform readonly image2D positions;
+
+vec4 rp_position(ivec2 pixel) {
+    return imageLoad(receivers, pixel);
+}
+
+vec3 rp_normal(ivec2 pixel) {
+    return imageLoad(normals, pixel).xyz;
+}
+
+#include "receiver_plane.glsl"
+
+#define NBUFFER_SIZE ivec2(bm.sizes.z)
+#define NBUFFER_MAX_LEVEL bm.sizes.w
+#define NBUFFER_LEVELS_BINDING 9
+#include "nbuffer.glsl"
+
+shared uint group_counts[BM_COUNTERS];
+
+// The back-projection factor of a texel of map depth d seen from distance dp.
+float bm_factor(BpView view, float d, float dp) {
+    return bp_factor(view, soft_light_distance(d, bm.planes.x, bm.planes.y, bm.modes.x), dp);
+}
+
+// Gap filling: the factor of neighbour texel t when it blocks too, else `own`.
+float bm_neighbour(BpView view, ivec2 t, vec4 c, vec2 g, float own, float dp) {
+    float d = fetch_depth(shadow_map, t, ivec2(bm.sizes.z));
+    return d < rp_tap_depth(c.z, vec2(t) + 0.5 - c.xy, g) ? bm_factor(view, d, dp) : own;
+}
+
+void count(int slot, uint n) {
+    if (n > 0u) {
+        atomicAdd(group_counts[slot], n);
+    }
+}
+
+// The 256 mask bits of group g a light-normalised rectangle holds.
+void rect_bits(vec4 r, int g, inout uvec4 m0, inout uvec4 m1) {
+    float q = float(bm.samples.z);
+    vec2 a = clamp(ceil(r.xy * q - 0.5), 0.0, q);
+    vec2 b = clamp(floor(r.zw * q - 0.5) + 1.0, 0.0, q);
+    ivec2 i0 = ivec2(a);
+    ivec2 i1 = ivec2(b);
+    if (all(greaterThan(i1, i0))) {
+        int stride = bm.samples.y * 2;
+        int y_base = (bm.samples.z + 1) * stride;
+        int g2 = g * 2;
+        int x0 = i0.x * stride + g2;
+        int x1 = i1.x * stride + g2;
+        int y0 = y_base + i0.y * stride + g2;
+        int y1 = y_base + i1.y * stride + g2;
+        m0 |= texelFetch(tables, x1) & ~texelFetch(tables, x0) & texelFetch(tables, y1)
+            & ~texelFetch(tables, y0);
+        // A second uvec4 only when the pattern has more than 128 samples (WHEN: lavapipe
+        // skips a loop no lane enters, not an if).
+        WHEN(bm.samples.x > 128) {
+            m1 |= texelFetch(tables, x1 + 1) & ~texelFetch(tables, x0 + 1)
+                & texelFetch(tables, y1 + 1) & ~texelFetch(tables, y0 + 1);
+        }
+    }
+}
+
+// The samples of group g in front of the receiver's tangent plane (all of them with light_clip
+// off): p and n in the light's view space.
+void front_bits(int g, vec3 p, vec3 n, out uvec4 f0, out uvec4 f1) {
+    f0 = uvec4(0u);
+    f1 = uvec4(0u);
+    int first = g * 256;
+    int count_in = min(bm.samples.x - first, 256);
+    for (int b = 0; b < count_in; ++b) {
+        bool front = true;
+        if (bm.modes.w != 0) {
+            vec2 s = texelFetch(samples, first + b).xy;
+            // Perspective: the sample is the point (s, 0); orthographic: the direction
+            // (s, 1) towards the light.
+            front = bm.modes.x != 0 ? dot(n, vec3(s, 0.0) - p) > 0.0
+                                    : dot(n, vec3(s, 1.0)) > 0.0;
+        }
+        if (front) {
+            uint bit = 1u << uint(b & 31);
+            int word = b >> 5;
+            if (word < 4) {
+                f0[word] |= bit;
+            } else {
+                f1[word - 4] |= bit;
+            }
+        }
+    }
+}
+
+uint popcount(uvec4 a, uvec4 b) {
+    uvec4 c = uvec4(bitCount(a)) + uvec4(bitCount(b));
+    return c.x + c.y + c.z + c.w;
+}
+
+void main() {
+    if (gl_LocalInvocationIndex < BM_COUNTERS) {
+        group_counts[gl_LocalInvocationIndex] = 0;
+    }
+    barrier();
+
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 map_size = ivec2(bm.sizes.z);
+    BpView view = bm_view();
+    if (all(lessThan(pixel, bm.sizes.xy))) {
+        vec4 p = imageLoad(receivers, pixel);
+        vec4 c = shadow_coord(bm.light_view_proj, p.xyz, map_size);
+        if (p.w <= 0.0) {
+            imageStore(visibility, pixel, vec4(1.0));
+        } else {
+            count(BM_SAMPLES, 1u);
+            // The tangent plane of the view sample itself (not the offset lookup position).
+            vec3 p0 = (bm.light_view * vec4(imageLoad(positions, pixel).xyz, 1.0)).xyz;
+            vec3 n0 = mat3(bm.light_view) * imageLoad(normals, pixel).xyz;
+            int n = bm.samples.x;
+            bool outside = !inside_map(c, map_size);
+            float dp = soft_light_distance(c.z, bm.planes.x, bm.planes.y, bm.modes.x);
+            vec2 up = bp_unit(view, c.xy);
+            ivec4 region = ivec4(0, 0, -1, -1);
+            vec2 g = vec2(0.0);
+            // 0: search, 1: lit (no texel in front), 2: umbra (every texel in front).
+            int decided = outside ? 1 : 0;
+            uint skipped = 0u;
+            if (outside) {
+                count(BM_OUTSIDE, 1u);
+            } else {
+                bool clamped;
+                region = bp_clamp(bp_region(view, up, bp_reach(view, bm.planes.x, dp)), c.xy,
+                                  bm.planes.z, clamped);
+                count(BM_CLAMPED, clamped ? 1u : 0u);
+                if (bm.modes.z != 0) {
+                    vec3 plane = receiver_plane(pixel, bm.sizes.xy, bm.light_view_proj,
+                                                map_size, p, c);
+                    count(BM_NO_PLANE, plane.z == 0.0 ? 1u : 0u);
+                    g = plane.xy;
+                }
+                vec2 z_range = rp_depth_range(c.z, c.xy, region, g);
+                vec2 mm = vec2(1.0, 0.0);
+                if (bm.modes.y != 0) {
+                    mm = nbuffer_minmax_rect(region.xy, region.zw);
+                } else {
+                    mm = nbuffer_empty();
+                    for (int j = region.y; j <= region.w; ++j) {
+                        for (int i = region.x; i <= region.z; ++i) {
+                            float d = fetch_depth(shadow_map, ivec2(i, j), map_size);
+                            mm = vec2(min(mm.x, d), max(mm.y, d));
+                        }
+                    }
+                }
+                bool off_map = any(lessThan(region.xy, ivec2(0)))
+                    || any(greaterThanEqual(region.zw, map_size));
+                if (bm.modes.y != 0 && mm.x >= z_range.y) {
+                    // Without skipping the loop below finds the same: no patch, V = front.
+                    decided = 1;
+                } else if (!off_map && mm.y < z_range.x) {
+                    decided = 2;
+                } else {
+                    // Shrink to the footprint through the nearest texel.
+                    float dmin = soft_light_distance(mm.x, bm.planes.x, bm.planes.y, bm.modes.x);
+                    ivec4 r = bp_region(view, up, bp_reach(view, dmin, dp));
+                    region = ivec4(max(region.xy, r.xy), min(region.zw, r.zw));
+                }
+                if (decided != 0 && bm.modes.y != 0) {
+                    skipped = 1u;
+                }
+            }
+            uint visible = 0u;
+            float hidden = 0.0;
+            uint patches = 0u;
+            if (decided != 2) {
+                for (int grp = 0; grp < bm.samples.y; ++grp) {
+                    uvec4 f0, f1;
+                    front_bits(grp, p0, n0, f0, f1);
+                    uvec4 m0 = uvec4(0u);
+                    uvec4 m1 = uvec4(0u);
+                    // A decided sample's region is empty: no lane of it runs the loop.
+                    int last_row = decided == 0 ? region.w : region.y - 1;
+                    for (int j = region.y; j <= last_row; ++j) {
+                        for (int i = region.x; i <= region.z; ++i) {
+                            ivec2 t = ivec2(i, j);
+                            float d = fetch_depth(shadow_map, t, map_size);
+                            if (d < rp_tap_depth(c.z, vec2(t) + 0.5 - c.xy, g)) {
+                                float k = bm_factor(view, d, dp);
+                                vec4 kn = vec4(k);
+                                if (GAP_FILL != 0) {
+                                    kn = vec4(bm_neighbour(view, t - ivec2(1, 0), c, g, k, dp),
+                                              bm_neighbour(view, t + ivec2(1, 0), c, g, k, dp),
+                                              bm_neighbour(view, t - ivec2(0, 1), c, g, k, dp),
+                                              bm_neighbour(view, t + ivec2(0, 1), c, g, k, dp));
+                                }
+                                vec4 rect = bp_patch(view, t, k, kn, up);
+                                patches += grp == 0 ? 1u : 0u;
+                                if (bm.samples.w != 0) {
+                                    hidden += bp_area(rect);
+                                } else if (rect.z >= 0.0 && rect.x <= 1.0 && rect.w >= 0.0
+                                           && rect.y <= 1.0) {
+                                    rect_bits(rect, grp, m0, m1);
+                                }
+                            }
+                        }
+                    }
+                    visible += popcount(f0 & ~m0, f1 & ~m1);
+                }
+            }
+            float v;
+            if (decided == 2) {
+                v = 0.0;
+            } else if (bm.samples.w != 0) {
+                // Additive: the front fraction less the summed hidden area.
+                v = float(visible) / float(n) * max(1.0 - hidden, 0.0);
+            } else {
+                v = float(visible) / float(n);
+            }
+            imageStore(visibility, pixel, vec4(v));
+            count(v >= 1.0 ? BM_LIT : v <= 0.0 ? BM_UMBRA : BM_PENUMBRA, 1u);
+            count(BM_SKIPPED_LIT, decided == 1 && skipped != 0u ? 1u : 0u);
+            count(BM_SKIPPED_UMBRA, decided == 2 && skipped != 0u ? 1u : 0u);
+            count(BM_PATCHES, patches);
+        }
+    }
+
+    barrier();
+    if (gl_LocalInvocationIndex < BM_COUNTERS && group_counts[gl_LocalInvocationIndex] > 0) {
+        atomicAdd(counters[gl_LocalInvocationIndex], group_counts[gl_LocalInvocationIndex]);
+    }
+}

@@ -1,0 +1,530 @@
+//! `bitmask`: occlusion-bitmask soft shadows (Schwarz and Stamminger 2007; book §6.7.2), the
+//! micropatch back-projection of the book's §6.7.1 with light-sample bitmasks for exact occluder
+//! fusion.
+//!
+//! Per frame: the D32 [`ShadowMap`] from the light's centre; with `skip` on, an [`NBuffer`] of it;
+//! then `glsl/bitmask/bitmask.comp`, one view sample per invocation. Each texel of the sample's
+//! search region nearer the light than the receiver plane under it is a micropatch — the square
+//! of the view plane it covers at its depth, parallel to the light — whose back-projection from
+//! the sample onto the light is an axis-aligned rectangle (`glsl/include/backprojection.glsl`).
+//! Its light samples are four table lookups: with each sample's coordinates snapped to a
+//! [`TABLE_RESOLUTION`]-step grid over the light's box, `X[i]` holds the samples whose x step is
+//! below i (likewise `Y`), so the rectangle's samples are `X[i1] & !X[i0] & Y[j1] & !Y[j0]` —
+//! exact for the snapped pattern, whatever its shape (the book's "3 lookups" scheme in separable
+//! form). The masks are OR-ed, so overlapping patches count once (occluder fusion);
+//! V = popcount(front & !blocked) / n, `front` being the samples in front of the receiver's
+//! tangent plane with `light_clip` on (the technique clips them itself, sample by sample, so the
+//! engine does not scale its result). `combine = add` sums the patches' hidden areas instead
+//! (Atty's saturation product): the classic additive back-projection, which counts overlaps
+//! twice and over-darkens.
+//!
+//! **Pattern**: n = `samples` (a power of two, 16 to 1024) stratified cells, n_a × n_b with
+//! n_a = 2^⌈log₂n / 2⌉, each jittered by a PCG hash of a fixed seed (one pattern for every
+//! pixel, so one set of tables), on the rect light, or through Shirley and Chiu's concentric map
+//! on the sun's disk of slopes. A point light or a hard sun is a box 2·10⁻⁷·far wide: every
+//! sample at its centre, the hard shadow of the micropatches.
+//!
+//! **Search region and work skipping**: the light's footprint through the near plane, capped at
+//! `max_width` texels (counted as `clamped`). Its (min, max) depth — from the N-buffer with
+//! `skip = nbuffer`, by a scan of the region with `skip = off`; the same values, so the same
+//! output bit for bit — decides three cases: min at or behind every receiver-plane depth, no
+//! patch can block (`skipped_lit`: V = the front fraction without the loop); max in front of
+//! every one, umbra (`skipped_umbra`: the height field covers every ray to the light; the loop's
+//! patches would leave slivers of light through the gaps between patches at different depths,
+//! the micropatch artefact of book §6.7.3); otherwise the region shrinks to the footprint
+//! through the nearest texel (Guennebaud et al. 2006) and the patches are back-projected.
+//!
+//! Counters: `view_samples`, `outside_light`, `lit`, `umbra`, `penumbra`, `skipped_lit`,
+//! `skipped_umbra`, `clamped`, `plane_fallback`, `patches` (back-projected micropatches). CPU
+//! twin: [`crate::cpu::bitmask`].
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::{IVec4, Mat4, Vec2, Vec4};
+
+use super::pcf::shadow_map_desc;
+use super::soft_light::MAX_WIDTH;
+use super::{Knob, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS};
+use crate::error::{Error, Result};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, Pipeline, Recorder, TexelView};
+use crate::kernels::nbuffer::{level_bindings, NBuffer, MAX_LEVEL};
+use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
+use crate::scene::Light;
+
+/// Counter names, in the shader's slot order.
+pub const COUNTER_NAMES: [&str; 10] = [
+    "view_samples",
+    "outside_light",
+    "lit",
+    "umbra",
+    "penumbra",
+    "skipped_lit",
+    "skipped_umbra",
+    "clamped",
+    "plane_fallback",
+    "patches",
+];
+
+/// Steps per axis of the grid the light samples are snapped to (the tables' rows).
+pub const TABLE_RESOLUTION: u32 = 1024;
+
+/// The highest N-buffer level built for skipping (windows of 32 texels).
+pub const MAX_SKIP_LEVEL: u32 = 5;
+
+/// The widest region the loops accept: (200 + 1)² texels stay under lavapipe's 65 535 loop
+/// iterations.
+pub const EXHAUSTIVE_MAX_WIDTH: f32 = 200.0;
+
+/// The fixed seed of the pattern's jitter.
+pub const PATTERN_SEED: u32 = 0x9e37_79b9;
+
+const KNOBS: [Knob; 10] = [
+    SHADOW_MAP_KNOBS[0],
+    SHADOW_MAP_KNOBS[1],
+    SHADOW_MAP_KNOBS[2],
+    SHADOW_MAP_KNOBS[3],
+    Knob::int(
+        "samples",
+        "light samples, a power of two from 16 to 1024 (bits per mask)",
+        256.0,
+        16.0,
+        1024.0,
+    ),
+    Knob::int(
+        "combine",
+        "bitmask: OR the patches' sample masks; add: sum their hidden areas (over-darkens)",
+        0.0,
+        0.0,
+        1.0,
+    )
+    .named(&["bitmask", "add"]),
+    Knob::int(
+        "skip",
+        "classify regions by min/max depth from an N-buffer first (same output, less work)",
+        1.0,
+        0.0,
+        1.0,
+    )
+    .named(&["off", "nbuffer"]),
+    Knob::int(
+        "receiver_plane_bias",
+        "1: test every texel at the receiver plane's depth under it; 0: one depth",
+        1.0,
+        0.0,
+        1.0,
+    ),
+    Knob::int(
+        "gap_fill",
+        "1: a blocking patch's edges reach its blocking neighbours' back-projections (no \
+         slivers of light between patches at different depths); 0: bare micropatches",
+        0.0,
+        0.0,
+        1.0,
+    ),
+    MAX_WIDTH,
+];
+
+/// `bitmask`: occlusion-bitmask back-projection.
+pub const BITMASK: TechniqueInfo = TechniqueInfo {
+    name: "bitmask",
+    summary: "back-projected shadow-map micropatches OR-ed into light-sample bitmasks",
+    knobs: &KNOBS,
+    cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
+    clips_light: true,
+    create: |setup, params| Ok(Box::new(Bitmask::new(setup, params)?)),
+};
+
+/// The uniform block of `glsl/bitmask/bitmask.glsl` (std140, 240 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct BitmaskParams {
+    /// World → light clip space.
+    pub light_view_proj: Mat4,
+    /// World → light view space.
+    pub light_view: Mat4,
+    /// Projection scale (x, y) and the ndc of unit coordinate 0 (x, y).
+    pub scale_offset: Vec4,
+    /// The light's box on its plane: lo (x, y), 1 / extent (x, y).
+    pub light_box: Vec4,
+    /// View width, height; map size; the N-buffer's highest level.
+    pub sizes: IVec4,
+    /// Near, far, max_width, unused.
+    pub planes: Vec4,
+    /// Perspective, skip, receiver-plane bias, light clip.
+    pub modes: IVec4,
+    /// Samples, 256-bit groups, table resolution, combine.
+    pub samples: IVec4,
+    /// Gap filling, unused × 3.
+    pub options: IVec4,
+}
+
+/// The light-sample pattern and its per-axis tables.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightPattern {
+    /// The samples on the light's plane (view-space x, y; slopes for a directional light),
+    /// snapped to the table grid.
+    pub points: Vec<Vec2>,
+    /// The light's box: its low corner and 1 / extent per axis.
+    pub lo: Vec2,
+    /// 1 / extent per axis.
+    pub inv: Vec2,
+    /// 256-bit groups per mask.
+    pub groups: u32,
+    /// `((axis · (Q + 1) + i) · groups + g) · 8 + word`: the samples of group g whose snapped
+    /// step along the axis is below i.
+    pub tables: Vec<u32>,
+}
+
+/// The stratified grid of n samples: n_a × n_b, n_a = 2^⌈log₂n / 2⌉.
+pub fn grid(n: u32) -> (u32, u32) {
+    let bits = n.trailing_zeros();
+    let a = 1u32 << bits.div_ceil(2);
+    (a, n / a)
+}
+
+fn pcg(v: u32) -> u32 {
+    let state = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
+    (word >> 22) ^ word
+}
+
+/// Shirley and Chiu's concentric map of [0,1)² onto the unit disk.
+fn concentric(s: Vec2) -> Vec2 {
+    let a = 2.0 * s - Vec2::ONE;
+    if a == Vec2::ZERO {
+        return Vec2::ZERO;
+    }
+    let (r, phi) = if a.x.abs() > a.y.abs() {
+        (a.x, std::f32::consts::FRAC_PI_4 * (a.y / a.x))
+    } else {
+        (
+            a.y,
+            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a.x / a.y),
+        )
+    };
+    r * Vec2::new(phi.cos(), phi.sin())
+}
+
+impl LightPattern {
+    /// The pattern of `n` samples (a power of two) of `light` in the coordinates of `view`.
+    pub fn new(light: &Light, view: &LightView, n: u32) -> Result<LightPattern> {
+        if !(16..=1024).contains(&n) || !n.is_power_of_two() {
+            return Err(Error::Parameter {
+                technique: BITMASK.name.into(),
+                message: format!("samples = {n}: a power of two from 16 to 1024"),
+            });
+        }
+        let (na, nb) = grid(n);
+        let unit: Vec<Vec2> = (0..n)
+            .map(|cell| {
+                let (i, j) = (cell % na, cell / na);
+                let h = |k: u32| (pcg(PATTERN_SEED.wrapping_add(2 * cell + k)) >> 8) as f32;
+                let jit = Vec2::new(h(0), h(1)) / 16_777_216.0;
+                (Vec2::new(i as f32, j as f32) + jit) / Vec2::new(na as f32, nb as f32)
+            })
+            .collect();
+        let (lo, hi) = light_box(light, view);
+        let raw: Vec<Vec2> = match *light {
+            Light::Rect { position, u, v } => unit
+                .iter()
+                .map(|s| {
+                    let p = position + (s.x - 0.5) * u + (s.y - 0.5) * v;
+                    view.view.transform_point3(p).truncate()
+                })
+                .collect(),
+            Light::Directional {
+                angular_diameter_deg,
+                ..
+            } if angular_diameter_deg > 0.0 => {
+                let t = (angular_diameter_deg.to_radians() * 0.5).tan();
+                unit.iter().map(|s| concentric(*s) * t).collect()
+            }
+            _ => vec![Vec2::ZERO; n as usize],
+        };
+        let extent = hi - lo;
+        let inv = Vec2::ONE / extent;
+        let q = TABLE_RESOLUTION;
+        let step = |x: f32, lo: f32, inv: f32| {
+            (((x - lo) * inv * q as f32).floor().max(0.0) as u32).min(q - 1)
+        };
+        let steps: Vec<[u32; 2]> = raw
+            .iter()
+            .map(|p| [step(p.x, lo.x, inv.x), step(p.y, lo.y, inv.y)])
+            .collect();
+        let points = steps
+            .iter()
+            .map(|m| {
+                let f = (Vec2::new(m[0] as f32, m[1] as f32) + 0.5) / q as f32;
+                lo + f * extent
+            })
+            .collect();
+        let groups = n.div_ceil(256);
+        let row = (groups * 8) as usize;
+        let mut tables = vec![0u32; 2 * (q as usize + 1) * row];
+        for axis in 0..2 {
+            for i in 0..=q as usize {
+                let base = (axis * (q as usize + 1) + i) * row;
+                for (s, m) in steps.iter().enumerate() {
+                    if (m[axis] as usize) < i {
+                        tables[base + s / 32] |= 1 << (s % 32);
+                    }
+                }
+            }
+        }
+        Ok(LightPattern {
+            points,
+            lo,
+            inv,
+            groups,
+            tables,
+        })
+    }
+}
+
+/// The light's box on its plane in the coordinates of `view` (low and high corners): a rect
+/// light's corners in view space (x, y; the light lies at z = 0), ±tan(θ/2) for a sun of angular
+/// diameter θ (slopes), and a box 2·10⁻⁷·far wide for a point light or a hard sun, so that the
+/// light-normalised coordinates stay finite and every sample sits at the centre.
+pub fn light_box(light: &Light, view: &LightView) -> (Vec2, Vec2) {
+    let tiny = Vec2::splat(1e-7 * view.far);
+    let (lo, hi) = match *light {
+        Light::Rect { position, u, v } => {
+            let corners = [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)].map(|(a, b)| {
+                view.view
+                    .transform_point3(position + a * u + b * v)
+                    .truncate()
+            });
+            let lo = corners.iter().fold(Vec2::MAX, |m, c| m.min(*c));
+            let hi = corners.iter().fold(Vec2::MIN, |m, c| m.max(*c));
+            (lo, hi)
+        }
+        Light::Directional {
+            angular_diameter_deg,
+            ..
+        } if angular_diameter_deg > 0.0 => {
+            let t = (angular_diameter_deg.to_radians() * 0.5).tan();
+            (Vec2::splat(-t), Vec2::splat(t))
+        }
+        _ => (-tiny, tiny),
+    };
+    // A degenerate axis (a rect seen edge-on) gets the point's width too.
+    let centre = 0.5 * (lo + hi);
+    let half = (0.5 * (hi - lo)).max(tiny);
+    (centre - half, centre + half)
+}
+
+/// Projection scale and the ndc of unit coordinate 0 per axis: unit = (ndc − offset) / scale,
+/// unit being x/−z for a perspective view and x for an orthographic one.
+pub fn unit_mapping(view: &LightView) -> Vec4 {
+    let p = view.proj;
+    let perspective = matches!(view.projection, LightProjection::Perspective { .. });
+    // Perspective: ndc = scale · x/−z − proj[2][i]; orthographic: ndc = scale · x + proj[3][i].
+    let offset = if perspective {
+        Vec2::new(-p.z_axis.x, -p.z_axis.y)
+    } else {
+        Vec2::new(p.w_axis.x, p.w_axis.y)
+    };
+    Vec4::new(p.x_axis.x, p.y_axis.y, offset.x, offset.y)
+}
+
+struct Bitmask<'a> {
+    ctx: Context,
+    // Field order is drop order: the N-buffer and the set refer to the map's depth image, which
+    // is dropped last (see `new`).
+    nbuffer: Option<NBuffer<'a>>,
+    set: DescriptorSet,
+    pipeline: Pipeline,
+    counters: Buffer,
+    _views: [TexelView; 2],
+    _buffers: [Buffer; 3],
+    _unused_levels: (Image, Image),
+    view_size: [u32; 2],
+    geometry: &'a SceneGeometry,
+    shadow_map: Box<ShadowMap>,
+}
+
+fn parameter(message: String) -> Error {
+    Error::Parameter {
+        technique: BITMASK.name.into(),
+        message,
+    }
+}
+
+impl<'a> Bitmask<'a> {
+    fn new(setup: &TechniqueSetup<'a>, params: &Params) -> Result<Self> {
+        let ctx = setup.ctx;
+        let n = params.u32("samples")?;
+        let combine = params.u32("combine")?;
+        let skip = params.u32("skip")?;
+        let receiver_plane = params.u32("receiver_plane_bias")?;
+        let max_width = params.f32("max_width")?;
+        let light_clip = params.u32("light_clip")?;
+        let gap_fill = params.u32("gap_fill")?;
+        if unit_mapping(setup.light_view)
+            .truncate()
+            .truncate()
+            .cmple(Vec2::ZERO)
+            .any()
+        {
+            return Err(parameter(
+                "the light view's projection flips an axis (a negative scale)".into(),
+            ));
+        }
+        if max_width > EXHAUSTIVE_MAX_WIDTH {
+            return Err(parameter(format!(
+                "max_width = {max_width}: at most {EXHAUSTIVE_MAX_WIDTH} texels (software \
+                 drivers stop loops after 65 535 iterations)"
+            )));
+        }
+        let pattern = LightPattern::new(setup.light, setup.light_view, n)?;
+        let shadow_map = Box::new(ShadowMap::new(
+            ctx,
+            *setup.light_view,
+            shadow_map_desc(params)?,
+        )?);
+        let size = shadow_map.desc.size;
+        // SAFETY: as in `pcss`: the N-buffer borrows the boxed map's depth image, which is never
+        // replaced and is dropped after everything referring to it (declared last).
+        let depth: &'a Image = unsafe { &*(&shadow_map.depth as *const Image) };
+        let nbuffer = if skip == 1 {
+            Some(NBuffer::new(ctx, depth, Some(MAX_SKIP_LEVEL))?)
+        } else {
+            None
+        };
+        let levels: Vec<&(Image, Image)> = nbuffer.as_ref().map_or(Vec::new(), |nb| {
+            (1..=nb.max_level).filter_map(|l| nb.level(l)).collect()
+        });
+        let built = levels.len() as u32;
+        if built > MAX_LEVEL {
+            return Err(parameter(format!(
+                "{built} N-buffer levels, at most {MAX_LEVEL}"
+            )));
+        }
+        let perspective = matches!(
+            setup.light_view.projection,
+            LightProjection::Perspective { .. }
+        );
+        let params_block = BitmaskParams {
+            light_view_proj: setup.light_view.view_proj,
+            light_view: setup.light_view.view,
+            scale_offset: unit_mapping(setup.light_view),
+            light_box: Vec4::new(pattern.lo.x, pattern.lo.y, pattern.inv.x, pattern.inv.y),
+            sizes: IVec4::new(
+                setup.view.width as i32,
+                setup.view.height as i32,
+                size as i32,
+                built as i32,
+            ),
+            planes: Vec4::new(setup.light_view.near, setup.light_view.far, max_width, 0.0),
+            modes: IVec4::new(
+                i32::from(perspective),
+                skip as i32,
+                receiver_plane as i32,
+                light_clip as i32,
+            ),
+            samples: IVec4::new(
+                n as i32,
+                pattern.groups as i32,
+                TABLE_RESOLUTION as i32,
+                combine as i32,
+            ),
+            options: IVec4::new(gap_fill as i32, 0, 0, 0),
+        };
+        let params_buffer = ctx.buffer_with(
+            "bitmask params",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            std::slice::from_ref(&params_block),
+        )?;
+        let texels = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
+        let tables = ctx.buffer_with("bitmask tables", texels, &pattern.tables)?;
+        let points: Vec<[f32; 2]> = pattern.points.iter().map(|p| p.to_array()).collect();
+        let samples = ctx.buffer_with("bitmask samples", texels, &points)?;
+        let views = [
+            tables.texel_view(vk::Format::R32G32B32A32_UINT, 16)?,
+            samples.texel_view(vk::Format::R32G32_SFLOAT, 8)?,
+        ];
+        let counters = Buffer::storage(ctx, "bitmask counters", (COUNTER_NAMES.len() * 4) as u64)?;
+        let pipeline = Pipeline::compute(
+            ctx,
+            if gap_fill == 1 {
+                "bitmask/bitmask_gap_fill.comp"
+            } else {
+                "bitmask/bitmask.comp"
+            },
+        )?;
+        let unused_levels =
+            crate::kernels::nbuffer::minmax_images(ctx, "bitmask unused levels", 1, 1)?;
+        let mut bindings = vec![
+            Binding::Image(setup.receivers),
+            Binding::Image(&setup.view.normals),
+            Binding::Buffer(&params_buffer),
+            Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
+            Binding::Image(setup.visibility),
+            Binding::Buffer(&counters),
+            Binding::Texels(&views[0]),
+            Binding::Texels(&views[1]),
+            Binding::Image(&setup.view.positions),
+            Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
+        ];
+        bindings.extend(level_bindings(&levels, &unused_levels));
+        let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
+        Ok(Bitmask {
+            ctx: ctx.clone(),
+            nbuffer,
+            set,
+            pipeline,
+            counters,
+            _views: views,
+            _buffers: [params_buffer, tables, samples],
+            _unused_levels: unused_levels,
+            view_size: [setup.view.width, setup.view.height],
+            geometry: setup.geometry,
+            shadow_map,
+        })
+    }
+}
+
+impl Technique for Bitmask<'_> {
+    fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
+        self.shadow_map.record(rec, self.geometry)?;
+        if let Some(nb) = &self.nbuffer {
+            rec.begin_pass("bitmask-nbuffer")?;
+            nb.record(rec)?;
+        }
+        rec.begin_pass("bitmask-backprojection")?;
+        rec.fill(&self.counters, 0);
+        let [w, h] = self.view_size;
+        rec.dispatch(&self.pipeline, &self.set, &(), [w, h, 1])?;
+        rec.end_pass();
+        Ok(())
+    }
+
+    fn counters(&self) -> Result<Vec<(String, u64)>> {
+        super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)
+    }
+
+    fn shadow_map(&self) -> Option<&ShadowMap> {
+        Some(&self.shadow_map)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn params_block_is_std140_sized() {
+        assert_eq!(std::mem::size_of::<BitmaskParams>(), 240);
+    }
+
+    #[test]
+    fn grids_multiply_to_n() {
+        for n in [16, 32, 64, 128, 256, 512, 1024] {
+            let (a, b) = grid(n);
+            assert_eq!(a * b, n);
+            assert!(a >= b && a <= 2 * b, "{n}: {a} x {b}");
+        }
+    }
+}

@@ -37,6 +37,10 @@ pub struct ErrorMetrics {
     /// (`CLASS_EPS < V_ref < 1 − CLASS_EPS`); `None` when the reference has no penumbra (a point
     /// light, or a frame where no soft shadow is seen).
     pub penumbra_mae: Option<f64>,
+    /// Atty et al.'s error measure (CGF 2006, §5.2.1): the mean of `|V − V_ref|` over the
+    /// samples the reference puts in umbra or penumbra (`V_ref < 1 − ε`), so the lit majority
+    /// does not dilute it; `None` when the reference has no shadow.
+    pub shadow_mae: Option<f64>,
     /// Fraction of samples whose class (umbra: V ≤ ε, lit: V ≥ 1 − ε, penumbra otherwise;
     /// ε = [`CLASS_EPS`]) differs from the reference's class. Non-finite values are always
     /// misclassified.
@@ -100,6 +104,7 @@ pub fn compare(reference: &[f32], test: &[f32], is_sample: &[bool]) -> Result<Er
     let (mut sum_sq, mut sum_abs, mut max) = (0.0f64, 0.0f64, 0.0f64);
     let (mut penumbra_n, mut penumbra_sum) = (0u64, 0.0f64);
     let (mut umbra_n, mut leak_sum) = (0u64, 0.0f64);
+    let mut umbra_sum = 0.0f64;
     let mut misclassified = 0u64;
 
     for (i, ((&r, &t), &mask)) in reference.iter().zip(test).zip(is_sample).enumerate() {
@@ -141,6 +146,7 @@ pub fn compare(reference: &[f32], test: &[f32], is_sample: &[bool]) -> Result<Er
             }
             Class::Umbra => {
                 umbra_n += 1;
+                umbra_sum += abs;
                 leak_sum += signed.max(0.0);
             }
             Class::Lit => {}
@@ -154,6 +160,8 @@ pub fn compare(reference: &[f32], test: &[f32], is_sample: &[bool]) -> Result<Er
         mae: mean(sum_abs, samples),
         max,
         penumbra_mae: (penumbra_n > 0).then(|| penumbra_sum / penumbra_n as f64),
+        shadow_mae: (penumbra_n + umbra_n > 0)
+            .then(|| (penumbra_sum + umbra_sum) / (penumbra_n + umbra_n) as f64),
         misclassified: mean(misclassified as f64, samples),
         light_leak: mean(leak_sum, umbra_n),
         samples,

@@ -33,6 +33,7 @@ fn identical_images_have_no_error() {
             mae: 0.0,
             max: 0.0,
             penumbra_mae: Some(0.0),
+            shadow_mae: Some(0.0),
             misclassified: 0.0,
             light_leak: 0.0,
             samples: 4,
@@ -514,4 +515,14 @@ fn pareto_chart_with_realistic_numbers() {
         let (a, b) = (&points[w[0]], &points[w[1]]);
         assert!(a.time_ms <= b.time_ms && a.error >= b.error);
     }
+}
+
+#[test]
+fn shadow_mae_is_attys_measure_over_umbra_and_penumbra() {
+    // Umbra 0 → 0.1, penumbra 0.5 → 0.3, lit 1 → 0.6: the lit sample's 0.4 stays out.
+    let m = compare(&[0.0, 0.5, 1.0], &[0.1, 0.3, 0.6], &all(3)).unwrap();
+    let s = m.shadow_mae.expect("a shadow");
+    assert!((s - 0.15).abs() < 1e-6, "{s}");
+    let lit = compare(&[1.0, 1.0], &[0.5, 1.0], &all(2)).unwrap();
+    assert_eq!(lit.shadow_mae, None, "no shadow in the reference");
 }

@@ -6,6 +6,7 @@ named command):
     python3 tools/readme_tables.py soft DIR        # DIR from the soft-shadow bench (README)
     python3 tools/readme_tables.py virtual DIR     # DIR from the virtual-map bench (README)
     python3 tools/readme_tables.py izb DIR...      # DIRs from the irregular z-buffer benches
+    python3 tools/readme_tables.py backprojection A B C  # the atty/bitmask benches (README)
 
 `receivers`: per technique, the configuration with clipping on that has the lowest penumbra MAE
 on teapot-rect (lowest RMSE on spot-point), with the same configuration's clip-off figures and
@@ -16,6 +17,10 @@ both references and its pass times; then the skip table (skip.csv). `virtual`: p
 (also against `hard` at 2048²), memory and pages, from bench.json; then rmsm's passes.
 `izb`: per scene of each DIR, every run (failures with their reason) with time, error, pairs,
 tests and the izb passes, from bench.json.
+`backprojection`: from A (every filter-based technique and bitmask at 256 samples), per scene the
+best penumbra MAE against the single-layer reference of each technique and whether bitmask beats
+them all; from B and C every run with its passes, both references' errors, Atty's shadow MAE and
+the skip counters.
 """
 import csv
 import json
@@ -220,7 +225,62 @@ def izb(directories):
                   f"| {c.get('ray_tests', '—')} | {fmt(r['memory_bytes'] / 2**20, 1)} |")
 
 
+FILTER_BASED = ("pcf", "pcf-poisson", "pcf-coverage", "vsm", "esm", "evsm", "msm", "csm", "savsm",
+                "pcss", "cssm", "vssm", "essm", "pvssm")
+
+
+def backprojection(a, b, c):
+    data = rows(Path(a) / "bench.csv")
+    single = next(k for k in data[0].keys() if k.startswith("penumbra_mae@"))
+    for scene in dict.fromkeys(r["scene"] for r in data):
+        here = [r for r in data if r["scene"] == scene and num(r, single) is not None]
+        best = {}
+        for r in here:
+            t = r["technique"]
+            if t not in best or num(r, single) < num(best[t], single):
+                best[t] = r
+        print(f"\n{scene}: best {single} per technique (A)\n")
+        print(f"| technique | knobs | {single} | penumbra MAE | GPU ms |")
+        print("|---|---|---|---|---|")
+        for t, r in sorted(best.items(), key=lambda kv: num(kv[1], single)):
+            print(f"| `{t}` | {knobs(r['label'], {'map_size'})} | {fmt(num(r, single), 4)} "
+                  f"| {fmt(num(r, 'penumbra_mae'), 4)} | {fmt(num(r, 'total_gpu_ms'), 1)} |")
+        bm = [r for r in here if r["technique"] == "bitmask" and "samples=256" in r["label"]]
+        filters = [num(r, single) for t, r in best.items() if t in FILTER_BASED]
+        if bm and filters:
+            mine = min(num(r, single) for r in bm)
+            verdict = "lower" if mine < min(filters) else "NOT lower"
+            print(f"\nbitmask (256 samples) {mine:.4f}: {verdict} than every filter-based "
+                  f"technique (best {min(filters):.4f})")
+    for directory in (b, c):
+        data = json.loads((Path(directory) / "bench.json").read_text())
+        refs = [k for k in data[0].keys() if k.startswith("penumbra_mae@")] if data else []
+        print(f"\n{directory}\n")
+        print("| scene | technique | knobs | GPU ms | passes (ms) | penumbra MAE | "
+              + " | ".join(refs) + " | shadow MAE (Atty) | RMSE | skipped lit / umbra | patches |")
+        print("|---|---|---|---|---|---|" + "---|" * len(refs) + "---|---|---|---|")
+        for r in data:
+            if r.get("failure"):
+                print(f"| {r['scene']} | `{r['technique']}` | {r['label']} | failed: "
+                      f"{r['failure'][:60]} |")
+                continue
+            e = r.get("error", {})
+            cnt = r.get("counters", {})
+            ps = ", ".join(f"{p['name'].split('-', 1)[-1]} {p['gpu_ms']:.0f}"
+                           for p in r.get("passes", [])
+                           if p["name"].startswith(r["technique"]) and p.get("gpu_ms") is not None)
+            print(f"| {r['scene']} | `{r['technique']}` | {r['label']} "
+                  f"| {fmt(r.get('total_gpu_ms'), 1)} | {ps} | {fmt(e.get('penumbra_mae'), 4)} | "
+                  + " | ".join(fmt(r.get(k), 4) for k in refs)
+                  + f" | {fmt(e.get('shadow_mae'), 4)} | {fmt(e.get('rmse'), 4)} "
+                  f"| {cnt.get('skipped_lit', '—')} / {cnt.get('skipped_umbra', '—')} "
+                  f"| {cnt.get('patches', '—')} |")
+
+
 if __name__ == "__main__":
+    if len(sys.argv) == 5 and sys.argv[1] == "backprojection":
+        backprojection(*sys.argv[2:])
+        sys.exit(0)
     if len(sys.argv) >= 3 and sys.argv[1] == "izb":
         izb(sys.argv[2:])
         sys.exit(0)

@@ -227,7 +227,8 @@ void main() {
                                 vec4 rect = bp_patch(view, t, k, kn, up);
                                 patches += grp == 0 ? 1u : 0u;
                                 if (bm.samples.w != 0) {
-                                    hidden += bp_area(rect);
+                                    // Once, not once per group of mask bits.
+                                    hidden += grp == 0 ? bp_area(rect) : 0.0;
                                 } else if (rect.z >= 0.0 && rect.x <= 1.0 && rect.w >= 0.0
                                            && rect.y <= 1.0) {
                                     rect_bits(rect, grp, m0, m1);

@@ -172,6 +172,21 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
         ("izb", false) => vec![("grid", vec![64.0, 128.0, 512.0, 2048.0])],
         ("izb-soft", true) => vec![("samples", vec![32.0])],
         ("izb-soft", false) => vec![("samples", vec![32.0, 128.0, 512.0])],
+        // Soft shadow maps: the occluder map's size (the paper's 128²–256² and one finer) and
+        // the two-sided variant.
+        ("atty", true) => vec![("map_size", vec![256.0])],
+        ("atty", false) => vec![
+            ("map_size", vec![128.0, 256.0, 512.0]),
+            ("sides", vec![1.0, 2.0]),
+        ],
+        // Occlusion bitmasks: the map, the light samples, and OR-ed masks against the additive
+        // sum of areas they replace.
+        ("bitmask", true) => vec![("map_size", vec![512.0]), ("samples", vec![64.0])],
+        ("bitmask", false) => vec![
+            ("map_size", vec![512.0, 1024.0]),
+            ("samples", vec![64.0, 256.0, 1024.0]),
+            ("combine", vec![0.0, 1.0]),
+        ],
         _ => Vec::new(),
     }
 }
@@ -580,6 +595,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "mae",
         "max",
         "penumbra_mae",
+        "shadow_mae",
         "misclassified",
         "light_leak",
         "flip",

@@ -55,7 +55,9 @@ void count(int slot, uint n) {
 
 // The hidden fraction of one texel's patch, 0 when it does not block.
 float hidden(BpView view, ivec2 t, float d, vec4 c, vec2 g, vec2 up, float dp) {
-    if (!(d < rp_tap_depth(c.z, vec2(t) + 0.5 - c.xy, g))) {
+    // Nearer than the receiver plane under it and than the receiver itself (a ray to the
+    // light never reaches farther: see bitmask's backproject.glsl).
+    if (!(d < min(rp_tap_depth(c.z, vec2(t) + 0.5 - c.xy, g), c.z))) {
         return 0.0;
     }
     float k = bp_factor(view, at_distance(d), dp);
@@ -96,7 +98,7 @@ void main() {
                 count(AT_NO_PLANE, plane.z == 0.0 ? 1u : 0u);
                 g = plane.xy;
             }
-            vec2 z_range = rp_depth_range(c.z, c.xy, region, g);
+            vec2 z_range = min(rp_depth_range(c.z, c.xy, region, g), vec2(c.z));
             float lowest;
             if (at.modes.y != 0) {
                 lowest = nbuffer_minmax_rect(region.xy, region.zw).x;

@@ -53,6 +53,13 @@ vec3 rp_normal(ivec2 pixel) {
 
 shared uint group_counts[BM_COUNTERS];
 
+// The depth a texel must be nearer than to block: the receiver plane's under it, and at most
+// the receiver's own (texels behind it pass a tilted plane's test, but no ray to the light
+// reaches them; with the gap floored they would cover the whole light).
+float bm_blocking_depth(ivec2 t, vec4 c, vec2 g) {
+    return min(rp_tap_depth(c.z, vec2(t) + 0.5 - c.xy, g), c.z);
+}
+
 // The back-projection factor of a texel of map depth d seen from distance dp.
 float bm_factor(BpView view, float d, float dp) {
     return bp_factor(view, soft_light_distance(d, bm.planes.x, bm.planes.y, bm.modes.x), dp);
@@ -61,7 +68,7 @@ float bm_factor(BpView view, float d, float dp) {
 // Gap filling: the factor of neighbour texel t when it blocks too, else `own`.
 float bm_neighbour(BpView view, ivec2 t, vec4 c, vec2 g, float own, float dp) {
     float d = fetch_depth(shadow_map, t, ivec2(bm.sizes.z));
-    return d < rp_tap_depth(c.z, vec2(t) + 0.5 - c.xy, g) ? bm_factor(view, d, dp) : own;
+    return d < bm_blocking_depth(t, c, g) ? bm_factor(view, d, dp) : own;
 }
 
 void count(int slot, uint n) {
@@ -170,7 +177,9 @@ void main() {
                     count(BM_NO_PLANE, plane.z == 0.0 ? 1u : 0u);
                     g = plane.xy;
                 }
-                vec2 z_range = rp_depth_range(c.z, c.xy, region, g);
+                // A texel blocks only if it is nearer the light than the receiver plane under it
+                // *and* than the receiver itself: a ray to the light never reaches farther.
+                vec2 z_range = min(rp_depth_range(c.z, c.xy, region, g), vec2(c.z));
                 vec2 mm = vec2(1.0, 0.0);
                 if (bm.modes.y != 0) {
                     mm = nbuffer_minmax_rect(region.xy, region.zw);
@@ -215,7 +224,7 @@ void main() {
                         for (int i = region.x; i <= region.z; ++i) {
                             ivec2 t = ivec2(i, j);
                             float d = fetch_depth(shadow_map, t, map_size);
-                            if (d < rp_tap_depth(c.z, vec2(t) + 0.5 - c.xy, g)) {
+                            if (d < bm_blocking_depth(t, c, g)) {
                                 float k = bm_factor(view, d, dp);
                                 vec4 kn = vec4(k);
                                 if (GAP_FILL != 0) {

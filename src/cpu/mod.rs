@@ -4,7 +4,10 @@
 //! Each twin states its tolerance against the GPU: exact for counts and binary tests away from
 //! depth ties, an absolute epsilon for filtered values (the GPU may contract `a*b+c` into an FMA).
 
+pub mod atty;
 pub mod average_maps;
+pub mod backprojection;
+pub mod bitmask;
 pub mod compact;
 pub mod conservative_raster;
 pub mod cssm;

@@ -127,7 +127,7 @@ pub const ATTY: TechniqueInfo = TechniqueInfo {
     create: |setup, params| Ok(Box::new(Atty::new(setup, params)?)),
 };
 
-/// The uniform block of `glsl/atty/atty.glsl` (std140, 160 bytes).
+/// The uniform block of `glsl/atty/atty.glsl` (std140, 144 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct AttyParams {
@@ -362,6 +362,6 @@ mod tests {
 
     #[test]
     fn params_block_is_std140_sized() {
-        assert_eq!(std::mem::size_of::<AttyParams>(), 160);
+        assert_eq!(std::mem::size_of::<AttyParams>(), 144);
     }
 }

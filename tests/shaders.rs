@@ -194,6 +194,10 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             twin!(penumbra::techniques::izb::IzbPush { phase }),
         ),
         (
+            vec!["atty/receivers.comp"],
+            twin!(penumbra::techniques::atty::AttyPush { phase }),
+        ),
+        (
             vec!["passes/view_samples.vert", "passes/view_samples.frag"],
             twin!(ViewSamplesPush {
                 view_proj,

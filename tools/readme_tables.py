@@ -17,9 +17,9 @@ both references and its pass times; then the skip table (skip.csv). `virtual`: p
 (also against `hard` at 2048²), memory and pages, from bench.json; then rmsm's passes.
 `izb`: per scene of each DIR, every run (failures with their reason) with time, error, pairs,
 tests and the izb passes, from bench.json.
-`backprojection`: from A (every filter-based technique and bitmask at 256 samples), per scene the
-best penumbra MAE against the single-layer reference of each technique and whether bitmask beats
-them all; from B and C every run with its passes, both references' errors, Atty's shadow MAE and
+`backprojection`: from A (every filter-based technique) and B (atty and bitmask over their
+knobs), per scene the best penumbra MAE against the single-layer reference of each technique and
+whether bitmask at 256 samples beats them all; from B and C every run with its passes, both references' errors, Atty's shadow MAE and
 the skip counters.
 """
 import csv
@@ -230,7 +230,10 @@ FILTER_BASED = ("pcf", "pcf-poisson", "pcf-coverage", "vsm", "esm", "evsm", "msm
 
 
 def backprojection(a, b, c):
-    data = rows(Path(a) / "bench.csv")
+    # The filter-based rows from A, the back-projection rows from B (same scenes, references).
+    mine = ("atty", "bitmask")
+    data = [r for r in rows(Path(a) / "bench.csv") if r["technique"] not in mine]
+    data += [r for r in rows(Path(b) / "bench.csv") if r["technique"] in mine]
     single = next(k for k in data[0].keys() if k.startswith("penumbra_mae@"))
     for scene in dict.fromkeys(r["scene"] for r in data):
         here = [r for r in data if r["scene"] == scene and num(r, single) is not None]
@@ -239,7 +242,7 @@ def backprojection(a, b, c):
             t = r["technique"]
             if t not in best or num(r, single) < num(best[t], single):
                 best[t] = r
-        print(f"\n{scene}: best {single} per technique (A)\n")
+        print(f"\n{scene}: best {single} per technique\n")
         print(f"| technique | knobs | {single} | penumbra MAE | GPU ms |")
         print("|---|---|---|---|---|")
         for t, r in sorted(best.items(), key=lambda kv: num(kv[1], single)):

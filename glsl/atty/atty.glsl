@@ -49,7 +49,8 @@ const int AT_CLAMPED = 7;
 const int AT_NO_PLANE = 8;
 const int AT_PATCHES = 9;
 const int AT_FALLBACK = 10;
-const int AT_COUNTERS = 11;
+const int AT_CUT = 11;
+const int AT_COUNTERS = 12;
 
 BpView at_view() {
     BpView v;

@@ -138,6 +138,13 @@ void main() {
         ssm[layer * n * n + t.y * n + t.x] = occ;
     }
 
+    // lavapipe's loop limiter: see bitmask's backproject.glsl.
+    int passes = 0;
+    for (int i = 0; i < min(at.sizes.z, 1) + 1; ++i) {
+        passes += 1;
+    }
+    count(AT_CUT, passes < 2 ? 1u : 0u);
+
     barrier();
     if (gl_LocalInvocationIndex < AT_COUNTERS && group_counts[gl_LocalInvocationIndex] > 0) {
         atomicAdd(counters[gl_LocalInvocationIndex], group_counts[gl_LocalInvocationIndex]);

@@ -265,6 +265,15 @@ void main() {
         }
     }
 
+    // lavapipe's loop limiter (65 535 passes per SIMD group, every loop of the shader): the host
+    // caps the regions to fit; this loop makes two passes unless the limiter ran out, and then
+    // the host fails the frame.
+    int passes = 0;
+    for (int i = 0; i < min(bm.sizes.z, 1) + 1; ++i) {
+        passes += 1;
+    }
+    count(BM_CUT, passes < 2 ? 1u : 0u);
+
     barrier();
     if (gl_LocalInvocationIndex < BM_COUNTERS && group_counts[gl_LocalInvocationIndex] > 0) {
         atomicAdd(counters[gl_LocalInvocationIndex], group_counts[gl_LocalInvocationIndex]);

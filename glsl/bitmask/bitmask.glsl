@@ -39,7 +39,8 @@ const int BM_SKIPPED_UMBRA = 6;
 const int BM_CLAMPED = 7;
 const int BM_NO_PLANE = 8;
 const int BM_PATCHES = 9;
-const int BM_COUNTERS = 10;
+const int BM_CUT = 10;
+const int BM_COUNTERS = 11;
 
 BpView bm_view() {
     BpView v;

@@ -91,6 +91,20 @@ use crate::passes::{LightProjection, LightView};
 use crate::scene::Light;
 pub use crate::techniques::atty::COUNTER_NAMES;
 
+/// The region cap the technique applies: `max_width`, or less where lavapipe's loop limiter
+/// (65 535 passes per SIMD group) would cut the loops — one pass a texel and two a row, as many
+/// again for the scan with skip off, 1 000 to spare — solved here with its own arithmetic.
+fn effective_width(knobs: &AttyKnobs) -> f32 {
+    let (a, b) = if knobs.skip {
+        (1.0f64, 2.0)
+    } else {
+        (2.0, 4.0)
+    };
+    let budget = 65_535.0 - 1_000.0;
+    let w = ((-b + (b * b + 4.0 * a * budget).sqrt()) / (2.0 * a)).floor() as f32;
+    knobs.max_width.min(w)
+}
+
 /// |ΔV| allowed against the GPU on a view sample that is not a tie (see the module note).
 pub const TOLERANCE: f32 = 1e-3;
 
@@ -702,9 +716,10 @@ fn evaluate(inp: &SsmInputs<'_>, pix: u32) -> Layer {
     let up = bp::unit(v, c.xy());
     let s0 = bp::reach(v, setup.near, dp);
     let raw = bp::region(v, up, s0);
-    let (mut region, clamped) = bp::clamp_region(raw, c.xy(), knobs.max_width);
+    let width = effective_width(knobs);
+    let (mut region, clamped) = bp::clamp_region(raw, c.xy(), width);
     out.clamped = clamped;
-    let cap = knobs.max_width as i32;
+    let cap = width as i32;
     let mut window_tie = false;
     let raw_size = IVec2::new(raw.z - raw.x + 1, raw.w - raw.y + 1);
     if raw_size.max_element() >= cap {
@@ -893,11 +908,11 @@ pub struct AttyOutput {
     /// Visibility per pixel (1 for background).
     pub visibility: Vec<f32>,
     /// See [`COUNTER_NAMES`].
-    pub counters: [u64; 11],
+    pub counters: [u64; 12],
     /// Per pixel: a tie, excluded from the comparison (see the module note).
     pub tie: Vec<bool>,
     /// How far each GPU counter may be from the twin's.
-    pub slack: [u64; 11],
+    pub slack: [u64; 12],
     /// The receivers' map.
     pub receivers: ReceiverMap,
     /// The soft shadow map.
@@ -975,9 +990,9 @@ pub fn atty(
     let pixels = (view.size.x * view.size.y) as usize;
     let mut out = AttyOutput {
         visibility: vec![1.0; pixels],
-        counters: [0; 11],
+        counters: [0; 12],
         tie: vec![false; pixels],
-        slack: [0; 11],
+        slack: [0; 12],
         receivers: rm,
         ssm,
     };
@@ -1111,6 +1126,7 @@ pub fn atty(
         ssm.decision_ties[2] + uncertain,
         ssm.patches_slack,
         ties,
+        0,
     ];
     let c = &ssm.counters;
     out.counters[5] = c[0];

@@ -376,7 +376,7 @@ pub struct BitmaskOutput {
     /// Visibility per pixel (1 for background and for skipped lookups, w ≤ 0).
     pub visibility: Vec<f32>,
     /// See [`COUNTER_NAMES`].
-    pub counters: [u64; 10],
+    pub counters: [u64; 11],
     /// Per pixel: a tie, excluded from the comparison (see the module note).
     pub tie: Vec<bool>,
     /// How many back-projected patches the GPU may count differently (`patches`): every texel of
@@ -477,6 +477,20 @@ struct Receiver<'a> {
     /// The light samples in front of the tangent plane, and those within rounding of it.
     front: Mask,
     front_close: Mask,
+}
+
+/// The region cap the technique applies: `max_width`, or less where lavapipe's loop limiter
+/// (65 535 passes per SIMD group) would cut the loops — per 256-sample group three passes a
+/// texel (six with several groups) and two a row, `n` passes for the front masks, one a texel
+/// and two a row more for the scan with skip off, 1 000 to spare — with its own arithmetic.
+fn effective_width(knobs: &BitmaskKnobs, n: u32) -> f32 {
+    let groups = f64::from(n.div_ceil(256));
+    let budget = 65_535.0 - 1_000.0 - f64::from(n);
+    let scan = if knobs.skip { 0.0 } else { 1.0 };
+    let per_texel = if groups > 1.0 { 6.0 } else { 3.0 };
+    let (a, b) = (per_texel * groups + scan, 2.0 * (groups + scan));
+    let w = (-b + (b * b + 4.0 * a * budget).sqrt()) / (2.0 * a);
+    knobs.max_width.min(w.floor() as f32)
 }
 
 /// One texel's test.
@@ -709,7 +723,7 @@ pub fn bitmask(
     let pixels = (view.size.x * view.size.y) as usize;
     let mut out = BitmaskOutput {
         visibility: vec![1.0; pixels],
-        counters: [0; 10],
+        counters: [0; 11],
         tie: vec![false; pixels],
         patches_slack: 0,
         decision_ties: 0,
@@ -833,10 +847,11 @@ fn sample(
     }
     let s0 = bp::reach(v, setup.near, dp);
     out.tie |= region_tie(setup, up, s0, setup.near, dp, &rx.r);
-    let (region, clamped) = bp::clamp_region(bp::region(v, up, s0), c.xy(), knobs.max_width);
+    let width = effective_width(knobs, setup.pattern.n);
+    let (region, clamped) = bp::clamp_region(bp::region(v, up, s0), c.xy(), width);
     out.clamped = clamped;
     if clamped {
-        let first = c.xy() - Vec2::splat(0.5 * (knobs.max_width as i32) as f32);
+        let first = c.xy() - Vec2::splat(0.5 * (width as i32) as f32);
         out.tie |= near_integer(first.x, dc) || near_integer(first.y, dc);
     }
     if knobs.receiver_plane {

@@ -43,7 +43,9 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{IVec4, Mat4, Vec4};
 
-use super::bitmask::{light_box, unit_mapping, EXHAUSTIVE_MAX_WIDTH, MAX_SKIP_LEVEL};
+use super::bitmask::{
+    light_box, limiter_check, unit_mapping, EXHAUSTIVE_MAX_WIDTH, LOOP_PASSES, MAX_SKIP_LEVEL,
+};
 use super::pcf::shadow_map_desc;
 use super::soft_light::MAX_WIDTH;
 use super::{
@@ -55,7 +57,7 @@ use crate::kernels::nbuffer::{level_bindings, NBuffer, MAX_LEVEL};
 use crate::passes::{LightProjection, MapLayer, SceneGeometry, ShadowMap};
 
 /// Counter names, in the shaders' slot order.
-pub const COUNTER_NAMES: [&str; 11] = [
+pub const COUNTER_NAMES: [&str; 12] = [
     "view_samples",
     "outside_light",
     "lit",
@@ -67,7 +69,18 @@ pub const COUNTER_NAMES: [&str; 11] = [
     "plane_fallback",
     "patches",
     "nearest_fallback",
+    "cut",
 ];
+
+/// The widest search region (texels a side) whose loops fit lavapipe's loop limiter with 1 000
+/// passes to spare: one pass a texel and two a row of the sum, and with `skip` off as many again
+/// for the scan (253 texels with skip, 178 without). Applied on every device, so the output is
+/// the same everywhere; regions cut are counted as `clamped`.
+pub fn loop_width(skip: bool) -> f32 {
+    let budget = f64::from(LOOP_PASSES) - 1000.0;
+    let (a, b) = if skip { (1.0, 2.0) } else { (2.0, 4.0) };
+    ((-b + (b * b + 4.0 * a * budget).sqrt()) / (2.0 * a)).floor() as f32
+}
 
 const KNOBS: [Knob; 9] = [
     Knob {
@@ -247,7 +260,7 @@ impl<'a> Atty<'a> {
             planes: Vec4::new(
                 setup.light_view.near,
                 setup.light_view.far,
-                max_width,
+                max_width.min(loop_width(skip == 1)),
                 same_surface,
             ),
             modes: IVec4::new(
@@ -348,7 +361,9 @@ impl Technique for Atty<'_> {
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)
+        let counters = super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)?;
+        limiter_check(ATTY.name, &counters)?;
+        Ok(counters)
     }
 
     fn shadow_map(&self) -> Option<&ShadowMap> {
@@ -363,5 +378,13 @@ mod tests {
     #[test]
     fn params_block_is_std140_sized() {
         assert_eq!(std::mem::size_of::<AttyParams>(), 144);
+    }
+
+    #[test]
+    fn loop_width_fits_the_limiter() {
+        assert_eq!(loop_width(true), 253.0);
+        assert_eq!(loop_width(false), 178.0);
+        let w = f64::from(loop_width(false));
+        assert!(2.0 * w * w + 4.0 * w + 1000.0 <= f64::from(LOOP_PASSES));
     }
 }

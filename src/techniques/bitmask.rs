@@ -52,7 +52,7 @@ use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
 use crate::scene::Light;
 
 /// Counter names, in the shader's slot order.
-pub const COUNTER_NAMES: [&str; 10] = [
+pub const COUNTER_NAMES: [&str; 11] = [
     "view_samples",
     "outside_light",
     "lit",
@@ -63,6 +63,7 @@ pub const COUNTER_NAMES: [&str; 10] = [
     "clamped",
     "plane_fallback",
     "patches",
+    "cut",
 ];
 
 /// Steps per axis of the grid the light samples are snapped to (the tables' rows).
@@ -75,11 +76,50 @@ pub const MAX_SKIP_LEVEL: u32 = 5;
 /// iterations.
 pub const EXHAUSTIVE_MAX_WIDTH: f32 = 200.0;
 
+/// lavapipe's loop limiter: 65 535 loop passes per SIMD group and dispatch, shared by every loop
+/// of the shader, after which every loop silently exits (see `crate::reference`).
+pub const LOOP_PASSES: u32 = 65_535;
+
+/// The widest search region (texels a side) whose loops fit [`LOOP_PASSES`] with room to spare
+/// (1 000 passes for the rest of the shader): per 256-sample group `per_texel` passes a texel
+/// and two a row, `n` for the front masks, and with `skip` off one a texel and two a row more
+/// for the scan. (Two a texel was too few: the shader's guard caught invocations cut short at
+/// 1024 samples.) The technique caps its regions here on every device, so its output is the
+/// same everywhere (regions cut are counted as `clamped`): 146 texels at 256 samples, 72 at
+/// 512, 51 at 1024.
+pub fn loop_width(samples: u32, skip: bool) -> f32 {
+    let groups = f64::from(samples.div_ceil(256));
+    let budget = f64::from(LOOP_PASSES) - 1000.0 - f64::from(samples);
+    // groups·(p·W² + 2W) + scan·(W² + 2W) ≤ budget.
+    let scan = if skip { 0.0 } else { 1.0 };
+    let a = per_texel(groups) * groups + scan;
+    let b = 2.0 * (groups + scan);
+    let w = (-b + (b * b + 4.0 * a * budget).sqrt()) / (2.0 * a);
+    w.floor() as f32
+}
+
+/// Loop passes a texel costs per 256-sample group: three with one group (the texel loop's, and
+/// entering and leaving the mask's second-word branch, a loop of one pass); six with several
+/// (a margin over three, not a count: the shader's guard still fails any frame cut short).
+fn per_texel(groups: f64) -> f64 {
+    if groups > 1.0 {
+        6.0
+    } else {
+        3.0
+    }
+}
+
 /// The fixed seed of the pattern's jitter.
 pub const PATTERN_SEED: u32 = 0x9e37_79b9;
 
 const KNOBS: [Knob; 10] = [
-    SHADOW_MAP_KNOBS[0],
+    Knob {
+        name: "map_size",
+        summary: "shadow-map width and height in texels (its own default: a region's texels, \
+                  and the cost, grow with the map's area)",
+        default: super::KnobDefault::Value(1024.0),
+        ..SHADOW_MAP_KNOBS[0]
+    },
     SHADOW_MAP_KNOBS[1],
     SHADOW_MAP_KNOBS[2],
     SHADOW_MAP_KNOBS[3],
@@ -417,7 +457,12 @@ impl<'a> Bitmask<'a> {
                 size as i32,
                 built as i32,
             ),
-            planes: Vec4::new(setup.light_view.near, setup.light_view.far, max_width, 0.0),
+            planes: Vec4::new(
+                setup.light_view.near,
+                setup.light_view.far,
+                max_width.min(loop_width(n, skip == 1)),
+                0.0,
+            ),
             modes: IVec4::new(
                 i32::from(perspective),
                 skip as i32,
@@ -502,12 +547,33 @@ impl Technique for Bitmask<'_> {
     }
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
-        super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)
+        let counters = super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)?;
+        limiter_check(BITMASK.name, &counters)?;
+        Ok(counters)
     }
 
     fn shadow_map(&self) -> Option<&ShadowMap> {
         Some(&self.shadow_map)
     }
+}
+
+/// Fails the frame when the shader's loop-limiter guard counted invocations cut short (`cut`):
+/// their visibility is wrong.
+pub(crate) fn limiter_check(technique: &str, counters: &[(String, u64)]) -> Result<()> {
+    let cut = counters
+        .iter()
+        .find(|(k, _)| k == "cut")
+        .map_or(0, |(_, v)| *v);
+    if cut > 0 {
+        return Err(Error::Shader {
+            name: technique.to_string(),
+            message: format!(
+                "the driver's loop limiter cut {cut} invocations short: the frame is wrong \
+                 (a smaller `max_width` or fewer `samples` shortens the loops)"
+            ),
+        });
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -517,6 +583,25 @@ mod tests {
     #[test]
     fn params_block_is_std140_sized() {
         assert_eq!(std::mem::size_of::<BitmaskParams>(), 240);
+    }
+
+    #[test]
+    fn loop_width_fits_the_limiter() {
+        for n in [16, 64, 256, 512, 1024] {
+            for skip in [true, false] {
+                let w = loop_width(n, skip) as f64;
+                let groups = f64::from(n.div_ceil(256));
+                let scan = if skip { 0.0 } else { w * w + 2.0 * w };
+                let passes = groups * (per_texel(groups) * w * w + 2.0 * w) + scan;
+                assert!(
+                    passes + f64::from(n) + 1000.0 <= f64::from(LOOP_PASSES),
+                    "{n} {skip}"
+                );
+                assert!(w >= 45.0, "{n} {skip}: {w}");
+            }
+        }
+        assert_eq!(loop_width(256, true), 146.0);
+        assert_eq!(loop_width(1024, true), 51.0);
     }
 
     #[test]

@@ -211,20 +211,12 @@ impl AttySetup {
 
     /// Distance from the light's plane of a map depth (`soft_light_distance`).
     pub fn distance(&self, ndc: f32) -> f32 {
-        if self.view.perspective {
-            self.near * self.far / (self.far - ndc * (self.far - self.near))
-        } else {
-            self.near + ndc * (self.far - self.near)
-        }
+        bp::distance(self.near, self.far, self.view.perspective, ndc)
     }
 
     /// How far the distance moves per unit of map depth at distance `d`.
     fn distance_slope(&self, d: f32) -> f32 {
-        if self.view.perspective {
-            d * d * (self.far - self.near) / (self.near * self.far)
-        } else {
-            self.far - self.near
-        }
+        bp::distance_slope(self.near, self.far, self.view.perspective, d)
     }
 
     /// How far the GPU's distance of a receiver at `d` may be from the twin's.

@@ -125,6 +125,25 @@ pub fn clamp_region(region: IVec4, centre: Vec2, max_width: f32) -> (IVec4, bool
     (IVec4::new(lo.x, lo.y, hi.x, hi.y), true)
 }
 
+/// Distance from the light's plane of a map depth `ndc` (`soft_light_distance`), for a view with
+/// planes `near`, `far`.
+pub fn distance(near: f32, far: f32, perspective: bool, ndc: f32) -> f32 {
+    if perspective {
+        near * far / (far - ndc * (far - near))
+    } else {
+        near + ndc * (far - near)
+    }
+}
+
+/// How far [`distance`] moves per unit of map depth at distance `d`.
+pub fn distance_slope(near: f32, far: f32, perspective: bool, d: f32) -> f32 {
+    if perspective {
+        d * d * (far - near) / (near * far)
+    } else {
+        far - near
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -44,7 +44,8 @@ use bytemuck::{Pod, Zeroable};
 use glam::{IVec4, Mat4, Vec4};
 
 use super::bitmask::{
-    light_box, limiter_check, unit_mapping, EXHAUSTIVE_MAX_WIDTH, LOOP_PASSES, MAX_SKIP_LEVEL,
+    light_box, limiter_check, nbuffer_levels, skip_nbuffer, unit_mapping, EXHAUSTIVE_MAX_WIDTH,
+    LOOP_PASSES,
 };
 use super::pcf::shadow_map_desc;
 use super::soft_light::MAX_WIDTH;
@@ -53,7 +54,7 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, Pipeline, Recorder};
-use crate::kernels::nbuffer::{level_bindings, NBuffer, MAX_LEVEL};
+use crate::kernels::nbuffer::{level_bindings, NBuffer};
 use crate::passes::{LightProjection, MapLayer, SceneGeometry, ShadowMap};
 
 /// Counter names, in the shaders' slot order.
@@ -227,20 +228,9 @@ impl<'a> Atty<'a> {
         // SAFETY: as in `pcss`: the N-buffer borrows the boxed map's depth image, which is never
         // replaced and is dropped after everything referring to it (declared last).
         let depth: &'a Image = unsafe { &*(&shadow_map.depth as *const Image) };
-        let nbuffer = if skip == 1 {
-            Some(NBuffer::new(ctx, depth, Some(MAX_SKIP_LEVEL))?)
-        } else {
-            None
-        };
-        let levels: Vec<&(Image, Image)> = nbuffer.as_ref().map_or(Vec::new(), |nb| {
-            (1..=nb.max_level).filter_map(|l| nb.level(l)).collect()
-        });
+        let nbuffer = skip_nbuffer(ctx, depth, skip == 1)?;
+        let levels = nbuffer_levels(&nbuffer);
         let built = levels.len() as u32;
-        if built > MAX_LEVEL {
-            return Err(parameter(format!(
-                "{built} N-buffer levels, at most {MAX_LEVEL}"
-            )));
-        }
         let perspective = matches!(
             setup.light_view.projection,
             LightProjection::Perspective { .. }

@@ -428,20 +428,9 @@ impl<'a> Bitmask<'a> {
         // SAFETY: as in `pcss`: the N-buffer borrows the boxed map's depth image, which is never
         // replaced and is dropped after everything referring to it (declared last).
         let depth: &'a Image = unsafe { &*(&shadow_map.depth as *const Image) };
-        let nbuffer = if skip == 1 {
-            Some(NBuffer::new(ctx, depth, Some(MAX_SKIP_LEVEL))?)
-        } else {
-            None
-        };
-        let levels: Vec<&(Image, Image)> = nbuffer.as_ref().map_or(Vec::new(), |nb| {
-            (1..=nb.max_level).filter_map(|l| nb.level(l)).collect()
-        });
+        let nbuffer = skip_nbuffer(ctx, depth, skip == 1)?;
+        let levels = nbuffer_levels(&nbuffer);
         let built = levels.len() as u32;
-        if built > MAX_LEVEL {
-            return Err(parameter(format!(
-                "{built} N-buffer levels, at most {MAX_LEVEL}"
-            )));
-        }
         let perspective = matches!(
             setup.light_view.projection,
             LightProjection::Perspective { .. }
@@ -555,6 +544,30 @@ impl Technique for Bitmask<'_> {
     fn shadow_map(&self) -> Option<&ShadowMap> {
         Some(&self.shadow_map)
     }
+}
+
+/// The N-buffer of `depth` the skip classification reads (levels up to [`MAX_SKIP_LEVEL`]),
+/// when `skip` is on: shared by `bitmask` and `atty`.
+pub(crate) fn skip_nbuffer<'a>(
+    ctx: &Context,
+    depth: &'a Image,
+    skip: bool,
+) -> Result<Option<NBuffer<'a>>> {
+    if !skip {
+        return Ok(None);
+    }
+    let nb = NBuffer::new(ctx, depth, Some(MAX_SKIP_LEVEL))?;
+    // The shaders bind levels 1 ..= MAX_LEVEL (nbuffer.glsl); MAX_SKIP_LEVEL is far below.
+    debug_assert!(nb.max_level <= MAX_LEVEL);
+    Ok(Some(nb))
+}
+
+/// The levels of a skip N-buffer above its source, level 1 first (none without one): what
+/// [`level_bindings`] binds.
+pub(crate) fn nbuffer_levels<'b>(nbuffer: &'b Option<NBuffer<'_>>) -> Vec<&'b (Image, Image)> {
+    nbuffer.as_ref().map_or(Vec::new(), |nb| {
+        (1..=nb.max_level).filter_map(|l| nb.level(l)).collect()
+    })
 }
 
 /// Fails the frame when the shader's loop-limiter guard counted invocations cut short (`cut`):

@@ -4,7 +4,8 @@
 //! view samples — work every technique shares, done once. [`Engine::render`] builds a technique
 //! with its knobs, records it for a warm-up frame (lavapipe compiles shaders at first dispatch)
 //! and then `frames` timed frames, and returns the visibility of the last with [`FrameStats`]:
-//! the median GPU time of each pass, the technique's counters and the NaN count.
+//! the median GPU time of each pass, the technique's counters, the NaN count and, for a
+//! shadow-map technique, the sampling error of its grids ([`crate::sampling_error`]).
 
 use std::collections::BTreeMap;
 
@@ -14,6 +15,7 @@ use glam::{Vec3, Vec4};
 use crate::error::{Error, Result};
 use crate::gpu::{f32s, Context, ContextDesc, Image, ImageDesc, PassTime, Timestamps};
 use crate::passes::{LightView, ReceiverDesc, Receivers, SceneGeometry, ViewSamples};
+use crate::sampling_error::{sampling_error, SamplingSummary};
 use crate::scene::{Camera, Light, Scene, SceneDefaults};
 use crate::techniques::{self, Technique, TechniqueSetup};
 
@@ -80,6 +82,11 @@ pub struct FrameStats {
     /// samples and visibility target excluded), measured from the allocations it made.
     #[serde(default)]
     pub memory_bytes: u64,
+    /// The sampling error ("aliasing", book Ch. 3) of the technique's shadow-map grids over the
+    /// view samples ([`crate::sampling_error`]); `None` for a technique without a map (the
+    /// exact techniques, the references) or when no view sample falls in a grid.
+    #[serde(default)]
+    pub sampling_error: Option<SamplingSummary>,
 }
 
 /// A rendered frame.
@@ -92,6 +99,10 @@ pub struct Frame {
     pub visibility: Vec<f32>,
     /// Times and counters.
     pub stats: FrameStats,
+    /// The sampling error m per pixel (pixels per texel, row-major; 0 for background and for
+    /// samples in no grid, +∞ where degenerate), for a technique with shadow-map grids
+    /// ([`Technique::sampling_grids`]); `None` otherwise (and for cached references).
+    pub aliasing: Option<Vec<f32>>,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -301,6 +312,7 @@ impl Engine {
             counters.extend(r.counters()?);
         }
         inspect(instance.as_ref())?;
+        let grids = instance.sampling_grids();
         drop(instance);
 
         let visibility = f32s(&ctx.read_image(&prepared.visibility)?);
@@ -316,10 +328,18 @@ impl Engine {
             );
             counters.insert("map_texels_used".to_string(), used);
         }
+        let (aliasing, sampling_error) = if grids.is_empty() {
+            (None, None)
+        } else {
+            let normals = prepared.view.read_normals(ctx)?;
+            let (map, summary) = sampling_error(&prepared.camera, &positions, &normals, &grids);
+            (Some(map), summary)
+        };
         Ok(Frame {
             width: prepared.view.width,
             height: prepared.view.height,
             visibility,
+            aliasing,
             stats: FrameStats {
                 technique: info.name.to_string(),
                 params: params.values().clone(),
@@ -330,6 +350,7 @@ impl Engine {
                 out_of_range_count,
                 frames,
                 memory_bytes,
+                sampling_error,
             },
         })
     }
@@ -404,6 +425,7 @@ impl Engine {
                     height: c.height,
                     visibility: entry.visibility,
                     stats,
+                    aliasing: None,
                 };
                 return Ok((frame, CacheUse::Hit));
             }

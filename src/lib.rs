@@ -19,6 +19,7 @@ pub mod output;
 pub mod passes;
 pub mod plots;
 pub mod reference;
+pub mod sampling_error;
 pub mod scene;
 #[cfg(feature = "shader-compiler")]
 pub mod shader_compiler;

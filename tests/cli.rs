@@ -45,6 +45,8 @@ fn render_writes_every_file_with_clean_stats() {
         "visibility.exr",
         "positions.exr",
         "shaded.png",
+        "aliasing.exr",
+        "aliasing.png",
         "stats.json",
     ] {
         let meta = std::fs::metadata(dir.join(f)).unwrap_or_else(|_| panic!("{f} missing"));
@@ -109,6 +111,21 @@ fn render_writes_every_file_with_clean_stats() {
     let alphas: Vec<f32> = pos.pixels().map(|p| p.0[3]).collect();
     assert!(alphas.iter().all(|&a| a == 0.0 || a == 1.0));
     assert!(alphas.contains(&0.0) && alphas.contains(&1.0));
+    // The sampling error: m per pixel, 0 on background, positive on samples in the map; its
+    // summary in stats.json counts the samples the map holds.
+    let m = image::open(dir.join("aliasing.exr"))
+        .expect("exr")
+        .into_rgba32f();
+    assert_eq!(m.dimensions(), (512, 384));
+    let ms: Vec<f32> = m.pixels().map(|p| p.0[0]).collect();
+    assert!(alphas.iter().zip(&ms).all(|(&a, &m)| a > 0.0 || m == 0.0));
+    let charged = ms.iter().filter(|&&m| m > 0.0).count() as u64;
+    let summary = &stats["sampling_error"];
+    assert_eq!(summary["samples"].as_u64(), Some(charged));
+    assert!(summary["median"].as_f64().is_some_and(|v| v > 0.0));
+    assert!(summary["undersampled"]
+        .as_f64()
+        .is_some_and(|v| (0.0..=1.0).contains(&v)));
 }
 
 #[test]

@@ -229,6 +229,17 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
+            vec!["cascades/depth_histogram.comp"],
+            twin!(penumbra::techniques::cascades::DepthHistogramPush {
+                light_view,
+                view_size,
+                perspective,
+                pad,
+                turn,
+                pad2
+            }),
+        ),
+        (
             vec!["receiver_bounds/project.comp"],
             twin!(ReceiverBoundsPush {
                 light_view,

@@ -8,6 +8,7 @@ pub mod atty;
 pub mod average_maps;
 pub mod backprojection;
 pub mod bitmask;
+pub mod cascades;
 pub mod compact;
 pub mod conservative_raster;
 pub mod cssm;

@@ -3,9 +3,11 @@
 //! the receiver fit and the compute pass that bounds the view samples in the light's view for it;
 //! and the receivers prepared around each shadow-map technique (compute).
 
+pub mod cascade_fit;
 mod geometry;
 mod light_depth;
 mod light_view;
+pub mod lispsm;
 pub mod pages;
 mod receiver_bounds;
 pub mod receivers;

@@ -194,4 +194,18 @@ impl Technique for AverageMaps<'_> {
     fn shadow_map(&self) -> Option<&ShadowMap> {
         Some(&self.shadow_map)
     }
+
+    /// The first light sample's map (one map for a point light). The K maps are fitted from
+    /// their own sample positions, so their grids differ only by the sample's offset on the
+    /// light; one stands for all, rather than whichever sample the last frame ended on.
+    fn sampling_grids(&self) -> Vec<crate::sampling_error::SamplingGrid> {
+        self.views
+            .first()
+            .map(|(view, _)| crate::sampling_error::SamplingGrid {
+                view_proj: view.view_proj,
+                size: glam::UVec2::splat(self.shadow_map.desc.size),
+            })
+            .into_iter()
+            .collect()
+    }
 }

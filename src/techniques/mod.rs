@@ -9,10 +9,12 @@
 pub mod atty;
 pub mod average_maps;
 pub mod bitmask;
+pub mod cascades;
 pub mod cssm;
 pub mod essm;
 pub mod filtered;
 pub mod izb;
+pub mod lispsm;
 mod params;
 pub mod pcf;
 pub mod pcf_coverage;
@@ -82,6 +84,20 @@ pub trait Technique {
     /// The virtual map's pages it renders, if any: for tests and debugging views.
     fn virtual_pages(&self) -> Option<&crate::passes::pages::VirtualPages<'_>> {
         None
+    }
+
+    /// The texel grids its view samples are looked up in, finest first, for the sampling-error
+    /// measure ([`crate::sampling_error`]): each view sample is charged to the first grid whose
+    /// window holds it. The default is [`Technique::shadow_map`]'s grid (its light view and
+    /// size), or none for a technique without a map (the exact techniques, the references).
+    fn sampling_grids(&self) -> Vec<crate::sampling_error::SamplingGrid> {
+        self.shadow_map()
+            .map(|m| crate::sampling_error::SamplingGrid {
+                view_proj: m.view.view_proj,
+                size: glam::UVec2::splat(m.desc.size),
+            })
+            .into_iter()
+            .collect()
     }
 
     /// Intermediate per-view-sample images by name (e.g. pvssm's kernel shapes): for tests and
@@ -183,6 +199,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
     &[
         pcf::HARD,
         pcf::PCF,
+        lispsm::LISPSM,
         average_maps::AVERAGE_MAPS,
         crate::reference::REFERENCE,
         crate::reference::REFERENCE_SINGLE_LAYER,
@@ -202,6 +219,7 @@ pub fn registry() -> &'static [TechniqueInfo] {
         pvssm::PVSSM,
         izb::IZB,
         izb::IZB_SOFT,
+        cascades::CASCADES,
         atty::ATTY,
         bitmask::BITMASK,
     ]

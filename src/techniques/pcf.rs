@@ -18,10 +18,22 @@ use super::{
 use crate::cpu::pcf::COUNTER_NAMES;
 use crate::error::Result;
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
-use crate::passes::{DepthBias, SceneGeometry, ShadowMap, ShadowMapDesc};
+use crate::passes::{DepthBias, LightView, SceneGeometry, ShadowMap, ShadowMapDesc};
 use crate::shader_types::PcfPush;
 
-const KERNEL: Knob = Knob {
+/// `filter`: how a PCF-family lookup reads the map — the nearest texel's test (`hard`) or a
+/// `kernel` × `kernel` box of bilinear 2×2 tests (`pcf`). Shared by `lispsm` and `cascades`.
+pub const FILTER: Knob = Knob::int(
+    "filter",
+    "lookup filter: nearest-texel test (hard) or a kernel x kernel bilinear PCF box (pcf)",
+    0.0,
+    0.0,
+    1.0,
+)
+.named(&["hard", "pcf"]);
+
+/// `kernel`: the PCF box width in texels (`pcf`; `lispsm` and `cascades` with `filter = pcf`).
+pub const KERNEL: Knob = Knob {
     name: "kernel",
     summary: "box width in texels (kernel x kernel bilinear taps)",
     default: KnobDefault::Value(3.0),
@@ -52,7 +64,17 @@ pub const HARD: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
-    create: |setup, params| Ok(Box::new(pcf(setup, params, 0, 1, 0)?)),
+    create: |setup, params| {
+        Ok(Box::new(pcf_pass(
+            setup,
+            *setup.light_view,
+            params,
+            "hard",
+            0,
+            1,
+            0,
+        )?))
+    },
 };
 
 const PCF_KNOBS: [Knob; 6] = [
@@ -76,7 +98,15 @@ pub const PCF: TechniqueInfo = TechniqueInfo {
     create: |setup, params| {
         let kernel = params.u32("kernel")? as i32;
         let receiver_plane = params.u32("receiver_plane_bias")? as i32;
-        Ok(Box::new(pcf(setup, params, 1, kernel, receiver_plane)?))
+        Ok(Box::new(pcf_pass(
+            setup,
+            *setup.light_view,
+            params,
+            "pcf",
+            1,
+            kernel,
+            receiver_plane,
+        )?))
     },
 };
 
@@ -111,9 +141,12 @@ pub(crate) struct ViewPass<'a, P> {
 }
 
 impl<'a, P: bytemuck::Pod> ViewPass<'a, P> {
-    /// Builds the map, the pipeline of `shader` and its bindings; `push` gets the built map.
+    /// Builds the map from `light_view` (the setup's, or one a technique derived from it, such
+    /// as `lispsm`'s warped view), the pipeline of `shader` and its bindings; `push` gets the
+    /// built map.
     pub(crate) fn new(
         setup: &TechniqueSetup<'a>,
+        light_view: LightView,
         params: &Params,
         name: &'static str,
         shader: &str,
@@ -121,7 +154,7 @@ impl<'a, P: bytemuck::Pod> ViewPass<'a, P> {
         push: impl FnOnce(&ShadowMap) -> P,
     ) -> Result<Self> {
         let ctx = setup.ctx;
-        let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params)?)?;
+        let shadow_map = ShadowMap::new(ctx, light_view, shadow_map_desc(params)?)?;
         let pipeline = Pipeline::compute(ctx, shader)?;
         let counters = Buffer::storage(
             ctx,
@@ -153,25 +186,35 @@ impl<'a, P: bytemuck::Pod> ViewPass<'a, P> {
     }
 }
 
-fn pcf<'a>(
+/// `pcf.comp` over a map rendered from `light_view`, in pass `name`: `mode` 0 tests the nearest
+/// texel, 1 a `kernel`² box of bilinear tests (with per-tap receiver-plane depths where
+/// `receiver_plane` is 1). The lookup uses the map's own view.
+pub(crate) fn pcf_pass<'a>(
     setup: &TechniqueSetup<'a>,
+    light_view: LightView,
     params: &Params,
+    name: &'static str,
     mode: i32,
     kernel: i32,
     receiver_plane: i32,
 ) -> Result<ViewPass<'a, PcfPush>> {
-    let name = if mode == 0 { "hard" } else { "pcf" };
-    ViewPass::new(setup, params, name, "pcf/pcf.comp", Vec::new(), |map| {
-        PcfPush {
-            light_view_proj: setup.light_view.view_proj,
+    ViewPass::new(
+        setup,
+        light_view,
+        params,
+        name,
+        "pcf/pcf.comp",
+        Vec::new(),
+        |map| PcfPush {
+            light_view_proj: map.view.view_proj,
             view_size: IVec2::new(setup.view.width as i32, setup.view.height as i32),
             map_size: IVec2::splat(map.desc.size as i32),
             mode,
             kernel,
             receiver_plane,
             pad: 0,
-        }
-    })
+        },
+    )
 }
 
 impl<P: bytemuck::Pod> Technique for ViewPass<'_, P> {

@@ -57,6 +57,7 @@ fn pcf_coverage<'a>(
     let receiver_plane = params.u32("receiver_plane_bias")? as i32;
     ViewPass::new(
         setup,
+        *setup.light_view,
         params,
         "pcf-coverage",
         "pcf_coverage/pcf_coverage.comp",

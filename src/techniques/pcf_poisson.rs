@@ -78,6 +78,7 @@ fn pcf_poisson<'a>(
     )?;
     ViewPass::new(
         setup,
+        *setup.light_view,
         params,
         "pcf-poisson",
         "pcf_poisson/pcf_poisson.comp",

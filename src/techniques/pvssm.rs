@@ -336,6 +336,17 @@ impl Technique for Pvssm<'_> {
         Some(&self.pages)
     }
 
+    /// The virtual map's finest level: `virtual_size` texels a side over the light view, where
+    /// the visibility is filtered. Every sample is charged to it: the coarser page levels its
+    /// predicted kernel is read from are not charged, nor is the `lowres_size` blocker-search
+    /// map.
+    fn sampling_grids(&self) -> Vec<crate::sampling_error::SamplingGrid> {
+        vec![crate::sampling_error::SamplingGrid {
+            view_proj: self.push.light_view_proj,
+            size: glam::UVec2::splat(self.push.virtual_size),
+        }]
+    }
+
     fn images(&self) -> Vec<(&'static str, &Image)> {
         vec![("shape", &self.shape)]
     }

@@ -292,4 +292,15 @@ impl Technique for Rmsm<'_> {
     fn virtual_pages(&self) -> Option<&VirtualPages<'_>> {
         Some(&self.pages)
     }
+
+    /// The virtual map's finest level: `virtual_size` texels a side over the light view. Every
+    /// sample is charged to it, whichever level it was served from: the coarser page levels (a
+    /// sample's resolution-matched level, or a fallback when the pool ran out) are not charged,
+    /// so this is the error the finest level bounds from below, not the served texel's.
+    fn sampling_grids(&self) -> Vec<crate::sampling_error::SamplingGrid> {
+        vec![crate::sampling_error::SamplingGrid {
+            view_proj: self.push.light_view_proj,
+            size: glam::UVec2::splat(self.push.virtual_size),
+        }]
+    }
 }

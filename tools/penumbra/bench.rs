@@ -1,8 +1,11 @@
 //! `penumbra bench`: techniques × knob sweeps × scenes, each timed by GPU timestamps (median of
 //! several frames after a warm-up) and measured against the ray-cast reference on the same view
 //! samples. Writes `bench.json` (one stats object per run, as `render` writes, plus `error`),
-//! `bench.csv`, and Pareto charts of time against penumbra MAE: `pareto.png` over all scenes
-//! (each configuration's mean over the scenes whose reference has a penumbra) and one per scene.
+//! `bench.csv` (its last columns `aliasing_median`, `aliasing_p95`, `aliasing_undersampled` are
+//! the sampling error of the technique's map grids, empty without a map; `inf` where degenerate
+//! samples make a percentile infinite), and Pareto charts of time against penumbra MAE:
+//! `pareto.png` over all scenes (each configuration's mean over the scenes whose reference has a
+//! penumbra) and one per scene.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -45,6 +48,19 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
     match (technique, quick) {
         ("hard", true) => vec![("map_size", vec![512.0, 1024.0])],
         ("hard", false) => vec![("map_size", vec![512.0, 1024.0, 2048.0, 4096.0, 8192.0])],
+        // Warping: the optimal parameter and a weaker warp.
+        ("lispsm", true) => vec![("map_size", vec![1024.0])],
+        ("lispsm", false) => vec![
+            ("map_size", vec![1024.0, 2048.0]),
+            ("n_scale", vec![1.0, 4.0]),
+        ],
+        // Cascades: practical splits against SDSM (partition 0 = pssm, 1 = sdsm, 2 = uniform,
+        // 3 = log) at four maps of 512² (quick) or 1024² (= one 2048² map's memory).
+        ("cascades", true) => vec![("map_size", vec![512.0]), ("partition", vec![0.0, 1.0])],
+        ("cascades", false) => vec![
+            ("map_size", vec![1024.0]),
+            ("partition", vec![0.0, 1.0, 2.0, 3.0]),
+        ],
         ("pcf", true) => vec![("map_size", vec![1024.0]), ("kernel", vec![1.0, 3.0, 5.0])],
         ("pcf", false) => vec![
             ("map_size", vec![1024.0, 2048.0]),
@@ -529,6 +545,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                         }
                         row["counters"] = serde_json::json!(frame.stats.counters);
                         row["nan_count"] = serde_json::json!(frame.stats.nan_count);
+                        row["sampling_error"] = serde_json::json!(frame.stats.sampling_error);
                         row["error"] = serde_json::json!(error);
                         for ((name, _, _), e) in references.iter().zip(&errors).skip(1) {
                             row[format!("penumbra_mae@{name}")] = serde_json::json!(e.penumbra_mae);
@@ -610,6 +627,10 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "passes",
         "failure",
         "unsupported",
+        // The sampling error of the technique's map grids (empty without a map).
+        "aliasing_median",
+        "aliasing_p95",
+        "aliasing_undersampled",
     ]
     .iter()
     .map(|c| c.to_string())
@@ -639,6 +660,18 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                         .collect();
                     serde_json::Value::String(parts.join(";"))
                 });
+            }
+            if let Some(field) = c.strip_prefix("aliasing_") {
+                // +∞ (degenerate samples) is null in the JSON: "inf" in the CSV.
+                return r.get("sampling_error").filter(|s| !s.is_null()).map_or(
+                    serde_json::Value::Null,
+                    |s| {
+                        s.get(field)
+                            .cloned()
+                            .filter(|v| !v.is_null())
+                            .unwrap_or_else(|| serde_json::Value::String("inf".into()))
+                    },
+                );
             }
             r.get(c)
                 .or_else(|| r.get("error").and_then(|e| e.get(c)))
@@ -740,8 +773,18 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
 
     // A table on stdout.
     println!(
-        "{:<24} {:<14} {:<28} {:>10} {:>9} {:>9} {:>9} {:>7}",
-        "scene", "technique", "knobs", "GPU ms", "RMSE", "pen. MAE", "miscl.", "FLIP"
+        "{:<24} {:<14} {:<28} {:>10} {:>9} {:>9} {:>9} {:>7} {:>7} {:>7} {:>7}",
+        "scene",
+        "technique",
+        "knobs",
+        "GPU ms",
+        "RMSE",
+        "pen. MAE",
+        "miscl.",
+        "FLIP",
+        "m med",
+        "m p95",
+        "m>1"
     );
     for r in &rows {
         let f = |v: Option<&serde_json::Value>, d: usize| {
@@ -750,8 +793,17 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                 .unwrap_or_else(|| "-".into())
         };
         let e = r.get("error");
+        let a = r.get("sampling_error").filter(|s| !s.is_null());
+        // A null percentile in a present summary is +∞ (degenerate samples).
+        let inf = |field: &str, d: usize| match a {
+            Some(s) => s
+                .get(field)
+                .and_then(|x| x.as_f64())
+                .map_or_else(|| "inf".into(), |x| format!("{x:.d$}")),
+            None => "-".into(),
+        };
         println!(
-            "{:<24} {:<14} {:<28} {:>10} {:>9} {:>9} {:>9} {:>7}",
+            "{:<24} {:<14} {:<28} {:>10} {:>9} {:>9} {:>9} {:>7} {:>7} {:>7} {:>7}",
             r["scene"].as_str().unwrap_or(""),
             r["technique"].as_str().unwrap_or(""),
             r["label"].as_str().unwrap_or(""),
@@ -760,6 +812,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             f(e.and_then(|e| e.get("penumbra_mae")), 4),
             f(e.and_then(|e| e.get("misclassified")), 4),
             f(e.and_then(|e| e.get("flip")), 4),
+            inf("median", 2),
+            inf("p95", 2),
+            f(a.and_then(|s| s.get("undersampled")), 3),
         );
         if let Some(failure) = r.get("failure") {
             println!("    failed: {failure}");

@@ -250,6 +250,13 @@ fn render(
         &frame.visibility,
     );
     output::write_rgb_png(&out.join("shaded.png"), w, h, &shaded)?;
+    if let Some(m) = &frame.aliasing {
+        // The sampling error m (pixels per texel) and its colour-coded log2 (scale in
+        // penumbra::sampling_error's doc).
+        output::write_visibility_exr(&out.join("aliasing.exr"), w, h, m)?;
+        let rgb = penumbra::sampling_error::aliasing_rgb(m, &positions);
+        output::write_rgb_png(&out.join("aliasing.png"), w, h, &rgb)?;
+    }
     let mut comparison = None;
     if let Some(c) = &compare {
         bar.set_message(format!(
@@ -317,6 +324,7 @@ fn render(
         "counters": frame.stats.counters,
         "nan_count": frame.stats.nan_count,
         "out_of_range_count": frame.stats.out_of_range_count,
+        "sampling_error": frame.stats.sampling_error,
         "validation": validation,
         "cache": cache_use,
     });

@@ -1,0 +1,599 @@
+//! `cascades`: z-partitioned shadow maps (cascaded / parallel-split shadow maps, book §4.3; SDSM,
+//! Lauritzen11), the way engines ship sun shadows.
+//!
+//! The view's depth range is split into `count` slices (`partition`: practical `pssm` splits with
+//! `lambda`, `uniform`, `log`, or `sdsm` fitted to the view samples — see
+//! [`crate::passes::cascade_fit`]); each slice gets a `map_size`² map fitted to it, all in one
+//! depth atlas (tiles in a row, wrapping into rows past the device's largest image side), drawn
+//! with one viewport per tile in one rendering scope. `snap` (on by default) rounds each window
+//! to whole texels of a fixed ladder of sizes so a still scene's maps do not shimmer as the camera
+//! moves.
+//!
+//! Per frame: with `sdsm`, the depth-histogram reduction (`glsl/cascades/depth_histogram.comp`,
+//! timed as `depth-histogram`; an engine reads it back for the next frame — here the set-up runs
+//! it once and fits from that, which for a still scene is the frame's own); the atlas
+//! (`light-depth`), skipping the maps of cascades no view sample falls in (`cascades_skipped`,
+//! SDSM only: a frustum slice cannot know); the lookup (`glsl/cascades/lookup.comp`), finest
+//! cascade first, each fading into the next over a band of `blend` texels at its tile's edge, so
+//! no seam shows. `filter = hard` tests the nearest texel, `pcf` a `kernel` × `kernel` box of
+//! bilinear taps as `pcf`.
+//!
+//! Counters: `view_samples`, `outside_light` (no cascade covers it: lit), `lit`, `umbra`,
+//! `penumbra`, `blended` (in a band), `cascade0`… (samples looked up first in each cascade),
+//! `cascades_skipped`. CPU twin: [`crate::cpu::cascades`].
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::{IVec2, IVec4, Mat4, UVec2, Vec2, Vec3, Vec4};
+
+use crate::sampling_error::{nearest_rank, sample_error, SamplingGrid};
+
+use super::pcf::{shadow_map_desc, FILTER, KERNEL};
+use super::{Knob, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS};
+use crate::error::{Error, Result};
+use crate::gpu::{
+    Access, Binding, Buffer, Context, DescriptorSet, GraphicsDesc, Image, ImageDesc, Pipeline,
+    Recorder, Sampler,
+};
+use crate::passes::cascade_fit::{
+    self, Cascade, DepthHistogram, FitDesc, Partition, HISTOGRAM_BINS, MAX_CASCADES,
+};
+use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMapDesc, SHADOW_MAP_FORMAT};
+use crate::scene::{Aabb, Camera};
+use crate::shader_types::LightDepthPush;
+
+/// Counter slots the lookup writes, in order (then one per cascade, `cascade0`…).
+pub const LOOKUP_COUNTERS: [&str; 6] = [
+    "view_samples",
+    "outside_light",
+    "lit",
+    "umbra",
+    "penumbra",
+    "blended",
+];
+
+const COUNT: Knob = Knob::int("count", "number of cascades (z-partitions)", 4.0, 1.0, 8.0);
+
+const PARTITION: Knob = Knob::int(
+    "partition",
+    "split placement: practical (pssm, with lambda), sample-distribution (sdsm: splits and \
+     windows fitted to the view samples' depth histogram), uniform or log",
+    0.0,
+    0.0,
+    3.0,
+)
+.named(&["pssm", "sdsm", "uniform", "log"]);
+
+const LAMBDA: Knob = Knob::int(
+    "lambda",
+    "practical split blend: 1 logarithmic, 0 uniform (pssm and sdsm)",
+    0.5,
+    0.0,
+    1.0,
+)
+.real();
+
+const BLEND: Knob = Knob::int(
+    "blend",
+    "width in texels of the band at a cascade's edge where it fades into the next (0: a hard \
+     switch)",
+    4.0,
+    0.0,
+    64.0,
+)
+.real();
+
+const SNAP: Knob = Knob::int(
+    "snap",
+    "1: windows on a fixed ladder of sizes and whole texels (no shimmer as the camera moves); 0: \
+     tight windows cropped to the light view",
+    1.0,
+    0.0,
+    1.0,
+);
+
+const KNOBS: [Knob; 11] = [
+    SHADOW_MAP_KNOBS[0],
+    SHADOW_MAP_KNOBS[1],
+    SHADOW_MAP_KNOBS[2],
+    SHADOW_MAP_KNOBS[3],
+    COUNT,
+    PARTITION,
+    LAMBDA,
+    BLEND,
+    SNAP,
+    FILTER,
+    KERNEL,
+];
+
+/// `cascades`: z-partitioned shadow maps.
+pub const CASCADES: TechniqueInfo = TechniqueInfo {
+    name: "cascades",
+    summary: "cascaded shadow maps: count z-partitions (pssm, sdsm, uniform, log), one map each, \
+              texel-snapped, blended at the borders",
+    knobs: &KNOBS,
+    cacheable: false,
+    shadow_map: true,
+    per_light_sample: false,
+    clips_light: false,
+    create: |setup, params| Ok(Box::new(Cascades::new(setup, params)?)),
+};
+
+/// The uniform block of `glsl/cascades/lookup.comp` (std140, 688 bytes: every member at its
+/// std140 offset, which `tests/cascades.rs` checks).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct CascadeParams {
+    /// World → each cascade's clip space.
+    pub view_proj: [Mat4; MAX_CASCADES],
+    /// Tile origin x, y (texels); 1 when rendered; 1 for the last rendered cascade.
+    pub tiles: [IVec4; MAX_CASCADES],
+    /// Cascades, mode (0 nearest, 1 pcf), kernel (0 with mode 0), unused.
+    pub sizes: IVec4,
+    /// Blend band (texels), filter reach (texels), unused × 2.
+    pub band: Vec4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// Tile width and height (texels).
+    pub tile: IVec2,
+}
+
+/// The push block of `glsl/cascades/depth_histogram.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct DepthHistogramPush {
+    /// World → base light view.
+    pub light_view: Mat4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// 1: perspective light (x and y divided by −z).
+    pub perspective: i32,
+    /// Padding.
+    pub pad: i32,
+    /// (cos, sin) of the second orientation's turn.
+    pub turn: glam::Vec2,
+    /// Padding.
+    pub pad2: glam::Vec2,
+}
+
+/// The texels a filter reads on either side of a sample's map position: the nearest texel
+/// (`kernel = 0`) stays inside for positions half a texel from the edge; a box of k bilinear taps
+/// reaches k/2 texels (taps at ±(k−1)/2, each reading half a texel beyond).
+pub fn filter_reach(kernel: u32) -> f32 {
+    if kernel == 0 {
+        0.5
+    } else {
+        kernel as f32 * 0.5 + 0.5
+    }
+}
+
+/// Tiles per row of the atlas and rows, for `count` tiles of `tile` texels with images at most
+/// `max` texels a side.
+pub fn atlas_layout(count: u32, tile: UVec2, max: u32) -> Result<(u32, u32)> {
+    let cols = count.min((max / tile.x.max(1)).max(1));
+    let rows = count.div_ceil(cols);
+    if cols * tile.x > max || rows * tile.y > max {
+        return Err(Error::Parameter {
+            technique: "cascades".into(),
+            message: format!(
+                "{count} cascades of {}x{} texels do not fit an atlas of at most {max}² texels",
+                tile.x, tile.y
+            ),
+        });
+    }
+    Ok((cols, rows))
+}
+
+/// The scene's bounding box from its triangles' positions.
+pub fn bounds(positions: &[Vec3]) -> Aabb {
+    positions.iter().fold(Aabb::EMPTY, |b, &p| Aabb {
+        min: b.min.min(p),
+        max: b.max.max(p),
+    })
+}
+
+/// The fit's settings from the knobs.
+pub fn fit_desc(params: &Params) -> Result<FitDesc> {
+    let kernel = if params.u32("filter")? == 0 {
+        0
+    } else {
+        params.u32("kernel")?
+    };
+    Ok(FitDesc {
+        partition: Partition::from_index(params.u32("partition")?)?,
+        count: params.u32("count")? as usize,
+        lambda: params.f32("lambda")?,
+        map_size: params.u32("map_size")?,
+        margin: filter_reach(kernel) + params.f32("blend")?,
+        snap: params.u32("snap")? == 1,
+    })
+}
+
+/// Fits the cascades in each of [`cascade_fit::tile_candidates`] and keeps the tile shape whose
+/// maps give the view samples the lowest 95th-percentile sampling error (book Ch. 3,
+/// [`crate::sampling_error`]; every 4th sample of every 4th row, at most): a slice of the view
+/// seen from the light is a strip whose texels want one aspect, but a receiver lit at a grazing
+/// angle wants its texels along the light's foreshortened axis, which no window's shape tells.
+/// The view samples are read back at set-up, like the SDSM histogram. Ties keep the earlier
+/// candidate (square first).
+#[allow(clippy::too_many_arguments)]
+pub fn fit(
+    camera: &Camera,
+    scene: &Aabb,
+    base: &LightView,
+    turns: &[Vec2; 2],
+    histogram: Option<&DepthHistogram>,
+    desc: &FitDesc,
+    positions: &[Vec4],
+    normals: &[Vec4],
+) -> Result<(Vec<Cascade>, UVec2)> {
+    let width = camera.width.max(1) as usize;
+    let picked: Vec<(usize, Vec3, Vec3)> = positions
+        .iter()
+        .zip(normals)
+        .enumerate()
+        .filter(|(i, (p, _))| p.w > 0.0 && (i % width) % 4 == 0 && (i / width) % 4 == 0)
+        .map(|(i, (p, n))| (i, p.truncate(), n.truncate()))
+        .collect();
+    let mut best: Option<(f32, Vec<Cascade>, UVec2)> = None;
+    for tile in cascade_fit::tile_candidates(desc.map_size) {
+        let cascades =
+            cascade_fit::fit_cascades(camera, scene, base, turns, histogram, desc, tile)?;
+        let grids: Vec<SamplingGrid> = cascades
+            .iter()
+            .filter(|c| !c.empty)
+            .map(|c| SamplingGrid {
+                view_proj: c.light_view(base, turns).view_proj,
+                size: tile,
+            })
+            .collect();
+        let mut m: Vec<f32> = picked
+            .iter()
+            .filter_map(|&(i, p, n)| {
+                let g = grids.iter().find(|g| g.texel(p).is_some())?;
+                let pixel = ((i % width) as u32, (i / width) as u32);
+                Some(sample_error(camera, pixel, p, n, g).m as f32)
+            })
+            .collect();
+        m.sort_by(f32::total_cmp);
+        let p95 = if m.is_empty() {
+            0.0
+        } else {
+            nearest_rank(&m, 95.0)
+        };
+        if best.as_ref().is_none_or(|b| p95 < b.0) {
+            best = Some((p95, cascades, tile));
+        }
+    }
+    best.map(|(_, c, t)| (c, t))
+        .ok_or_else(|| Error::Parameter {
+            technique: "cascades".into(),
+            message: "no tile shape to try".into(),
+        })
+}
+
+/// The SDSM reduction: its pipeline, bindings and the buffers it fills.
+struct DepthHistogramPass {
+    pipeline: Pipeline,
+    set: DescriptorSet,
+    words: Buffer,
+    _edges: Buffer,
+    push: DepthHistogramPush,
+    edges: Vec<f32>,
+    view_size: [u32; 2],
+}
+
+impl DepthHistogramPass {
+    fn new(setup: &TechniqueSetup<'_>, turn: glam::Vec2) -> Result<DepthHistogramPass> {
+        let ctx = setup.ctx;
+        let edges = cascade_fit::histogram_edges(setup.camera.near, setup.camera.far);
+        let mut padded = edges.clone();
+        padded.resize((HISTOGRAM_BINS + 4) / 4 * 4, f32::INFINITY);
+        let edges_buffer = ctx.buffer_with(
+            "cascades histogram edges",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            &padded,
+        )?;
+        let words = ctx.buffer_with(
+            "cascades depth histogram",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            &DepthHistogram::initial_words(),
+        )?;
+        let pipeline = Pipeline::compute(ctx, "cascades/depth_histogram.comp")?;
+        let set = DescriptorSet::new(
+            ctx,
+            &pipeline,
+            &[
+                Binding::Image(&setup.view.positions),
+                Binding::Image(&setup.view.normals),
+                Binding::Buffer(&words),
+                Binding::Buffer(&edges_buffer),
+            ],
+        )?;
+        let push = DepthHistogramPush {
+            light_view: setup.light_view.view,
+            view_size: IVec2::new(setup.view.width as i32, setup.view.height as i32),
+            perspective: matches!(
+                setup.light_view.projection,
+                LightProjection::Perspective { .. }
+            ) as i32,
+            pad: 0,
+            turn,
+            pad2: glam::Vec2::ZERO,
+        };
+        Ok(DepthHistogramPass {
+            pipeline,
+            set,
+            words,
+            _edges: edges_buffer,
+            push,
+            edges,
+            view_size: [setup.view.width, setup.view.height],
+        })
+    }
+
+    fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        rec.upload(
+            &self.words,
+            bytemuck::cast_slice(&DepthHistogram::initial_words()),
+        )?;
+        let [w, h] = self.view_size;
+        rec.dispatch(&self.pipeline, &self.set, &self.push, [w, h, 1])
+    }
+
+    fn read(&self, ctx: &Context) -> Result<DepthHistogram> {
+        let words = crate::gpu::u32s(&ctx.read_buffer(&self.words)?);
+        DepthHistogram::decode(self.edges.clone(), &words)
+    }
+}
+
+/// Runs the SDSM reduction once on `setup`'s view samples, in the base light view and turned by
+/// `turn`, and returns the buffer's words (see [`DepthHistogram::decode`]): for tests against the
+/// CPU twin ([`crate::cpu::cascades::depth_histogram`]).
+pub fn reduce_depth_histogram(setup: &TechniqueSetup<'_>, turn: glam::Vec2) -> Result<Vec<u32>> {
+    let pass = DepthHistogramPass::new(setup, turn)?;
+    setup.ctx.submit(None, |rec| pass.record(rec))?;
+    Ok(crate::gpu::u32s(&setup.ctx.read_buffer(&pass.words)?))
+}
+
+/// A `cascades` instance.
+pub struct Cascades<'a> {
+    ctx: Context,
+    cascades: Vec<Cascade>,
+    views: Vec<LightView>,
+    tiles: Vec<[u32; 2]>,
+    tile: UVec2,
+    desc: ShadowMapDesc,
+    histogram: Option<DepthHistogramPass>,
+    depth_pipeline: Pipeline,
+    atlas: Image,
+    _sampler: Sampler,
+    _params: Buffer,
+    lookup: Pipeline,
+    set: DescriptorSet,
+    counters: Buffer,
+    view_size: [u32; 2],
+    geometry: &'a SceneGeometry,
+}
+
+impl<'a> Cascades<'a> {
+    fn new(setup: &TechniqueSetup<'a>, params: &Params) -> Result<Cascades<'a>> {
+        let ctx = setup.ctx;
+        let desc = shadow_map_desc(params)?;
+        if desc.bias.clamp != 0.0 && !ctx.info().depth_bias_clamp {
+            return Err(Error::Unsupported {
+                device: ctx.info().name.clone(),
+                feature: "depthBiasClamp (set bias_clamp = 0)".into(),
+            });
+        }
+        let k = params.u32("count")?;
+        let (d0, d1) = cascade_fit::scene_depth_range(setup.camera, &bounds(setup.positions));
+        let turns = cascade_fit::orientations(setup.light_view, setup.camera, d0, d1);
+        let histogram = if Partition::from_index(params.u32("partition")?)? == Partition::Sdsm {
+            let pass = DepthHistogramPass::new(setup, turns[1])?;
+            ctx.submit(None, |rec| pass.record(rec))?;
+            Some(pass)
+        } else {
+            None
+        };
+        let hist = histogram.as_ref().map(|h| h.read(ctx)).transpose()?;
+        let positions = setup.view.read_positions(ctx)?;
+        let normals = setup.view.read_normals(ctx)?;
+        let (cascades, tile) = fit(
+            setup.camera,
+            &bounds(setup.positions),
+            setup.light_view,
+            &turns,
+            hist.as_ref(),
+            &fit_desc(params)?,
+            &positions,
+            &normals,
+        )?;
+        let (cols, rows) = atlas_layout(k, tile, ctx.info().max_image_dimension_2d)?;
+        let views: Vec<LightView> = cascades
+            .iter()
+            .map(|c| c.light_view(setup.light_view, &turns))
+            .collect();
+        let tiles: Vec<[u32; 2]> = (0..k)
+            .map(|i| [(i % cols) * tile.x, (i / cols) * tile.y])
+            .collect();
+
+        let depth_pipeline = Pipeline::graphics(
+            ctx,
+            &GraphicsDesc {
+                vertex: "passes/light_depth.vert",
+                fragment: None,
+                color_formats: &[],
+                depth_format: SHADOW_MAP_FORMAT,
+                depth_bias: true,
+                vertex_input: true,
+                cull_mode: vk::CullModeFlags::NONE,
+                depth_compare: vk::CompareOp::LESS_OR_EQUAL,
+            },
+        )?;
+        let atlas = Image::new(
+            ctx,
+            "cascade atlas",
+            ImageDesc::new_2d(
+                SHADOW_MAP_FORMAT,
+                cols * tile.x,
+                rows * tile.y,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                    | vk::ImageUsageFlags::SAMPLED
+                    | vk::ImageUsageFlags::TRANSFER_SRC,
+            ),
+        )?;
+        let sampler = Sampler::nearest_border_white(ctx, "cascade atlas sampler")?;
+
+        let filter = params.u32("filter")?;
+        let kernel = if filter == 0 {
+            0
+        } else {
+            params.u32("kernel")?
+        };
+        let last = cascades.iter().rposition(|c| !c.empty);
+        let mut block = CascadeParams::zeroed();
+        for (i, (c, v)) in cascades.iter().zip(&views).enumerate() {
+            block.view_proj[i] = v.view_proj;
+            block.tiles[i] = IVec4::new(
+                tiles[i][0] as i32,
+                tiles[i][1] as i32,
+                (!c.empty) as i32,
+                (Some(i) == last) as i32,
+            );
+        }
+        block.sizes = IVec4::new(k as i32, filter as i32, kernel as i32, 0);
+        block.tile = tile.as_ivec2();
+        block.band = Vec4::new(params.f32("blend")?, filter_reach(kernel), 0.0, 0.0);
+        block.view_size = IVec2::new(setup.view.width as i32, setup.view.height as i32);
+        let params_buffer = ctx.buffer_with(
+            "cascades params",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            std::slice::from_ref(&block),
+        )?;
+        let counters = Buffer::storage(
+            ctx,
+            "cascades counters",
+            ((LOOKUP_COUNTERS.len() + MAX_CASCADES) * 4) as u64,
+        )?;
+        let lookup = Pipeline::compute(ctx, "cascades/lookup.comp")?;
+        let set = DescriptorSet::new(
+            ctx,
+            &lookup,
+            &[
+                Binding::Image(setup.receivers),
+                Binding::Sampled(&atlas, &sampler),
+                Binding::Image(setup.visibility),
+                Binding::Buffer(&counters),
+                Binding::Buffer(&params_buffer),
+            ],
+        )?;
+        Ok(Cascades {
+            ctx: ctx.clone(),
+            cascades,
+            views,
+            tiles,
+            tile,
+            desc,
+            histogram,
+            depth_pipeline,
+            atlas,
+            _sampler: sampler,
+            _params: params_buffer,
+            lookup,
+            set,
+            counters,
+            view_size: [setup.view.width, setup.view.height],
+            geometry: setup.geometry,
+        })
+    }
+
+    /// The fitted cascades, finest first.
+    pub fn cascades(&self) -> &[Cascade] {
+        &self.cascades
+    }
+
+    /// Each cascade's light view.
+    pub fn views(&self) -> &[LightView] {
+        &self.views
+    }
+
+    /// The depth atlas, each cascade's tile origin in it and the tiles' size (texels).
+    pub fn atlas(&self) -> (&Image, &[[u32; 2]], UVec2) {
+        (&self.atlas, &self.tiles, self.tile)
+    }
+}
+
+impl Technique for Cascades<'_> {
+    fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
+        if let Some(h) = &self.histogram {
+            rec.begin_pass("depth-histogram")?;
+            let r = h.record(rec);
+            rec.end_pass();
+            r?;
+        }
+        rec.begin_pass("light-depth")?;
+        let g = self.geometry;
+        rec.use_buffer(&g.vertices, Access::VertexInput);
+        rec.use_buffer(&g.indices, Access::VertexInput);
+        rec.begin_rendering(&[], (&self.atlas, 1.0));
+        let bias = self.desc.bias;
+        let mut result = Ok(());
+        for ((c, v), t) in self.cascades.iter().zip(&self.views).zip(&self.tiles) {
+            if c.empty {
+                continue;
+            }
+            rec.set_viewport_rect(t[0], t[1], self.tile.x, self.tile.y);
+            result = rec.draw_indexed(
+                &self.depth_pipeline,
+                &g.vertices,
+                &g.indices,
+                g.index_count,
+                &LightDepthPush {
+                    light_view_proj: v.view_proj,
+                },
+                Some([bias.constant, bias.slope, bias.clamp]),
+            );
+            if result.is_err() {
+                break;
+            }
+        }
+        rec.end_rendering();
+        rec.end_pass();
+        result?;
+        rec.begin_pass("cascades")?;
+        rec.fill(&self.counters, 0);
+        let [w, h] = self.view_size;
+        let r = rec.dispatch(&self.lookup, &self.set, &(), [w, h, 1]);
+        rec.end_pass();
+        r
+    }
+
+    fn counters(&self) -> Result<Vec<(String, u64)>> {
+        let mut names: Vec<String> = LOOKUP_COUNTERS.iter().map(|s| s.to_string()).collect();
+        names.extend((0..MAX_CASCADES).map(|i| format!("cascade{i}")));
+        let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+        let mut counters = super::read_counters(&self.ctx, &self.counters, &refs)?;
+        counters.truncate(LOOKUP_COUNTERS.len() + self.cascades.len());
+        let skipped = self.cascades.iter().filter(|c| c.empty).count();
+        counters.push(("cascades_skipped".into(), skipped as u64));
+        Ok(counters)
+    }
+
+    fn images(&self) -> Vec<(&'static str, &Image)> {
+        vec![("atlas", &self.atlas)]
+    }
+
+    fn sampling_grids(&self) -> Vec<crate::sampling_error::SamplingGrid> {
+        // Finest first, as the lookup composites them.
+        self.cascades
+            .iter()
+            .zip(&self.views)
+            .filter(|(c, _)| !c.empty)
+            .map(|(_, v)| crate::sampling_error::SamplingGrid {
+                view_proj: v.view_proj,
+                size: self.tile,
+            })
+            .collect()
+    }
+}

@@ -7,6 +7,7 @@ named command):
     python3 tools/readme_tables.py virtual DIR     # DIR from the virtual-map bench (README)
     python3 tools/readme_tables.py izb DIR...      # DIRs from the irregular z-buffer benches
     python3 tools/readme_tables.py backprojection A B C  # the atty/bitmask benches (README)
+    python3 tools/readme_tables.py resolution DIR...    # the hard-shadow resolution benches
 
 `receivers`: per technique, the configuration with clipping on that has the lowest penumbra MAE
 on teapot-rect (lowest RMSE on spot-point), with the same configuration's clip-off figures and
@@ -21,6 +22,8 @@ tests and the izb passes, from bench.json.
 knobs), per scene the best penumbra MAE against the single-layer reference of each technique and
 whether bitmask at 256 samples beats them all; from B and C every run with its passes, both references' errors, Atty's shadow MAE and
 the skip counters.
+`resolution`: per scene of the DIRs, every run with time, misclassified, RMSE, the sampling
+error's median, p95 and under-sampled fraction, and memory (MiB), from bench.csv.
 """
 import csv
 import json
@@ -280,9 +283,37 @@ def backprojection(a, b, c):
                   f"| {cnt.get('patches', '—')} |")
 
 
+def resolution(directories):
+    data = []
+    for d in directories:
+        data.extend(rows(Path(d) / "bench.csv"))
+    scenes = []
+    for r in data:
+        if r["scene"] not in scenes:
+            scenes.append(r["scene"])
+    for scene in scenes:
+        print(f"\n`{scene}`:\n")
+        print("| technique | knobs | GPU ms | misclassified | RMSE | m median | m p95 | m > 1 | MiB |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        for r in data:
+            if r["scene"] != scene:
+                continue
+            mem = num(r, "memory_bytes")
+            print(
+                f"| `{r['technique']}` | {knobs(r['label'], ())} | {fmt(num(r, 'total_gpu_ms'), 1)} "
+                f"| {fmt(num(r, 'misclassified'), 5)} | {fmt(num(r, 'rmse'), 4)} "
+                f"| {fmt(num(r, 'aliasing_median'), 3)} | {fmt(num(r, 'aliasing_p95'), 3)} "
+                f"| {fmt(num(r, 'aliasing_undersampled'), 3)} "
+                f"| {fmt(None if mem is None else mem / 2**20, 1)} |"
+            )
+
+
 if __name__ == "__main__":
     if len(sys.argv) == 5 and sys.argv[1] == "backprojection":
         backprojection(*sys.argv[2:])
+        sys.exit(0)
+    if len(sys.argv) >= 3 and sys.argv[1] == "resolution":
+        resolution(sys.argv[2:])
         sys.exit(0)
     if len(sys.argv) >= 3 and sys.argv[1] == "izb":
         izb(sys.argv[2:])

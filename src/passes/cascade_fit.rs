@@ -268,7 +268,7 @@ fn turned_box(lo: Vec2, hi: Vec2, turn: Vec2) -> (Vec2, Vec2) {
 }
 
 /// The window of the region `lo..hi` (base cross-section units) in whichever orientation of
-/// `turns` gives the smaller one, cropped (unsnapped) to `crop`: (orientation, corner, size).
+/// `turns` gives the smaller one, cropped to `crop` when `cropped`: (orientation, corner, size).
 #[allow(clippy::too_many_arguments)]
 fn best_window(
     points: &[Vec2],
@@ -277,6 +277,7 @@ fn best_window(
     tile: UVec2,
     margin: f32,
     snap: bool,
+    cropped: bool,
 ) -> (usize, Vec2, Vec2) {
     let mut best = (0, Vec2::ZERO, Vec2::ZERO);
     let mut best_area = f32::INFINITY;
@@ -287,7 +288,7 @@ fn best_window(
             .fold((Vec2::INFINITY, Vec2::NEG_INFINITY), |(l, h), q| {
                 (l.min(q), h.max(q))
             });
-        if !snap {
+        if cropped {
             let (clo, chi) = turned_box(crop.0, crop.1, t);
             lo = lo.max(clo);
             hi = hi.min(chi);
@@ -351,7 +352,11 @@ pub fn fit_slices(
             let projected: Option<Vec<Vec2>> = corners.iter().map(|&c| light_xy(base, c)).collect();
             // A corner behind a perspective light: the slice is unbounded there.
             let points = projected.unwrap_or_else(|| vec![crop.0, crop.1]);
-            let (turned, lo, size) = best_window(&points, turns, crop, tile, margin, snap);
+            // A perspective light's window is cropped to its view's cross-section even when
+            // snapped: a far slice's corners can lie near the light's horizon, where x/−z grows
+            // without bound (then the crop is stable only with `fit = scene`).
+            let cropped = !snap || !ortho;
+            let (turned, lo, size) = best_window(&points, turns, crop, tile, margin, snap, cropped);
             Cascade {
                 depths,
                 turned,

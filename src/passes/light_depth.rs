@@ -48,6 +48,37 @@ pub enum MapLayer {
     FarthestBackFacing,
 }
 
+/// The depth-only pipeline a shadow map is rendered with, keeping `layer`, after checking that the
+/// device can clamp `bias` if it asks to: shared with the maps other passes lay out themselves
+/// (the cascades' atlas).
+pub fn depth_pipeline(ctx: &Context, bias: &DepthBias, layer: MapLayer) -> Result<Pipeline> {
+    if bias.clamp != 0.0 && !ctx.info().depth_bias_clamp {
+        return Err(Error::Unsupported {
+            device: ctx.info().name.clone(),
+            feature: "depthBiasClamp (set bias_clamp = 0)".into(),
+        });
+    }
+    Pipeline::graphics(
+        ctx,
+        &GraphicsDesc {
+            vertex: "passes/light_depth.vert",
+            fragment: None,
+            color_formats: &[],
+            depth_format: SHADOW_MAP_FORMAT,
+            depth_bias: true,
+            vertex_input: true,
+            cull_mode: match layer {
+                MapLayer::Nearest => vk::CullModeFlags::NONE,
+                MapLayer::FarthestBackFacing => vk::CullModeFlags::BACK,
+            },
+            depth_compare: match layer {
+                MapLayer::Nearest => vk::CompareOp::LESS_OR_EQUAL,
+                MapLayer::FarthestBackFacing => vk::CompareOp::GREATER_OR_EQUAL,
+            },
+        },
+    )
+}
+
 /// A shadow map: the depth image, the pipeline that renders it, and the view it was fitted to.
 pub struct ShadowMap {
     pipeline: Pipeline,
@@ -79,31 +110,7 @@ impl ShadowMap {
         desc: ShadowMapDesc,
         layer: MapLayer,
     ) -> Result<ShadowMap> {
-        if desc.bias.clamp != 0.0 && !ctx.info().depth_bias_clamp {
-            return Err(Error::Unsupported {
-                device: ctx.info().name.clone(),
-                feature: "depthBiasClamp (set bias_clamp = 0)".into(),
-            });
-        }
-        let pipeline = Pipeline::graphics(
-            ctx,
-            &GraphicsDesc {
-                vertex: "passes/light_depth.vert",
-                fragment: None,
-                color_formats: &[],
-                depth_format: SHADOW_MAP_FORMAT,
-                depth_bias: true,
-                vertex_input: true,
-                cull_mode: match layer {
-                    MapLayer::Nearest => vk::CullModeFlags::NONE,
-                    MapLayer::FarthestBackFacing => vk::CullModeFlags::BACK,
-                },
-                depth_compare: match layer {
-                    MapLayer::Nearest => vk::CompareOp::LESS_OR_EQUAL,
-                    MapLayer::FarthestBackFacing => vk::CompareOp::GREATER_OR_EQUAL,
-                },
-            },
-        )?;
+        let pipeline = depth_pipeline(ctx, &desc.bias, layer)?;
         let depth = Image::new(
             ctx,
             "shadow map",

@@ -14,7 +14,9 @@ pub mod receivers;
 mod view_samples;
 
 pub use geometry::SceneGeometry;
-pub use light_depth::{DepthBias, MapLayer, ShadowMap, ShadowMapDesc, SHADOW_MAP_FORMAT};
+pub use light_depth::{
+    depth_pipeline, DepthBias, MapLayer, ShadowMap, ShadowMapDesc, SHADOW_MAP_FORMAT,
+};
 pub use light_view::{
     light_samples, perspective_off_centre_rh, LightProjection, LightView, DEPTH_FLOOR,
     DEPTH_MARGIN, MAX_FOV_DEG, MIN_RECEIVER_MARGIN, RECEIVER_MARGIN,

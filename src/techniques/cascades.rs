@@ -32,13 +32,15 @@ use super::pcf::{shadow_map_desc, FILTER, KERNEL};
 use super::{Knob, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS};
 use crate::error::{Error, Result};
 use crate::gpu::{
-    Access, Binding, Buffer, Context, DescriptorSet, GraphicsDesc, Image, ImageDesc, Pipeline,
-    Recorder, Sampler,
+    Access, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder, Sampler,
 };
 use crate::passes::cascade_fit::{
     self, Cascade, DepthHistogram, FitDesc, Partition, HISTOGRAM_BINS, MAX_CASCADES,
 };
-use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMapDesc, SHADOW_MAP_FORMAT};
+use crate::passes::{
+    depth_pipeline, LightProjection, LightView, MapLayer, SceneGeometry, ShadowMapDesc,
+    SHADOW_MAP_FORMAT,
+};
 use crate::scene::{Aabb, Camera};
 use crate::shader_types::LightDepthPush;
 
@@ -380,12 +382,6 @@ impl<'a> Cascades<'a> {
     fn new(setup: &TechniqueSetup<'a>, params: &Params) -> Result<Cascades<'a>> {
         let ctx = setup.ctx;
         let desc = shadow_map_desc(params)?;
-        if desc.bias.clamp != 0.0 && !ctx.info().depth_bias_clamp {
-            return Err(Error::Unsupported {
-                device: ctx.info().name.clone(),
-                feature: "depthBiasClamp (set bias_clamp = 0)".into(),
-            });
-        }
         let k = params.u32("count")?;
         let (d0, d1) = cascade_fit::scene_depth_range(setup.camera, &bounds(setup.positions));
         let turns = cascade_fit::orientations(setup.light_view, setup.camera, d0, d1);
@@ -418,19 +414,7 @@ impl<'a> Cascades<'a> {
             .map(|i| [(i % cols) * tile.x, (i / cols) * tile.y])
             .collect();
 
-        let depth_pipeline = Pipeline::graphics(
-            ctx,
-            &GraphicsDesc {
-                vertex: "passes/light_depth.vert",
-                fragment: None,
-                color_formats: &[],
-                depth_format: SHADOW_MAP_FORMAT,
-                depth_bias: true,
-                vertex_input: true,
-                cull_mode: vk::CullModeFlags::NONE,
-                depth_compare: vk::CompareOp::LESS_OR_EQUAL,
-            },
-        )?;
+        let depth_pipeline = depth_pipeline(ctx, &desc.bias, MapLayer::Nearest)?;
         let atlas = Image::new(
             ctx,
             "cascade atlas",

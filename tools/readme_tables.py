@@ -299,8 +299,11 @@ def resolution(directories):
             if r["scene"] != scene:
                 continue
             mem = num(r, "memory_bytes")
+            label = knobs(r["label"], ())
+            for i, name in enumerate(["pssm", "sdsm", "uniform", "log"]):
+                label = label.replace(f"partition={i}", f"partition={name}")
             print(
-                f"| `{r['technique']}` | {knobs(r['label'], ())} | {fmt(num(r, 'total_gpu_ms'), 1)} "
+                f"| `{r['technique']}` | {label} | {fmt(num(r, 'total_gpu_ms'), 1)} "
                 f"| {fmt(num(r, 'misclassified'), 5)} | {fmt(num(r, 'rmse'), 4)} "
                 f"| {fmt(num(r, 'aliasing_median'), 3)} | {fmt(num(r, 'aliasing_p95'), 3)} "
                 f"| {fmt(num(r, 'aliasing_undersampled'), 3)} "

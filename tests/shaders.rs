@@ -229,6 +229,15 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
+            vec!["kernels/copy.comp"],
+            twin!(penumbra::kernels::roofline::CopyPush {
+                count,
+                row,
+                pad0,
+                pad1
+            }),
+        ),
+        (
             vec!["cascades/depth_histogram.comp"],
             twin!(penumbra::techniques::cascades::DepthHistogramPush {
                 light_view,

@@ -1,13 +1,15 @@
 //! Compute primitives shared by the techniques: prefix sums, stream compaction, sorting,
 //! reductions, summed-area tables, N-buffers, min/max pyramids and conservative rasterization.
 //! Each has a CPU twin in `src/cpu/`; all but the rasterizer have a row in
-//! `penumbra bench --suite kernels`.
+//! `penumbra bench --suite kernels`, beside the roofline rows ([`roofline`]: what copying the
+//! same bytes costs) that each row's `% of copy` is taken against.
 
 pub mod compact;
 pub mod minmax;
 pub mod nbuffer;
 pub mod raster;
 pub mod reduce;
+pub mod roofline;
 pub mod sat;
 mod sat_bench;
 pub mod scan;
@@ -38,10 +40,12 @@ impl KernelBenchRow {
     }
 }
 
-/// Every primitive's bench rows (`penumbra bench --suite kernels`): prefix sums, compaction,
-/// sorting and reductions, then summed-area tables, N-buffers and the min/max pyramid.
+/// Every primitive's bench rows (`penumbra bench --suite kernels`): the roofline (buffer copy,
+/// fill and a compute copy), prefix sums, compaction, sorting and reductions, then summed-area
+/// tables, N-buffers and the min/max pyramid.
 pub fn bench_all(ctx: &crate::gpu::Context, quick: bool) -> crate::Result<Vec<KernelBenchRow>> {
-    let mut rows = scan::bench_rows(ctx, quick)?;
+    let mut rows = roofline::bench_rows(ctx, quick)?;
+    rows.extend(scan::bench_rows(ctx, quick)?);
     rows.extend(sat::bench_rows(ctx, quick)?);
     Ok(rows)
 }

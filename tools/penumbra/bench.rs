@@ -861,6 +861,8 @@ pub fn run_kernels(
         "primitives": rows.iter().map(|r| {
             let mut v = serde_json::json!(r);
             v["gb_per_s"] = serde_json::json!(r.gb_per_s());
+            v["percent_of_copy"] =
+                serde_json::json!(penumbra::kernels::roofline::percent_of_copy(&rows, r));
             v
         }).collect::<Vec<_>>(),
         "sat_precision": precision,
@@ -875,12 +877,12 @@ pub fn run_kernels(
         if quick { "quick" } else { "full" }
     );
     println!(
-        "{:<36} {:>12} {:>10} {:>10} {:>9}",
-        "primitive", "size", "GPU ms", "GB/s", "verified"
+        "{:<36} {:>12} {:>10} {:>10} {:>8} {:>9}",
+        "primitive", "size", "GPU ms", "GB/s", "% copy", "verified"
     );
     for r in &rows {
         println!(
-            "{:<36} {:>12} {:>10} {:>10} {:>9}",
+            "{:<36} {:>12} {:>10} {:>10} {:>8} {:>9}",
             r.primitive,
             r.size,
             r.gpu_ms
@@ -888,6 +890,9 @@ pub fn run_kernels(
                 .unwrap_or_else(|| "-".into()),
             r.gb_per_s()
                 .map(|g| format!("{g:.2}"))
+                .unwrap_or_else(|| "-".into()),
+            penumbra::kernels::roofline::percent_of_copy(&rows, r)
+                .map(|p| format!("{p:.0}"))
                 .unwrap_or_else(|| "-".into()),
             if r.verified { "yes" } else { "NO" }
         );

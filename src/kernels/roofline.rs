@@ -1,0 +1,195 @@
+//! The kernel bench's roofline: what moving bytes costs on this device, measured in the same run
+//! as the primitives, so each primitive's GB/s has something to be held against.
+//!
+//! Three rows per size, each verified by reading the result back: `copy-buffer`
+//! (`vkCmdCopyBuffer`: the driver's own copy, read + write), `fill-buffer` (`vkCmdFillBuffer`:
+//! write only) and `compute-copy` (`glsl/kernels/copy.comp`: one `uvec4` per invocation, no
+//! control flow — the best a compute kernel that touches each byte once can do here).
+//! [`percent_of_copy`] puts every row against `copy-buffer` at the nearest size: a primitive's
+//! GB/s counts the bytes it reads and writes at least, as the copy's does, so 100 % would be a
+//! primitive as cheap as copying its data once.
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+
+use super::KernelBenchRow;
+use crate::error::Result;
+use crate::gpu::{u32s, Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder, Timestamps};
+
+/// The push block of `glsl/kernels/copy.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Pod, Zeroable)]
+pub struct CopyPush {
+    /// `uvec4` elements to copy.
+    pub count: u32,
+    /// Invocations per row of the dispatch grid.
+    pub row: u32,
+    /// Padding.
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+}
+
+/// Invocations per row of `copy.comp`'s grid: 512 workgroups of 128. The shader's workgroup is
+/// 128, the most every Vulkan device must allow (`maxComputeWorkGroupInvocations`): on lavapipe
+/// 64-invocation groups reached half the bandwidth (0.8 against 1.5–1.7 GB/s at 128–1024, one
+/// run each), the per-workgroup set-up being paid twice as often.
+const ROW: u32 = 128 * 512;
+
+/// Runs `record` once untimed, then `runs` times in a timed pass; the median GPU time.
+fn median_ms(
+    ctx: &Context,
+    name: &str,
+    runs: usize,
+    mut record: impl FnMut(&mut Recorder<'_>) -> Result<()>,
+) -> Result<Option<f64>> {
+    ctx.submit(None, &mut record)?;
+    let mut timestamps = Timestamps::new(ctx, 1)?;
+    let mut times = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        ctx.submit(Some(&mut timestamps), |rec| {
+            rec.begin_pass(name)?;
+            let r = record(rec);
+            rec.end_pass();
+            r
+        })?;
+        if let Some(ms) = timestamps.results()?.first().and_then(|t| t.gpu_ms) {
+            times.push(ms);
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    Ok(times.get(times.len() / 2).copied())
+}
+
+fn row(
+    primitive: &str,
+    n: usize,
+    gpu_ms: Option<f64>,
+    bytes: u64,
+    verified: bool,
+) -> KernelBenchRow {
+    KernelBenchRow {
+        primitive: primitive.to_string(),
+        size: n.to_string(),
+        gpu_ms,
+        bytes,
+        verified,
+    }
+}
+
+/// The three roofline rows for `n` u32 elements (a multiple of 4), timed over `runs`.
+pub fn bench_size(ctx: &Context, n: usize, runs: usize) -> Result<Vec<KernelBenchRow>> {
+    let values: Vec<u32> = (0..n as u32)
+        .map(|i| i.wrapping_mul(2_654_435_761))
+        .collect();
+    let bytes = 4 * n as u64;
+    let src = ctx.buffer_with(
+        "roofline source",
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+        &values,
+    )?;
+    let dst = Buffer::storage(ctx, "roofline destination", bytes)?;
+
+    let copy_ms = median_ms(ctx, "copy-buffer", runs, |rec| {
+        rec.copy_buffer(&src, &dst);
+        Ok(())
+    })?;
+    let copied = u32s(&ctx.read_buffer(&dst)?) == values;
+
+    let fill_ms = median_ms(ctx, "fill-buffer", runs, |rec| {
+        rec.fill(&dst, 0x5EED_5EED);
+        Ok(())
+    })?;
+    let filled = u32s(&ctx.read_buffer(&dst)?)
+        .iter()
+        .all(|&v| v == 0x5EED_5EED);
+
+    let pipeline = Pipeline::compute(ctx, "kernels/copy.comp")?;
+    let set = DescriptorSet::new(
+        ctx,
+        &pipeline,
+        &[Binding::Buffer(&src), Binding::Buffer(&dst)],
+    )?;
+    let count = (n / 4) as u32;
+    let push = CopyPush {
+        count,
+        row: ROW,
+        pad0: 0,
+        pad1: 0,
+    };
+    let threads = [count.min(ROW), count.div_ceil(ROW), 1];
+    let compute_ms = median_ms(ctx, "compute-copy", runs, |rec| {
+        rec.dispatch(&pipeline, &set, &push, threads)
+    })?;
+    let computed = u32s(&ctx.read_buffer(&dst)?) == values;
+
+    Ok(vec![
+        row("copy-buffer", n, copy_ms, 2 * bytes, copied),
+        row("fill-buffer", n, fill_ms, bytes, filled),
+        row("compute-copy", n, compute_ms, 2 * bytes, computed),
+    ])
+}
+
+/// The roofline rows at 1M u32 elements (4 MiB) and 16M (64 MiB) — the sizes of the primitives'
+/// rows, quick or not — as medians of 9 (quick) or 15 runs: a 4 MiB copy takes well under a
+/// millisecond, where one run's noise would move every row's `% of copy`.
+pub fn bench_rows(ctx: &Context, quick: bool) -> Result<Vec<KernelBenchRow>> {
+    let sizes: &[usize] = &[1 << 20, 1 << 24];
+    let runs = if quick { 9 } else { 15 };
+    let mut rows = Vec::new();
+    for &n in sizes {
+        rows.extend(bench_size(ctx, n, runs)?);
+    }
+    Ok(rows)
+}
+
+/// Elements of a row's size: `n` or `w x h`.
+fn elements(size: &str) -> Option<u64> {
+    let mut product = 1u64;
+    for part in size.split('x') {
+        product = product.checked_mul(part.trim().parse().ok()?)?;
+    }
+    Some(product)
+}
+
+/// A row's GB/s as a percentage of `copy-buffer`'s among `rows`, at the copy size nearest its
+/// own element count (in ratio); `None` without a time or a copy row.
+pub fn percent_of_copy(rows: &[KernelBenchRow], row: &KernelBenchRow) -> Option<f64> {
+    let own = elements(&row.size)? as f64;
+    let copy = rows
+        .iter()
+        .filter(|r| r.primitive == "copy-buffer")
+        .filter_map(|r| Some((elements(&r.size)? as f64, r.gb_per_s()?)))
+        .min_by(|a, b| (a.0 / own).ln().abs().total_cmp(&(b.0 / own).ln().abs()))?;
+    Some(100.0 * row.gb_per_s()? / copy.1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn r(primitive: &str, size: &str, ms: f64, bytes: u64) -> KernelBenchRow {
+        KernelBenchRow {
+            primitive: primitive.into(),
+            size: size.into(),
+            gpu_ms: Some(ms),
+            bytes,
+            verified: true,
+        }
+    }
+
+    #[test]
+    fn percent_of_copy_takes_the_nearest_copy_size() {
+        let rows = vec![
+            r("copy-buffer", "1048576", 1.0, 8_000_000),
+            r("copy-buffer", "16777216", 10.0, 128_000_000),
+        ];
+        // 1024x1024 = 1M elements: against the 1M copy (8 GB/s).
+        let a = r("sat-u32", "1024x1024", 2.0, 8_000_000);
+        assert!((percent_of_copy(&rows, &a).expect("pct") - 50.0).abs() < 1e-9);
+        // 4096x4096 = 16M: against the 16M copy (12.8 GB/s).
+        let b = r("sat-u32", "4096x4096", 20.0, 128_000_000);
+        assert!((percent_of_copy(&rows, &b).expect("pct") - 50.0).abs() < 1e-9);
+        assert_eq!(percent_of_copy(&[], &a), None);
+    }
+}

@@ -7,7 +7,6 @@
 //! a receiver lands on the receiver's texel, nearer; bad inputs are errors and random
 //! configurations stay finite. The technique on the GPU: `tests/lispsm.rs`.
 
-
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use penumbra::passes::lispsm::{warp, Fallback, Warped, MIN_SIN_GAMMA};
 use penumbra::passes::{LightProjection, LightView, ReceiverBounds};

@@ -15,17 +15,20 @@
 //! Every cascade shares the base light view (its origin, direction, near and far: casters and
 //! receivers keep one depth range, so a sample's depth never decides which cascade covers it);
 //! only the cross-section differs, in the same units as [`super::LightView::cross_section`]
-//! (`x/−z`, `y/−z` for a perspective light, `x`, `y` for a directional one). Windows are square,
-//! grown by a border of `margin` texels so a sample of the fitted region is covered with its
-//! filter footprint and blend band inside the map.
+//! (`x/−z`, `y/−z` for a perspective light, `x`, `y` for a directional one), turned about the
+//! light's axis to one of two orientations ([`orientations`]). Each axis of a window is sized on
+//! its own (a tile need not be square, nor its texels) and grown by a border of `margin` texels
+//! so a sample of the fitted region is covered with its filter footprint and blend band inside
+//! the map.
 //!
 //! **Texel snapping** (book §4.1, Eq. 4.3) keeps a still scene's map still while the camera
 //! moves: the window's side is rounded up to a ladder of sizes `2^(j/32)` and its corner to a
 //! whole number of texels, so a camera move that leaves the side on its rung shifts the window
 //! by whole texels, rasterizing every caster at the same texel positions. For the frustum-fitted
 //! partitions of a directional light the region is the slice's bounding sphere (a disk in the
-//! light's view), whose size does not change as the camera turns; snapped windows are not
-//! cropped to the scene (cropping would move their edges with the camera).
+//! light's view), whose size does not change as the camera turns; a directional light's snapped
+//! windows are not cropped to the scene (cropping would move their edges with the camera), a
+//! perspective light's are (see [`fit_slices`]).
 
 use glam::{Mat4, UVec2, Vec2, Vec3};
 

@@ -3,10 +3,12 @@
 //!
 //! The view's depth range is split into `count` slices (`partition`: practical `pssm` splits with
 //! `lambda`, `uniform`, `log`, or `sdsm` fitted to the view samples — see
-//! [`crate::passes::cascade_fit`]); each slice gets a `map_size`² map fitted to it, all in one
-//! depth atlas (tiles in a row, wrapping into rows past the device's largest image side), drawn
-//! with one viewport per tile in one rendering scope. `snap` (on by default) rounds each window
-//! to whole texels of a fixed ladder of sizes so a still scene's maps do not shimmer as the camera
+//! [`crate::passes::cascade_fit`]); each slice gets a map of at most `map_size`² texels fitted to
+//! it, in the better of two orientations, all in one depth atlas (tiles in a row, wrapping into
+//! rows past the device's largest image side), drawn with one viewport per tile in one rendering
+//! scope. The tiles share one shape, chosen at set-up among [`cascade_fit::tile_candidates`] by
+//! the view samples' p95 sampling error ([`fit`]). `snap` (on by default) rounds each window to
+//! whole texels of a fixed ladder of sizes so a still scene's maps do not shimmer as the camera
 //! moves.
 //!
 //! Per frame: with `sdsm`, the depth-histogram reduction (`glsl/cascades/depth_histogram.comp`,

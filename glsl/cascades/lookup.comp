@@ -77,7 +77,8 @@ void main() {
             float left = 1.0;
             int first = -1;
             int used = 0;
-            for (int i = 0; i < params.sizes.x; ++i) {
+            // Stops once every invocation of the SIMD group is covered (left = 0).
+            for (int i = 0; i < params.sizes.x && left > 0.0; ++i) {
                 ivec4 tile = params.tiles[i];
                 vec4 c = shadow_coord(params.view_proj[i], p.xyz, n);
                 float e = min(min(c.x, c.y), min(float(n.x) - c.x, float(n.y) - c.y))

@@ -12,9 +12,10 @@
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
+use super::scan_bench::{median_ms, row};
 use super::KernelBenchRow;
 use crate::error::Result;
-use crate::gpu::{u32s, Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder, Timestamps};
+use crate::gpu::{u32s, Binding, Buffer, Context, DescriptorSet, Pipeline};
 
 /// The push block of `glsl/kernels/copy.comp`.
 #[repr(C)]
@@ -36,47 +37,6 @@ pub struct CopyPush {
 /// run each), the per-workgroup set-up being paid twice as often.
 const ROW: u32 = 128 * 512;
 
-/// Runs `record` once untimed, then `runs` times in a timed pass; the median GPU time.
-fn median_ms(
-    ctx: &Context,
-    name: &str,
-    runs: usize,
-    mut record: impl FnMut(&mut Recorder<'_>) -> Result<()>,
-) -> Result<Option<f64>> {
-    ctx.submit(None, &mut record)?;
-    let mut timestamps = Timestamps::new(ctx, 1)?;
-    let mut times = Vec::with_capacity(runs);
-    for _ in 0..runs {
-        ctx.submit(Some(&mut timestamps), |rec| {
-            rec.begin_pass(name)?;
-            let r = record(rec);
-            rec.end_pass();
-            r
-        })?;
-        if let Some(ms) = timestamps.results()?.first().and_then(|t| t.gpu_ms) {
-            times.push(ms);
-        }
-    }
-    times.sort_by(f64::total_cmp);
-    Ok(times.get(times.len() / 2).copied())
-}
-
-fn row(
-    primitive: &str,
-    n: usize,
-    gpu_ms: Option<f64>,
-    bytes: u64,
-    verified: bool,
-) -> KernelBenchRow {
-    KernelBenchRow {
-        primitive: primitive.to_string(),
-        size: n.to_string(),
-        gpu_ms,
-        bytes,
-        verified,
-    }
-}
-
 /// The three roofline rows for `n` u32 elements (a multiple of 4), timed over `runs`.
 pub fn bench_size(ctx: &Context, n: usize, runs: usize) -> Result<Vec<KernelBenchRow>> {
     let values: Vec<u32> = (0..n as u32)
@@ -90,16 +50,28 @@ pub fn bench_size(ctx: &Context, n: usize, runs: usize) -> Result<Vec<KernelBenc
     )?;
     let dst = Buffer::storage(ctx, "roofline destination", bytes)?;
 
-    let copy_ms = median_ms(ctx, "copy-buffer", runs, |rec| {
-        rec.copy_buffer(&src, &dst);
-        Ok(())
-    })?;
+    let copy_ms = median_ms(
+        ctx,
+        "copy-buffer",
+        runs,
+        |_| Ok(()),
+        |rec| {
+            rec.copy_buffer(&src, &dst);
+            Ok(())
+        },
+    )?;
     let copied = u32s(&ctx.read_buffer(&dst)?) == values;
 
-    let fill_ms = median_ms(ctx, "fill-buffer", runs, |rec| {
-        rec.fill(&dst, 0x5EED_5EED);
-        Ok(())
-    })?;
+    let fill_ms = median_ms(
+        ctx,
+        "fill-buffer",
+        runs,
+        |_| Ok(()),
+        |rec| {
+            rec.fill(&dst, 0x5EED_5EED);
+            Ok(())
+        },
+    )?;
     let filled = u32s(&ctx.read_buffer(&dst)?)
         .iter()
         .all(|&v| v == 0x5EED_5EED);
@@ -118,15 +90,21 @@ pub fn bench_size(ctx: &Context, n: usize, runs: usize) -> Result<Vec<KernelBenc
         pad1: 0,
     };
     let threads = [count.min(ROW), count.div_ceil(ROW), 1];
-    let compute_ms = median_ms(ctx, "compute-copy", runs, |rec| {
-        rec.dispatch(&pipeline, &set, &push, threads)
-    })?;
+    // Warm-up: lavapipe compiles the pipeline at its first dispatch.
+    ctx.submit(None, |rec| rec.dispatch(&pipeline, &set, &push, threads))?;
+    let compute_ms = median_ms(
+        ctx,
+        "compute-copy",
+        runs,
+        |_| Ok(()),
+        |rec| rec.dispatch(&pipeline, &set, &push, threads),
+    )?;
     let computed = u32s(&ctx.read_buffer(&dst)?) == values;
 
     Ok(vec![
-        row("copy-buffer", n, copy_ms, 2 * bytes, copied),
-        row("fill-buffer", n, fill_ms, bytes, filled),
-        row("compute-copy", n, compute_ms, 2 * bytes, computed),
+        row("copy-buffer".into(), n, copy_ms, 2 * bytes, copied),
+        row("fill-buffer".into(), n, fill_ms, bytes, filled),
+        row("compute-copy".into(), n, compute_ms, 2 * bytes, computed),
     ])
 }
 

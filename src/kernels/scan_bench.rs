@@ -33,9 +33,10 @@ fn random_u32s(n: usize, seed: u64) -> Vec<u32> {
         .collect()
 }
 
-/// Runs `record` once untimed, then `runs` times inside a timed pass named `name` (after
-/// `prepare`, untimed); returns the median GPU time.
-fn median_ms(
+/// Runs `record` `runs` times inside a timed pass named `name` (after `prepare`, untimed) and
+/// returns the median GPU time; callers run the primitive once before (their verified warm-up,
+/// which absorbs lavapipe's first-dispatch compile).
+pub(super) fn median_ms(
     ctx: &Context,
     name: &str,
     runs: usize,
@@ -67,7 +68,7 @@ fn storage_with(ctx: &Context, name: &str, data: &[u32]) -> Result<Buffer> {
     ctx.buffer_with(name, vk::BufferUsageFlags::STORAGE_BUFFER, data)
 }
 
-fn row(
+pub(super) fn row(
     primitive: String,
     n: usize,
     gpu_ms: Option<f64>,

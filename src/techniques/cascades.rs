@@ -281,6 +281,7 @@ struct DepthHistogramPass {
     pipeline: Pipeline,
     set: DescriptorSet,
     words: Buffer,
+    initial: Buffer,
     _edges: Buffer,
     push: DepthHistogramPush,
     edges: Vec<f32>,
@@ -301,6 +302,12 @@ impl DepthHistogramPass {
         let words = ctx.buffer_with(
             "cascades depth histogram",
             vk::BufferUsageFlags::STORAGE_BUFFER,
+            &DepthHistogram::initial_words(),
+        )?;
+        // What each frame's reduction starts from, copied on the device (no staging per frame).
+        let initial = ctx.buffer_with(
+            "cascades depth histogram reset",
+            vk::BufferUsageFlags::empty(),
             &DepthHistogram::initial_words(),
         )?;
         let pipeline = Pipeline::compute(ctx, "cascades/depth_histogram.comp")?;
@@ -329,6 +336,7 @@ impl DepthHistogramPass {
             pipeline,
             set,
             words,
+            initial,
             _edges: edges_buffer,
             push,
             edges,
@@ -337,10 +345,7 @@ impl DepthHistogramPass {
     }
 
     fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
-        rec.upload(
-            &self.words,
-            bytemuck::cast_slice(&DepthHistogram::initial_words()),
-        )?;
+        rec.copy_buffer(&self.initial, &self.words);
         let [w, h] = self.view_size;
         rec.dispatch(&self.pipeline, &self.set, &self.push, [w, h, 1])
     }

@@ -27,6 +27,7 @@ use penumbra::passes::cascade_fit::{
     HISTOGRAM_BINS,
 };
 use penumbra::passes::{LightProjection, LightView};
+use penumbra::scene::{Aabb, Camera, Light};
 use penumbra::techniques::cascades::{bounds, filter_reach, fit, reduce_depth_histogram};
 use penumbra::techniques::TechniqueSetup;
 
@@ -282,6 +283,84 @@ fn the_depth_histogram_equals_its_twin() {
             }
         }
         assert_clean(&ctx.validation());
+    }
+}
+
+/// The box, in the frame turned by `turn`, of ground points (y = 0) between two view depths.
+fn ground_slice_box(lv: &LightView, camera: &Camera, d: (f32, f32), turn: Vec2) -> Vec2 {
+    let (forward, right, up) = cascade_fit::camera_frame(camera);
+    let (mut lo, mut hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
+    for i in 0..=64 {
+        for j in 0..=64 {
+            // A ray through the image, kept where it meets the ground inside the slice.
+            let (sx, sy) = (i as f32 / 32.0 - 1.0, j as f32 / 32.0 - 1.0);
+            let dir = forward + right * (0.55 * sx) + up * (0.41 * sy);
+            if dir.y >= 0.0 {
+                continue;
+            }
+            let p = camera.position + dir * (-camera.position.y / dir.y);
+            let depth = (p - camera.position).dot(forward);
+            if depth < d.0 || depth > d.1 {
+                continue;
+            }
+            let q = cascade_fit::turn_point(cascade_fit::light_xy(lv, p).expect("lit"), turn);
+            (lo, hi) = (lo.min(q), hi.max(q));
+        }
+    }
+    hi - lo
+}
+
+/// A slice of a ground plane under an unrolled camera is a strip along the camera's right
+/// vector; the second orientation turns that strip's image onto +x whatever the light's angle
+/// (the light's projection does not keep right angles, so the image of the view direction, the
+/// book's axis, leaves the strip skewed), and its window is never larger than the book's.
+#[test]
+fn the_turned_orientation_lies_along_a_slice_of_the_ground() {
+    let camera = Camera {
+        position: Vec3::new(3.0, 5.0, 6.5),
+        target: Vec3::new(0.3, 0.3, 0.0),
+        up: Vec3::Y,
+        fov_y_deg: 45.0,
+        width: 512,
+        height: 384,
+        near: 0.1,
+        far: 50.0,
+    };
+    let scene = Aabb {
+        min: Vec3::new(-5.0, -0.1, -5.0),
+        max: Vec3::new(5.0, 0.1, 5.0),
+    };
+    for direction in [
+        Vec3::new(0.6, -1.0, -0.35),
+        Vec3::new(-0.2, -1.0, 0.9),
+        Vec3::new(1.0, -0.3, 0.1),
+    ] {
+        let light = Light::Directional {
+            direction: direction.normalize(),
+            angular_diameter_deg: 0.0,
+        };
+        let lv = LightView::fit(&light, &scene).expect("light view");
+        let d = (6.0, 8.0);
+        let turns = cascade_fit::orientations(&lv, &camera, d.0, d.1);
+        let (_, right, _) = cascade_fit::camera_frame(&camera);
+        let mid = camera.position + cascade_fit::camera_frame(&camera).0 * 7.0;
+        let a = cascade_fit::light_xy(&lv, mid).expect("a");
+        let b = cascade_fit::light_xy(&lv, mid + right).expect("b");
+        let along = cascade_fit::turn_point(b - a, turns[1]);
+        assert!(
+            along.y.abs() <= 1e-5 * along.x.abs() && along.x > 0.0,
+            "{direction}: {along}"
+        );
+        // The book's turn: the view direction's image onto +y.
+        let fa = cascade_fit::light_xy(&lv, camera.position + (mid - camera.position) * 0.5);
+        let flat = a - fa.expect("fa");
+        let angle = flat.y.atan2(flat.x) - std::f32::consts::FRAC_PI_2;
+        let book = ground_slice_box(&lv, &camera, d, Vec2::new(angle.cos(), angle.sin()));
+        let ours = ground_slice_box(&lv, &camera, d, turns[1]);
+        assert!(
+            ours.x * ours.y <= book.x * book.y * 1.001,
+            "{direction}: {ours} vs the book's {book}"
+        );
     }
 }
 

@@ -150,7 +150,7 @@ pub struct Cascade {
     /// View depth range of its slice.
     pub depths: (f32, f32),
     /// Which of the two orientations its window is fitted in: 0 the base view's axes, 1 turned
-    /// so +y runs along the camera's view (see [`orientations`]).
+    /// so +x runs along the light's image of the camera's right vector (see [`orientations`]).
     pub turned: usize,
     /// The window's low corner (cross-section units).
     pub lo: Vec2,
@@ -236,28 +236,46 @@ pub fn turn_point(p: Vec2, turn: Vec2) -> Vec2 {
 }
 
 /// The two orientations a window may be fitted in, as (cos, sin) of the turn: the base view's
-/// own axes, and the axes turned so +y runs along the camera's view direction as seen from the
-/// light (book §4.1, "orientation": a slice of the view is a strip across that direction, which
-/// fills an axis-aligned window). Each cascade takes whichever gives the smaller window: the
-/// light's own view of the receivers may be a strip too (a plane lit at a grazing angle), in
-/// another direction. The camera's direction is taken between the images of two points on its
-/// axis (`d0`, `d1` view depths), which is right for a perspective light's cross-section too;
-/// when the camera looks along the light both orientations are the base's.
+/// own axes, and the axes turned to a slice of the view (book §4.1, "orientation"). A slice
+/// between two view depths is a slab containing the camera's right and up vectors, and the
+/// receivers in it (a ground under an unrolled camera) form a strip along the right vector; so
+/// the second orientation turns +x onto the light's image of the camera's right vector at the
+/// middle of `d0..d1`. (The book aligns +y with the image of the view direction instead, which
+/// is the same axis only when the light looks down the camera's up vector: the light's
+/// projection does not keep right angles, and on `rocker-arm-directional` the strips sat 25° off
+/// that axis, windows 1.1–1.5× larger.) Where the right vector's image vanishes (the light
+/// along it), the view direction's image is turned onto +y as the book has it; where that
+/// vanishes too (the camera looks along the light) both orientations are the base's. Each
+/// cascade takes whichever gives the smaller window: the light's own view of the receivers may
+/// be a strip too (a plane lit at a grazing angle), in another direction. Images are taken
+/// between two points, which is right for a perspective light's cross-section too.
 pub fn orientations(base: &LightView, camera: &Camera, d0: f32, d1: f32) -> [Vec2; 2] {
-    let (forward, _, _) = camera_frame(camera);
-    let a = light_xy(base, camera.position + forward * d0);
-    let b = light_xy(base, camera.position + forward * d1);
-    let flat = match (a, b) {
-        (Some(a), Some(b)) => b - a,
-        _ => Vec2::ZERO,
+    let (forward, right, _) = camera_frame(camera);
+    let mid = camera.position + forward * (0.5 * (d0 + d1));
+    // A segment short against the slice (a perspective light's image of it is then ~straight).
+    let half = 0.01 * (0.5 * (d0 + d1)).max(1e-6);
+    let image = |p: Vec3, q: Vec3| match (light_xy(base, p), light_xy(base, q)) {
+        (Some(a), Some(b)) => {
+            let flat = b - a;
+            // A NaN length fails the test too: no usable direction.
+            (flat.length() > 1e-4 * half * (1.0 + a.length())).then_some(flat)
+        }
+        _ => None,
     };
-    // Also true for a NaN length: no usable direction.
-    if flat.length().is_nan() || flat.length() <= 1e-6 * (a.unwrap_or_default().length() + 1.0) {
-        return [Vec2::X, Vec2::X];
+    if let Some(flat) = image(mid - right * half, mid + right * half) {
+        // Turn by the angle that takes `flat` to +x.
+        let angle = flat.y.atan2(flat.x);
+        return [Vec2::X, Vec2::new(angle.cos(), angle.sin())];
     }
-    // Turn by the angle that takes `flat` to +y.
-    let angle = flat.y.atan2(flat.x) - std::f32::consts::FRAC_PI_2;
-    [Vec2::X, Vec2::new(angle.cos(), angle.sin())]
+    if let Some(flat) = image(
+        camera.position + forward * d0,
+        camera.position + forward * d1,
+    ) {
+        // Turn by the angle that takes `flat` to +y.
+        let angle = flat.y.atan2(flat.x) - std::f32::consts::FRAC_PI_2;
+        return [Vec2::X, Vec2::new(angle.cos(), angle.sin())];
+    }
+    [Vec2::X, Vec2::X]
 }
 
 /// The box of a rectangle's corners turned by `turn`.

@@ -139,6 +139,7 @@ impl Engine {
     /// view and fits a second light view to them.
     pub fn prepare(&self, scene: &Scene) -> Result<PreparedScene> {
         let ctx = &self.ctx;
+        scene.validate()?;
         let scene_bounds = scene.bounds();
         let light_view = LightView::fit(&scene.light, &scene_bounds)?;
         let (positions, indices) = scene.merged();

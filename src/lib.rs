@@ -24,6 +24,7 @@ pub mod scene;
 #[cfg(feature = "shader-compiler")]
 pub mod shader_compiler;
 pub mod shader_types;
+pub mod stress;
 pub mod techniques;
 
 pub use engine::{Engine, Frame, FrameStats, PreparedScene};

@@ -8,6 +8,7 @@ named command):
     python3 tools/readme_tables.py izb DIR...      # DIRs from the irregular z-buffer benches
     python3 tools/readme_tables.py backprojection A B C  # the atty/bitmask benches (README)
     python3 tools/readme_tables.py resolution DIR...    # the hard-shadow resolution benches
+    python3 tools/readme_tables.py stress DIR           # DIR from `penumbra stress`
 
 `receivers`: per technique, the configuration with clipping on that has the lowest penumbra MAE
 on teapot-rect (lowest RMSE on spot-point), with the same configuration's clip-off figures and
@@ -24,6 +25,9 @@ whether bitmask at 256 samples beats them all; from B and C every run with its p
 the skip counters.
 `resolution`: per scene of the DIRs, every run with time, misclassified, RMSE, the sampling
 error's median, p95 and under-sampled fraction, and memory (MiB), from bench.csv.
+`stress`: technique × case MAE against the reference (`refused` where the input was refused as
+the case asks, `*` on a `known` row, `FAIL` on a failed one), the NaN/Inf/out-of-range totals,
+then every `known` row with its reason, from stress.json.
 """
 import csv
 import json
@@ -311,7 +315,41 @@ def resolution(directories):
             )
 
 
+def stress(directory):
+    d = json.loads((Path(directory) / "stress.json").read_text())
+    cases, table = [], {}
+    for r in d["rows"]:
+        if r["case"] not in cases:
+            cases.append(r["case"])
+        if r["mae"] is None:
+            cell = "refused" if r["pass"] else "FAIL: " + (r["error"] or "?")
+        else:
+            cell = fmt(r["mae"], 3)
+            if not r["pass"]:
+                cell = "FAIL " + cell
+            elif r["bound"].startswith("known"):
+                cell += "*"
+        table.setdefault(r["technique"], {})[r["case"]] = cell
+    bad = sum(r["nan_count"] + r["inf_count"] + r["out_of_range_count"] for r in d["rows"])
+    print(
+        f"{len(d['rows'])} rows, {d['failed']} failed, NaN + Inf + out-of-range values in all "
+        f"rows: {bad}; {d['width']}x{d['height']}, references {d['reference_samples']}² samples, "
+        f"{d['seconds']:.0f} s on {d['device']} ({d['driver']}).\n"
+    )
+    print("| technique | " + " | ".join(f"`{c}`" for c in cases) + " |")
+    print("|---|" + "---|" * len(cases))
+    for t, row in table.items():
+        print(f"| `{t}` | " + " | ".join(row.get(c, "") for c in cases) + " |")
+    print()
+    for r in d["rows"]:
+        if r["bound"].startswith("known"):
+            print(f"- `{r['case']}` × `{r['technique']}` (MAE {r['mae']:.3f}): {r['bound']}")
+
+
 if __name__ == "__main__":
+    if len(sys.argv) == 3 and sys.argv[1] == "stress":
+        stress(sys.argv[2])
+        sys.exit(0)
     if len(sys.argv) == 5 and sys.argv[1] == "backprojection":
         backprojection(*sys.argv[2:])
         sys.exit(0)

@@ -17,7 +17,7 @@ else
 fi
 # Smoke runs of the CLI as a user would: a render compared with the ground truth, and the quick
 # benches (every technique on every bundled scene against the reference; every compute
-# primitive), all under validation.
+# primitive) and the quick stress suite, all under validation.
 out="$(mktemp -d)"
 penumbra() { cargo run --quiet --features shader-compiler --bin penumbra -- "$@"; }
 penumbra render scenes/teapot-rect.toml --technique pcf --frames 1 --compare-to reference \
@@ -27,4 +27,7 @@ penumbra bench --quick --cache-dir "$out/cache" --out "$out/bench"
 test -s "$out/bench/bench.csv" && test -s "$out/bench/pareto.png"
 penumbra bench --suite kernels --quick --out "$out/kernels"
 test -s "$out/kernels/kernels.json"
+# The stress suite's CI subset: every row within its bound, 0 NaN/Inf (exits non-zero otherwise).
+penumbra stress --quick --cache-dir "$out/cache" --out "$out/stress"
+test -s "$out/stress/stress.json"
 rm -rf "$out"

@@ -262,6 +262,111 @@ impl Scene {
         }
     }
 
+    /// Checks what the loaders check, for a scene built in code: finite, non-degenerate
+    /// geometry, a usable camera and a light with a size that makes sense. [`crate::engine::Engine::prepare`]
+    /// calls it, so no NaN or zero-area triangle reaches a GPU pass (where it would surface as
+    /// NaN pixels far from its cause).
+    pub fn validate(&self) -> Result<()> {
+        let bad = |message: String| Err(Error::input(&self.source, None, message));
+        for (i, m) in self.meshes.iter().enumerate() {
+            if let Some(&v) = m.indices.iter().find(|&&v| v as usize >= m.positions.len()) {
+                return bad(format!(
+                    "mesh {i} ('{}'): index {v} past its {} vertices",
+                    m.name,
+                    m.positions.len()
+                ));
+            }
+            if m.indices.len() % 3 != 0 {
+                return bad(format!(
+                    "mesh {i} ('{}'): {} indices is not a whole number of triangles",
+                    m.name,
+                    m.indices.len()
+                ));
+            }
+            match check_geometry(&m.positions, &m.indices) {
+                Some(GeometryFault::NonFinite { index }) => {
+                    return bad(format!(
+                        "mesh {i} ('{}'): vertex {index} is not finite ({})",
+                        m.name, m.positions[index]
+                    ))
+                }
+                Some(GeometryFault::Degenerate { index }) => {
+                    return bad(format!(
+                        "mesh {i} ('{}'): triangle {index} has zero area (or repeats a vertex)",
+                        m.name
+                    ))
+                }
+                None => {}
+            }
+        }
+        let c = &self.camera;
+        let forward = c.target - c.position;
+        if !(c.position.is_finite() && c.target.is_finite() && c.up.is_finite()) {
+            return bad("camera position, target or up is not finite".into());
+        }
+        if forward.length() <= 0.0
+            || forward.cross(c.up).length() <= 1e-6 * forward.length() * c.up.length()
+        {
+            return bad(format!(
+                "camera looks from {} at {} with up {}: the direction is zero or parallel to up",
+                c.position, c.target, c.up
+            ));
+        }
+        if !(c.near > 0.0 && c.far > c.near && c.far.is_finite()) {
+            return bad(format!(
+                "camera near {} / far {}: expected 0 < near < far < infinity",
+                c.near, c.far
+            ));
+        }
+        if !(c.fov_y_deg > 0.0 && c.fov_y_deg < 180.0) {
+            return bad(format!(
+                "camera fov {}: expected degrees in (0, 180)",
+                c.fov_y_deg
+            ));
+        }
+        if c.width == 0 || c.height == 0 {
+            return bad(format!(
+                "camera image {}x{}: expected a non-zero size",
+                c.width, c.height
+            ));
+        }
+        match self.light {
+            Light::Point { position } if !position.is_finite() => {
+                bad(format!("point light at {position}: not finite"))
+            }
+            Light::Rect { position, u, v } => {
+                if !(position.is_finite() && u.is_finite() && v.is_finite()) {
+                    bad(format!(
+                        "rect light at {position} with edges {u}, {v}: not finite"
+                    ))
+                } else if u.cross(v).length() <= 0.0 {
+                    bad(format!(
+                        "rect light has zero area (edges {u}, {v}); use a point light for a \
+                         light without size"
+                    ))
+                } else {
+                    Ok(())
+                }
+            }
+            Light::Directional {
+                direction,
+                angular_diameter_deg,
+            } => {
+                if !(direction.is_finite() && direction.length() > 0.0) {
+                    bad(format!("directional light direction {direction}: expected a non-zero finite vector"))
+                } else if !(0.0..90.0).contains(&angular_diameter_deg) {
+                    bad(format!(
+                        "directional light angular diameter {angular_diameter_deg}: expected \
+                         degrees in [0, 90)"
+                    ))
+                } else {
+                    Ok(())
+                }
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// Bounds of all meshes.
     pub fn bounds(&self) -> Aabb {
         self.meshes

@@ -9,7 +9,7 @@
 //! by the table entry an integer hash of the pixel picks, and averages one bilinear 2×2 depth
 //! test per tap. With `taps = 1` it is exactly `pcf` with `kernel = 1` (with `radius = 0`, up to
 //! the rounding of the average). Renders one D32 map like `pcf` and reports the same counters;
-//! takes [`RECEIVER_PLANE_BIAS`]. CPU twin: [`crate::cpu::pcf_poisson`].
+//! takes [`RECEIVER_PLANE_BIAS`], on by default here. CPU twin: [`crate::cpu::pcf_poisson`].
 
 use ash::vk;
 use glam::IVec2;
@@ -43,7 +43,13 @@ const KNOBS: [Knob; 7] = [
         integer: false,
         names: &[],
     },
-    RECEIVER_PLANE_BIAS,
+    Knob {
+        summary: "1: per-tap receiver-plane depth from neighbouring view samples (default: taps \
+                  `radius` texels out defeat a slope bias sized for one texel — the stress \
+                  suite's bare plane came out 4 % dark at 0); 0: one depth",
+        default: KnobDefault::Value(1.0),
+        ..RECEIVER_PLANE_BIAS
+    },
 ];
 
 /// `pcf-poisson`: Poisson-disk PCF with a per-pixel rotation.

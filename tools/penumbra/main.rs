@@ -2,6 +2,7 @@
 //! bench, list devices and techniques.
 
 mod bench;
+mod stress;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -130,6 +131,32 @@ enum Command {
         /// samples); applied after `--quick`'s halving.
         #[arg(long, default_value = "1", value_delimiter = ',')]
         view_scale: Vec<f32>,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        device: DeviceArgs,
+        #[command(flatten)]
+        cache: CacheArgs,
+    },
+    /// Run the stress suite: adversarial cases × techniques, each row checked for NaN, infinite
+    /// and out-of-range visibility and held to a bound stated per case and technique; write
+    /// stress.json (exits non-zero if a row fails).
+    Stress {
+        /// The CI subset of cases at 128×96 with 4×4-sample references (else every case at
+        /// 256×192, 8×8).
+        #[arg(long)]
+        quick: bool,
+        /// Cases, comma-separated (default: all, or the quick ones); the baseline always runs.
+        #[arg(long, value_delimiter = ',')]
+        cases: Vec<String>,
+        /// Techniques, comma-separated; default: every technique except the references.
+        #[arg(long, value_delimiter = ',')]
+        techniques: Vec<String>,
+        /// Knob values, `key=value`, repeatable: set on every technique that has the knob (a
+        /// case's own knobs win).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
@@ -576,6 +603,26 @@ fn main() {
             device: device.device.clone(),
             validation: !device.no_validation,
             cache: cache.dir(),
+        }),
+        Command::Stress {
+            quick,
+            cases,
+            techniques,
+            set,
+            out,
+            device,
+            cache,
+        } => parse_sets(set).and_then(|sets| {
+            stress::run(&stress::StressArgs {
+                quick: *quick,
+                cases: cases.clone(),
+                techniques: techniques.clone(),
+                out: out.clone(),
+                device: device.device.clone(),
+                validation: !device.no_validation,
+                cache: cache.dir(),
+                sets,
+            })
         }),
         Command::Devices { json } => devices(*json),
         Command::Techniques { json } => techniques(*json),

@@ -127,6 +127,11 @@ fn compare(spec: &str, fit: &str, filter: &str, plane: bool, map: u32) -> Warped
         ("filter", filter),
         ("kernel", "3"),
         ("receiver_plane_bias", if plane { "1" } else { "0" }),
+        // The twin looks up at the view samples themselves (the receivers pass's normal offset
+        // has its own twin and test), and with the scenes' slope bias the comparisons sit
+        // clear of depth ties, as the tie exclusion below assumes.
+        ("normal_offset", "0"),
+        ("bias_slope", "2"),
     ];
     let (frame, depth, matrix) = render_lispsm(&engine, &prepared, "lispsm", &set);
     let warped = warp(
@@ -313,14 +318,21 @@ fn fallback_equals_hard_bit_for_bit() {
         let set = [("map_size", "256"), ("filter", filter), ("kernel", "3")];
         let (frame, depth, matrix) = render_lispsm(&engine, &prepared, "lispsm", &set);
         let other = if filter == "hard" { "hard" } else { "pcf" };
+        // lispsm's defaults: half the slope bias, half a texel of normal offset (and with
+        // filter = pcf the receiver-plane bias).
         let reference_set: &[(&str, &str)] = if filter == "hard" {
-            &[("map_size", "256")]
+            &[
+                ("map_size", "256"),
+                ("bias_slope", "1"),
+                ("normal_offset", "0.5"),
+            ]
         } else {
             &[
                 ("map_size", "256"),
                 ("kernel", "3"),
-                // lispsm's default with filter = pcf.
                 ("receiver_plane_bias", "1"),
+                ("bias_slope", "1"),
+                ("normal_offset", "0.5"),
             ]
         };
         let (reference, reference_depth, reference_matrix) =

@@ -1,8 +1,9 @@
 //! The stress suite's machinery and the engine's input checks it relies on.
 //!
 //! CPU: `Scene::validate` refuses NaN and infinite vertices, zero-area triangles, out-of-range
-//! indices, a zero-area rect light, a zero light direction and unusable cameras, each with a
-//! message that names the problem; a valid scene passes. `count_bad` separates NaN, infinite and
+//! indices, a non-finite rect light, a zero light direction and unusable cameras, each with a
+//! message that names the problem; a valid scene passes, and so does a zero-area rect light
+//! (the point-light limit). `count_bad` separates NaN, infinite and
 //! out-of-range values and ignores background pixels. Every case builds (or, for the invalid
 //! ones, fails validation the way its bound says), and the quick subset holds the baseline.
 //!
@@ -53,10 +54,18 @@ fn invalid_scenes_are_refused_with_the_reason() {
     let mut s = base();
     s.light = Light::Rect {
         position: Vec3::Y * 10.0,
-        u: Vec3::X,
-        v: Vec3::X * 2.0,
+        u: Vec3::X * f32::NAN,
+        v: Vec3::Z,
     };
-    refused(&s, "zero area");
+    refused(&s, "not finite");
+    // A rect of zero area is the point-light limit, not an error.
+    let mut s = base();
+    s.light = Light::Rect {
+        position: Vec3::Y * 10.0,
+        u: Vec3::ZERO,
+        v: Vec3::ZERO,
+    };
+    assert!(s.validate().is_ok());
     let mut s = base();
     s.light = Light::Directional {
         direction: Vec3::ZERO,

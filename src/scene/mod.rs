@@ -263,7 +263,8 @@ impl Scene {
     }
 
     /// Checks what the loaders check, for a scene built in code: finite, non-degenerate
-    /// geometry, a usable camera and a light with a size that makes sense. [`crate::engine::Engine::prepare`]
+    /// geometry, a usable camera and a finite light (a rect light of zero area is allowed: the
+    /// point-light limit). [`crate::engine::Engine::prepare`]
     /// calls it, so no NaN or zero-area triangle reaches a GPU pass (where it would surface as
     /// NaN pixels far from its cause).
     pub fn validate(&self) -> Result<()> {
@@ -334,19 +335,15 @@ impl Scene {
             Light::Point { position } if !position.is_finite() => {
                 bad(format!("point light at {position}: not finite"))
             }
-            Light::Rect { position, u, v } => {
-                if !(position.is_finite() && u.is_finite() && v.is_finite()) {
-                    bad(format!(
-                        "rect light at {position} with edges {u}, {v}: not finite"
-                    ))
-                } else if u.cross(v).length() <= 0.0 {
-                    bad(format!(
-                        "rect light has zero area (edges {u}, {v}); use a point light for a \
-                         light without size"
-                    ))
-                } else {
-                    Ok(())
-                }
+            // A rect of zero area is allowed here (the scene file refuses it as a likely
+            // mistake): it is the point-light limit with an orientation, which the light
+            // samples and several tests build on purpose.
+            Light::Rect { position, u, v }
+                if !(position.is_finite() && u.is_finite() && v.is_finite()) =>
+            {
+                bad(format!(
+                    "rect light at {position} with edges {u}, {v}: not finite"
+                ))
             }
             Light::Directional {
                 direction,

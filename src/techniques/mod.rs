@@ -175,11 +175,13 @@ impl TechniqueInfo {
     pub fn all_knobs(&self) -> Vec<Knob> {
         let mut knobs = self.knobs.to_vec();
         if self.shadow_map {
-            // A receiver knob the technique declares itself (another default) is its own.
-            let own = |name: &str| self.knobs.iter().any(|k| k.name == name);
-            knobs.extend(RECEIVER_KNOBS.iter().filter(|k| {
-                !(self.per_light_sample && k.name == params::FIT.name) && !own(k.name)
-            }));
+            // A receiver knob the technique declares itself (another default) is its own; a
+            // per-light-sample technique fits each sample's map, so it takes no `fit`.
+            let skip = |k: &Knob| {
+                self.knobs.iter().any(|own| own.name == k.name)
+                    || (self.per_light_sample && k.name == params::FIT.name)
+            };
+            knobs.extend(RECEIVER_KNOBS.iter().filter(|k| !skip(k)));
         }
         knobs
     }

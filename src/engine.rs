@@ -318,7 +318,8 @@ impl Engine {
 
         let visibility = f32s(&ctx.read_image(&prepared.visibility)?);
         let positions = prepared.view.read_positions(ctx)?;
-        let (nan_count, out_of_range_count) = count_bad(&visibility, &positions);
+        let (nan, inf, out_of_range_count) = count_bad(&visibility, &positions);
+        let nan_count = nan + inf;
         if fits {
             // How finely the chosen light view resolves what the camera sees: distinct map
             // texels the view samples land in (divide by `view_samples` for texels per sample).
@@ -441,21 +442,23 @@ impl Engine {
     }
 }
 
-/// Counts non-finite and out-of-range visibility values among view samples.
-pub fn count_bad(visibility: &[f32], positions: &[Vec4]) -> (u64, u64) {
-    let mut nan = 0;
-    let mut range = 0;
+/// Counts the view samples (`positions[i].w > 0`) whose visibility is NaN, infinite, or finite
+/// but outside [0, 1]: `(nan, inf, out_of_range)`.
+pub fn count_bad(visibility: &[f32], positions: &[Vec4]) -> (u64, u64, u64) {
+    let (mut nan, mut inf, mut range) = (0, 0, 0);
     for (v, p) in visibility.iter().zip(positions) {
         if p.w <= 0.0 {
             continue;
         }
-        if !v.is_finite() {
+        if v.is_nan() {
             nan += 1;
+        } else if v.is_infinite() {
+            inf += 1;
         } else if !(0.0..=1.0).contains(v) {
             range += 1;
         }
     }
-    (nan, range)
+    (nan, inf, range)
 }
 
 /// Texels per side of the grid a shadow-map technique's texel unit refers to: `map_size`, a

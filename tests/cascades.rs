@@ -342,8 +342,8 @@ fn the_turned_orientation_lies_along_a_slice_of_the_ground() {
         let lv = LightView::fit(&light, &scene).expect("light view");
         let d = (6.0, 8.0);
         let turns = cascade_fit::orientations(&lv, &camera, d.0, d.1);
-        let (_, right, _) = cascade_fit::camera_frame(&camera);
-        let mid = camera.position + cascade_fit::camera_frame(&camera).0 * 7.0;
+        let (forward, right, _) = cascade_fit::camera_frame(&camera);
+        let mid = camera.position + forward * 7.0;
         let a = cascade_fit::light_xy(&lv, mid).expect("a");
         let b = cascade_fit::light_xy(&lv, mid + right).expect("b");
         let along = cascade_fit::turn_point(b - a, turns[1]);

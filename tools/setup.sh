@@ -53,11 +53,9 @@ if [ "${PENUMBRA_MESA:-backports}" != debian ] && grep -q '^VERSION_CODENAME=boo
   list=/etc/apt/sources.list.d/penumbra-bookworm-backports.sources
   if text="$(backports_source)"; then
     echo "setup: installing Mesa from bookworm-backports ($(echo "$text" | sed -n 's/^URIs: //p'))"
-    if echo "$text" | $SUDO tee "$list" >/dev/null && $SUDO apt-get update -qq \
+    if ! { echo "$text" | $SUDO tee "$list" >/dev/null && $SUDO apt-get update -qq \
       && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
-        -t bookworm-backports mesa-vulkan-drivers >/dev/null; then
-      :
-    else
+        -t bookworm-backports mesa-vulkan-drivers >/dev/null; }; then
       echo "setup: bookworm-backports Mesa not installed; keeping $(dpkg-query -W -f='${Version}' mesa-vulkan-drivers)" >&2
     fi
   else

@@ -18,10 +18,9 @@ pub mod cases;
 
 use std::collections::BTreeMap;
 
-use crate::engine::{Engine, Frame, PreparedScene};
+use crate::engine::{count_bad, Engine, Frame};
 use crate::evaluate::{reference_frame, ViewData};
 use crate::metrics;
-use crate::scene::Scene;
 use crate::Result;
 
 pub use cases::{Bound, Case, CaseKnobs, BASELINE};
@@ -57,13 +56,17 @@ pub struct StressRow {
     pub gpu_ms: Option<f64>,
     /// The technique's counters (what it skipped, clipped or found outside its maps).
     pub counters: BTreeMap<String, u64>,
+    /// Whether the bound is [`Bound::Known`] (the text of `bound` says so too).
+    #[serde(skip)]
+    pub known: bool,
 }
 
-/// What [`run_case`] hands back per row besides the row: the frame, for failure images.
+/// What [`run_case`] hands back per row: the row, and for a rendered row that failed its frame
+/// and the reference's visibility (for the failure images).
 pub struct RowOutput {
     /// The row.
     pub row: StressRow,
-    /// The technique's frame and the reference's visibility, when rendered.
+    /// The technique's frame and the reference's visibility, for a failed rendered row.
     pub images: Option<(Frame, Vec<f32>)>,
 }
 
@@ -77,24 +80,6 @@ fn describe(bound: Bound, baseline_mae: Option<f64>) -> String {
         Bound::Rejected(p) => format!("refused: \"{p}\""),
         Bound::Known(m, why) => format!("known (MAE <= {m}): {why}"),
     }
-}
-
-/// Counts NaN, infinite and finite-but-outside-[0, 1] values among the view samples.
-pub fn count_bad(visibility: &[f32], is_sample: &[bool]) -> (u64, u64, u64) {
-    let (mut nan, mut inf, mut range) = (0, 0, 0);
-    for (&v, &s) in visibility.iter().zip(is_sample) {
-        if !s {
-            continue;
-        }
-        if v.is_nan() {
-            nan += 1;
-        } else if v.is_infinite() {
-            inf += 1;
-        } else if !(0.0..=1.0).contains(&v) {
-            range += 1;
-        }
-    }
-    (nan, inf, range)
 }
 
 /// How [`run_case`] renders: the view size, the reference's N (N × N light samples), the
@@ -153,22 +138,21 @@ pub fn run_case(
                 error: Some(error),
                 gpu_ms: None,
                 counters: BTreeMap::new(),
+                known: false,
             },
             images: None,
         }
     };
     // A scene the engine refuses fails (or passes) every row the same way.
-    let prepared: std::result::Result<(Scene, PreparedScene), String> =
-        (case.scene)(size.0, size.1)
-            .and_then(|s| engine.prepare(&s).map(|p| (s, p)))
-            .map_err(|e| e.to_string());
-    let (_, prepared) = match prepared {
+    let prepared = (case.scene)(size.0, size.1).and_then(|s| engine.prepare(&s));
+    let prepared = match prepared {
         Ok(p) => p,
         Err(e) => {
+            let e = e.to_string();
             return Ok(applies
                 .iter()
                 .map(|(t, k)| refused(t, k, e.clone(), (case.bound)(t)))
-                .collect())
+                .collect());
         }
     };
     let view = ViewData::read(engine, &prepared)?;
@@ -213,7 +197,7 @@ pub fn run_case(
             );
         }
         let reference = reference.as_deref().unwrap_or_default();
-        let (nan, inf, range) = count_bad(&frame.visibility, &view.is_sample);
+        let (nan, inf, range) = count_bad(&frame.visibility, &view.positions);
         let m = metrics::compare(reference, &frame.visibility, &view.is_sample)?;
         let base = baseline.get(t.as_str()).copied();
         let within = match bound {
@@ -221,6 +205,7 @@ pub fn run_case(
             Bound::Mae(x) | Bound::Known(x, _) => m.mae <= x,
             Bound::Rejected(_) => false,
         };
+        let pass = within && nan == 0 && inf == 0 && range == 0;
         let row = StressRow {
             case: case.name.into(),
             technique: t.to_string(),
@@ -232,14 +217,15 @@ pub fn run_case(
             misclassified: Some(m.misclassified),
             light_leak: Some(m.light_leak),
             bound: describe(bound, base),
-            pass: within && nan == 0 && inf == 0 && range == 0,
+            pass,
             error: None,
             gpu_ms: frame.stats.total_gpu_ms,
             counters: frame.stats.counters.clone(),
+            known: matches!(bound, Bound::Known(..)),
         };
         out.push(RowOutput {
             row,
-            images: Some((frame, reference.to_vec())),
+            images: (!pass).then(|| (frame, reference.to_vec())),
         });
     }
     Ok(out)

@@ -16,7 +16,6 @@ use indicatif::{ProgressBar, ProgressStyle};
 use penumbra::evaluate::{evaluate, reference_frame, ViewData};
 use penumbra::plots::{write_pareto_chart, ParetoPoint};
 use penumbra::scene::Scene;
-use penumbra::techniques::registry;
 use penumbra::{ContextDesc, Engine};
 
 /// What to run.
@@ -344,19 +343,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     } else {
         args.scenes.clone()
     };
-    let known: Vec<&str> = registry().iter().map(|t| t.name).collect();
-    let techniques: Vec<String> = if args.techniques.is_empty() {
-        known
-            .iter()
-            .filter(|n| !n.starts_with("reference"))
-            .map(|s| s.to_string())
-            .collect()
-    } else {
-        args.techniques.clone()
-    };
-    for t in &techniques {
-        penumbra::techniques::find(t)?;
-    }
+    let techniques = crate::techniques_or_all(&args.techniques)?;
     // --set key=v1,v2 replaces that knob's sweep in every technique that has it.
     let mut user_sweep: BTreeMap<String, Vec<String>> = BTreeMap::new();
     for s in &args.sets {

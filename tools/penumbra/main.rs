@@ -181,6 +181,22 @@ enum Command {
     Scenes,
 }
 
+/// The techniques asked for (each checked to exist), or every technique but the references.
+fn techniques_or_all(asked: &[String]) -> anyhow::Result<Vec<String>> {
+    if asked.is_empty() {
+        return Ok(penumbra::techniques::registry()
+            .iter()
+            .map(|t| t.name)
+            .filter(|n| !n.starts_with("reference"))
+            .map(String::from)
+            .collect());
+    }
+    for t in asked {
+        penumbra::techniques::find(t)?;
+    }
+    Ok(asked.to_vec())
+}
+
 fn parse_sets(sets: &[String]) -> anyhow::Result<BTreeMap<String, String>> {
     let mut map = BTreeMap::new();
     for s in sets {

@@ -11,7 +11,6 @@ use anyhow::Context as _;
 use penumbra::engine::Engine;
 use penumbra::gpu::ContextDesc;
 use penumbra::stress::{self, cases, StressRow};
-use penumbra::techniques::registry;
 
 /// What `penumbra stress` was asked to do.
 pub struct StressArgs {
@@ -33,19 +32,7 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
             anyhow::bail!("unknown case '{c}'; cases: {}", names.join(", "));
         }
     }
-    let techniques: Vec<String> = if args.techniques.is_empty() {
-        registry()
-            .iter()
-            .map(|t| t.name)
-            .filter(|n| !n.starts_with("reference"))
-            .map(String::from)
-            .collect()
-    } else {
-        args.techniques.clone()
-    };
-    for t in &techniques {
-        penumbra::techniques::find(t)?;
-    }
+    let techniques = crate::techniques_or_all(&args.techniques)?;
     // The baseline always runs when a LikeBaseline case does: its rows are their yardstick.
     let chosen: Vec<&cases::Case> = all
         .iter()
@@ -110,7 +97,7 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
                 f(r.mae, 4),
                 f(r.misclassified, 4),
                 f(r.gpu_ms, 1),
-                match (r.pass, r.bound.starts_with("known")) {
+                match (r.pass, r.known) {
                     (false, _) => "FAIL",
                     (true, true) => "known",
                     (true, false) => "pass",
@@ -120,7 +107,7 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
                     .as_ref()
                     .map_or(String::new(), |e| format!(" — {e}")),
             );
-            if let (false, Some((frame, reference))) = (r.pass, &o.images) {
+            if let Some((frame, reference)) = &o.images {
                 let dir = args
                     .out
                     .join("failures")

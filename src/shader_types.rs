@@ -62,7 +62,7 @@ pub struct ReceiversPush {
 pub struct ReceiversFinishPush {
     /// View-sample image size.
     pub view_size: IVec2,
-    /// 1: V' = f·V; 0: V' = V.
+    /// 1: V' = f·V (min(f, V) for f < ½, see `finish.comp`); 0: V' = V.
     pub scale: i32,
     /// Padding to the block's declared size.
     pub pad: i32,

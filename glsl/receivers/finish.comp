@@ -1,11 +1,21 @@
 #version 460
 // Receivers, after the technique: combines its visibility V with the light's clipped fraction f
-// and counts the classes of the result. Filter techniques see the whole light, so the visible
-// fraction through the tangent plane scales their result: V' = f·V — exact when the occluded
-// part of the light is spread over it in proportion to f, and exactly V on a receiver whose whole
-// light is in front of its plane (the parallel-plane case: f = 1). Techniques that test light
-// samples themselves (`average-maps`) clip each sample and set `scale` = 0: V' = V. Either way a
-// sample with f = 0 (skipped by the technique) is umbra, counted as `horizon_umbra`.
+// and counts the classes of the result. Filter techniques see the whole light through one map
+// rendered from its centre, so how V and f combine depends on which side of the tangent plane
+// that centre lies (f >= 1/2 exactly when it is in front: every light is centrally symmetric):
+// - in front (f >= 1/2), the receiver's own surface lies behind its tangent plane as the map
+//   sees it, so V counts other casters only and the visible fraction scales it: V' = f·V, exact
+//   when the blocked part of the light is spread over it in proportion to f, and exactly V when
+//   the whole light is in front (the parallel-plane case: f = 1);
+// - behind (f < 1/2), the map's centre rays reach the receiver through its own body, so V
+//   already counts the part of the light behind the plane as blocked (a smooth closed receiver:
+//   V ~ f). Scaling again counted it twice (teapot-rect's terminator read V ~ f^2 where the
+//   reference has f: penumbra MAE 0.050 -> 0.035 for pvssm); here V' = min(f, V). At f = 1/2
+//   both read 1/2 where nothing else casts; the step the map's own V takes there (its
+//   self-shadowing switches on as the centre crosses the plane) is what min() undoes.
+// Techniques that test light samples themselves (`average-maps`) clip each sample and set
+// `scale` = 0: V' = V. Either way a sample with f = 0 (skipped by the technique) is umbra,
+// counted as `horizon_umbra`.
 // CPU twin: src/cpu/receivers.rs.
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -36,7 +46,7 @@ void main() {
         if (f > 0.0) {
             v = imageLoad(visibility, pixel).r;
             if (pc.scale != 0) {
-                v *= f;
+                v = 2.0 * f < 1.0 ? min(f, v) : f * v;
             }
         } else {
             atomicAdd(group_counts[4], 1);

@@ -68,8 +68,20 @@ pub fn prepare(
     out
 }
 
+/// `finish.comp`'s combination of a filter technique's V with the clipped fraction f (see there
+/// for why it switches at f = ½).
+pub fn combine_clip(f: f32, v: f32) -> f32 {
+    if 2.0 * f < 1.0 {
+        f.min(v)
+    } else {
+        f * v
+    }
+}
+
 /// The twin of `finish.comp`: the visibility after combining the technique's `visibility` with
-/// the clipped fractions (`scale`: V' = f·V, else V' = V; f = 0 gives 0), and the counters
+/// the clipped fractions (`scale`: V' = f·V where the light's centre is in front of the
+/// tangent plane, f ≥ ½, and min(f, V) where it is behind and the map already saw the receiver's
+/// own body block that part; else V' = V; f = 0 gives 0), and the counters
 /// (view samples, lit, umbra, penumbra, horizon umbra).
 pub fn finish(
     positions: &[Vec4],
@@ -86,7 +98,7 @@ pub fn finish(
         let f = clip[i];
         let v = if f > 0.0 {
             if scale {
-                visibility[i] * f
+                combine_clip(f, visibility[i])
             } else {
                 visibility[i]
             }
@@ -105,4 +117,32 @@ pub fn finish(
         }] += 1;
     }
     (out, counts)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::combine_clip;
+
+    #[test]
+    fn clip_combination_scales_in_front_and_takes_the_minimum_behind() {
+        // The whole light in front: V unchanged.
+        assert_eq!(combine_clip(1.0, 0.3), 0.3);
+        // Centre in front: the product.
+        assert_eq!(combine_clip(0.75, 0.5), 0.375);
+        // Centre behind: the map already counted the clipped part (V below f stays V) ...
+        assert_eq!(combine_clip(0.25, 0.1), 0.1);
+        // ... and never more than the fraction in front.
+        assert_eq!(combine_clip(0.25, 1.0), 0.25);
+        // Nothing else casting: both sides read f at the switch.
+        assert_eq!(combine_clip(0.5, 1.0), 0.5);
+        assert_eq!(combine_clip(0.4999, 1.0), 0.4999);
+        for i in 0..=100 {
+            let f = i as f32 / 100.0;
+            for j in 0..=10 {
+                let v = j as f32 / 10.0;
+                let c = combine_clip(f, v);
+                assert!((0.0..=f.min(v)).contains(&c), "f {f} V {v}: {c}");
+            }
+        }
+    }
 }

@@ -7,9 +7,11 @@
 //!   leak no filter can remove. `prepare.comp` computes, per view sample, the fraction f of the
 //!   light in front of its tangent plane analytically (`glsl/include/light_clip.glsl`: a rect
 //!   light clipped by the plane, the visible segment of the sun's disk, a step for a point light
-//!   or a hard sun) with the camera-facing normal the reference uses. `finish.comp` then scales
-//!   the technique's visibility, V' = f·V (see there for the combination and its error), or, for
-//!   a technique that clips its own light samples (`average-maps`), leaves it.
+//!   or a hard sun) with the camera-facing normal the reference uses. `finish.comp` then combines
+//!   it with the technique's visibility: V' = f·V while the light's centre is in front of the
+//!   plane (f ≥ ½), min(f, V) once it is behind and the map sees the receiver's own body block
+//!   that part (see there for why and what it measured), or, for a technique that clips its own
+//!   light samples (`average-maps`), leaves V.
 //! - **Horizon umbra.** A sample with f = 0 is umbra whatever the map says: its lookup position
 //!   gets w = 0, which every technique reads as "not a view sample" and skips, and `finish.comp`
 //!   writes its 0 and counts it (`horizon_umbra`).

@@ -35,6 +35,7 @@ layout(push_constant) uniform Push {
 
 #define OPT_ANTIALIAS 1u
 #define OPT_RHO_STATIC 2u
+#define OPT_REFINE_SHIFT 16u
 // Bits 8..15: the blocker search's cells per side (the push block has no room left).
 #define OPT_CELLS_SHIFT 8u
 

@@ -39,6 +39,38 @@ layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D shape;
 layout(set = 0, binding = 7, r32f) uniform writeonly image2D visibility;
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
 
+// Whether any cell of the region centre ± half_low, at the min pyramid's level where it spans
+// at most `cells` cells a side, may hold a blocker: a cell's minimum nearer than the receiver
+// plane's *highest* depth over the cell. A coarse cell's minimum is no larger than any of its
+// children's and its plane maximum no smaller than theirs, so when this finds nothing, no finer
+// search (which compares with the plane's lowest depth) finds a blocker either: the sample is
+// fully lit, decided at a few reads instead of up to `search_cells`² — most samples of a scene.
+bool may_have_blocker(vec2 centre, vec2 half_low, float cells, Receiver rc, float lowres_texel) {
+    uint level = 0u;
+    while (level < 12u && (pc.lowres_size >> level) > 1u
+           && 2.0 * max(half_low.x, half_low.y) > cells * float(1u << level)) {
+        level += 1u;
+    }
+    float cell = float(1u << level);
+    vec2 lo = (centre - half_low) / cell;
+    vec2 hi = (centre + half_low) / cell;
+    int size = int(pc.lowres_size >> level);
+    uint offset = mip_offset(level);
+    ivec2 a = max(ivec2(floor(lo)), ivec2(0));
+    ivec2 b = min(ivec2(ceil(hi)) - 1, ivec2(size - 1));
+    vec2 g = rc.dz * (lowres_texel * cell);
+    float plane_rise = 0.5 * (abs(g.x) + abs(g.y));
+    bool found = false;
+    for (int j = a.y; j <= b.y; ++j) {
+        for (int i = a.x; i <= b.x; ++i) {
+            float d = uintBitsToFloat(lowres[offset + uint(j * size + i)]);
+            vec2 at = (vec2(i, j) + 0.5) * (lowres_texel * cell);
+            found = found || d < rc.z + dot(rc.dz, at - rc.c) + plane_rise - pc.search_bias;
+        }
+    }
+    return found;
+}
+
 // The blocker search over the region centre ± half_low (low-resolution texels) at the min
 // pyramid's level where it spans at most `cells` cells a side: (sum of w * distance, sum of w)
 // over the cells nearer than the receiver's plane.
@@ -75,6 +107,9 @@ vec2 blocker_search(vec2 centre, vec2 half_low, float cells, Receiver rc, float 
     }
     return sum;
 }
+
+// Cells per side of the early-out's coarse level.
+const float COARSE_CELLS = 4.0;
 
 shared uint group_counts[COUNTERS];
 
@@ -129,7 +164,10 @@ void main() {
                 half_low = min(half_low, vec2(0.5 * pc.max_search));
             }
             float cells = float((pc.options >> OPT_CELLS_SHIFT) & 0xffu);
-            vec2 sum = blocker_search(centre, half_low, cells, rc, lowres_texel);
+            vec2 sum = vec2(0.0);
+            if (may_have_blocker(centre, half_low, COARSE_CELLS, rc, lowres_texel)) {
+                sum = blocker_search(centre, half_low, cells, rc, lowres_texel);
+            }
             if (sum.y == 0.0) {
                 count(C_FULLY_LIT, 1u);
                 count(C_LIT, 1u);

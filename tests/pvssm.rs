@@ -414,3 +414,45 @@ fn refined_blocker_search_is_closer_to_the_reference() {
     }
     common::assert_clean(&engine.context().validation());
 }
+
+/// `fixed_level` (the paper's Table 2 baseline: one whole map of one resolution for every
+/// kernel): every page of that level is resident whatever the kernels touch, and the result
+/// stays close to the predicted levels' — the prediction trades texels, not the model.
+#[test]
+fn a_fixed_level_is_one_whole_map() {
+    let engine = common::engine();
+    let prepared = engine
+        .prepare(&common::small("scenes/teapot-rect.toml"))
+        .expect("prepare");
+    let fixed = render(
+        &engine,
+        &prepared,
+        &[
+            ("virtual_size", "1024"),
+            ("fixed_level", "0"),
+            ("ancestors", "0"),
+            ("pool_pages", "300"),
+        ],
+    );
+    let predicted = render(&engine, &prepared, &[("virtual_size", "1024")]);
+    // 16² pages of 64² at level 0, and the root.
+    assert_eq!(counter(&fixed, "allocated_pages"), 16 * 16 + 1);
+    assert_eq!(counter(&fixed, "overflow_pages"), 0);
+    assert_eq!(counter(&fixed, "fallback_lookups"), 0);
+    assert!(counter(&predicted, "allocated_pages") < 16 * 16);
+    let n = fixed.visibility.len() as f32;
+    let mae: f32 = fixed
+        .visibility
+        .iter()
+        .zip(&predicted.visibility)
+        .map(|(a, b)| (a - b).abs())
+        .sum::<f32>()
+        / n;
+    eprintln!(
+        "fixed level 0: {} pages, predicted: {} pages, mean |dV| {mae:.5}",
+        counter(&fixed, "allocated_pages"),
+        counter(&predicted, "allocated_pages")
+    );
+    assert!(mae < 0.005, "mean |dV| {mae}");
+    common::assert_clean(&engine.context().validation());
+}

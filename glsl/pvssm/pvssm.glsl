@@ -36,6 +36,9 @@ layout(push_constant) uniform Push {
 #define OPT_ANTIALIAS 1u
 #define OPT_RHO_STATIC 2u
 #define OPT_REFINE_SHIFT 16u
+#define OPT_ANCESTORS 4u
+// Bits 20..23: fixed_level + 1 (0: the predicted level).
+#define OPT_FIXED_SHIFT 20u
 // Bits 8..15: the blocker search's cells per side (the push block has no room left).
 #define OPT_CELLS_SHIFT 8u
 

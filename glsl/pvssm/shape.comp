@@ -129,8 +129,20 @@ void main() {
     barrier();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    // fixed_level + 1, or 0 for the predicted level of each kernel.
+    uint fixed_plus1 = (pc.options >> OPT_FIXED_SHIFT) & 0xfu;
     if (pixel == ivec2(0)) {
         table[0] = 1u;
+        // A fixed level is one whole map of that resolution: every page of it (the paper's
+        // Table 2 baseline), whatever the kernels touch.
+        if (fixed_plus1 != 0u) {
+            uint l = min(fixed_plus1 - 1u, pc.levels - 1u);
+            uint n = pages_per_side(pc.virtual_size, pc.page_size, l);
+            for (uint e = 0u; e < n * n; ++e) {
+                table[page_entry(pc.virtual_size, pc.page_size, pc.levels, l,
+                                 uvec2(e % n, e / n))] = 1u;
+            }
+        }
     }
     if (all(lessThan(pixel, pc.view_size))) {
         vec4 p = imageLoad(positions, pixel);
@@ -196,6 +208,9 @@ void main() {
                 v_h.y = max(v_h.y, MIN_HALF);
                 uint level = predicted_level(u_h, v_h,
                                              screen_sizes(has_pixel, u_phi, v_phi, u_h, v_h));
+                if (fixed_plus1 != 0u) {
+                    level = min(fixed_plus1 - 1u, pc.levels - 1u);
+                }
                 imageStore(shape, pixel, vec4(u_h, v_h.y, float(level)));
                 // Every page of that level under the kernel's box (one texel of margin for the
                 // panel approximation's rounding), and their ancestors.
@@ -209,7 +224,9 @@ void main() {
                         uvec2 page = uvec2(px, py);
                         table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level,
                                          page)] = 1u;
-                        mark_ancestors(level, page);
+                        if ((pc.options & OPT_ANCESTORS) != 0u) {
+                            mark_ancestors(level, page);
+                        }
                         marks += 1u;
                     }
                 }

@@ -31,7 +31,10 @@
 //! Knobs: `lowres_size`, `virtual_size`, `page_size`, `pool_pages`, `rho` (`dynamic` | `static`),
 //! `rho_scale` (the quality/speed dial: texels across a kernel ×), `antialias`, `max_search`,
 //! `search_cells` (the search's cost bound: cells per side of the min-pyramid level it reads),
-//! `refine_search`, `search_bias`, `tangent_plane`, `bin_factor`, and the depth bias of a level-0 page.
+//! `refine_search`, `ancestors` (render each requested page's coarser ancestors too, so a pool
+//! overflow falls back one level at a time; 0 falls back to the root page and renders 40 % fewer
+//! triangles on `grid:800000@rect`), `fixed_level` (-1: predicted; k: one whole map at level k
+//! for every kernel — level 0 of a 4096 virtual map is the paper's Table 2 baseline), `search_bias`, `tangent_plane`, `bin_factor`, and the depth bias of a level-0 page.
 //! CPU twin: [`crate::cpu::pvssm`] (kernel math and filter), [`crate::cpu::pages`] (pages).
 
 use glam::IVec2;
@@ -61,7 +64,7 @@ pub const COUNTER_NAMES: [&str; 10] = [
 
 const PAGE_KNOBS: [Knob; 4] = virtual_map::page_knobs(16384.0);
 
-const KNOBS: [Knob; 16] = [
+const KNOBS: [Knob; 18] = [
     Knob::int(
         "lowres_size",
         "conservative low-resolution map for the blocker search, texels per side",
@@ -116,6 +119,21 @@ const KNOBS: [Knob; 16] = [
         1.0,
         0.0,
         4.0,
+    ),
+    Knob::int(
+        "ancestors",
+        "1: also render every requested page's coarser ancestors (fallback one level at a time)",
+        1.0,
+        0.0,
+        1.0,
+    ),
+    Knob::int(
+        "fixed_level",
+        "-1: each kernel at its predicted level; k: one whole map at level k for every kernel \
+         (level 0 of a 4096 virtual map is the paper's fixed 4096² map)",
+        -1.0,
+        -1.0,
+        14.0,
     ),
     Knob::int(
         "search_bias",
@@ -263,6 +281,11 @@ impl<'a> Pvssm<'a> {
             options |= 2;
         }
         options |= params.u32("refine_search")? << 16;
+        if params.u32("ancestors")? == 1 {
+            options |= 4;
+        }
+        // -1 (predicted) is stored as 0, level k as k + 1.
+        options |= ((params.f32("fixed_level")? + 1.0) as u32) << 20;
         options |= params.u32("search_cells")? << 8;
         let view_size = IVec2::new(samples.width as i32, samples.height as i32);
         let push = PvssmPush {

@@ -1,6 +1,7 @@
 //! `penumbra`: render a scene with a shadow technique, compare it with the ground truth, run the
 //! bench, list devices and techniques.
 
+mod antialiasing;
 mod bench;
 mod stress;
 
@@ -91,8 +92,11 @@ enum Command {
     /// Run techniques × knob sweeps × scenes against the reference; write bench.json, bench.csv
     /// and Pareto charts.
     Bench {
-        /// `techniques` (time and error of every technique) or `kernels` (time and bandwidth of
-        /// every compute primitive, and the SAT precision table).
+        /// `techniques` (time and error of every technique), `kernels` (time and bandwidth of
+        /// every compute primitive, and the SAT precision table) or `antialiasing` (analytic
+        /// anti-aliasing against 8×8 supersampling of the same filter, both scored against
+        /// 32×32 supersampling: the PVSSM paper's Fig. 11; one `--view-scale` for the base
+        /// image, default technique `pvssm`).
         #[arg(long, default_value = "techniques")]
         suite: String,
         /// Scenes (files or procedural specs), comma-separated; default: every bundled scene.
@@ -588,8 +592,40 @@ fn main() {
         } if suite == "kernels" => {
             bench::run_kernels(out, *quick, device.device.clone(), !device.no_validation)
         }
+        Command::Bench {
+            suite,
+            scenes,
+            techniques,
+            set,
+            frames,
+            view_scale,
+            out,
+            device,
+            ..
+        } if suite == "antialiasing" => match view_scale[..] {
+            [view_scale] => antialiasing::run(&antialiasing::AntialiasingArgs {
+                scenes: if scenes.is_empty() {
+                    ["teapot-rect", "bunny-rect"]
+                        .iter()
+                        .map(|s| format!("{}/scenes/{s}.toml", env!("CARGO_MANIFEST_DIR")))
+                        .collect()
+                } else {
+                    scenes.clone()
+                },
+                techniques: techniques.clone(),
+                sets: set.clone(),
+                view_scale,
+                frames: frames.unwrap_or(3),
+                out: out.clone(),
+                device: device.device.clone(),
+                validation: !device.no_validation,
+            }),
+            _ => Err(anyhow::anyhow!(
+                "--suite antialiasing takes one --view-scale (the base image's scale)"
+            )),
+        },
         Command::Bench { suite, .. } if suite != "techniques" => Err(anyhow::anyhow!(
-            "unknown suite '{suite}': expected 'techniques' or 'kernels'"
+            "unknown suite '{suite}': expected 'techniques', 'kernels' or 'antialiasing'"
         )),
         Command::Bench {
             suite: _,

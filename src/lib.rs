@@ -20,6 +20,7 @@ pub mod passes;
 pub mod plots;
 pub mod reference;
 pub mod sampling_error;
+pub mod scaling;
 pub mod scene;
 #[cfg(feature = "shader-compiler")]
 pub mod shader_compiler;

@@ -39,7 +39,7 @@ fn ensure_font() -> std::result::Result<(), String> {
         .clone()
 }
 
-fn image_error(path: &Path, message: impl std::fmt::Display) -> Error {
+pub(crate) fn image_error(path: &Path, message: impl std::fmt::Display) -> Error {
     Error::Image {
         path: path.to_path_buf(),
         message: message.to_string(),
@@ -48,7 +48,7 @@ fn image_error(path: &Path, message: impl std::fmt::Display) -> Error {
 
 /// Draws with plotters into a fresh white RGB canvas of `size` and saves it as `path`.
 /// `prefill` may write pixels before plotters draws on top.
-fn render(
+pub(crate) fn render(
     path: &Path,
     size: (u32, u32),
     prefill: impl FnOnce(&mut [u8]),
@@ -305,7 +305,7 @@ pub fn pareto_front(points: &[ParetoPoint]) -> Vec<usize> {
 
 /// Ten colours that stay apart on white (Tableau 10); techniques take them in order of first
 /// appearance and wrap around after ten.
-const PALETTE: [RGBColor; 10] = [
+pub(crate) const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -322,7 +322,7 @@ const PALETTE: [RGBColor; 10] = [
 pub const PARETO_CHART_SIZE: (u32, u32) = (1000, 700);
 
 /// A tick value with two significant digits and no trailing zeros: 0.05, 0.5, 2, 20, 150.
-fn format_tick(v: f64) -> String {
+pub(crate) fn format_tick(v: f64) -> String {
     if v <= 0.0 || !v.is_finite() {
         return format!("{v}");
     }
@@ -343,7 +343,7 @@ fn overlaps(a: &[i32; 4], b: &[i32; 4]) -> bool {
 /// A log10 axis in milliseconds with our own ticks: bold at 1, 2, 5 × 10^k (only 1 × 10^k past
 /// three decades, so labels never crowd), light at every other integer multiple. plotters' own
 /// log axis crowds its labels, and its key-point override does not compose with `f64` labels.
-struct LogAxis {
+pub(crate) struct LogAxis {
     lo: f64,
     hi: f64,
     bold: Vec<f64>,
@@ -352,7 +352,7 @@ struct LogAxis {
 
 impl LogAxis {
     /// `lo` and `hi` must be positive with `lo < hi`.
-    fn new(lo: f64, hi: f64) -> Self {
+    pub(crate) fn new(lo: f64, hi: f64) -> Self {
         let bold_mantissas: &[u32] = if (hi / lo).log10() > 3.0 {
             &[1]
         } else {

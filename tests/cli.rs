@@ -332,3 +332,35 @@ fn antialiasing_suite_scores_candidates_against_supersampling() {
         &["sets `antialias` itself"],
     );
 }
+
+/// `bench --suite scaling --quick` for one technique under validation: a time at every point of
+/// the three sweeps, a growth exponent per sweep, the chart written.
+#[test]
+fn scaling_suite_fits_an_exponent_per_sweep() {
+    let dir = out_dir("scaling");
+    let out = dir.to_str().expect("utf-8");
+    let o = penumbra(&[
+        "bench",
+        "--suite",
+        "scaling",
+        "--quick",
+        "--techniques",
+        "hard",
+        "--out",
+        out,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(dir.join("scaling.json")).expect("json");
+    let json: serde_json::Value = serde_json::from_str(&text).expect("parse");
+    let rows = json["rows"].as_array().expect("rows");
+    // Quick: three points in each of the three sweeps.
+    assert_eq!(rows.len(), 9);
+    assert!(rows
+        .iter()
+        .all(|r| r["gpu_ms"].as_f64().is_some_and(|ms| ms > 0.0)));
+    for sweep in ["triangles", "resolution", "light"] {
+        let k = json["exponents"]["hard"][sweep].as_f64();
+        assert!(k.is_some_and(f64::is_finite), "{sweep}: {k:?}");
+    }
+    assert!(dir.join("scaling.png").is_file());
+}

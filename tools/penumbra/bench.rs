@@ -266,7 +266,7 @@ struct SkipRun {
 /// Scales a light's size by `s` (rect edges, angular diameter); false for a point light. A
 /// rect light scaled by 0 becomes a point light at its centre (the same scene lit hard, to
 /// compare a technique's soft and hard costs).
-fn scale_light(light: &mut penumbra::scene::Light, s: f32) -> bool {
+pub(crate) fn scale_light(light: &mut penumbra::scene::Light, s: f32) -> bool {
     use penumbra::scene::Light;
     match light {
         Light::Point { .. } => false,

@@ -3,6 +3,7 @@
 
 mod antialiasing;
 mod bench;
+mod scaling;
 mod stress;
 
 use std::collections::BTreeMap;
@@ -96,7 +97,8 @@ enum Command {
         /// every compute primitive, and the SAT precision table) or `antialiasing` (analytic
         /// anti-aliasing against 8×8 supersampling of the same filter, both scored against
         /// 32×32 supersampling: the PVSSM paper's Fig. 11; one `--view-scale` for the base
-        /// image, default technique `pvssm`).
+        /// image, default technique `pvssm`) or `scaling` (each technique's time as triangles,
+        /// view samples and the light grow, with fitted growth exponents and `scaling.png`).
         #[arg(long, default_value = "techniques")]
         suite: String,
         /// Scenes (files or procedural specs), comma-separated; default: every bundled scene.
@@ -624,8 +626,25 @@ fn main() {
                 "--suite antialiasing takes one --view-scale (the base image's scale)"
             )),
         },
+        Command::Bench {
+            suite,
+            techniques,
+            quick,
+            frames,
+            out,
+            device,
+            ..
+        } if suite == "scaling" => scaling::run(&scaling::ScalingArgs {
+            techniques: techniques.clone(),
+            quick: *quick,
+            frames: frames.unwrap_or(if *quick { 1 } else { 3 }),
+            out: out.clone(),
+            device: device.device.clone(),
+            validation: !device.no_validation,
+        }),
         Command::Bench { suite, .. } if suite != "techniques" => Err(anyhow::anyhow!(
-            "unknown suite '{suite}': expected 'techniques', 'kernels' or 'antialiasing'"
+            "unknown suite '{suite}': expected 'techniques', 'kernels', 'antialiasing' or \
+             'scaling'"
         )),
         Command::Bench {
             suite: _,

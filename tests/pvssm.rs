@@ -440,6 +440,8 @@ fn a_fixed_level_is_one_whole_map() {
     assert_eq!(counter(&fixed, "overflow_pages"), 0);
     assert_eq!(counter(&fixed, "fallback_lookups"), 0);
     assert!(counter(&predicted, "allocated_pages") < 16 * 16);
+    // The prediction keeps every kernel within the filter's loop bound.
+    assert_eq!(counter(&predicted, "filter_cut"), 0);
     let n = fixed.visibility.len() as f32;
     let mae: f32 = fixed
         .visibility

@@ -20,7 +20,9 @@ layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
 
 shared uint group_counts[COUNTERS];
 
-// Widest kernel, in texels of its level, one invocation filters (bounds the loops).
+// Widest kernel, in texels of its level, one invocation filters (bounds the loops); wider ones
+// are cut to it and counted (`filter_cut`): the prediction keeps kernels near rho's ~21 texels,
+// only `fixed_level` reaches this.
 const int MAX_SPAN = 256;
 
 // Whether every page under the kernel's box at `level` is resident (texels off the level need
@@ -79,7 +81,9 @@ void main() {
             float x_lo = centre.x - u.x;
             float x_hi = centre.x + u.x;
             int i0 = int(floor(x_lo));
-            int i1 = min(int(ceil(x_hi)) - 1, i0 + MAX_SPAN - 1);
+            int i1 = int(ceil(x_hi)) - 1;
+            bool cut = i1 > i0 + MAX_SPAN - 1;
+            i1 = min(i1, i0 + MAX_SPAN - 1);
             float slope = u.y / u.x;
             vec2 sum = vec2(0.0);
             uint texels = 0u;
@@ -94,7 +98,9 @@ void main() {
                 float y_lo = yc - vy;
                 float y_hi = yc + vy;
                 int j0 = int(floor(y_lo));
-                int j1 = min(int(ceil(y_hi)) - 1, j0 + MAX_SPAN - 1);
+                int j1 = int(ceil(y_hi)) - 1;
+                cut = cut || j1 > j0 + MAX_SPAN - 1;
+                j1 = min(j1, j0 + MAX_SPAN - 1);
                 for (int j = j0; j <= j1; ++j) {
                     float wy = min(float(j + 1), y_hi) - max(float(j), y_lo);
                     if (wy <= 0.0) {
@@ -109,6 +115,9 @@ void main() {
             imageStore(visibility, pixel, vec4(v));
             atomicAdd(group_counts[v >= 1.0 ? C_LIT : (v <= 0.0 ? C_UMBRA : C_PENUMBRA)], 1u);
             atomicAdd(group_counts[C_FILTER_TEXELS], texels);
+            if (cut) {
+                atomicAdd(group_counts[C_FILTER_CUT], 1u);
+            }
         }
     }
 

@@ -55,7 +55,9 @@ layout(push_constant) uniform Push {
 #define C_REQUESTED 7
 #define C_FALLBACK 8
 #define C_FILTER_TEXELS 9
-#define COUNTERS 10
+// Kernels wider than the filter's loop bound (MAX_SPAN texels a side at their level), cut.
+#define C_FILTER_CUT 10
+#define COUNTERS 11
 
 // A shape that needs no filtering: the shape pass decided V.
 #define DECIDED -1.0

@@ -49,7 +49,7 @@ use crate::passes::LightProjection;
 use crate::shader_types::{PvssmMipPush, PvssmPush};
 
 /// Counter names, in the order of `glsl/pvssm/pvssm.glsl`'s `C_*` slots.
-pub const COUNTER_NAMES: [&str; 10] = [
+pub const COUNTER_NAMES: [&str; 11] = [
     "view_samples",
     "outside_light",
     "lit",
@@ -60,6 +60,7 @@ pub const COUNTER_NAMES: [&str; 10] = [
     "requested_pages",
     "fallback_lookups",
     "filter_texels",
+    "filter_cut",
 ];
 
 const PAGE_KNOBS: [Knob; 4] = virtual_map::page_knobs(16384.0);

@@ -1,7 +1,8 @@
 //! `penumbra bench --suite scaling`: each technique's GPU time as the work grows — triangles
 //! (procedural `grid` scenes), view samples (square images) and the light's size — with the
 //! growth exponent fitted per technique and sweep ([`penumbra::scaling::growth_exponent`]),
-//! `scaling.json`, `scaling.csv` and the log–log chart `scaling.png`. Times only: no reference
+//! `scaling.json` (with each run's counters, to see what grew), `scaling.csv` and the log–log
+//! chart `scaling.png`. Times only: no reference
 //! is rendered (the other suites measure error). A technique a device cannot run at a point
 //! (`Error::Unsupported`) leaves that point out and says so; any other error stops the run.
 
@@ -111,8 +112,12 @@ pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
         for (x, scene) in &sweep.points {
             let prepared = engine.prepare(scene)?;
             for t in &techniques {
+                let mut counters = BTreeMap::new();
                 let ms = match engine.render(&prepared, t, &none, args.frames) {
-                    Ok(frame) => frame.stats.total_gpu_ms,
+                    Ok(frame) => {
+                        counters = frame.stats.counters;
+                        frame.stats.total_gpu_ms
+                    }
                     Err(penumbra::Error::Unsupported { feature, .. }) => {
                         eprintln!(
                             "{} {x}: {t} unsupported on this device: {feature}",
@@ -145,7 +150,7 @@ pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
                 );
                 rows.push(serde_json::json!({
                     "sweep": sweep.name, "x": x, "scene": scene.name, "width": scene.camera.width,
-                    "height": scene.camera.height, "technique": t, "gpu_ms": ms,
+                    "height": scene.camera.height, "technique": t, "gpu_ms": ms, "counters": counters,
                 }));
             }
         }

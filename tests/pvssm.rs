@@ -456,5 +456,21 @@ fn a_fixed_level_is_one_whole_map() {
         counter(&predicted, "allocated_pages")
     );
     assert!(mae < 0.005, "mean |dV| {mae}");
+    // A pool too small for the whole level is refused, not served by fallbacks.
+    let err = engine
+        .render(
+            &prepared,
+            "pvssm",
+            &knobs(&[
+                ("virtual_size", "1024"),
+                ("fixed_level", "0"),
+                ("pool_pages", "200"),
+            ]),
+            1,
+        )
+        .err()
+        .expect("a 200-page pool cannot hold 16² pages")
+        .to_string();
+    assert!(err.contains("fixed_level = 0 needs 341 pages"), "{err}");
     common::assert_clean(&engine.context().validation());
 }

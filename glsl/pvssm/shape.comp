@@ -39,69 +39,78 @@ layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D shape;
 layout(set = 0, binding = 7, r32f) uniform writeonly image2D visibility;
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
 
-// Whether any cell of the region centre ± half_low, at the min pyramid's level where it spans
-// at most `cells` cells a side, may hold a blocker: a cell's minimum nearer than the receiver
+// A search region centre ± half_low (low-resolution texels) at the min pyramid's level where
+// it spans at most `cells` cells a side: that level's cells a..b, the region in cell units
+// lo..hi, and how far the receiver plane's depth strays from its value at a cell's centre.
+struct Region {
+    uint offset;
+    int size;
+    float cell;
+    vec2 lo;
+    vec2 hi;
+    ivec2 a;
+    ivec2 b;
+    float plane_spread;
+};
+
+Region search_region(vec2 centre, vec2 half_low, float cells, Receiver rc, float lowres_texel) {
+    uint level = 0u;
+    while (level < 12u && (pc.lowres_size >> level) > 1u
+           && 2.0 * max(half_low.x, half_low.y) > cells * float(1u << level)) {
+        level += 1u;
+    }
+    Region r;
+    r.cell = float(1u << level);
+    r.lo = (centre - half_low) / r.cell;
+    r.hi = (centre + half_low) / r.cell;
+    r.size = int(pc.lowres_size >> level);
+    r.offset = mip_offset(level);
+    r.a = max(ivec2(floor(r.lo)), ivec2(0));
+    r.b = min(ivec2(ceil(r.hi)) - 1, ivec2(r.size - 1));
+    vec2 g = rc.dz * (lowres_texel * r.cell);
+    r.plane_spread = 0.5 * (abs(g.x) + abs(g.y));
+    return r;
+}
+
+// The min depth of cell (i, j) of the region's level, and the receiver plane's depth at its
+// centre.
+vec2 cell_depths(Region r, int i, int j, Receiver rc, float lowres_texel) {
+    float d = uintBitsToFloat(lowres[r.offset + uint(j * r.size + i)]);
+    vec2 at = (vec2(i, j) + 0.5) * (lowres_texel * r.cell);
+    return vec2(d, rc.z + dot(rc.dz, at - rc.c));
+}
+
+// Whether any cell of the region may hold a blocker: a cell's minimum nearer than the receiver
 // plane's *highest* depth over the cell. A coarse cell's minimum is no larger than any of its
 // children's and its plane maximum no smaller than theirs, so when this finds nothing, no finer
 // search (which compares with the plane's lowest depth) finds a blocker either: the sample is
 // fully lit, decided at a few reads instead of up to `search_cells`² — most samples of a scene.
 bool may_have_blocker(vec2 centre, vec2 half_low, float cells, Receiver rc, float lowres_texel) {
-    uint level = 0u;
-    while (level < 12u && (pc.lowres_size >> level) > 1u
-           && 2.0 * max(half_low.x, half_low.y) > cells * float(1u << level)) {
-        level += 1u;
-    }
-    float cell = float(1u << level);
-    vec2 lo = (centre - half_low) / cell;
-    vec2 hi = (centre + half_low) / cell;
-    int size = int(pc.lowres_size >> level);
-    uint offset = mip_offset(level);
-    ivec2 a = max(ivec2(floor(lo)), ivec2(0));
-    ivec2 b = min(ivec2(ceil(hi)) - 1, ivec2(size - 1));
-    vec2 g = rc.dz * (lowres_texel * cell);
-    float plane_rise = 0.5 * (abs(g.x) + abs(g.y));
+    Region r = search_region(centre, half_low, cells, rc, lowres_texel);
     bool found = false;
-    for (int j = a.y; j <= b.y; ++j) {
-        for (int i = a.x; i <= b.x; ++i) {
-            float d = uintBitsToFloat(lowres[offset + uint(j * size + i)]);
-            vec2 at = (vec2(i, j) + 0.5) * (lowres_texel * cell);
-            found = found || d < rc.z + dot(rc.dz, at - rc.c) + plane_rise - pc.search_bias;
+    for (int j = r.a.y; j <= r.b.y; ++j) {
+        for (int i = r.a.x; i <= r.b.x; ++i) {
+            vec2 dz = cell_depths(r, i, j, rc, lowres_texel);
+            found = found || dz.x < dz.y + r.plane_spread - pc.search_bias;
         }
     }
     return found;
 }
 
-// The blocker search over the region centre ± half_low (low-resolution texels) at the min
-// pyramid's level where it spans at most `cells` cells a side: (sum of w * distance, sum of w)
-// over the cells nearer than the receiver's plane.
+// The blocker search over the region: (sum of w * distance, sum of w) over the cells nearer
+// than the receiver plane's lowest depth over them.
 vec2 blocker_search(vec2 centre, vec2 half_low, float cells, Receiver rc, float lowres_texel) {
-    uint level = 0u;
-    while (level < 12u && (pc.lowres_size >> level) > 1u
-           && 2.0 * max(half_low.x, half_low.y) > cells * float(1u << level)) {
-        level += 1u;
-    }
-    float cell = float(1u << level);
-    vec2 lo = (centre - half_low) / cell;
-    vec2 hi = (centre + half_low) / cell;
-    int size = int(pc.lowres_size >> level);
-    uint offset = mip_offset(level);
-    ivec2 a = max(ivec2(floor(lo)), ivec2(0));
-    ivec2 b = min(ivec2(ceil(hi)) - 1, ivec2(size - 1));
-    // The receiver plane's lowest depth over a cell: its corners' minimum.
-    vec2 g = rc.dz * (lowres_texel * cell);
-    float plane_drop = 0.5 * (abs(g.x) + abs(g.y));
+    Region r = search_region(centre, half_low, cells, rc, lowres_texel);
     vec2 sum = vec2(0.0);
-    for (int j = a.y; j <= b.y; ++j) {
-        float wy = min(float(j + 1), hi.y) - max(float(j), lo.y);
-        for (int i = a.x; i <= b.x; ++i) {
-            float d = uintBitsToFloat(lowres[offset + uint(j * size + i)]);
-            vec2 at = (vec2(i, j) + 0.5) * (lowres_texel * cell);
-            float z_plane = rc.z + dot(rc.dz, at - rc.c) - plane_drop;
-            if (d < z_plane - pc.search_bias) {
-                float w = (min(float(i + 1), hi.x) - max(float(i), lo.x)) * wy;
+    for (int j = r.a.y; j <= r.b.y; ++j) {
+        float wy = min(float(j + 1), r.hi.y) - max(float(j), r.lo.y);
+        for (int i = r.a.x; i <= r.b.x; ++i) {
+            vec2 dz = cell_depths(r, i, j, rc, lowres_texel);
+            if (dz.x < dz.y - r.plane_spread - pc.search_bias) {
+                float w = (min(float(i + 1), r.hi.x) - max(float(i), r.lo.x)) * wy;
                 // A region thinner than a cell still weighs its one cell.
                 w = max(w, 1e-6);
-                sum += vec2(w * soft_light_distance(d, pc.near, pc.far, pc.perspective), w);
+                sum += vec2(w * soft_light_distance(dz.x, pc.near, pc.far, pc.perspective), w);
             }
         }
     }

@@ -41,7 +41,7 @@ use glam::IVec2;
 
 use super::soft_light::soft_light;
 use super::{virtual_map, Knob, Params, Technique, TechniqueInfo, TechniqueSetup};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
 use crate::kernels::raster::{ConservativeRaster, RasterBinding};
 use crate::passes::pages::VirtualPages;
@@ -196,6 +196,29 @@ impl<'a> Pvssm<'a> {
         let view = setup.light_view;
         let virtual_size = desc.virtual_size;
         let light = soft_light(setup.light, view, virtual_size)?;
+        let fixed_level = params.f32("fixed_level")?;
+        if fixed_level >= 0.0 {
+            // The whole level must be resident, with the root (and every ancestor with
+            // `ancestors` on), or lookups would fall back and the "fixed map" would not be one.
+            let level = (fixed_level as u32).min(desc.levels() - 1);
+            let side = |l: u32| u64::from(desc.virtual_size / (desc.page_size << l));
+            let coarser: u64 = if params.u32("ancestors")? == 1 {
+                (level + 1..desc.levels()).map(|l| side(l) * side(l)).sum()
+            } else {
+                u64::from(level + 1 < desc.levels())
+            };
+            let need = side(level) * side(level) + coarser;
+            if need > u64::from(desc.pool_pages) {
+                return Err(Error::Parameter {
+                    technique: "pvssm".into(),
+                    message: format!(
+                        "fixed_level = {level} needs {need} pages resident; pool_pages is {} \
+                         (raise it, or set ancestors = 0)",
+                        desc.pool_pages
+                    ),
+                });
+            }
+        }
         let pages = VirtualPages::new(ctx, "pvssm", view, setup.geometry, desc)?;
         if !lowres_size.is_power_of_two() {
             return Err(crate::error::Error::Parameter {
@@ -286,7 +309,7 @@ impl<'a> Pvssm<'a> {
             options |= 4;
         }
         // -1 (predicted) is stored as 0, level k as k + 1.
-        options |= ((params.f32("fixed_level")? + 1.0) as u32) << 20;
+        options |= ((fixed_level + 1.0) as u32) << 20;
         options |= params.u32("search_cells")? << 8;
         let view_size = IVec2::new(samples.width as i32, samples.height as i32);
         let push = PvssmPush {

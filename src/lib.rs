@@ -19,6 +19,7 @@ pub mod output;
 pub mod passes;
 pub mod plots;
 pub mod reference;
+pub mod report;
 pub mod sampling_error;
 pub mod scaling;
 pub mod scene;

@@ -119,6 +119,18 @@ pub fn diverging_color(e: f32) -> [u8; 3] {
     std::array::from_fn(|c| (a[c] + (b[c] - a[c]) * f).round() as u8)
 }
 
+/// The heat map's colour for one pixel: grey for a pixel that is not a view sample, black for a
+/// non-finite test value, else [`diverging_color`] of `test − reference`.
+pub fn error_pixel(reference: f32, test: f32, is_sample: bool) -> [u8; 3] {
+    if !is_sample {
+        NOT_SAMPLE
+    } else if !test.is_finite() {
+        NON_FINITE
+    } else {
+        diverging_color(test - reference)
+    }
+}
+
 /// Writes the signed error `test − reference` of a `width × height` frame as a PNG heat map of
 /// size [`heatmap_size`]: blue where the technique is too dark (over-shadowed), red where it is
 /// too bright (light leak), white where it is right, grey for pixels that are not view samples
@@ -155,13 +167,7 @@ pub fn write_error_heatmap(
         for y in 0..h {
             for x in 0..w {
                 let i = y * w + x;
-                let rgb = if !is_sample[i] {
-                    NOT_SAMPLE
-                } else if !test[i].is_finite() {
-                    NON_FINITE
-                } else {
-                    diverging_color(test[i] - reference[i])
-                };
+                let rgb = error_pixel(reference[i], test[i], is_sample[i]);
                 let o = (y + TITLE_H as usize) * stride + x * 3;
                 buf[o..o + 3].copy_from_slice(&rgb);
             }

@@ -364,3 +364,162 @@ fn scaling_suite_fits_an_exponent_per_sweep() {
     }
     assert!(dir.join("scaling.png").is_file());
 }
+
+/// The `href` and `src` targets of a page, percent-decoded.
+fn page_targets(html: &str) -> Vec<String> {
+    let mut targets = Vec::new();
+    for attr in ["href=\"", "src=\""] {
+        for part in html.split(attr).skip(1) {
+            let raw = part.split('"').next().unwrap_or("");
+            let bytes = raw.as_bytes();
+            let mut out = Vec::new();
+            let mut i = 0;
+            while i < bytes.len() {
+                if bytes[i] == b'%' && i + 2 < bytes.len() {
+                    let hex = std::str::from_utf8(&bytes[i + 1..i + 3]).expect("ascii");
+                    out.push(u8::from_str_radix(hex, 16).expect("hex"));
+                    i += 3;
+                } else {
+                    out.push(bytes[i]);
+                    i += 1;
+                }
+            }
+            targets.push(String::from_utf8(out).expect("utf-8"));
+        }
+    }
+    targets
+}
+
+/// The rows of the page's table `id`: each row's cell texts (links unwrapped).
+fn page_table(html: &str, id: &str) -> Vec<Vec<String>> {
+    let start = html.find(&format!("<table id=\"{id}\">")).expect("table");
+    let table = &html[start..];
+    let body = &table[table.find("<tbody>").expect("tbody")..table.find("</tbody>").expect("end")];
+    body.split("<tr")
+        .skip(1)
+        .map(|row| {
+            row.split("<td>")
+                .skip(1)
+                .map(|cell| {
+                    let cell = cell.split("</td>").next().unwrap_or("");
+                    // Drop tags (a link's <a ...>text</a>).
+                    let mut text = String::new();
+                    let mut in_tag = false;
+                    for c in cell.chars() {
+                        match c {
+                            '<' => in_tag = true,
+                            '>' => in_tag = false,
+                            _ if !in_tag => text.push(c),
+                            _ => {}
+                        }
+                    }
+                    text
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// `compare` into a folder whose path has spaces, with one technique given a knob out of range:
+/// the others render, the failure is in the table, the page and the sheet, the page links only
+/// to files that exist, its table agrees with errors.json, and the command exits non-zero.
+#[test]
+fn compare_writes_a_page_that_agrees_with_its_table() {
+    let dir = out_dir("compare").join("with spaces").join("out dir");
+    let out = dir.to_str().expect("utf-8");
+    let o = penumbra(&[
+        "compare",
+        "plane-boxes@rect",
+        "--techniques",
+        "hard,pcf,pcss",
+        "--set",
+        "pcf.kernel=999",
+        "--set",
+        "map_size=512",
+        "--reference-samples",
+        "4",
+        "--frames",
+        "1",
+        "--no-cache",
+        "--out",
+        out,
+    ]);
+    assert!(
+        !o.status.success(),
+        "a failed technique must fail the command"
+    );
+    let err = stderr(&o);
+    assert!(err.contains("1 of 3 techniques failed"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for f in [
+        "index.html",
+        "contact-sheet.png",
+        "errors.json",
+        "errors.csv",
+        "pareto.png",
+        "reference/shaded.png",
+        "techniques/hard/shaded.png",
+        "techniques/pcss/error.png",
+    ] {
+        assert!(dir.join(f).is_file(), "{f} missing");
+    }
+    assert!(
+        !dir.join("techniques/pcf").exists(),
+        "a failed technique wrote images"
+    );
+
+    let html = std::fs::read_to_string(dir.join("index.html")).expect("page");
+    assert!(!html.contains("<script"), "the page must be static");
+    let targets = page_targets(&html);
+    assert!(targets.len() >= 8, "{targets:?}");
+    for t in &targets {
+        assert!(
+            !t.contains("://") && !t.starts_with('/'),
+            "not relative: {t}"
+        );
+        assert!(dir.join(t).is_file(), "the page links to a missing {t}");
+    }
+
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("errors.json")).expect("json"))
+            .expect("parse");
+    assert!(json["scene"]
+        .as_str()
+        .expect("scene")
+        .starts_with("plane-boxes"));
+    let rows = json["rows"].as_array().expect("rows");
+    let table = page_table(&html, "errors");
+    assert_eq!(table.len(), rows.len());
+    for (r, cells) in rows.iter().zip(&table) {
+        assert_eq!(cells[0], r["technique"].as_str().expect("name"));
+        assert_eq!(cells[1], r["status"].as_str().expect("status"));
+        if r["status"] == "ok" {
+            assert_eq!(r["validation"]["errors"], 0);
+            let ms = r["total_gpu_ms"].as_f64().expect("ms");
+            assert_eq!(cells[2], format!("{ms:.3}"));
+            let mae = r["error"]["penumbra_mae"].as_f64().expect("penumbra MAE");
+            assert_eq!(cells[3], format!("{mae:.4}"));
+            let rmse = r["error"]["rmse"].as_f64().expect("rmse");
+            assert_eq!(cells[5], format!("{rmse:.4}"));
+            assert_eq!(r["nan_count"], 0);
+        }
+    }
+    // Sorted by error, the failure last and named with its reason.
+    let last = rows.last().expect("rows");
+    assert_eq!(last["technique"], "pcf");
+    assert_eq!(last["status"], "failed");
+    let why = last["failure"].as_str().expect("failure");
+    assert!(why.contains("kernel"), "{why}");
+    assert!(table
+        .last()
+        .expect("row")
+        .iter()
+        .any(|c| c.contains("kernel")));
+    let maes: Vec<f64> = rows[..2]
+        .iter()
+        .map(|r| r["error"]["penumbra_mae"].as_f64().expect("mae"))
+        .collect();
+    assert!(maes[0] <= maes[1], "{maes:?}");
+    let csv = std::fs::read_to_string(dir.join("errors.csv")).expect("csv");
+    assert_eq!(csv.lines().count(), 1 + rows.len());
+}

@@ -749,14 +749,22 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     write_pareto_chart(&args.out.join("pareto.png"), &title, &overall)?;
     let scene_names: std::collections::BTreeSet<_> =
         points.iter().map(|p| p.scene.clone()).collect();
-    for s in scene_names {
-        let pts: Vec<_> = points.iter().filter(|p| p.scene == s).cloned().collect();
+    for s in &scene_names {
+        let pts: Vec<_> = points.iter().filter(|p| &p.scene == s).cloned().collect();
         write_pareto_chart(
             &args.out.join(format!("pareto-{s}.png")),
             &format!("{s}: {title}"),
             &pts,
         )?;
     }
+
+    crate::bench_page::write(
+        &args.out,
+        &rows,
+        &scene_names,
+        &format!("{} ({})", ctx.info().name, ctx.info().driver),
+        args.quick,
+    )?;
 
     // A table on stdout.
     println!(

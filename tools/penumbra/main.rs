@@ -3,6 +3,8 @@
 
 mod antialiasing;
 mod bench;
+mod bench_page;
+mod compare;
 mod scaling;
 mod stress;
 
@@ -85,6 +87,35 @@ enum Command {
         /// Light samples per axis of the reference (N×N rays for area lights).
         #[arg(long)]
         reference_samples: Option<u32>,
+        #[command(flatten)]
+        device: DeviceArgs,
+        #[command(flatten)]
+        cache: CacheArgs,
+    },
+    /// Every technique on one scene against the ray-cast reference: writes index.html, a
+    /// contact sheet (each technique's image beside its error), errors.json/.csv and pareto.png.
+    Compare {
+        /// A scene file (.toml) or a procedural scene (e.g. `plane-boxes`).
+        scene: String,
+        /// Output directory (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+        /// Techniques, comma-separated; default: every technique except the references.
+        #[arg(long, value_delimiter = ',')]
+        techniques: Vec<String>,
+        /// `KEY=VALUE` for every technique that has the knob, or `TECHNIQUE.KEY=VALUE` for one
+        /// (repeatable).
+        #[arg(long = "set", value_name = "[TECHNIQUE.]KEY=VALUE")]
+        set: Vec<String>,
+        /// The ground truth: `reference` or `reference-single-layer`.
+        #[arg(long, default_value = "reference")]
+        reference: String,
+        /// Light samples per axis of the reference (N×N rays for area lights).
+        #[arg(long)]
+        reference_samples: Option<u32>,
+        /// Timed frames per technique after one warm-up frame; times are medians.
+        #[arg(long, default_value_t = 3)]
+        frames: u32,
         #[command(flatten)]
         device: DeviceArgs,
         #[command(flatten)]
@@ -585,6 +616,27 @@ fn main() {
                 cache: cache.dir(),
             }),
         ),
+        Command::Compare {
+            scene,
+            out,
+            techniques,
+            set,
+            reference,
+            reference_samples,
+            frames,
+            device,
+            cache,
+        } => compare::run(&compare::CompareArgs {
+            scene,
+            out,
+            techniques,
+            sets: set,
+            reference,
+            reference_samples: *reference_samples,
+            frames: *frames,
+            device,
+            cache: cache.dir(),
+        }),
         Command::Bench {
             suite,
             out,

@@ -231,6 +231,7 @@ impl Engine {
                 normal_offset: params.f32("normal_offset")?,
                 map_size: texel_grid(&params)?,
                 clips_itself: info.clips_light,
+                skip_horizon: params.u32("horizon_skip")? == 1,
             };
             if desc.needed() {
                 Some(Receivers::new(

@@ -23,6 +23,7 @@ pub mod report;
 pub mod sampling_error;
 pub mod scaling;
 pub mod scene;
+pub mod selection;
 #[cfg(feature = "shader-compiler")]
 pub mod shader_compiler;
 pub mod shader_types;

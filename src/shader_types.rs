@@ -52,8 +52,10 @@ pub struct ReceiversPush {
     pub light_clip: i32,
     /// Normal offset in shadow-map texels.
     pub normal_offset: f32,
+    /// 1: horizon-umbra samples keep w = 1 (the technique evaluates them); 0: w = 0 (skipped).
+    pub evaluate_horizon: i32,
     /// Padding to the block's declared size.
-    pub pad: [i32; 3],
+    pub pad: [i32; 2],
 }
 
 /// `glsl/receivers/finish.comp`.

@@ -138,9 +138,12 @@ fn gpu_and_twin(
         &normals,
         &prepared.light,
         &prepared.light_view,
-        MAP,
-        true,
-        0.0,
+        receivers::Knobs {
+            map_size: MAP,
+            light_clip: true,
+            normal_offset: 0.0,
+            skip_horizon: true,
+        },
     );
     let mut cpu = bitmask(&view, &prepared_receivers.lookup, &map, &setup, &twin);
     let (visibility, classes) =

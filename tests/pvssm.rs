@@ -220,6 +220,45 @@ fn fully_lit_flag_is_conservative() {
     common::assert_clean(&engine.context().validation());
 }
 
+/// Both skips — the coarse look before the blocker search (`skip`) and the receivers' horizon
+/// umbra (`horizon_skip`) — change the work, never the output: every pixel bit-identical with
+/// them off, and the counters say how much each skipped.
+#[test]
+fn skipping_changes_the_work_not_the_output() {
+    let engine = common::engine();
+    let prepared = engine
+        .prepare(&common::small("scenes/teapot-rect.toml"))
+        .expect("prepare");
+    let on = render(&engine, &prepared, &[]);
+    let off = render(
+        &engine,
+        &prepared,
+        &[("skip", "off"), ("horizon_skip", "0")],
+    );
+    let differing = on
+        .visibility
+        .iter()
+        .zip(&off.visibility)
+        .filter(|(a, b)| a.to_bits() != b.to_bits())
+        .count();
+    assert_eq!(differing, 0, "skipping changed {differing} pixels");
+    let skipped = counter(&on, "skipped_lit");
+    assert!(
+        skipped > 1000 && skipped <= counter(&on, "fully_lit"),
+        "{:?}",
+        on.stats.counters
+    );
+    assert_eq!(counter(&off, "skipped_lit"), 0);
+    // Horizon umbra is counted by the receivers either way; with the skip off the technique
+    // evaluated those samples too, so it saw more of them.
+    assert!(counter(&on, "horizon_umbra") > 0);
+    assert_eq!(
+        counter(&on, "horizon_umbra"),
+        counter(&off, "horizon_umbra")
+    );
+    common::assert_clean(&engine.context().validation());
+}
+
 /// Larger lights need fewer texels across a kernel in screen terms: fewer pages (the paper's
 /// Fig. 10 behaviour).
 #[test]

@@ -22,8 +22,9 @@ fn scene(name: &str) -> String {
     format!("{}/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"))
 }
 
-/// `prepare.comp` and `finish.comp` against the twin on `spec`, with an offset of 1.5 texels.
-fn compare(spec: &str) {
+/// `prepare.comp` and `finish.comp` against the twin on `spec`, with an offset of 1.5 texels;
+/// with `skip_horizon` off, horizon-umbra samples keep w = 1 and finish still writes their 0.
+fn compare(spec: &str, skip_horizon: bool) {
     let engine = common::engine();
     let ctx = engine.context().clone();
     let prepared = engine.prepare(&common::small(spec)).expect("prepare");
@@ -32,6 +33,7 @@ fn compare(spec: &str) {
         normal_offset: 1.5,
         map_size: 256,
         clips_itself: false,
+        skip_horizon,
     };
     let receivers = Receivers::new(
         &ctx,
@@ -61,9 +63,12 @@ fn compare(spec: &str) {
         &normals,
         &prepared.light,
         &prepared.light_view,
-        256,
-        true,
-        1.5,
+        twin::Knobs {
+            map_size: 256,
+            light_clip: true,
+            normal_offset: 1.5,
+            skip_horizon,
+        },
     );
     let scale = prepared
         .positions
@@ -125,19 +130,20 @@ fn compare(spec: &str) {
 /// Curved receivers under a rect light: many samples see the light partly behind their plane.
 #[test]
 fn rect_light_matches_twin() {
-    compare(&scene("teapot-rect"));
+    compare(&scene("teapot-rect"), true);
 }
 
 /// A 0.5° sun on a CAD part.
 #[test]
 fn sun_disk_matches_twin() {
-    compare(&scene("rocker-arm-directional"));
+    compare(&scene("rocker-arm-directional"), true);
 }
 
-/// A point light: f is a step.
+/// A point light: f is a step. Horizon skipping off: every sample is evaluated, and the
+/// finished visibility is still the twin's (0 behind the plane).
 #[test]
 fn point_light_matches_twin() {
-    compare(&scene("spot-point"));
+    compare(&scene("spot-point"), false);
 }
 
 /// The parallel-plane case: a plane facing a rect light above it sees the whole light, so
@@ -191,9 +197,12 @@ fn clipping_scales_results_and_removes_the_leak() {
         &normals,
         &prepared.light,
         &prepared.light_view,
-        1024,
-        true,
-        0.0,
+        twin::Knobs {
+            map_size: 1024,
+            light_clip: true,
+            normal_offset: 0.0,
+            skip_horizon: true,
+        },
     );
     for technique in ["pcf", "vsm", "savsm"] {
         let render = |clip: &str| {
@@ -278,9 +287,12 @@ v = [0.0, 0.0, 1.5]
         &normals,
         &prepared.light,
         &prepared.light_view,
-        1024,
-        true,
-        0.0,
+        twin::Knobs {
+            map_size: 1024,
+            light_clip: true,
+            normal_offset: 0.0,
+            skip_horizon: true,
+        },
     )
     .clip;
     // The soft techniques, whose kernel spans the light's image: the sphere's own silhouette

@@ -217,6 +217,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 kind,
                 light_clip,
                 normal_offset,
+                evaluate_horizon,
                 pad
             }),
         ),

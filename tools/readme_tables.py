@@ -9,6 +9,8 @@ named command):
     python3 tools/readme_tables.py backprojection A B C  # the atty/bitmask benches (README)
     python3 tools/readme_tables.py resolution DIR...    # the hard-shadow resolution benches
     python3 tools/readme_tables.py stress DIR           # DIR from `penumbra stress`
+    python3 tools/readme_tables.py skipping DIR         # DIR from `bench --suite skipping`
+    python3 tools/readme_tables.py selection DIR        # DIR from `bench --suite selection`
 
 `receivers`: per technique, the configuration with clipping on that has the lowest penumbra MAE
 on teapot-rect (lowest RMSE on spot-point), with the same configuration's clip-off figures and
@@ -28,6 +30,11 @@ error's median, p95 and under-sampled fraction, and memory (MiB), from bench.csv
 `stress`: technique × case MAE against the reference (`refused` where the input was refused as
 the case asks, `*` on a `known` row, `FAIL` on a failed one), the NaN/Inf/out-of-range totals,
 then every `known` row with its reason, from stress.json.
+`skipping`: technique × scene, the speed-up of skipping on over off and the share of view samples
+it decided without the full work, then the largest number of pixels that differed, from
+skipping.json.
+`selection`: every held-out scene with the features, the pick, its predicted and measured error
+and time, and the slowest candidate within the budget, from selection.json.
 """
 import csv
 import json
@@ -346,7 +353,62 @@ def stress(directory):
             print(f"- `{r['case']}` × `{r['technique']}` (MAE {r['mae']:.3f}): {r['bound']}")
 
 
+def skipping(directory):
+    d = json.loads((Path(directory) / "skipping.json").read_text())
+    scenes, table, diff = [], {}, {}
+    for r in d["rows"]:
+        if r["scene"] not in scenes:
+            scenes.append(r["scene"])
+        frac = r["skipped_samples"] / max(r["view_samples"], 1)
+        if r.get("speedup") is None:
+            cell = f"— ({100 * frac:.0f} %)"
+        else:
+            cell = f"{r['speedup']:.2f}× ({100 * frac:.0f} %)"
+        table.setdefault((r["technique"], r["off_knobs"]), {})[r["scene"]] = cell
+        if "differing_pixels" in r:
+            k = (r["technique"], r["off_knobs"])
+            diff[k] = max(diff.get(k, 0), r["differing_pixels"])
+    print(f"{d['device']} ({d['driver']}), {d['frames']} timed frames per run.\n")
+    print("| technique | off | " + " | ".join(f"`{s}`" for s in scenes) + " | pixels differing (most) |")
+    print("|---|---|" + "---|" * len(scenes) + "---|")
+    for (t, off), row in table.items():
+        d_cell = str(diff[(t, off)]) if (t, off) in diff else "—"
+        print(f"| `{t}` | {off} | " + " | ".join(row.get(s, "") for s in scenes) + f" | {d_cell} |")
+
+
+def selection(directory):
+    d = json.loads((Path(directory) / "selection.json").read_text())
+    print(
+        f"{d['met']} of {d['held_out']} held-out picks within {d['max_error']} measured, "
+        f"{d['not_slower']} of {d['held_out']} not slower than the slowest candidate within it; "
+        f"{d['calibration_rows']} calibration rows; {d['device']}.\n"
+    )
+    print("| held-out scene | light ° | px | penumbra share | picked | predicted | measured | ms | fastest within budget (ms) | slowest within budget (ms) |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    import math
+    for r in d["rows"]:
+        f = r["features"]
+        pick = r["choice"]["picked"]
+        m = next(x for x in r["measured"] if x["candidate"] == pick["candidate"])
+        within = [x for x in r["measured"] if x["error"] <= d["max_error"]]
+        slow = max(within, key=lambda x: x["gpu_ms"]) if within else None
+        slow_cell = f"`{slow['candidate']}` ({slow['gpu_ms']:.0f})" if slow else "none"
+        fast = min(within, key=lambda x: x["gpu_ms"]) if within else None
+        fast_cell = f"`{fast['candidate']}` ({fast['gpu_ms']:.0f})" if fast else "none"
+        print(
+            f"| {r['scene']} | {math.degrees(f['light_angle']):.1f} | {f['light_pixels']:.0f} | "
+            f"{f['penumbra_fraction']:.2f} | `{pick['candidate']}` | {pick['error']:.4f} | "
+            f"{m['error']:.4f}{'' if r['meets'] else ' (misses)'} | {m['gpu_ms']:.0f} | {fast_cell} | {slow_cell} |"
+        )
+
+
 if __name__ == "__main__":
+    if len(sys.argv) == 3 and sys.argv[1] == "skipping":
+        skipping(sys.argv[2])
+        sys.exit(0)
+    if len(sys.argv) == 3 and sys.argv[1] == "selection":
+        selection(sys.argv[2])
+        sys.exit(0)
     if len(sys.argv) == 3 and sys.argv[1] == "stress":
         stress(sys.argv[2])
         sys.exit(0)

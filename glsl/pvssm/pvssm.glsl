@@ -37,6 +37,8 @@ layout(push_constant) uniform Push {
 #define OPT_RHO_STATIC 2u
 #define OPT_REFINE_SHIFT 16u
 #define OPT_ANCESTORS 4u
+// The coarse early-out before the blocker search (`skip`).
+#define OPT_COARSE_SKIP 8u
 // Bits 20..23: fixed_level + 1 (0: the predicted level).
 #define OPT_FIXED_SHIFT 20u
 // Bits 8..15: the blocker search's cells per side (the push block has no room left).
@@ -57,7 +59,9 @@ layout(push_constant) uniform Push {
 #define C_FILTER_TEXELS 9
 // Kernels wider than the filter's loop bound (MAX_SPAN texels a side at their level), cut.
 #define C_FILTER_CUT 10
-#define COUNTERS 11
+// Samples the coarse look (`skip`) decided lit without the full blocker search.
+#define C_SKIPPED_LIT 11
+#define COUNTERS 12
 
 // A shape that needs no filtering: the shape pass decided V.
 #define DECIDED -1.0

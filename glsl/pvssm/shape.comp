@@ -186,8 +186,11 @@ void main() {
             }
             float cells = float((pc.options >> OPT_CELLS_SHIFT) & 0xffu);
             vec2 sum = vec2(0.0);
-            if (may_have_blocker(centre, half_low, COARSE_CELLS, rc, lowres_texel)) {
+            if ((pc.options & OPT_COARSE_SKIP) == 0u
+                || may_have_blocker(centre, half_low, COARSE_CELLS, rc, lowres_texel)) {
                 sum = blocker_search(centre, half_low, cells, rc, lowres_texel);
+            } else {
+                count(C_SKIPPED_LIT, 1u);
             }
             if (sum.y == 0.0) {
                 count(C_FULLY_LIT, 1u);

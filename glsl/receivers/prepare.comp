@@ -27,7 +27,7 @@ layout(push_constant) uniform Push {
     int kind;
     int light_clip;       // 1: compute f; 0: f = 1
     float normal_offset;  // in texels
-    int pad0;
+    int evaluate_horizon; // 1: f = 0 samples keep w = 1 (to measure the skip); 0: w = 0
     int pad1;
     int pad2;
 } pc;
@@ -54,6 +54,6 @@ void main() {
         texel *= max(dot(p.xyz - pc.view_origin.xyz, pc.view_direction.xyz), 0.0);
     }
     vec3 q = p.xyz + n * (pc.normal_offset * texel);
-    imageStore(lookup, pixel, vec4(q, f > 0.0 ? 1.0 : 0.0));
+    imageStore(lookup, pixel, vec4(q, (f > 0.0 || pc.evaluate_horizon != 0) ? 1.0 : 0.0));
     imageStore(clip, pixel, vec4(f));
 }

@@ -24,17 +24,34 @@ pub struct Prepared {
     pub clip: Vec<f32>,
 }
 
+/// The receiver knobs the twin applies (its own copy of what the engine passes the shader).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Knobs {
+    /// Shadow-map side in texels (for the offset's texel size).
+    pub map_size: u32,
+    /// Compute the clipped fraction (else f = 1).
+    pub light_clip: bool,
+    /// Normal offset in texels.
+    pub normal_offset: f32,
+    /// Horizon-umbra samples get w = 0 (skipped); `false` keeps w = 1.
+    pub skip_horizon: bool,
+}
+
 /// The twin of `prepare.comp` for view samples `positions`/`normals` lit by `light`, looked up
-/// in `view` with a map of `map_size` texels.
+/// in `view`.
 pub fn prepare(
     positions: &[Vec4],
     normals: &[Vec4],
     light: &Light,
     view: &LightView,
-    map_size: u32,
-    light_clip: bool,
-    normal_offset: f32,
+    knobs: Knobs,
 ) -> Prepared {
+    let Knobs {
+        map_size,
+        light_clip,
+        normal_offset,
+        skip_horizon,
+    } = knobs;
     // A texel's world size: the view's extent at unit depth (or its width) over the map.
     let extent_x = 2.0 / view.proj.x_axis.x.abs() as f64;
     let extent_y = 2.0 / view.proj.y_axis.y.abs() as f64;
@@ -62,7 +79,8 @@ pub fn prepare(
             1.0
         };
         let q = p3 + n3 * (normal_offset as f64 * texel * depth) as f32;
-        out.lookup.push(q.extend(if f > 0.0 { 1.0 } else { 0.0 }));
+        let evaluate = f > 0.0 || !skip_horizon;
+        out.lookup.push(q.extend(if evaluate { 1.0 } else { 0.0 }));
         out.clip.push(f);
     }
     out

@@ -14,7 +14,9 @@
 //!   light samples (`average-maps`), leaves V.
 //! - **Horizon umbra.** A sample with f = 0 is umbra whatever the map says: its lookup position
 //!   gets w = 0, which every technique reads as "not a view sample" and skips, and `finish.comp`
-//!   writes its 0 and counts it (`horizon_umbra`).
+//!   writes its 0 and counts it (`horizon_umbra`). `horizon_skip = 0` keeps w = 1 there, so the
+//!   technique does the work it would have skipped and the skip's saving can be measured
+//!   (`penumbra bench --suite skipping`).
 //! - **Normal-offset bias** (`normal_offset`, book §2.2.3): the lookup position is the sample
 //!   pushed along its normal by that many shadow-map texels, a texel's world size being taken at
 //!   the sample's depth in the light view — acne goes away on slopes without the constant bias
@@ -52,6 +54,10 @@ pub struct ReceiverDesc {
     pub map_size: u32,
     /// The technique clips its own light samples: f only decides horizon umbra, V is kept.
     pub clips_itself: bool,
+    /// Horizon-umbra samples (f = 0) skip the technique (w = 0 in `lookup`); `false` has the
+    /// technique evaluate them too — `finish.comp` writes their 0 either way — so the skip's
+    /// saving can be measured.
+    pub skip_horizon: bool,
 }
 
 impl ReceiverDesc {
@@ -149,7 +155,8 @@ impl Receivers {
             kind,
             light_clip: i32::from(desc.light_clip),
             normal_offset: desc.normal_offset,
-            pad: [0; 3],
+            evaluate_horizon: i32::from(!desc.skip_horizon),
+            pad: [0; 2],
         };
         let finish_push = ReceiversFinishPush {
             view_size,

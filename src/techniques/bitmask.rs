@@ -140,7 +140,8 @@ const KNOBS: [Knob; 10] = [
     .named(&["bitmask", "add"]),
     Knob::int(
         "skip",
-        "classify regions by min/max depth from an N-buffer first (same output, less work)",
+        "classify regions by min/max depth from an N-buffer first (less work; a region proven \
+         wholly blocked is umbra, where bare micropatches can leak through their gaps)",
         1.0,
         0.0,
         1.0,

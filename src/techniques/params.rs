@@ -147,10 +147,22 @@ pub const FIT: Knob = Knob {
     names: &["scene", "view"],
 };
 
+/// `horizon_skip`: whether samples whose tangent plane hides the whole light skip the technique.
+pub const HORIZON_SKIP: Knob = Knob {
+    name: "horizon_skip",
+    summary: "1: samples whose tangent plane hides the whole light are umbra without the \
+              technique's work (same output); 0: evaluated, then overwritten (to measure the skip)",
+    default: KnobDefault::Value(1.0),
+    min: 0.0,
+    max: 1.0,
+    integer: true,
+    names: &[],
+};
+
 /// The knobs the engine adds to every shadow-map technique: it prepares the receivers (light
-/// clipping, normal offset) and the light view around the technique (see
+/// clipping, normal offset, horizon umbra) and the light view around the technique (see
 /// [`crate::passes::receivers`]).
-pub const RECEIVER_KNOBS: [Knob; 3] = [LIGHT_CLIP, NORMAL_OFFSET, FIT];
+pub const RECEIVER_KNOBS: [Knob; 4] = [LIGHT_CLIP, NORMAL_OFFSET, HORIZON_SKIP, FIT];
 
 /// Resolved knob values of one technique instance.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]

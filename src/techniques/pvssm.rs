@@ -49,7 +49,7 @@ use crate::passes::LightProjection;
 use crate::shader_types::{PvssmMipPush, PvssmPush};
 
 /// Counter names, in the order of `glsl/pvssm/pvssm.glsl`'s `C_*` slots.
-pub const COUNTER_NAMES: [&str; 11] = [
+pub const COUNTER_NAMES: [&str; 12] = [
     "view_samples",
     "outside_light",
     "lit",
@@ -61,11 +61,12 @@ pub const COUNTER_NAMES: [&str; 11] = [
     "fallback_lookups",
     "filter_texels",
     "filter_cut",
+    "skipped_lit",
 ];
 
 const PAGE_KNOBS: [Knob; 4] = virtual_map::page_knobs(16384.0);
 
-const KNOBS: [Knob; 18] = [
+const KNOBS: [Knob; 19] = [
     Knob::int(
         "lowres_size",
         "conservative low-resolution map for the blocker search, texels per side",
@@ -128,6 +129,15 @@ const KNOBS: [Knob; 18] = [
         0.0,
         1.0,
     ),
+    Knob::int(
+        "skip",
+        "classify by a 4-cell look at the min pyramid before the full blocker search (same \
+         output, less work): off or coarse",
+        1.0,
+        0.0,
+        1.0,
+    )
+    .named(&["off", "coarse"]),
     Knob::int(
         "fixed_level",
         "-1: each kernel at its predicted level; k: one whole map at level k for every kernel \
@@ -307,6 +317,9 @@ impl<'a> Pvssm<'a> {
         options |= params.u32("refine_search")? << 16;
         if params.u32("ancestors")? == 1 {
             options |= 4;
+        }
+        if params.u32("skip")? == 1 {
+            options |= 8;
         }
         // -1 (predicted) is stored as 0, level k as k + 1.
         options |= ((fixed_level + 1.0) as u32) << 20;

@@ -206,7 +206,7 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
     }
 }
 
-fn bundled_scenes() -> anyhow::Result<Vec<String>> {
+pub fn bundled_scenes() -> anyhow::Result<Vec<String>> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let mut scenes: Vec<String> = std::fs::read_dir(&dir)
         .with_context(|| format!("listing {}", dir.display()))?

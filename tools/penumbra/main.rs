@@ -6,6 +6,8 @@ mod bench;
 mod bench_page;
 mod compare;
 mod scaling;
+mod selection;
+mod skipping;
 mod stress;
 
 use std::collections::BTreeMap;
@@ -68,9 +70,18 @@ enum Command {
     Render {
         /// A scene file (.toml) or a procedural scene (e.g. `plane-boxes`, `grid:1000000@rect`).
         scene: String,
-        /// Technique name (see `penumbra techniques`).
+        /// Technique name (see `penumbra techniques`), or `auto`: the cheapest candidate the
+        /// calibration table predicts within `--max-error` (what was picked and why goes to
+        /// stats.json's `selection`).
         #[arg(long, short)]
         technique: String,
+        /// With `--technique auto`: the largest penumbra MAE allowed.
+        #[arg(long)]
+        max_error: Option<f64>,
+        /// With `--technique auto`: the calibration table (`bench --suite selection` writes one;
+        /// default: the bundled lavapipe table, calibration/lavapipe.json).
+        #[arg(long)]
+        calibration: Option<PathBuf>,
         /// Knob values, `key=value`, repeatable.
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
@@ -129,7 +140,10 @@ enum Command {
         /// anti-aliasing against 8×8 supersampling of the same filter, both scored against
         /// 32×32 supersampling: the PVSSM paper's Fig. 11; one `--view-scale` for the base
         /// image, default technique `pvssm`) or `scaling` (each technique's time as triangles,
-        /// view samples and the light grow, with fitted growth exponents and `scaling.png`).
+        /// view samples and the light grow, with fitted growth exponents and `scaling.png`) or
+        /// `skipping` (every technique with its work skipping on and off: speed-up, output
+        /// difference, what was skipped) or `selection` (the calibration table for
+        /// `--technique auto`, then its check on ten held-out scenes).
         #[arg(long, default_value = "techniques")]
         suite: String,
         /// Scenes (files or procedural specs), comma-separated; default: every bundled scene.
@@ -144,6 +158,9 @@ enum Command {
         /// Small images, short sweeps, 8×8-sample references: a few minutes on lavapipe.
         #[arg(long)]
         quick: bool,
+        /// `selection` suite: the error budget (penumbra MAE) the held-out picks must meet.
+        #[arg(long, default_value_t = 0.05)]
+        max_error: f64,
         /// Timed frames per run, after one warm-up frame (medians are reported).
         #[arg(long)]
         frames: Option<u32>,
@@ -268,10 +285,22 @@ struct Comparison<'a> {
     cache: Option<PathBuf>,
 }
 
+/// `render --technique auto`'s budget and table.
+struct Selection {
+    max_error: Option<f64>,
+    calibration: Option<PathBuf>,
+}
+
+/// The bundled calibration table (written by `bench --suite selection` on lavapipe).
+fn bundled_calibration() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("calibration/lavapipe.json")
+}
+
 #[allow(clippy::too_many_arguments, reason = "mirrors the subcommand's flags")]
 fn render(
     scene_spec: &str,
     technique: &str,
+    selection: Selection,
     sets: &[String],
     out: &Path,
     frames: u32,
@@ -280,15 +309,34 @@ fn render(
     compare: Option<Comparison<'_>>,
 ) -> anyhow::Result<()> {
     let overrides = parse_sets(sets)?;
-    // Fail on a bad technique or knob before any expensive work.
-    let info = penumbra::techniques::find(technique)?;
+    // Fail on a bad technique, knob or budget before any expensive work.
+    let auto = technique == "auto";
+    let info = if auto {
+        None
+    } else {
+        Some(penumbra::techniques::find(technique)?)
+    };
+    let table = match (auto, selection.max_error) {
+        (true, Some(e)) => {
+            if !(e.is_finite() && e > 0.0) {
+                bail!("--max-error {e}: expected a positive penumbra MAE");
+            }
+            let path = selection.calibration.unwrap_or_else(bundled_calibration);
+            Some((e, penumbra::selection::Calibration::read(&path)?))
+        }
+        (true, None) => bail!("--technique auto needs --max-error (a penumbra MAE, e.g. 0.05)"),
+        (false, Some(_)) => bail!("--max-error goes with --technique auto"),
+        (false, None) => None,
+    };
     if let Some(c) = &compare {
         penumbra::techniques::find(c.reference)?;
     }
     let bar = progress(if compare.is_some() { 6 } else { 5 });
     bar.set_message(format!("loading {scene_spec}"));
     let scene = Scene::open(scene_spec)?;
-    info.params(&overrides, &scene.defaults)?;
+    if let Some(info) = info {
+        info.params(&overrides, &scene.defaults)?;
+    }
     bar.inc(1);
     bar.set_message("creating the Vulkan device");
     let engine = Engine::new(&ContextDesc {
@@ -301,6 +349,27 @@ fn render(
         scene.triangle_count()
     ));
     let prepared = engine.prepare(&scene)?;
+    // `auto`: analyse the scene on the GPU and let the calibration table pick.
+    let (technique, overrides, picked) = match &table {
+        Some((max_error, table)) => {
+            bar.set_message("analysing the scene for technique selection");
+            let features = penumbra::selection::analyse(&engine, &prepared)?;
+            let choice = table.choose(&features, *max_error)?;
+            let candidate = penumbra::selection::candidate(&choice.picked.candidate)
+                .with_context(|| format!("unknown candidate {}", choice.picked.candidate))?;
+            let mut knobs = candidate.overrides();
+            knobs.extend(overrides);
+            let why = serde_json::json!({
+                "max_error": max_error,
+                "calibration_device": table.device,
+                "features": features,
+                "choice": choice,
+            });
+            (candidate.technique.to_string(), knobs, Some(why))
+        }
+        None => (technique.to_string(), overrides, None),
+    };
+    let technique = technique.as_str();
     bar.inc(1);
     bar.set_message(format!("{technique}: 1 warm-up + {frames} frames"));
     // References are cached on disk (keyed by scene, view, light and knobs); others never are.
@@ -411,6 +480,9 @@ fn render(
     if let Some((error, reference)) = comparison {
         stats["error"] = serde_json::json!(error);
         stats["reference"] = reference;
+    }
+    if let Some(why) = picked {
+        stats["selection"] = why;
     }
     let stats_path = out.join("stats.json");
     std::fs::write(&stats_path, serde_json::to_string_pretty(&stats)? + "\n")
@@ -595,6 +667,8 @@ fn main() {
         Command::Render {
             scene,
             technique,
+            max_error,
+            calibration,
             set,
             out,
             frames,
@@ -605,6 +679,10 @@ fn main() {
         } => render(
             scene,
             technique,
+            Selection {
+                max_error: *max_error,
+                calibration: calibration.clone(),
+            },
             set,
             out,
             *frames,
@@ -694,12 +772,47 @@ fn main() {
             device: device.device.clone(),
             validation: !device.no_validation,
         }),
+        Command::Bench {
+            suite,
+            scenes,
+            techniques,
+            quick,
+            frames,
+            out,
+            device,
+            ..
+        } if suite == "skipping" => skipping::run(&skipping::SkippingArgs {
+            scenes: scenes.clone(),
+            techniques: techniques.clone(),
+            quick: *quick,
+            frames: frames.unwrap_or(3),
+            out: out.clone(),
+            device: device.device.clone(),
+            validation: !device.no_validation,
+        }),
+        Command::Bench {
+            suite,
+            quick,
+            max_error,
+            out,
+            device,
+            cache,
+            ..
+        } if suite == "selection" => selection::run(&selection::SelectionArgs {
+            quick: *quick,
+            max_error: *max_error,
+            out: out.clone(),
+            device: device.device.clone(),
+            validation: !device.no_validation,
+            cache: cache.dir(),
+        }),
         Command::Bench { suite, .. } if suite != "techniques" => Err(anyhow::anyhow!(
-            "unknown suite '{suite}': expected 'techniques', 'kernels', 'antialiasing' or \
-             'scaling'"
+            "unknown suite '{suite}': expected 'techniques', 'kernels', 'antialiasing', \
+             'scaling', 'skipping' or 'selection'"
         )),
         Command::Bench {
             suite: _,
+            max_error: _,
             scenes,
             techniques,
             set,

@@ -1,0 +1,452 @@
+//! Technique selection under an error budget: analyse a scene and its view on the GPU, predict
+//! each candidate's error and time from a calibration table the bench wrote, and pick the
+//! cheapest candidate predicted within the budget.
+//!
+//! Design notes:
+//! - **Features** ([`SceneFeatures`], from [`analyse`]): the light's angular size seen from the
+//!   receivers, its size in shadow-map texels and in pixels, the receivers' depth range, the
+//!   triangle and view-sample counts — all from data the engine already has on the GPU side
+//!   (the receivers' bounds are a GPU reduction) — and the fraction of the view in penumbra,
+//!   estimated by one cheap soft-shadow run: `pcss` with an 8×8 blocker search on a 1024² map,
+//!   whose receivers pass counts the samples strictly between 0 and 1. (Its min/max-pyramid
+//!   classification was tried first: on a ground plane tilted against the map almost no
+//!   region classifies, so "not classified" said nothing about the penumbra.)
+//! - **Prediction** ([`Calibration::predict`]): the calibration rows of the same candidate
+//!   nearest in feature space (log-scaled, the error-driving features weighted up); the
+//!   predicted error is the *largest* of the `K` nearest rows' errors — a budget is a ceiling,
+//!   so the prediction leans pessimistic — and the predicted time the neighbours' times scaled
+//!   by view samples.
+//! - **Choice** ([`Calibration::choose`]): the fastest candidate predicted within the budget;
+//!   if none is, the one predicted most accurate, and the choice says so. Every prediction is
+//!   kept so `stats.json` can say why.
+//! - Candidates are technique + knob presets ([`CANDIDATES`]); the table is per device (times
+//!   differ by orders of magnitude between lavapipe and a GPU; errors do not).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use crate::engine::{Engine, PreparedScene};
+use crate::error::{Error, Result};
+use crate::passes::receivers::texel_world_size;
+use crate::scene::Light;
+
+/// One technique + knob preset the selection may pick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    /// Registered technique name.
+    pub technique: &'static str,
+    /// Knob overrides.
+    pub knobs: &'static [(&'static str, &'static str)],
+}
+
+impl Candidate {
+    /// `technique` or `technique key=value ...`: the calibration table's key.
+    pub fn label(&self) -> String {
+        let mut s = self.technique.to_string();
+        for (k, v) in self.knobs {
+            s += &format!(" {k}={v}");
+        }
+        s
+    }
+
+    /// The knobs as engine overrides.
+    pub fn overrides(&self) -> BTreeMap<String, String> {
+        self.knobs
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect()
+    }
+}
+
+/// The presets the selection chooses from: cheap hard and filtered shadows, the soft
+/// techniques at their defaults and at a cheaper setting, and the brute-force average.
+/// `pcss`'s exhaustive search is left out: its time grows with the light's size in texels
+/// squared (2.3 s against 0.1 s for the 8×8 search on a held-out scene, same error), which a
+/// nearest-neighbour time prediction does not follow.
+pub const CANDIDATES: [Candidate; 8] = [
+    Candidate {
+        technique: "hard",
+        knobs: &[],
+    },
+    Candidate {
+        technique: "pcf",
+        knobs: &[],
+    },
+    Candidate {
+        technique: "pcss",
+        knobs: &[("search_taps", "8")],
+    },
+    Candidate {
+        technique: "pvssm",
+        knobs: &[("rho_scale", "0.5")],
+    },
+    Candidate {
+        technique: "pvssm",
+        knobs: &[],
+    },
+    Candidate {
+        technique: "atty",
+        knobs: &[],
+    },
+    Candidate {
+        technique: "average-maps",
+        knobs: &[("samples", "16")],
+    },
+    Candidate {
+        technique: "average-maps",
+        knobs: &[("samples", "64")],
+    },
+];
+
+/// What the selection knows about a scene and its view.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SceneFeatures {
+    /// View samples (pixels that see a surface).
+    pub view_samples: u64,
+    /// Triangles.
+    pub triangles: u64,
+    /// The light's angular size from the receivers' mean depth, radians (0: point or hard sun).
+    pub light_angle: f64,
+    /// The light's size in texels of a `map_size` map fitted to the receivers.
+    pub light_texels: f64,
+    /// The light's size in pixels: its angular size over the camera's angle per pixel.
+    pub light_pixels: f64,
+    /// The receivers' depth span in the light's view over their mean depth.
+    pub depth_span: f64,
+    /// Fraction of the view samples in penumbra (0 < V < 1) by a cheap `pcss` run.
+    pub penumbra_fraction: f64,
+}
+
+impl SceneFeatures {
+    /// The vector the nearest-neighbour search compares, log-scaled and weighted: the light's
+    /// size and the penumbra fraction drive error; the counts mostly drive time.
+    fn vector(&self) -> [f64; 6] {
+        let ln = |x: f64, floor: f64| (x.max(0.0) + floor).ln();
+        [
+            2.0 * ln(self.light_angle, 1e-3),
+            ln(self.light_pixels, 0.5),
+            2.0 * ln(self.penumbra_fraction, 1e-2),
+            ln(self.depth_span, 1e-2),
+            0.5 * ln(self.triangles as f64, 1.0),
+            0.5 * ln(self.view_samples as f64, 1.0),
+        ]
+    }
+
+    fn distance(&self, other: &SceneFeatures) -> f64 {
+        let (a, b) = (self.vector(), other.vector());
+        a.iter()
+            .zip(&b)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum::<f64>()
+            .sqrt()
+    }
+}
+
+/// Map side the features' texel sizes refer to.
+pub const ANALYSIS_MAP: u32 = 2048;
+
+/// Measures [`SceneFeatures`] for `prepared`: the receivers' bounds and light from the prepared
+/// scene, the penumbra fraction from one `pcss` classification run on the GPU.
+pub fn analyse(engine: &Engine, prepared: &PreparedScene) -> Result<SceneFeatures> {
+    let b = &prepared.receiver_bounds;
+    let cam = &prepared.camera;
+    let view_samples = u64::from(b.receivers) + u64::from(b.behind);
+    let mean_depth = if b.is_empty() {
+        1.0
+    } else {
+        f64::from(0.5 * (b.min.z + b.max.z)).max(1e-6)
+    };
+    let depth_span = if b.is_empty() {
+        0.0
+    } else {
+        f64::from(b.max.z - b.min.z) / mean_depth
+    };
+    let (light_angle, light_world) = match prepared.light {
+        Light::Point { .. } => (0.0, 0.0),
+        Light::Rect { u, v, .. } => {
+            let size = f64::from(u.length().max(v.length()));
+            (size / mean_depth, size)
+        }
+        Light::Directional {
+            angular_diameter_deg,
+            ..
+        } => (f64::from(angular_diameter_deg).to_radians(), 0.0),
+    };
+    // A texel's world size at the receivers (perspective: scaled by depth).
+    let texel = f64::from(texel_world_size(
+        &prepared.receiver_light_view,
+        ANALYSIS_MAP,
+    ));
+    let texel_at = if b.perspective {
+        texel * mean_depth
+    } else {
+        texel
+    };
+    let light_texels = if light_world > 0.0 {
+        light_world / texel_at.max(1e-12)
+    } else {
+        light_angle * mean_depth / texel_at.max(1e-12)
+    };
+    let pixel_angle = f64::from(cam.fov_y_deg.to_radians()) / f64::from(cam.height.max(1));
+    let light_pixels = light_angle / pixel_angle.max(1e-12);
+    let mut knobs = BTreeMap::new();
+    knobs.insert("search_taps".to_string(), "8".to_string());
+    knobs.insert("map_size".to_string(), "1024".to_string());
+    let frame = engine.render(prepared, "pcss", &knobs, 1)?;
+    let count = |k: &str| frame.stats.counters.get(k).copied().unwrap_or(0);
+    let samples = count("view_samples").max(1);
+    let penumbra_fraction = count("penumbra").min(samples) as f64 / samples as f64;
+    Ok(SceneFeatures {
+        view_samples,
+        triangles: prepared.triangles as u64,
+        light_angle,
+        light_texels,
+        light_pixels,
+        depth_span,
+        penumbra_fraction,
+    })
+}
+
+/// One measured run: a candidate on a scene.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CalibrationRow {
+    /// Scene name.
+    pub scene: String,
+    /// [`Candidate::label`].
+    pub candidate: String,
+    /// The scene's features.
+    pub features: SceneFeatures,
+    /// GPU time of the technique, ms.
+    pub gpu_ms: f64,
+    /// Penumbra MAE against the reference (MAE where the reference has no penumbra).
+    pub error: f64,
+}
+
+/// The calibration table: every candidate measured on a set of scenes, on one device.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Calibration {
+    /// The device the times come from.
+    pub device: String,
+    /// The runs.
+    pub rows: Vec<CalibrationRow>,
+}
+
+/// Neighbours a prediction takes.
+pub const NEIGHBOURS: usize = 3;
+
+/// What the table predicts for one candidate on one scene.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Prediction {
+    /// [`Candidate::label`].
+    pub candidate: String,
+    /// Predicted error: the largest of the nearest rows' errors.
+    pub error: f64,
+    /// Predicted GPU ms: the nearest rows' mean, scaled by view samples.
+    pub gpu_ms: f64,
+    /// The scenes the prediction came from.
+    pub neighbours: Vec<String>,
+}
+
+/// The selection's answer.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Choice {
+    /// The pick.
+    pub picked: Prediction,
+    /// Whether its predicted error is within the budget.
+    pub within_budget: bool,
+    /// One line: why this one.
+    pub why: String,
+    /// Every candidate's prediction, fastest first.
+    pub predictions: Vec<Prediction>,
+}
+
+impl Calibration {
+    /// Reads a table written by [`Calibration::write`].
+    pub fn read(path: &Path) -> Result<Calibration> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
+            path: path.to_path_buf(),
+            source: e,
+        })?;
+        serde_json::from_str(&text).map_err(|e| {
+            Error::input(
+                path.display().to_string(),
+                Some(e.line()),
+                format!("not a calibration table: {e}"),
+            )
+        })
+    }
+
+    /// Writes the table as JSON.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let text = serde_json::to_string_pretty(self)
+            .map_err(|e| Error::input(path.display().to_string(), None, e.to_string()))?;
+        std::fs::write(path, text + "\n").map_err(|e| Error::Io {
+            path: path.to_path_buf(),
+            source: e,
+        })
+    }
+
+    /// The prediction for `candidate` on a scene with `features`; `None` without rows for it.
+    pub fn predict(&self, candidate: &str, features: &SceneFeatures) -> Option<Prediction> {
+        let mut rows: Vec<(f64, &CalibrationRow)> = self
+            .rows
+            .iter()
+            .filter(|r| r.candidate == candidate && r.error.is_finite() && r.gpu_ms > 0.0)
+            .map(|r| (features.distance(&r.features), r))
+            .collect();
+        if rows.is_empty() {
+            return None;
+        }
+        rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+        rows.truncate(NEIGHBOURS);
+        let error = rows.iter().map(|(_, r)| r.error).fold(0.0, f64::max);
+        let gpu_ms = rows
+            .iter()
+            .map(|(_, r)| {
+                r.gpu_ms * features.view_samples.max(1) as f64
+                    / r.features.view_samples.max(1) as f64
+            })
+            .sum::<f64>()
+            / rows.len() as f64;
+        Some(Prediction {
+            candidate: candidate.to_string(),
+            error,
+            gpu_ms,
+            neighbours: rows.iter().map(|(_, r)| r.scene.clone()).collect(),
+        })
+    }
+
+    /// The fastest candidate predicted within `max_error` (see the module note).
+    pub fn choose(&self, features: &SceneFeatures, max_error: f64) -> Result<Choice> {
+        if !(max_error.is_finite() && max_error > 0.0) {
+            return Err(Error::input(
+                "--max-error",
+                None,
+                format!("{max_error} is not a positive error budget"),
+            ));
+        }
+        let mut predictions: Vec<Prediction> = CANDIDATES
+            .iter()
+            .filter_map(|c| self.predict(&c.label(), features))
+            .collect();
+        if predictions.is_empty() {
+            return Err(Error::input(
+                "calibration",
+                None,
+                "the calibration table has no rows for any candidate",
+            ));
+        }
+        predictions.sort_by(|a, b| a.gpu_ms.total_cmp(&b.gpu_ms));
+        let within = predictions.iter().find(|p| p.error <= max_error);
+        let (picked, within_budget, why) = match within {
+            Some(p) => (
+                p.clone(),
+                true,
+                format!(
+                    "fastest predicted within {max_error}: error ≤ {:.4} (worst of its {} nearest \
+                     calibration scenes: {}), ≈ {:.1} ms",
+                    p.error,
+                    p.neighbours.len(),
+                    p.neighbours.join(", "),
+                    p.gpu_ms
+                ),
+            ),
+            None => {
+                let best = predictions
+                    .iter()
+                    .min_by(|a, b| a.error.total_cmp(&b.error))
+                    .cloned()
+                    .unwrap_or_else(|| predictions[0].clone());
+                let why = format!(
+                    "no candidate predicted within {max_error}; the most accurate predicted: \
+                     error ≤ {:.4}, ≈ {:.1} ms",
+                    best.error, best.gpu_ms
+                );
+                (best, false, why)
+            }
+        };
+        Ok(Choice {
+            picked,
+            within_budget,
+            why,
+            predictions,
+        })
+    }
+}
+
+/// The candidate with `label`.
+pub fn candidate(label: &str) -> Option<&'static Candidate> {
+    CANDIDATES.iter().find(|c| c.label() == label)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn features(light_angle: f64, penumbra: f64, samples: u64) -> SceneFeatures {
+        SceneFeatures {
+            view_samples: samples,
+            triangles: 10_000,
+            light_angle,
+            light_texels: light_angle * 1000.0,
+            light_pixels: light_angle * 500.0,
+            depth_span: 0.5,
+            penumbra_fraction: penumbra,
+        }
+    }
+
+    fn row(scene: &str, candidate: &str, f: SceneFeatures, ms: f64, error: f64) -> CalibrationRow {
+        CalibrationRow {
+            scene: scene.into(),
+            candidate: candidate.into(),
+            features: f,
+            gpu_ms: ms,
+            error,
+        }
+    }
+
+    /// Small lights: `hard` is good enough and fastest; large lights: only the accurate,
+    /// slower candidate meets the budget; a budget nobody meets falls back to the most accurate.
+    #[test]
+    fn picks_the_fastest_candidate_within_the_budget() {
+        let small = features(0.01, 0.05, 10_000);
+        let large = features(0.3, 0.4, 10_000);
+        // Three calibration scenes of each kind, so a scene's neighbours are its own kind.
+        let mut rows = Vec::new();
+        for k in 0..3 {
+            let jitter = 1.0 + 0.01 * k as f64;
+            let s = features(0.01 * jitter, 0.05, 10_000);
+            let l = features(0.3 * jitter, 0.4, 10_000);
+            rows.push(row("s", "hard", s, 1.0, 0.02));
+            rows.push(row("l", "hard", l, 1.0, 0.20));
+            rows.push(row("s", "pvssm", s, 10.0, 0.01));
+            rows.push(row("l", "pvssm", l, 10.0, 0.03));
+        }
+        let table = Calibration {
+            device: "test".into(),
+            rows,
+        };
+        let c = table.choose(&small, 0.05).expect("choice");
+        assert_eq!(c.picked.candidate, "hard");
+        assert!(c.within_budget);
+        // Twice the view samples: twice the predicted time.
+        let c = table
+            .choose(&features(0.3, 0.4, 20_000), 0.05)
+            .expect("choice");
+        assert_eq!(c.picked.candidate, "pvssm");
+        assert!((c.picked.gpu_ms - 20.0).abs() < 1e-9, "{}", c.picked.gpu_ms);
+        let c = table.choose(&large, 0.001).expect("choice");
+        assert!(!c.within_budget);
+        assert_eq!(c.picked.candidate, "pvssm");
+        assert!(table.choose(&large, 0.0).is_err());
+        assert!(table.choose(&large, f64::NAN).is_err());
+        assert!(Calibration::default().choose(&large, 0.1).is_err());
+    }
+
+    #[test]
+    fn labels_round_trip_to_candidates() {
+        for c in &CANDIDATES {
+            assert_eq!(candidate(&c.label()), Some(c));
+        }
+    }
+}

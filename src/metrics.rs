@@ -170,6 +170,17 @@ pub fn compare(reference: &[f32], test: &[f32], is_sample: &[bool]) -> Result<Er
     })
 }
 
+/// How two frames of the same view differ, for checks that one change leaves an image alone:
+/// the number of pixels whose values differ bit for bit, and the largest |a − b| (NaN-free
+/// inputs assumed; a NaN pair counts as differing). Slices of different lengths compare their
+/// common prefix.
+pub fn bitwise_difference(a: &[f32], b: &[f32]) -> (usize, f32) {
+    a.iter()
+        .zip(b)
+        .filter(|(x, y)| x.to_bits() != y.to_bits())
+        .fold((0, 0.0f32), |(n, m), (x, y)| (n + 1, m.max((x - y).abs())))
+}
+
 /// Mean LDR-FLIP between two shaded sRGB images (as [`crate::output::shade`] makes them), at
 /// nv-flip's default 67 pixels per degree (a 0.7 m wide 4K monitor seen from 0.7 m).
 ///

@@ -526,3 +526,19 @@ fn shadow_mae_is_attys_measure_over_umbra_and_penumbra() {
     let lit = compare(&[1.0, 1.0], &[0.5, 1.0], &all(2)).unwrap();
     assert_eq!(lit.shadow_mae, None, "no shadow in the reference");
 }
+
+/// Bit-for-bit difference: -0.0 and 0.0 differ in bits, a NaN pair differs, the largest |Δ| is
+/// over the finite pairs.
+#[test]
+fn bitwise_difference_counts_bits_and_keeps_the_largest_gap() {
+    use penumbra::metrics::bitwise_difference;
+    assert_eq!(bitwise_difference(&[0.5, 1.0], &[0.5, 1.0]), (0, 0.0));
+    assert_eq!(
+        bitwise_difference(&[0.5, 1.0, 0.0], &[0.25, 1.0, -0.0]),
+        (2, 0.25)
+    );
+    assert_eq!(
+        bitwise_difference(&[f32::NAN, 0.0], &[0.0, 0.75]),
+        (2, 0.75)
+    );
+}

@@ -216,7 +216,15 @@ fn create_instance(
     } else {
         Vec::new()
     };
-    let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+    // PENUMBRA_GPU_AV=1 swaps synchronization validation for the layer's GPU-assisted
+    // validation, which instruments shaders to report out-of-bounds buffer accesses — on
+    // lavapipe such an access lands in host memory, so this is the tool for a corrupted heap.
+    let gpu_av = std::env::var_os("PENUMBRA_GPU_AV").is_some_and(|v| v == "1");
+    let enables = if gpu_av {
+        [vk::ValidationFeatureEnableEXT::GPU_ASSISTED]
+    } else {
+        [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION]
+    };
     let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
     let mut messenger_ci = messenger_info(log);
     let mut info = vk::InstanceCreateInfo::default()

@@ -259,6 +259,12 @@ pub fn run(args: &AntialiasingArgs) -> anyhow::Result<()> {
     let path = args.out.join("antialiasing.json");
     std::fs::write(&path, serde_json::to_string_pretty(&json)?)
         .with_context(|| format!("writing {}", path.display()))?;
-    println!("wrote {}", path.display());
-    Ok(())
+    let ctx = engine.context();
+    println!(
+        "wrote {}, {}",
+        path.display(),
+        crate::validation_summary(args.validation, &ctx.validation().counts())
+    );
+    // Like every other command: a validation error or warning fails the run.
+    crate::finish_validation(args.validation, &ctx.validation(), &args.out)
 }

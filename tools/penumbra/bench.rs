@@ -305,18 +305,8 @@ fn skip_comparison(
             continue;
         };
         for on in runs.iter().filter(|r| r.skip != "0") {
-            let differing = off
-                .visibility
-                .iter()
-                .zip(&on.visibility)
-                .filter(|(a, b)| a.to_bits() != b.to_bits())
-                .count();
-            let max_diff = off
-                .visibility
-                .iter()
-                .zip(&on.visibility)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0f32, f32::max);
+            let (differing, max_diff) =
+                penumbra::metrics::bitwise_difference(&off.visibility, &on.visibility);
             let samples = on.counters.get("view_samples").copied().unwrap_or(0);
             let skipped = on.counters.get("skipped_lit").copied().unwrap_or(0)
                 + on.counters.get("skipped_umbra").copied().unwrap_or(0);

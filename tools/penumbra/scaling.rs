@@ -210,6 +210,12 @@ pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
     )?;
     std::fs::write(args.out.join("scaling.csv"), csv)?;
     write_scaling_chart(&args.out.join("scaling.png"), &panels)?;
-    println!("wrote {}", args.out.display());
-    Ok(())
+    let ctx = engine.context();
+    println!(
+        "wrote {}, {}",
+        args.out.display(),
+        crate::validation_summary(args.validation, &ctx.validation().counts())
+    );
+    // Like every other command: a validation error or warning fails the run.
+    crate::finish_validation(args.validation, &ctx.validation(), &args.out)
 }

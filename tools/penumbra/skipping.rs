@@ -225,18 +225,10 @@ pub fn run(args: &SkippingArgs) -> anyhow::Result<()> {
                 let off_frame = engine
                     .render(&prepared, t, &overrides, args.frames)
                     .with_context(|| format!("{t} with skipping off on {}", prepared.name))?;
-                let n = on_frame
-                    .visibility
-                    .iter()
-                    .zip(&off_frame.visibility)
-                    .filter(|(a, b)| a.to_bits() != b.to_bits())
-                    .count();
-                let m = on_frame
-                    .visibility
-                    .iter()
-                    .zip(&off_frame.visibility)
-                    .map(|(a, b)| (a - b).abs())
-                    .fold(0.0f32, f32::max);
+                let (n, m) = penumbra::metrics::bitwise_difference(
+                    &on_frame.visibility,
+                    &off_frame.visibility,
+                );
                 let allowed = match known_difference(t) {
                     Some((cap, reason)) => {
                         row["known_difference"] = serde_json::json!(reason);

@@ -659,6 +659,17 @@ fn auto_technique_picks_from_the_calibration_table() {
         ],
         &["positive"],
     );
+    assert_fails_with(
+        &[
+            "bench",
+            "--suite",
+            "selection",
+            "--max-error=0",
+            "--out",
+            out,
+        ],
+        &["--max-error 0", "positive"],
+    );
     let broken = dir.join("broken.json");
     std::fs::write(&broken, "{\"device\": 3,\n \"rows\": []}").expect("write");
     assert_fails_with(

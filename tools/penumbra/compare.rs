@@ -128,10 +128,15 @@ pub fn run(args: &CompareArgs<'_>) -> anyhow::Result<()> {
             .map(|t| t.name.to_string())
             .collect()
     } else {
+        let mut chosen: Vec<String> = Vec::new();
         for t in args.techniques {
             find(t)?;
+            // Named twice, run once: a second run would overwrite the first's images.
+            if !chosen.contains(t) {
+                chosen.push(t.clone());
+            }
         }
-        args.techniques.to_vec()
+        chosen
     };
     if !find(args.reference)?.cacheable {
         bail!(

@@ -77,6 +77,13 @@ fn measure(
 }
 
 pub fn run(args: &SelectionArgs) -> anyhow::Result<()> {
+    // Refuse a bad budget before minutes of calibration, not after.
+    if !(args.max_error.is_finite() && args.max_error > 0.0) {
+        anyhow::bail!(
+            "--max-error {}: expected a positive penumbra MAE",
+            args.max_error
+        );
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let engine = Engine::new(&ContextDesc {

@@ -107,7 +107,9 @@ pub struct SceneFeatures {
     pub triangles: u64,
     /// The light's angular size from the receivers' mean depth, radians (0: point or hard sun).
     pub light_angle: f64,
-    /// The light's size in texels of a `map_size` map fitted to the receivers.
+    /// The light's size in texels of an [`ANALYSIS_MAP`]² map fitted to the receivers. Reported
+    /// in `stats.json` for the reader; the neighbour distance does not use it (it is the light's
+    /// angle over the texel's, which `light_angle` and `light_pixels` already carry).
     pub light_texels: f64,
     /// The light's size in pixels: its angular size over the camera's angle per pixel.
     pub light_pixels: f64,

@@ -14,10 +14,12 @@ use glam::{Vec3, Vec4};
 
 use crate::error::{Error, Result};
 use crate::gpu::{f32s, Context, ContextDesc, Image, ImageDesc, PassTime, Timestamps};
-use crate::passes::{LightView, ReceiverDesc, Receivers, SceneGeometry, ViewSamples};
+use crate::passes::{LightView, SceneGeometry, ViewSamples};
+use crate::renderer::{texel_grid, ReceiverCache, ShadowRenderer};
 use crate::sampling_error::{sampling_error, SamplingSummary};
 use crate::scene::{Camera, Light, Scene, SceneDefaults};
-use crate::techniques::{self, Technique, TechniqueSetup};
+use crate::technique_desc::TechniqueDesc;
+use crate::techniques::{self, Technique};
 
 /// A Vulkan device ready to run techniques.
 pub struct Engine {
@@ -56,6 +58,31 @@ pub struct PreparedScene {
     pub view_pass: PassTime,
     /// Number of triangles.
     pub triangles: usize,
+    /// The receivers built for its renderers, shared by all of them.
+    pub(crate) receivers: ReceiverCache,
+    /// The view samples' positions read back once, for penumbra's own (unchanging) samples.
+    positions_read: std::sync::OnceLock<Vec<Vec4>>,
+}
+
+impl PreparedScene {
+    /// The view samples' positions on the host (row-major; w > 0 marks a sample): read back once
+    /// for penumbra's own view samples, on every call for the caller's (which may have changed).
+    pub fn sample_positions(&self, ctx: &Context) -> Result<Vec<Vec4>> {
+        if self.view.is_external() {
+            return self.view.read_positions(ctx);
+        }
+        if let Some(p) = self.positions_read.get() {
+            return Ok(p.clone());
+        }
+        let p = self.view.read_positions(ctx)?;
+        Ok(self.positions_read.get_or_init(|| p).clone())
+    }
+
+    /// How many receiver sets (light clipping, normal offset) its renderers have built: one per
+    /// distinct combination of the knobs that shape them.
+    pub fn receiver_sets(&self) -> usize {
+        self.receivers.len()
+    }
 }
 
 /// What one technique computed, and what it cost.
@@ -138,29 +165,67 @@ impl Engine {
     /// Uploads `scene`, fits its light view, renders its view samples, bounds them in the light
     /// view and fits a second light view to them.
     pub fn prepare(&self, scene: &Scene) -> Result<PreparedScene> {
+        self.prepare_with(scene, None)
+    }
+
+    /// [`Engine::prepare`] on view samples the caller rendered (`view`, see
+    /// [`ViewSamples::from_images`]) with `scene.camera`, writing visibility into `visibility`
+    /// (R32F, the camera's size, `STORAGE` usage; `TRANSFER_SRC` too to read it back) — usually
+    /// [`crate::gpu::Image::borrowed`] wrappers of the caller's images. The receiver fit is made
+    /// from the samples the images hold now, so they must hold a rendered frame: re-prepare when
+    /// the camera moves far from it.
+    pub fn prepare_with_view_samples(
+        &self,
+        scene: &Scene,
+        view: ViewSamples,
+        visibility: Image,
+    ) -> Result<PreparedScene> {
+        let c = &scene.camera;
+        if (view.width, view.height) != (c.width, c.height) {
+            return Err(Error::InvalidArgument(format!(
+                "the view samples are {}x{}: expected the camera's {}x{}",
+                view.width, view.height, c.width, c.height
+            )));
+        }
+        crate::passes::check_image(&visibility, vk::Format::R32_SFLOAT, c.width, c.height)?;
+        self.prepare_with(scene, Some((view, visibility)))
+    }
+
+    fn prepare_with(
+        &self,
+        scene: &Scene,
+        external: Option<(ViewSamples, Image)>,
+    ) -> Result<PreparedScene> {
         let ctx = &self.ctx;
         scene.validate()?;
         let scene_bounds = scene.bounds();
         let light_view = LightView::fit(&scene.light, &scene_bounds)?;
         let (positions, indices) = scene.merged();
         let geometry = SceneGeometry::from_triangles(ctx, &positions, &indices)?;
-        let view = ViewSamples::new(ctx, &scene.camera)?;
-        let visibility = Image::new(
-            ctx,
-            "visibility",
-            ImageDesc::new_2d(
-                vk::Format::R32_SFLOAT,
-                scene.camera.width,
-                scene.camera.height,
-                vk::ImageUsageFlags::STORAGE
-                    | vk::ImageUsageFlags::TRANSFER_SRC
-                    | vk::ImageUsageFlags::TRANSFER_DST,
+        let (view, visibility) = match external {
+            Some(v) => v,
+            None => (
+                ViewSamples::new(ctx, &scene.camera)?,
+                Image::new(
+                    ctx,
+                    "visibility",
+                    ImageDesc::new_2d(
+                        vk::Format::R32_SFLOAT,
+                        scene.camera.width,
+                        scene.camera.height,
+                        vk::ImageUsageFlags::STORAGE
+                            | vk::ImageUsageFlags::TRANSFER_SRC
+                            | vk::ImageUsageFlags::TRANSFER_DST,
+                    ),
+                )?,
             ),
-        )?;
+        };
         let bounds_pass = crate::passes::ReceiverBoundsPass::new(ctx, &view, &light_view)?;
         let mut timestamps = Timestamps::new(ctx, 1)?;
         ctx.submit(Some(&mut timestamps), |rec| {
-            view.record(rec, &geometry, &scene.camera)?;
+            if !view.is_external() {
+                view.record(rec, &geometry, &scene.camera)?;
+            }
             // Outside the timed pass: view_pass stays the view samples' time alone.
             bounds_pass.record(rec)
         })?;
@@ -188,6 +253,8 @@ impl Engine {
             visibility,
             view_pass,
             triangles: scene.triangle_count(),
+            receivers: ReceiverCache::default(),
+            positions_read: std::sync::OnceLock::new(),
         })
     }
 
@@ -203,6 +270,29 @@ impl Engine {
         self.render_inspect(prepared, technique, overrides, frames, |_| Ok(()))
     }
 
+    /// Builds `technique` with `overrides` (knob → value text) on `prepared`, to render frame
+    /// after frame ([`ShadowRenderer`]). Knobs are checked against the technique's table and the
+    /// scene's defaults first, with an [`Error::Parameter`] naming any that is wrong.
+    pub fn renderer<'a>(
+        &'a self,
+        prepared: &'a PreparedScene,
+        technique: &str,
+        overrides: &BTreeMap<String, String>,
+    ) -> Result<ShadowRenderer<'a>> {
+        let info = techniques::find(technique)?;
+        let params = info.params(overrides, &prepared.defaults)?;
+        ShadowRenderer::new(&self.ctx, prepared, info, params)
+    }
+
+    /// [`Engine::renderer`] for a typed description.
+    pub fn renderer_for<'a>(
+        &'a self,
+        prepared: &'a PreparedScene,
+        desc: &TechniqueDesc,
+    ) -> Result<ShadowRenderer<'a>> {
+        self.renderer(prepared, desc.kind().name(), desc.overrides())
+    }
+
     /// [`Engine::render`], calling `inspect` with the technique instance after the last frame,
     /// while its intermediate resources (e.g. its shadow map) still exist.
     pub fn render_inspect(
@@ -214,60 +304,8 @@ impl Engine {
         inspect: impl FnOnce(&dyn Technique) -> Result<()>,
     ) -> Result<Frame> {
         let ctx = &self.ctx;
-        let info = techniques::find(technique)?;
-        let params = info.params(overrides, &prepared.defaults)?;
-        // `fit`: the scene's box (0) or the view samples and their casters (1, the default).
-        let fits = info.shadow_map && !info.per_light_sample;
-        let light_view = if fits && params.u32("fit")? == 1 {
-            prepared.receiver_light_view
-        } else {
-            prepared.light_view
-        };
-        // The receivers (light clipping, normal offset) of a shadow-map technique: shared view
-        // sample data like the view samples themselves, so not counted as the technique's memory.
-        let receivers = if info.shadow_map {
-            let desc = ReceiverDesc {
-                light_clip: params.u32("light_clip")? == 1,
-                normal_offset: params.f32("normal_offset")?,
-                map_size: texel_grid(&params)?,
-                clips_itself: info.clips_light,
-                skip_horizon: params.u32("horizon_skip")? == 1,
-            };
-            if desc.needed() {
-                Some(Receivers::new(
-                    ctx,
-                    &prepared.view,
-                    &prepared.light,
-                    &light_view,
-                    &prepared.visibility,
-                    &desc,
-                )?)
-            } else {
-                None
-            }
-        } else {
-            None
-        };
-        let setup = TechniqueSetup {
-            ctx,
-            geometry: &prepared.geometry,
-            positions: &prepared.positions,
-            indices: &prepared.indices,
-            view: &prepared.view,
-            receivers: receivers
-                .as_ref()
-                .map_or(&prepared.view.positions, |r| &r.lookup),
-            light: &prepared.light,
-            camera: &prepared.camera,
-            light_view: &light_view,
-            visibility: &prepared.visibility,
-            receiver_bounds: &prepared.receiver_bounds,
-        };
-        let before = ctx.live_bytes();
-        let mut instance = (info.create)(&setup, &params)?;
-        // What the technique holds across frames, measured rather than declared.
-        let memory_bytes = ctx.live_bytes().saturating_sub(before);
-        let mut timestamps = Timestamps::new(ctx, 16)?;
+        let mut renderer = self.renderer(prepared, technique, overrides)?;
+        let info = renderer.info();
         let frames = frames.max(1);
         let mut samples: Vec<(String, Vec<f64>)> = Vec::new();
         let mut timed = true;
@@ -275,20 +313,11 @@ impl Engine {
         // references are computed once for their values, not their time: no warm-up.
         let first = if info.cacheable { 1 } else { 0 };
         for frame in first..=frames {
-            ctx.submit(Some(&mut timestamps), |rec| {
-                if let Some(r) = &receivers {
-                    r.record_prepare(rec)?;
-                }
-                instance.record(rec)?;
-                if let Some(r) = &receivers {
-                    r.record_finish(rec)?;
-                }
-                Ok(())
-            })?;
+            renderer.render()?;
             if frame == 0 {
                 continue; // warm-up
             }
-            for (i, pass) in timestamps.results()?.into_iter().enumerate() {
+            for (i, pass) in renderer.pass_times()?.into_iter().enumerate() {
                 if samples.len() <= i {
                     samples.push((pass.name.clone(), Vec::new()));
                 }
@@ -308,35 +337,39 @@ impl Engine {
         let total_gpu_ms = timed.then(|| technique_passes.iter().filter_map(|p| p.gpu_ms).sum());
         let mut passes = vec![prepared.view_pass.clone()];
         passes.extend(technique_passes);
-        let mut counters: BTreeMap<String, u64> = instance.counters()?.into_iter().collect();
-        if let Some(r) = &receivers {
-            // The technique counted only the samples it evaluated; these cover every sample.
-            counters.extend(r.counters()?);
-        }
-        inspect(instance.as_ref())?;
-        let grids = instance.sampling_grids();
-        drop(instance);
+        let mut counters = renderer.counters()?;
+        let checks = renderer.checks()?;
+        inspect(renderer.technique())?;
+        let grids = renderer.technique().sampling_grids();
+        let light_view = *renderer.light_view();
+        let params = renderer.params().clone();
+        let memory_bytes = renderer.memory_bytes();
+        drop(renderer);
 
         let visibility = f32s(&ctx.read_image(&prepared.visibility)?);
-        let positions = prepared.view.read_positions(ctx)?;
-        let (nan, inf, out_of_range_count) = count_bad(&visibility, &positions);
-        let nan_count = nan + inf;
-        if fits {
+        let fits = info.shadow_map && !info.per_light_sample;
+        let positions = if fits || !grids.is_empty() {
+            Some(prepared.sample_positions(ctx)?)
+        } else {
+            None
+        };
+        if let (true, Some(positions)) = (fits, &positions) {
             // How finely the chosen light view resolves what the camera sees: distinct map
             // texels the view samples land in (divide by `view_samples` for texels per sample).
             let used = crate::cpu::receiver_bounds::map_texels_used(
-                &positions,
+                positions,
                 &light_view,
                 texel_grid(&params)?,
             );
             counters.insert("map_texels_used".to_string(), used);
         }
-        let (aliasing, sampling_error) = if grids.is_empty() {
-            (None, None)
-        } else {
-            let normals = prepared.view.read_normals(ctx)?;
-            let (map, summary) = sampling_error(&prepared.camera, &positions, &normals, &grids);
-            (Some(map), summary)
+        let (aliasing, sampling_error) = match (&positions, grids.is_empty()) {
+            (Some(positions), false) => {
+                let normals = prepared.view.read_normals(ctx)?;
+                let (map, summary) = sampling_error(&prepared.camera, positions, &normals, &grids);
+                (Some(map), summary)
+            }
+            _ => (None, None),
         };
         Ok(Frame {
             width: prepared.view.width,
@@ -349,8 +382,8 @@ impl Engine {
                 passes,
                 total_gpu_ms,
                 counters,
-                nan_count,
-                out_of_range_count,
+                nan_count: checks.nan + checks.inf,
+                out_of_range_count: checks.out_of_range,
                 frames,
                 memory_bytes,
                 sampling_error,
@@ -460,19 +493,4 @@ pub fn count_bad(visibility: &[f32], positions: &[Vec4]) -> (u64, u64, u64) {
         }
     }
     (nan, inf, range)
-}
-
-/// Texels per side of the grid a shadow-map technique's texel unit refers to: `map_size`, a
-/// virtual map's `virtual_size`, or pvssm's `lowres_size` (what the normal offset's texel unit
-/// and `map_texels_used` count in).
-fn texel_grid(params: &techniques::Params) -> Result<u32> {
-    if params.values().contains_key("lowres_size") {
-        // pvssm: the receivers' offset is measured in the blocker search's texels, the map whose
-        // depths a receiver must clear to find no false blocker in its own surface.
-        params.u32("lowres_size")
-    } else if params.values().contains_key("virtual_size") {
-        params.u32("virtual_size")
-    } else {
-        params.u32("map_size")
-    }
 }

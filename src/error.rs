@@ -63,6 +63,11 @@ pub enum Error {
         /// What was wrong and what was expected.
         message: String,
     },
+    /// The caller handed the library something it cannot use: an image in the wrong format,
+    /// size, usage or layout, or a recording that cannot be made into the caller's command
+    /// buffer. The message names the object and what was expected.
+    #[error("{0}")]
+    InvalidArgument(String),
     /// A technique name that is not registered.
     #[error("unknown technique '{name}'; known techniques: {}", known.join(", "))]
     UnknownTechnique {

@@ -15,6 +15,8 @@ if command -v cargo-nextest >/dev/null 2>&1; then
 else
   cargo test --features shader-compiler --no-fail-fast
 fi
+# nextest does not run doctests: the crate-level example (an engine, a renderer, three frames).
+cargo test --doc --features shader-compiler
 # Smoke runs of the CLI as a user would: a render compared with the ground truth, and the quick
 # benches (every technique on every bundled scene against the reference; every compute
 # primitive) and the quick stress suite, all under validation.

@@ -1,5 +1,6 @@
 //! CPU twins of the GPU kernels: the same inputs, written to read like the shaders, kept
-//! independent of the GPU path so a test comparing them can fail.
+//! independent of the GPU path so a test comparing them can fail. For tests and power users: a
+//! renderer never calls them.
 //!
 //! Each twin states its tolerance against the GPU: exact for counts and binary tests away from
 //! depth ties, an absolute epsilon for filtered values (the GPU may contract `a*b+c` into an FMA).

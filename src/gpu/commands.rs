@@ -5,6 +5,8 @@
 //! submit returns). Barriers come from the resources' trackers ([`super::sync`]): a recorder call
 //! that uses a resource emits exactly the barrier that use needs.
 
+use std::sync::Arc;
+
 use ash::vk;
 use bytemuck::Pod;
 
@@ -23,6 +25,9 @@ pub struct Recorder<'a> {
     open_pass: Option<u32>,
     /// Staging buffers that must live until the submission completes.
     keep_alive: Vec<Buffer>,
+    /// The caller's images used so far ([`Image::borrowed`]), returned to their stated layouts
+    /// when the recording ends.
+    external: Vec<(Arc<Tracker>, vk::Image, vk::ImageSubresourceRange)>,
 }
 
 fn barrier(ctx: &Context, cmd: vk::CommandBuffer, t: Transition, resource: &Resource) {
@@ -55,8 +60,16 @@ fn barrier(ctx: &Context, cmd: vk::CommandBuffer, t: Transition, resource: &Reso
 }
 
 impl Recorder<'_> {
-    fn track(&mut self, tracker: &Tracker, resource: Resource, access: Access) {
+    fn track(&mut self, tracker: &Arc<Tracker>, resource: Resource, access: Access) {
         let is_image = matches!(resource, Resource::Image(..));
+        if let (Some(layout), Resource::Image(raw, range)) = (tracker.external, &resource) {
+            if !self.external.iter().any(|(t, ..)| Arc::ptr_eq(t, tracker)) {
+                // The first use in this recording: the image is in its stated layout, written
+                // by whatever the caller did before.
+                tracker.enter_external(layout);
+                self.external.push((tracker.clone(), *raw, *range));
+            }
+        }
         if let Some(t) = tracker.use_as(access, is_image) {
             barrier(self.ctx, self.cmd, t, &resource);
         }
@@ -505,6 +518,18 @@ impl Recorder<'_> {
     pub fn context(&self) -> &Context {
         self.ctx
     }
+
+    /// Ends the open pass and returns every caller image used to its stated layout: what ends
+    /// each recording.
+    fn finish(&mut self) {
+        self.end_pass();
+        for (tracker, raw, range) in std::mem::take(&mut self.external) {
+            if let Some(layout) = tracker.external {
+                let t = tracker.leave_external(layout);
+                barrier(self.ctx, self.cmd, t, &Resource::Image(raw, range));
+            }
+        }
+    }
 }
 
 impl Context {
@@ -515,6 +540,87 @@ impl Context {
         timestamps: Option<&mut Timestamps>,
         record: impl FnOnce(&mut Recorder<'_>) -> Result<R>,
     ) -> Result<R> {
+        let device = self.device();
+        let (cmd, fence) = self.take_submit_slot()?;
+        let result = (|| {
+            let begin = vk::CommandBufferBeginInfo::default()
+                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            unsafe { device.begin_command_buffer(cmd, &begin) }.vk("vkBeginCommandBuffer")?;
+            let mut rec = Recorder {
+                ctx: self,
+                cmd,
+                timestamps,
+                open_pass: None,
+                keep_alive: Vec::new(),
+                external: Vec::new(),
+            };
+            if let Some(ts) = rec.timestamps.as_deref_mut() {
+                ts.reset(self, cmd);
+            }
+            let out = record(&mut rec);
+            rec.finish();
+            let out = out?;
+            unsafe { device.end_command_buffer(cmd) }.vk("vkEndCommandBuffer")?;
+            let cmds = [cmd];
+            let submit = vk::SubmitInfo::default().command_buffers(&cmds);
+            {
+                let queue = self.queue();
+                unsafe { device.queue_submit(*queue, &[submit], fence) }.vk("vkQueueSubmit")?;
+            }
+            unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }.vk("vkWaitForFences")?;
+            drop(rec.keep_alive);
+            Ok(out)
+        })();
+        self.return_submit_slot(cmd, fence, result.is_ok());
+        result
+    }
+
+    /// Records with `record` into `cmd`, a command buffer the caller owns, already begun and
+    /// not yet ended, and returns without submitting: the caller submits it and must not
+    /// release anything recorded into it before that submission completes. Nothing is timed
+    /// (passes still get debug labels), and a pass that would upload through a staging buffer
+    /// fails with [`Error::InvalidArgument`], since the staging buffer could not be kept alive.
+    ///
+    /// # Safety
+    /// `cmd` must be a primary command buffer of this context's device, in the recording state,
+    /// from a pool of the queue family penumbra was created for, and outside a render pass.
+    pub unsafe fn record_into<R>(
+        &self,
+        cmd: vk::CommandBuffer,
+        record: impl FnOnce(&mut Recorder<'_>) -> Result<R>,
+    ) -> Result<R> {
+        let mut rec = Recorder {
+            ctx: self,
+            cmd,
+            timestamps: None,
+            open_pass: None,
+            keep_alive: Vec::new(),
+            external: Vec::new(),
+        };
+        let out = record(&mut rec);
+        rec.finish();
+        if !rec.keep_alive.is_empty() {
+            // Dropping the staging now would free memory the caller's submission reads.
+            let _ = unsafe { self.device().device_wait_idle() };
+            return Err(Error::InvalidArgument(
+                "a pass uploaded data while recording into the caller's command buffer".into(),
+            ));
+        }
+        out
+    }
+
+    /// A command buffer (reset on begin: the pool allows it) and an unsignalled fence from the
+    /// pool of completed submissions, or new ones when none is free.
+    fn take_submit_slot(&self) -> Result<(vk::CommandBuffer, vk::Fence)> {
+        let pooled = self
+            .shared
+            .submit_slots
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .pop();
+        if let Some(slot) = pooled {
+            return Ok(slot);
+        }
         let device = self.device();
         let pool = self
             .shared
@@ -527,42 +633,46 @@ impl Context {
             .command_buffer_count(1);
         let cmd =
             unsafe { device.allocate_command_buffers(&alloc) }.vk("vkAllocateCommandBuffers")?[0];
-        // Whatever happens below, the command buffer goes back to the pool.
-        let result = (|| {
-            let begin = vk::CommandBufferBeginInfo::default()
-                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-            unsafe { device.begin_command_buffer(cmd, &begin) }.vk("vkBeginCommandBuffer")?;
-            let mut rec = Recorder {
-                ctx: self,
-                cmd,
-                timestamps,
-                open_pass: None,
-                keep_alive: Vec::new(),
-            };
-            if let Some(ts) = rec.timestamps.as_deref_mut() {
-                ts.reset(self, cmd);
+        let fence = match unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) } {
+            Ok(f) => f,
+            Err(result) => {
+                unsafe { device.free_command_buffers(*pool, &[cmd]) };
+                return Err(Error::Vulkan {
+                    call: "vkCreateFence",
+                    result,
+                });
             }
-            let out = record(&mut rec)?;
-            rec.end_pass();
-            unsafe { device.end_command_buffer(cmd) }.vk("vkEndCommandBuffer")?;
-            let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
-                .vk("vkCreateFence")?;
-            let cmds = [cmd];
-            let submit = vk::SubmitInfo::default().command_buffers(&cmds);
-            let submitted = {
-                let queue = self.queue();
-                unsafe { device.queue_submit(*queue, &[submit], fence) }.vk("vkQueueSubmit")
-            };
-            let waited = submitted.and_then(|_| {
-                unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }.vk("vkWaitForFences")
-            });
-            unsafe { device.destroy_fence(fence, None) };
-            waited?;
-            drop(rec.keep_alive);
-            Ok(out)
-        })();
+        };
+        self.shared.counts.object();
+        self.shared.counts.object();
+        Ok((cmd, fence))
+    }
+
+    /// Puts a slot back for the next submit. After a failure the command buffer may still be
+    /// recording or pending and the fence signalled or not, so the slot is destroyed instead
+    /// (after the device is idle, so nothing in flight uses it).
+    fn return_submit_slot(&self, cmd: vk::CommandBuffer, fence: vk::Fence, completed: bool) {
+        let device = self.device();
+        let reset = completed && unsafe { device.reset_fences(&[fence]) }.is_ok();
+        if reset {
+            self.shared
+                .submit_slots
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .push((cmd, fence));
+            return;
+        }
+        unsafe {
+            // Nothing better to do if the device is lost: destroy anyway.
+            let _ = device.device_wait_idle();
+            device.destroy_fence(fence, None);
+        }
+        let pool = self
+            .shared
+            .command_pool
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
         unsafe { device.free_command_buffers(*pool, &[cmd]) };
-        result
     }
 
     /// Creates a device-local storage buffer holding `data`.
@@ -584,28 +694,86 @@ impl Context {
         Ok(buffer)
     }
 
-    /// Reads a whole buffer back to the host.
+    /// Reads a whole buffer back to the host, through the context's readback buffer (grown on
+    /// demand and kept, so repeated reads allocate nothing).
     pub fn read_buffer(&self, src: &Buffer) -> Result<Vec<u8>> {
-        let dst = self.readback_buffer(&src.name, src.size)?;
-        self.submit(None, |rec| {
-            rec.copy_buffer(src, &dst);
-            Ok(())
-        })?;
-        mapped_bytes(&self.info().name, &dst.name, dst.mapped())
+        self.read_back(&src.name, src.size, |rec, dst| {
+            rec.use_buffer(src, Access::TransferRead);
+            let region = vk::BufferCopy {
+                src_offset: 0,
+                dst_offset: 0,
+                size: src.size,
+            };
+            unsafe {
+                rec.ctx
+                    .device()
+                    .cmd_copy_buffer(rec.cmd, src.raw, dst, &[region])
+            };
+        })
     }
 
-    /// Reads a whole image back to the host, tightly packed.
+    /// Reads a whole image back to the host, tightly packed, through the context's readback
+    /// buffer.
     pub fn read_image(&self, src: &Image) -> Result<Vec<u8>> {
         let size = src.byte_size().ok_or_else(|| Error::Unsupported {
             device: self.info().name.clone(),
             feature: format!("readback of format {:?}", src.desc.format),
         })?;
-        let dst = self.readback_buffer(&src.name, size)?;
+        self.read_back(&src.name, size, |rec, dst| {
+            rec.use_image(src, Access::TransferRead);
+            let region = vk::BufferImageCopy::default()
+                .image_subresource(src.subresource_layers())
+                .image_extent(vk::Extent3D {
+                    width: src.desc.width,
+                    height: src.desc.height,
+                    depth: 1,
+                });
+            unsafe {
+                rec.ctx.device().cmd_copy_image_to_buffer(
+                    rec.cmd,
+                    src.raw,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    dst,
+                    &[region],
+                )
+            };
+        })
+    }
+
+    /// Records `copy` into the readback buffer (at least `size` bytes), submits, waits, and
+    /// returns the first `size` bytes.
+    fn read_back(
+        &self,
+        name: &str,
+        size: u64,
+        copy: impl FnOnce(&mut Recorder<'_>, vk::Buffer),
+    ) -> Result<Vec<u8>> {
+        let mut staging = self
+            .shared
+            .readback
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        staging.reserve(self, size)?;
+        let dst = staging.raw;
         self.submit(None, |rec| {
-            rec.copy_image_to_buffer(src, &dst);
+            // The host's reads of the previous contents happened before this submit, which
+            // orders them before the copy: only the copy's write needs a barrier, to the host.
+            copy(rec, dst);
+            let b = [vk::MemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
+                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+                .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+            let dep = vk::DependencyInfo::default().memory_barriers(&b);
+            unsafe { rec.ctx.device().cmd_pipeline_barrier2(rec.cmd, &dep) };
             Ok(())
         })?;
-        mapped_bytes(&self.info().name, &dst.name, dst.mapped())
+        let bytes = staging
+            .allocation
+            .as_ref()
+            .and_then(|a| a.mapped_slice())
+            .map(|s| &s[..size as usize]);
+        mapped_bytes(&self.info().name, &format!("{name} (readback)"), bytes)
     }
 
     /// A host-visible buffer to copy results into.
@@ -617,6 +785,83 @@ impl Context {
             vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuToCpu,
         )
+    }
+}
+
+/// The host-visible buffer every [`Context::read_buffer`] and [`Context::read_image`] copies
+/// into: raw handles rather than a [`Buffer`], which would hold the context that holds it.
+#[derive(Default)]
+pub(crate) struct ReadbackStaging {
+    raw: vk::Buffer,
+    allocation: Option<gpu_allocator::vulkan::Allocation>,
+    size: u64,
+}
+
+impl ReadbackStaging {
+    /// Makes it hold at least `size` bytes (grown to the next power of two, so a few growths
+    /// cover every size a run reads).
+    fn reserve(&mut self, ctx: &Context, size: u64) -> Result<()> {
+        if size <= self.size && self.allocation.is_some() {
+            return Ok(());
+        }
+        let device = ctx.device();
+        self.destroy(device, &mut ctx.allocator());
+        let size = size.max(256).next_power_of_two();
+        let info = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(vk::BufferUsageFlags::TRANSFER_DST)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let raw = unsafe { device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
+        let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
+        let allocation = ctx
+            .allocator()
+            .allocate(&gpu_allocator::vulkan::AllocationCreateDesc {
+                name: "readback",
+                requirements,
+                location: MemoryLocation::GpuToCpu,
+                linear: true,
+                allocation_scheme: gpu_allocator::vulkan::AllocationScheme::GpuAllocatorManaged,
+            });
+        let allocation = match allocation {
+            Ok(a) => a,
+            Err(source) => {
+                unsafe { device.destroy_buffer(raw, None) };
+                return Err(Error::Allocation {
+                    name: "readback".into(),
+                    source,
+                });
+            }
+        };
+        let bound =
+            unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
+                .vk("vkBindBufferMemory");
+        self.raw = raw;
+        self.allocation = Some(allocation);
+        self.size = size;
+        ctx.shared.counts.memory();
+        ctx.set_name(raw, "readback");
+        if let Err(e) = bound {
+            self.destroy(device, &mut ctx.allocator());
+            return Err(e);
+        }
+        Ok(())
+    }
+
+    /// Frees it (the device must be idle or the buffer unused).
+    pub(crate) fn destroy(
+        &mut self,
+        device: &ash::Device,
+        allocator: &mut gpu_allocator::vulkan::Allocator,
+    ) {
+        if let Some(a) = self.allocation.take() {
+            // Freeing only fails for an allocation from another allocator.
+            let _ = allocator.free(a);
+        }
+        if self.raw != vk::Buffer::null() {
+            unsafe { device.destroy_buffer(self.raw, None) };
+        }
+        self.raw = vk::Buffer::null();
+        self.size = 0;
     }
 }
 

@@ -34,6 +34,10 @@ pub struct ContextDesc {
     /// substring of its name. `None` reads `PENUMBRA_DEVICE`, then prefers discrete > integrated
     /// > virtual > CPU.
     pub device: Option<String>,
+    /// A file to seed the `VkPipelineCache` from and [`Context::save_pipeline_cache`] to. A
+    /// missing, unreadable or foreign file is not an error: the cache is advisory, and the driver
+    /// checks the header (vendor, device, cache UUID) and ignores data that is not its own.
+    pub pipeline_cache: Option<std::path::PathBuf>,
 }
 
 impl ContextDesc {
@@ -42,6 +46,7 @@ impl ContextDesc {
         ContextDesc {
             validation: true,
             device: None,
+            pipeline_cache: None,
         }
     }
 }
@@ -129,6 +134,17 @@ pub(crate) struct DeviceShared {
     messenger: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
     pub(crate) command_pool: Mutex<vk::CommandPool>,
+    /// Command buffers and fences whose submissions have completed, reused by the next submit so
+    /// a steady-state frame allocates neither.
+    pub(crate) submit_slots: Mutex<Vec<(vk::CommandBuffer, vk::Fence)>>,
+    /// One cache for every pipeline penumbra builds: a technique rebuilt on the same device (or
+    /// in the next run, with [`ContextDesc::pipeline_cache`]) skips the driver's compilation.
+    pub(crate) pipeline_cache: vk::PipelineCache,
+    pipeline_cache_path: Option<std::path::PathBuf>,
+    /// The host-visible buffer reads go through, grown on demand and kept.
+    pub(crate) readback: Mutex<super::commands::ReadbackStaging>,
+    /// What has been created on the device so far ([`Context::creation_counts`]).
+    pub(crate) counts: CreationCounters,
     pub(crate) info: DeviceInfo,
     owned: bool,
     /// Bytes of device memory held by live buffers and images made through penumbra: lets the
@@ -136,6 +152,134 @@ pub(crate) struct DeviceShared {
     pub(crate) live_bytes: std::sync::atomic::AtomicU64,
     // Dropped last: the messenger's user data points into it.
     log: Arc<ValidationLog>,
+}
+
+/// The optional device features penumbra uses when present, for a device the caller creates
+/// ([`Context::from_raw_with_features`]): each field says the feature was enabled.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EnabledFeatures {
+    /// `shaderFloat64`.
+    pub float64: bool,
+    /// `shaderInt64`.
+    pub int64: bool,
+    /// Vulkan 1.2 `shaderBufferInt64Atomics`.
+    pub int64_atomics: bool,
+    /// Vulkan 1.2 `shaderSubgroupExtendedTypes`.
+    pub subgroup_extended_types: bool,
+    /// `depthBiasClamp`.
+    pub depth_bias_clamp: bool,
+    /// `shaderClipDistance` (pvssm's and rmsm's page draws).
+    pub clip_distance: bool,
+}
+
+impl EnabledFeatures {
+    /// What `physical_device` supports of them: enable these when creating the device (see
+    /// [`EnabledFeatures::apply`]) and pass the same value to
+    /// [`Context::from_raw_with_features`].
+    pub fn supported(
+        instance: &ash::Instance,
+        physical_device: vk::PhysicalDevice,
+    ) -> Result<EnabledFeatures> {
+        Ok(EnabledFeatures::of(&query_info(instance, physical_device)?))
+    }
+
+    fn of(info: &DeviceInfo) -> EnabledFeatures {
+        EnabledFeatures {
+            float64: info.float64,
+            int64: info.int64,
+            int64_atomics: info.int64_atomics,
+            subgroup_extended_types: info.subgroup_extended_types,
+            depth_bias_clamp: info.depth_bias_clamp,
+            clip_distance: info.clip_distance,
+        }
+    }
+
+    /// Sets these features in the structures a `VkDeviceCreateInfo` chains (core features and
+    /// Vulkan 1.2 features); the caller's other settings are kept.
+    pub fn apply<'a>(
+        &self,
+        core: vk::PhysicalDeviceFeatures,
+        v12: vk::PhysicalDeviceVulkan12Features<'a>,
+    ) -> (
+        vk::PhysicalDeviceFeatures,
+        vk::PhysicalDeviceVulkan12Features<'a>,
+    ) {
+        let core = core
+            .shader_float64(self.float64 || core.shader_float64 == vk::TRUE)
+            .shader_int64(self.int64 || core.shader_int64 == vk::TRUE)
+            .depth_bias_clamp(self.depth_bias_clamp || core.depth_bias_clamp == vk::TRUE)
+            .shader_clip_distance(self.clip_distance || core.shader_clip_distance == vk::TRUE);
+        let v12 = v12
+            .shader_buffer_int64_atomics(
+                self.int64_atomics || v12.shader_buffer_int64_atomics == vk::TRUE,
+            )
+            .shader_subgroup_extended_types(
+                self.subgroup_extended_types || v12.shader_subgroup_extended_types == vk::TRUE,
+            );
+        (core, v12)
+    }
+
+    /// (name, in `self`, in `other`) per feature.
+    fn pairs(&self, other: &EnabledFeatures) -> [(&'static str, bool, bool); 6] {
+        [
+            ("shaderFloat64", self.float64, other.float64),
+            ("shaderInt64", self.int64, other.int64),
+            (
+                "shaderBufferInt64Atomics",
+                self.int64_atomics,
+                other.int64_atomics,
+            ),
+            (
+                "shaderSubgroupExtendedTypes",
+                self.subgroup_extended_types,
+                other.subgroup_extended_types,
+            ),
+            (
+                "depthBiasClamp",
+                self.depth_bias_clamp,
+                other.depth_bias_clamp,
+            ),
+            (
+                "shaderClipDistance",
+                self.clip_distance,
+                other.clip_distance,
+            ),
+        ]
+    }
+}
+
+/// Running totals of what penumbra has created on the device.
+#[derive(Default)]
+pub(crate) struct CreationCounters {
+    pub(crate) memory: std::sync::atomic::AtomicU64,
+    pub(crate) objects: std::sync::atomic::AtomicU64,
+}
+
+impl CreationCounters {
+    /// Counts one device-memory allocation (a buffer's or image's).
+    pub(crate) fn memory(&self) {
+        self.memory
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// Counts one other Vulkan object (pipeline, descriptor set, view, sampler, query pool,
+    /// command buffer, fence).
+    pub(crate) fn object(&self) {
+        self.objects
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+/// How many device-memory allocations and other Vulkan objects penumbra has created on a
+/// context since it was made ([`Context::creation_counts`]): the difference across frames shows
+/// whether a steady-state frame allocates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct CreationCounts {
+    /// Device-memory allocations (buffers and images, staging included).
+    pub memory_allocations: u64,
+    /// Other Vulkan objects: pipelines, layouts, descriptor pools and sets, image and buffer
+    /// views, samplers, query pools, command buffers and fences.
+    pub objects: u64,
 }
 
 /// A Vulkan device and everything shared by the resources created on it. Cheap to clone.
@@ -499,6 +643,7 @@ impl Context {
             info,
             true,
             log,
+            desc.pipeline_cache.clone(),
         ) {
             Ok(shared) => {
                 let mut shared = shared;
@@ -519,7 +664,8 @@ impl Context {
     /// objects. The device must have been created with Vulkan 1.3's `dynamicRendering` and
     /// `synchronization2` enabled and a queue from `queue_family` supporting graphics and compute.
     ///
-    /// penumbra cannot see which optional features the caller enabled, so it assumes none:
+    /// penumbra cannot see which optional features the caller enabled, so it assumes none
+    /// ([`Context::from_raw_with_features`] says which):
     /// float64/int64 shader variants, 64-bit atomics, depth-bias clamping and clip distances are
     /// reported as absent (techniques then take their portable paths or say the feature is
     /// unsupported), and debug labels and object names are off (`VK_EXT_debug_utils` may not be enabled).
@@ -537,6 +683,36 @@ impl Context {
         device: ash::Device,
         queue_family: u32,
     ) -> Result<Context> {
+        // SAFETY: the caller's contract, passed on.
+        unsafe {
+            Self::from_raw_with_features(
+                entry,
+                instance,
+                physical_device,
+                device,
+                queue_family,
+                &EnabledFeatures::default(),
+            )
+        }
+    }
+
+    /// [`Context::from_raw`] for a device the caller created with the optional features in
+    /// `enabled` on: penumbra then uses them (e.g. `shaderClipDistance`, which `pvssm`'s page
+    /// draws need). [`EnabledFeatures::supported`] lists what the physical device offers. A
+    /// feature claimed but not supported by the physical device is an
+    /// [`Error::InvalidArgument`].
+    ///
+    /// # Safety
+    /// As [`Context::from_raw`]; and every feature in `enabled` must really have been enabled
+    /// when the device was created.
+    pub unsafe fn from_raw_with_features(
+        entry: ash::Entry,
+        instance: ash::Instance,
+        physical_device: vk::PhysicalDevice,
+        device: ash::Device,
+        queue_family: u32,
+        enabled: &EnabledFeatures,
+    ) -> Result<Context> {
         let mut info = query_info(&instance, physical_device)?;
         if let Err(why) = &info.usable {
             return Err(Error::Unsupported {
@@ -544,12 +720,21 @@ impl Context {
                 feature: why.clone(),
             });
         }
-        info.float64 = false;
-        info.int64 = false;
-        info.int64_atomics = false;
-        info.subgroup_extended_types = false;
-        info.depth_bias_clamp = false;
-        info.clip_distance = false;
+        let supported = EnabledFeatures::of(&info);
+        for (name, claimed, offered) in enabled.pairs(&supported) {
+            if claimed && !offered {
+                return Err(Error::InvalidArgument(format!(
+                    "{name} is claimed enabled, but device '{}' does not support it",
+                    info.name
+                )));
+            }
+        }
+        info.float64 = enabled.float64;
+        info.int64 = enabled.int64;
+        info.int64_atomics = enabled.int64_atomics;
+        info.subgroup_extended_types = enabled.subgroup_extended_types;
+        info.depth_bias_clamp = enabled.depth_bias_clamp;
+        info.clip_distance = enabled.clip_distance;
         let debug_utils = false;
         let shared = Self::assemble(
             entry,
@@ -561,6 +746,7 @@ impl Context {
             info,
             false,
             Arc::new(ValidationLog::default()),
+            None,
         )?;
         Ok(Context {
             shared: Arc::new(shared),
@@ -581,6 +767,7 @@ impl Context {
         info: DeviceInfo,
         owned: bool,
         log: Arc<ValidationLog>,
+        pipeline_cache_path: Option<std::path::PathBuf>,
     ) -> Result<DeviceShared> {
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -600,6 +787,23 @@ impl Context {
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         let command_pool =
             unsafe { device.create_command_pool(&pool_info, None) }.vk("vkCreateCommandPool")?;
+        // Seed data only from a file whose header names this device; anything else starts empty
+        // (the driver would ignore it too, but a truncated file must not reach it).
+        let seed = pipeline_cache_path
+            .as_deref()
+            .and_then(|p| std::fs::read(p).ok())
+            .filter(|d| pipeline_cache_header_matches(d, &instance, physical_device))
+            .unwrap_or_default();
+        let cache_info = vk::PipelineCacheCreateInfo::default().initial_data(&seed);
+        let pipeline_cache = match unsafe { device.create_pipeline_cache(&cache_info, None) }
+            .vk("vkCreatePipelineCache")
+        {
+            Ok(c) => c,
+            Err(e) => {
+                unsafe { device.destroy_command_pool(command_pool, None) };
+                return Err(e);
+            }
+        };
         let debug_utils =
             debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         Ok(DeviceShared {
@@ -613,6 +817,11 @@ impl Context {
             messenger: None,
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             command_pool: Mutex::new(command_pool),
+            submit_slots: Mutex::new(Vec::new()),
+            pipeline_cache,
+            pipeline_cache_path,
+            readback: Mutex::new(Default::default()),
+            counts: CreationCounters::default(),
             info,
             owned,
             live_bytes: std::sync::atomic::AtomicU64::new(0),
@@ -663,6 +872,44 @@ impl Context {
             .load(std::sync::atomic::Ordering::Relaxed)
     }
 
+    /// How many device-memory allocations and other Vulkan objects penumbra has created on this
+    /// context so far.
+    pub fn creation_counts(&self) -> CreationCounts {
+        use std::sync::atomic::Ordering::Relaxed;
+        CreationCounts {
+            memory_allocations: self.shared.counts.memory.load(Relaxed),
+            objects: self.shared.counts.objects.load(Relaxed),
+        }
+    }
+
+    /// The pipeline cache's contents, as `vkGetPipelineCacheData` returns them.
+    pub fn pipeline_cache_data(&self) -> Result<Vec<u8>> {
+        unsafe {
+            self.device()
+                .get_pipeline_cache_data(self.shared.pipeline_cache)
+        }
+        .vk("vkGetPipelineCacheData")
+    }
+
+    /// Writes the pipeline cache to [`ContextDesc::pipeline_cache`] (written whole to a temporary
+    /// file, then renamed, so a reader never sees half of it). Does nothing without a path.
+    pub fn save_pipeline_cache(&self) -> Result<()> {
+        let Some(path) = &self.shared.pipeline_cache_path else {
+            return Ok(());
+        };
+        let data = self.pipeline_cache_data()?;
+        let io = |source| Error::Io {
+            path: path.clone(),
+            source,
+        };
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(io)?;
+        }
+        let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+        std::fs::write(&tmp, &data).map_err(io)?;
+        std::fs::rename(&tmp, path).map_err(io)
+    }
+
     /// Fails with [`Error::Unsupported`] unless `present`.
     pub fn require(&self, present: bool, feature: &str) -> Result<()> {
         if present {
@@ -698,6 +945,25 @@ impl Context {
             }
         }
     }
+}
+
+/// Whether `data` starts with a version-one pipeline cache header for this physical device
+/// (Vulkan spec, "Pipeline Cache": length, version, vendor ID, device ID, cache UUID).
+fn pipeline_cache_header_matches(
+    data: &[u8],
+    instance: &ash::Instance,
+    pd: vk::PhysicalDevice,
+) -> bool {
+    if data.len() < 32 {
+        return false;
+    }
+    let word = |i: usize| u32::from_le_bytes([data[i], data[i + 1], data[i + 2], data[i + 3]]);
+    let props = unsafe { instance.get_physical_device_properties(pd) };
+    word(0) as usize >= 32
+        && word(4) == vk::PipelineCacheHeaderVersion::ONE.as_raw() as u32
+        && word(8) == props.vendor_id
+        && word(12) == props.device_id
+        && data[16..32] == props.pipeline_cache_uuid
 }
 
 fn create_device(
@@ -744,7 +1010,24 @@ impl Drop for DeviceShared {
                 .command_pool
                 .get_mut()
                 .unwrap_or_else(|e| e.into_inner());
+            let slots = self
+                .submit_slots
+                .get_mut()
+                .unwrap_or_else(|e| e.into_inner());
+            for (_, fence) in slots.drain(..) {
+                self.device.destroy_fence(fence, None);
+            }
+            // Freeing the pool frees the pooled command buffers with it.
             self.device.destroy_command_pool(pool, None);
+            self.device
+                .destroy_pipeline_cache(self.pipeline_cache, None);
+            self.readback
+                .get_mut()
+                .unwrap_or_else(|e| e.into_inner())
+                .destroy(
+                    &self.device,
+                    &mut self.allocator.lock().unwrap_or_else(|e| e.into_inner()),
+                );
             // The allocator frees its memory blocks, so it must go before the device.
             ManuallyDrop::drop(&mut self.allocator);
             if self.owned {

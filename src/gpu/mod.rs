@@ -1,4 +1,7 @@
 //! The GPU layer: Vulkan objects on raw `ash` that free themselves, and nothing about shadows.
+//! For power users and tests: the main path ([`crate::Engine`], [`crate::ShadowRenderer`]) needs
+//! only [`Context`] (to wrap a device) and [`Image::borrowed`] (to hand penumbra an image).
+//!
 //!
 //! - [`Context`]: instance, device, queue, allocator, validation log (`context.rs`).
 //! - [`Buffer`], [`Image`], [`Sampler`]: RAII resources (`resources.rs`).
@@ -16,7 +19,9 @@ mod timestamps;
 mod validation;
 
 pub use commands::{f32s, u32s, Recorder};
-pub use context::{enumerate_devices, Context, ContextDesc, DeviceInfo};
+pub use context::{
+    enumerate_devices, Context, ContextDesc, CreationCounts, DeviceInfo, EnabledFeatures,
+};
 pub use pipeline::{
     shader_interface, shader_names, shader_spirv, Binding, DescriptorSet, GraphicsDesc, Pipeline,
 };

@@ -51,6 +51,7 @@ impl<'a> Module<'a> {
         let info = vk::ShaderModuleCreateInfo::default().code(words);
         let raw =
             unsafe { ctx.device().create_shader_module(&info, None) }.vk("vkCreateShaderModule")?;
+        ctx.shared.counts.object();
         ctx.set_name(raw, name);
         Ok(Module { ctx, raw })
     }
@@ -113,6 +114,7 @@ fn create_layout(ctx: &Context, name: &str, stages: &[&ShaderInterface]) -> Resu
     let set_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&vk_bindings);
     let set_layout = unsafe { device.create_descriptor_set_layout(&set_info, None) }
         .vk("vkCreateDescriptorSetLayout")?;
+    ctx.shared.counts.object();
     let ranges = [vk::PushConstantRange {
         stage_flags: push_stages,
         offset: 0,
@@ -186,7 +188,7 @@ impl Pipeline {
             .layout(layout.layout);
         let raw = match unsafe {
             ctx.device()
-                .create_compute_pipelines(vk::PipelineCache::null(), &[info], None)
+                .create_compute_pipelines(ctx.shared.pipeline_cache, &[info], None)
         } {
             Ok(p) => p[0],
             Err((_, result)) => {
@@ -198,6 +200,7 @@ impl Pipeline {
             }
         };
         ctx.set_name(raw, shader);
+        ctx.shared.counts.object();
         Ok(Pipeline {
             ctx: ctx.clone(),
             raw,
@@ -301,7 +304,7 @@ impl Pipeline {
             .push_next(&mut rendering);
         let raw = match unsafe {
             ctx.device()
-                .create_graphics_pipelines(vk::PipelineCache::null(), &[info], None)
+                .create_graphics_pipelines(ctx.shared.pipeline_cache, &[info], None)
         } {
             Ok(p) => p[0],
             Err((_, result)) => {
@@ -313,6 +316,7 @@ impl Pipeline {
             }
         };
         ctx.set_name(raw, desc.vertex);
+        ctx.shared.counts.object();
         Ok(Pipeline {
             ctx: ctx.clone(),
             raw,
@@ -447,6 +451,7 @@ impl DescriptorSet {
             .pool_sizes(&sizes);
         let pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
             .vk("vkCreateDescriptorPool")?;
+        ctx.shared.counts.object();
         let mut set = DescriptorSet {
             ctx: ctx.clone(),
             pool,

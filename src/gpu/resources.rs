@@ -38,6 +38,7 @@ fn allocate(
     ctx.shared
         .live_bytes
         .fetch_add(allocation.size(), std::sync::atomic::Ordering::Relaxed);
+    ctx.shared.counts.memory();
     Ok(allocation)
 }
 
@@ -183,6 +184,7 @@ impl Buffer {
             .range(texels * texel_bytes);
         let raw = unsafe { self.ctx.device().create_buffer_view(&info, None) }
             .vk("vkCreateBufferView")?;
+        self.ctx.shared.counts.object();
         Ok(TexelView {
             ctx: self.ctx.clone(),
             raw,
@@ -333,9 +335,74 @@ impl Image {
             .subresource_range(image.subresource_range());
         image.view =
             unsafe { device.create_image_view(&view_info, None) }.vk("vkCreateImageView")?;
+        ctx.shared.counts.object();
         ctx.set_name(raw, name);
         ctx.set_name(image.view, name);
         Ok(image)
+    }
+
+    /// Wraps an image the caller created and keeps owning: penumbra makes (and destroys) a view
+    /// of it, never its memory or the image itself. `desc` states what the image is (format,
+    /// size, the usage it was created with) and `layout` the layout it is in whenever penumbra
+    /// records commands that use it; penumbra leaves it in that layout again at the end of each
+    /// recording: the first use in a recording waits for everything submitted before it (a
+    /// barrier from all commands' writes), and the recording ends with a barrier returning the
+    /// image to `layout` and making penumbra's writes visible to all later commands. The caller
+    /// needs no barrier of its own on either side.
+    ///
+    /// Returns [`Error::InvalidArgument`] for a layout whose contents Vulkan may discard (`UNDEFINED`,
+    /// `PREINITIALIZED`) or a zero or oversized extent.
+    ///
+    /// # Safety
+    /// `raw` must be a valid 2D, single-mip, single-layer image of `ctx`'s device created as
+    /// `desc` says, and outlive the returned `Image` and everything recorded with it.
+    pub unsafe fn borrowed(
+        ctx: &Context,
+        name: &str,
+        raw: vk::Image,
+        desc: ImageDesc,
+        layout: vk::ImageLayout,
+    ) -> Result<Image> {
+        if matches!(
+            layout,
+            vk::ImageLayout::UNDEFINED | vk::ImageLayout::PREINITIALIZED
+        ) {
+            return Err(Error::InvalidArgument(format!(
+                "image '{name}' is stated to be in layout {layout:?}, whose contents Vulkan may \
+                 discard: state the layout it holds its data in (e.g. GENERAL)"
+            )));
+        }
+        let limit = ctx.info().max_image_dimension_2d;
+        if desc.width == 0 || desc.height == 0 || desc.width > limit || desc.height > limit {
+            return Err(Error::InvalidArgument(format!(
+                "image '{name}' is stated to be {}x{}: expected 1..={limit} per side",
+                desc.width, desc.height
+            )));
+        }
+        let mut image = Image {
+            ctx: ctx.clone(),
+            raw,
+            view: vk::ImageView::null(),
+            allocation: None,
+            desc,
+            name: name.to_string(),
+            tracker: Arc::new(Tracker::external(layout)),
+        };
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(raw)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(desc.format)
+            .subresource_range(image.subresource_range());
+        image.view =
+            unsafe { ctx.device().create_image_view(&view_info, None) }.vk("vkCreateImageView")?;
+        ctx.shared.counts.object();
+        ctx.set_name(image.view, name);
+        Ok(image)
+    }
+
+    /// Whether the caller owns it ([`Image::borrowed`]).
+    pub fn is_borrowed(&self) -> bool {
+        self.tracker.external.is_some()
     }
 
     /// The whole image.
@@ -377,9 +444,13 @@ impl Image {
 impl Drop for Image {
     fn drop(&mut self) {
         let device = self.ctx.device();
-        unsafe { device.destroy_image_view(self.view, None) };
-        free(&self.ctx, self.allocation.take());
-        unsafe { device.destroy_image(self.raw, None) };
+        if self.view != vk::ImageView::null() {
+            unsafe { device.destroy_image_view(self.view, None) };
+        }
+        if !self.is_borrowed() {
+            free(&self.ctx, self.allocation.take());
+            unsafe { device.destroy_image(self.raw, None) };
+        }
     }
 }
 
@@ -405,6 +476,7 @@ impl Sampler {
             .border_color(vk::BorderColor::FLOAT_OPAQUE_WHITE)
             .max_lod(0.0);
         let raw = unsafe { ctx.device().create_sampler(&info, None) }.vk("vkCreateSampler")?;
+        ctx.shared.counts.object();
         ctx.set_name(raw, name);
         Ok(Sampler {
             ctx: ctx.clone(),

@@ -119,6 +119,10 @@ struct State {
 #[derive(Debug)]
 pub(crate) struct Tracker {
     state: Mutex<State>,
+    /// For an image the caller owns: the layout it is in between penumbra's recordings. Each
+    /// recording that uses it starts from that layout ([`Tracker::enter_external`]) and returns
+    /// it there ([`Tracker::leave_external`]).
+    pub(crate) external: Option<vk::ImageLayout>,
 }
 
 /// The barrier a use needs: (src stage, src access, dst stage, dst access, old layout, new layout).
@@ -139,7 +143,18 @@ impl Tracker {
                 last_write: None,
                 read_stages: vk::PipelineStageFlags2::NONE,
             }),
+            external: None,
         }
+    }
+
+    /// The tracker of an image the caller owns, in `layout` between penumbra's recordings.
+    pub(crate) fn external(layout: vk::ImageLayout) -> Self {
+        let t = Tracker {
+            external: Some(layout),
+            ..Tracker::new()
+        };
+        t.enter_external(layout);
+        t
     }
 
     /// Records a use and returns the barrier it needs, if any. `is_image` decides whether layouts
@@ -208,6 +223,45 @@ impl Tracker {
         };
         s.read_stages |= stage;
         result
+    }
+
+    /// Starts a recording on an image the caller owns, in `layout`: whatever the caller did
+    /// before is treated as a write at every stage, so penumbra's first use waits for all of it.
+    pub(crate) fn enter_external(&self, layout: vk::ImageLayout) {
+        let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        *s = State {
+            layout,
+            last_write: Some((
+                vk::PipelineStageFlags2::ALL_COMMANDS,
+                vk::AccessFlags2::MEMORY_WRITE,
+            )),
+            read_stages: vk::PipelineStageFlags2::NONE,
+        };
+    }
+
+    /// Ends a recording on an image the caller owns: the barrier that returns it to `layout`
+    /// with penumbra's accesses made available to every later command of any stage, so the
+    /// caller needs no barrier of its own after penumbra's commands.
+    pub(crate) fn leave_external(&self, layout: vk::ImageLayout) -> Transition {
+        let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        let (w_stage, w_access) = s.last_write.unwrap_or_default();
+        let t = Transition {
+            src_stage: w_stage | s.read_stages,
+            src_access: w_access,
+            dst_stage: vk::PipelineStageFlags2::ALL_COMMANDS,
+            dst_access: vk::AccessFlags2::MEMORY_READ | vk::AccessFlags2::MEMORY_WRITE,
+            old_layout: s.layout,
+            new_layout: layout,
+        };
+        *s = State {
+            layout,
+            last_write: Some((
+                vk::PipelineStageFlags2::ALL_COMMANDS,
+                vk::AccessFlags2::MEMORY_WRITE,
+            )),
+            read_stages: vk::PipelineStageFlags2::NONE,
+        };
+        t
     }
 
     /// Marks the contents as discardable (next use transitions from UNDEFINED).

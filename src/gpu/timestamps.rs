@@ -35,6 +35,7 @@ impl Timestamps {
             .query_count(max_passes.max(1) * 2);
         let pool =
             unsafe { ctx.device().create_query_pool(&info, None) }.vk("vkCreateQueryPool")?;
+        ctx.shared.counts.object();
         ctx.set_name(pool, "pass timestamps");
         Ok(Timestamps {
             ctx: ctx.clone(),

@@ -1,7 +1,8 @@
 //! The passes every technique builds on: the scene's geometry on the GPU, the light-view depth
 //! map and the camera's view samples (raster); the light views they are rendered with, including
 //! the receiver fit and the compute pass that bounds the view samples in the light's view for it;
-//! and the receivers prepared around each shadow-map technique (compute).
+//! the receivers prepared around each shadow-map technique (compute); and the visibility checks
+//! that count NaN, infinite and out-of-range results on the GPU.
 
 pub mod cascade_fit;
 mod geometry;
@@ -12,6 +13,7 @@ pub mod pages;
 mod receiver_bounds;
 pub mod receivers;
 mod view_samples;
+mod visibility_checks;
 
 pub use geometry::SceneGeometry;
 pub use light_depth::{
@@ -23,4 +25,6 @@ pub use light_view::{
 };
 pub use receiver_bounds::{ReceiverBounds, ReceiverBoundsPass};
 pub use receivers::{ReceiverDesc, Receivers};
+pub(crate) use view_samples::check_image;
 pub use view_samples::ViewSamples;
+pub use visibility_checks::{VisibilityChecks, VisibilityCounts};

@@ -10,21 +10,23 @@ use ash::vk;
 use glam::Vec4;
 
 use super::SceneGeometry;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::gpu::{f32s, Access, Context, GraphicsDesc, Image, ImageDesc, Pipeline, Recorder};
 use crate::scene::Camera;
 use crate::shader_types::ViewSamplesPush;
 
 const SAMPLE_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
-/// The view-sample images and the pipeline that renders them.
+/// The view-sample images and the pipeline that renders them, or the caller's own images of the
+/// same layout ([`ViewSamples::from_images`]).
 pub struct ViewSamples {
-    pipeline: Pipeline,
+    /// The raster pipeline and depth buffer; `None` for the caller's images, which penumbra
+    /// reads but never renders.
+    raster: Option<(Pipeline, Image)>,
     /// xyz world position, w = 1 for a sample and 0 for background.
     pub positions: Image,
     /// xyz normal facing the camera, w linear view depth.
     pub normals: Image,
-    depth: Image,
     /// Width in pixels.
     pub width: u32,
     /// Height in pixels.
@@ -51,8 +53,18 @@ impl ViewSamples {
         let color_usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
             | vk::ImageUsageFlags::STORAGE
             | vk::ImageUsageFlags::TRANSFER_SRC;
+        let depth = Image::new(
+            ctx,
+            "view depth",
+            ImageDesc::new_2d(
+                vk::Format::D32_SFLOAT,
+                w,
+                h,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            ),
+        )?;
         Ok(ViewSamples {
-            pipeline,
+            raster: Some((pipeline, depth)),
             positions: Image::new(
                 ctx,
                 "view positions",
@@ -63,38 +75,57 @@ impl ViewSamples {
                 "view normals",
                 ImageDesc::new_2d(SAMPLE_FORMAT, w, h, color_usage),
             )?,
-            depth: Image::new(
-                ctx,
-                "view depth",
-                ImageDesc::new_2d(
-                    vk::Format::D32_SFLOAT,
-                    w,
-                    h,
-                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-                ),
-            )?,
             width: w,
             height: h,
         })
     }
 
-    /// Records the pass (named `view-samples`).
+    /// View samples the caller rendered: `positions` (xyz world position, w > 0 for a sample and
+    /// 0 for background) and `normals` (xyz unit normal facing the camera, w linear view depth),
+    /// both RGBA32F with `STORAGE` usage and `camera`'s size — usually [`Image::borrowed`]
+    /// wrappers of the caller's G-buffer. Anything else is an [`Error::InvalidArgument`] naming
+    /// the image and what was expected.
+    pub fn from_images(camera: &Camera, positions: Image, normals: Image) -> Result<ViewSamples> {
+        for image in [&positions, &normals] {
+            check_image(image, SAMPLE_FORMAT, camera.width, camera.height)?;
+        }
+        Ok(ViewSamples {
+            raster: None,
+            positions,
+            normals,
+            width: camera.width,
+            height: camera.height,
+        })
+    }
+
+    /// Whether these are the caller's images ([`ViewSamples::from_images`]).
+    pub fn is_external(&self) -> bool {
+        self.raster.is_none()
+    }
+
+    /// Records the pass (named `view-samples`). Fails for the caller's images, which the caller
+    /// renders.
     pub fn record(
         &self,
         rec: &mut Recorder<'_>,
         geometry: &SceneGeometry,
         camera: &Camera,
     ) -> Result<()> {
+        let Some((pipeline, depth)) = &self.raster else {
+            return Err(Error::InvalidArgument(
+                "the view samples are the caller's images: the caller renders them".into(),
+            ));
+        };
         rec.begin_pass("view-samples")?;
         rec.use_buffer(&geometry.vertices, Access::VertexInput);
         rec.use_buffer(&geometry.indices, Access::VertexInput);
         rec.begin_rendering(
             &[(&self.positions, [0.0; 4]), (&self.normals, [0.0; 4])],
-            (&self.depth, 1.0),
+            (depth, 1.0),
         );
         let forward = (camera.target - camera.position).normalize_or_zero();
         let result = rec.draw_indexed(
-            &self.pipeline,
+            pipeline,
             &geometry.vertices,
             &geometry.indices,
             geometry.index_count,
@@ -119,6 +150,37 @@ impl ViewSamples {
     pub fn read_normals(&self, ctx: &Context) -> Result<Vec<Vec4>> {
         Ok(to_vec4(&f32s(&ctx.read_image(&self.normals)?)))
     }
+}
+
+/// That `image` is a storage image of `format` and `width`×`height`, as a technique binding it
+/// expects; otherwise an error naming the image and what was expected.
+pub(crate) fn check_image(
+    image: &Image,
+    format: vk::Format,
+    width: u32,
+    height: u32,
+) -> Result<()> {
+    let d = &image.desc;
+    if d.format != format {
+        return Err(Error::InvalidArgument(format!(
+            "image '{}' is {:?}: expected {format:?}",
+            image.name, d.format
+        )));
+    }
+    if (d.width, d.height) != (width, height) {
+        return Err(Error::InvalidArgument(format!(
+            "image '{}' is {}x{}: expected {width}x{height} (the camera's size)",
+            image.name, d.width, d.height
+        )));
+    }
+    if !d.usage.contains(vk::ImageUsageFlags::STORAGE) {
+        return Err(Error::InvalidArgument(format!(
+            "image '{}' lacks STORAGE usage (has {:?}): penumbra's compute passes bind it as a \
+             storage image",
+            image.name, d.usage
+        )));
+    }
+    Ok(())
 }
 
 fn to_vec4(f: &[f32]) -> Vec<Vec4> {

@@ -17,7 +17,6 @@ use std::path::PathBuf;
 
 use anyhow::Context as _;
 use penumbra::engine::{Engine, Frame};
-use penumbra::gpu::ContextDesc;
 use penumbra::scene::Scene;
 
 /// Supersampling factor per axis of the candidate (the paper's 8 × 8).
@@ -161,10 +160,7 @@ pub fn run(args: &AntialiasingArgs) -> anyhow::Result<()> {
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let engine = Engine::new(&ContextDesc {
-        validation: args.validation,
-        device: args.device.clone(),
-    })?;
+    let engine = crate::engine_with_pipeline_cache(args.validation, args.device.clone())?;
     let mut rows = Vec::new();
     for spec in &args.scenes {
         let mut scene = Scene::open(spec)?;

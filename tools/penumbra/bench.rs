@@ -16,7 +16,6 @@ use indicatif::{ProgressBar, ProgressStyle};
 use penumbra::evaluate::{evaluate, reference_frame, ViewData};
 use penumbra::plots::{write_pareto_chart, ParetoPoint};
 use penumbra::scene::Scene;
-use penumbra::{ContextDesc, Engine};
 
 /// What to run.
 pub struct BenchArgs {
@@ -399,10 +398,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let engine = Engine::new(&ContextDesc {
-        validation: args.validation,
-        device: args.device.clone(),
-    })?;
+    let engine = crate::engine_with_pipeline_cache(args.validation, args.device.clone())?;
     let ctx = engine.context().clone();
     let bar = ProgressBar::new((scenes.len() * variants.len() * (plan.len() + 1)) as u64);
     bar.set_style(
@@ -830,7 +826,7 @@ pub fn run_kernels(
     device: Option<String>,
     validation: bool,
 ) -> anyhow::Result<()> {
-    let engine = Engine::new(&ContextDesc { validation, device })?;
+    let engine = crate::engine_with_pipeline_cache(validation, device)?;
     let ctx = engine.context();
     let bar = ProgressBar::new_spinner();
     bar.enable_steady_tick(Duration::from_millis(200));

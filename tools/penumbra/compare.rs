@@ -27,7 +27,7 @@ use penumbra::plots::{error_pixel, write_error_heatmap, write_pareto_chart, Pare
 use penumbra::report::{self, Cell, Page, SheetCell};
 use penumbra::scene::Scene;
 use penumbra::techniques::{find, registry};
-use penumbra::{output, ContextDesc, Engine, Frame};
+use penumbra::{output, Frame};
 
 use super::{finish_validation, progress, validation_summary, DeviceArgs};
 
@@ -152,10 +152,7 @@ pub fn run(args: &CompareArgs<'_>) -> anyhow::Result<()> {
     bar.inc(1);
     bar.set_message("creating the Vulkan device");
     let validation = !args.device.no_validation;
-    let engine = Engine::new(&ContextDesc {
-        validation,
-        device: args.device.device.clone(),
-    })?;
+    let engine = crate::engine_with_pipeline_cache(validation, args.device.device.clone())?;
     let ctx = engine.context();
     bar.inc(1);
     bar.set_message(format!(

@@ -5,6 +5,7 @@ mod antialiasing;
 mod bench;
 mod bench_page;
 mod compare;
+mod reuse;
 mod scaling;
 mod selection;
 mod skipping;
@@ -143,7 +144,9 @@ enum Command {
         /// view samples and the light grow, with fitted growth exponents and `scaling.png`) or
         /// `skipping` (every technique with its work skipping on and off: speed-up, output
         /// difference, what was skipped) or `selection` (the calibration table for
-        /// `--technique auto`, then its check on ten held-out scenes).
+        /// `--technique auto`, then its check on ten held-out scenes) or `reuse` (the host CPU
+        /// time of a technique's first frame, its next frame with the same renderer, and a
+        /// rebuilt one: what keeping a `ShadowRenderer` saves).
         #[arg(long, default_value = "techniques")]
         suite: String,
         /// Scenes (files or procedural specs), comma-separated; default: every bundled scene.
@@ -339,10 +342,7 @@ fn render(
     }
     bar.inc(1);
     bar.set_message("creating the Vulkan device");
-    let engine = Engine::new(&ContextDesc {
-        validation: !device.no_validation,
-        device: device.device.clone(),
-    })?;
+    let engine = crate::engine_with_pipeline_cache(!device.no_validation, device.device.clone())?;
     bar.inc(1);
     bar.set_message(format!(
         "view samples ({} triangles)",
@@ -661,6 +661,45 @@ fn techniques(json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// An engine whose pipeline cache is read from and, when it drops, written to the cache
+/// directory (`pipelines.bin`; `PENUMBRA_PIPELINE_CACHE` names another file, `off` disables it):
+/// a later run builds its pipelines from the cache instead of compiling them again.
+pub(crate) struct CliEngine(Engine);
+
+impl std::ops::Deref for CliEngine {
+    type Target = Engine;
+    fn deref(&self) -> &Engine {
+        &self.0
+    }
+}
+
+impl Drop for CliEngine {
+    fn drop(&mut self) {
+        if let Err(e) = self.0.context().save_pipeline_cache() {
+            // The cache only saves time; a run whose results are written must not fail over it.
+            eprintln!("warning: pipeline cache not saved: {e}");
+        }
+    }
+}
+
+/// The engine every command runs on: validation as asked, the device by name or preference,
+/// the pipeline cache from the cache directory.
+pub(crate) fn engine_with_pipeline_cache(
+    validation: bool,
+    device: Option<String>,
+) -> anyhow::Result<CliEngine> {
+    let pipeline_cache = match std::env::var_os("PENUMBRA_PIPELINE_CACHE") {
+        Some(v) if v == "off" => None,
+        Some(v) if !v.is_empty() => Some(PathBuf::from(v)),
+        _ => penumbra::cache::default_dir().map(|d| d.join("pipelines.bin")),
+    };
+    Ok(CliEngine(Engine::new(&ContextDesc {
+        validation,
+        device,
+        pipeline_cache,
+    })?))
+}
+
 fn main() {
     let cli = Cli::parse();
     let result = match &cli.command {
@@ -792,6 +831,22 @@ fn main() {
         }),
         Command::Bench {
             suite,
+            scenes,
+            techniques,
+            quick,
+            out,
+            device,
+            ..
+        } if suite == "reuse" => reuse::run(&reuse::ReuseArgs {
+            scenes: scenes.clone(),
+            techniques: techniques.clone(),
+            quick: *quick,
+            out: out.clone(),
+            device: device.device.clone(),
+            validation: !device.no_validation,
+        }),
+        Command::Bench {
+            suite,
             quick,
             max_error,
             out,
@@ -808,7 +863,7 @@ fn main() {
         }),
         Command::Bench { suite, .. } if suite != "techniques" => Err(anyhow::anyhow!(
             "unknown suite '{suite}': expected 'techniques', 'kernels', 'antialiasing', \
-             'scaling', 'skipping' or 'selection'"
+             'scaling', 'skipping', 'selection' or 'reuse'"
         )),
         Command::Bench {
             suite: _,

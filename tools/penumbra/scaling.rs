@@ -11,8 +11,6 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::Context as _;
-use penumbra::engine::Engine;
-use penumbra::gpu::ContextDesc;
 use penumbra::scaling::{growth_exponent, write_scaling_chart, Curve, Panel};
 use penumbra::scene::Scene;
 
@@ -98,10 +96,7 @@ pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
     let techniques = crate::techniques_or_all(&args.techniques)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let engine = Engine::new(&ContextDesc {
-        validation: args.validation,
-        device: args.device.clone(),
-    })?;
+    let engine = crate::engine_with_pipeline_cache(args.validation, args.device.clone())?;
     let sweeps = sweeps(args.quick)?;
     let none = BTreeMap::new();
     // times[sweep][technique] = points

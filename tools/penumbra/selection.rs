@@ -24,7 +24,6 @@ use std::path::PathBuf;
 use anyhow::Context as _;
 use penumbra::engine::{Engine, PreparedScene};
 use penumbra::evaluate::{evaluate, reference_frame, ViewData};
-use penumbra::gpu::ContextDesc;
 use penumbra::scene::Scene;
 use penumbra::selection::{analyse, Calibration, CalibrationRow, CANDIDATES};
 
@@ -86,10 +85,7 @@ pub fn run(args: &SelectionArgs) -> anyhow::Result<()> {
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let engine = Engine::new(&ContextDesc {
-        validation: args.validation,
-        device: args.device.clone(),
-    })?;
+    let engine = crate::engine_with_pipeline_cache(args.validation, args.device.clone())?;
     let ctx = engine.context();
     let cache = args.cache.as_deref();
 

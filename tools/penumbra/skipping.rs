@@ -26,8 +26,6 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::Context as _;
-use penumbra::engine::Engine;
-use penumbra::gpu::ContextDesc;
 use penumbra::scene::Scene;
 use penumbra::techniques::find;
 
@@ -153,10 +151,7 @@ pub fn run(args: &SkippingArgs) -> anyhow::Result<()> {
     let techniques = crate::techniques_or_all(&args.techniques)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let engine = Engine::new(&ContextDesc {
-        validation: args.validation,
-        device: args.device.clone(),
-    })?;
+    let engine = crate::engine_with_pipeline_cache(args.validation, args.device.clone())?;
     let ctx = engine.context();
     let scenes = scenes(args)?;
     let mut rows = Vec::new();

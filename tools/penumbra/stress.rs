@@ -8,8 +8,6 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use penumbra::engine::Engine;
-use penumbra::gpu::ContextDesc;
 use penumbra::stress::{self, cases, StressRow};
 
 /// What `penumbra stress` was asked to do.
@@ -58,10 +56,7 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
         std::fs::remove_dir_all(&failures)
             .with_context(|| format!("removing {}", failures.display()))?;
     }
-    let engine = Engine::new(&ContextDesc {
-        validation: args.validation,
-        device: args.device.clone(),
-    })?;
+    let engine = crate::engine_with_pipeline_cache(args.validation, args.device.clone())?;
     let ctx = engine.context().clone();
     let started = Instant::now();
     let mut baseline: BTreeMap<String, f64> = BTreeMap::new();

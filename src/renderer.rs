@@ -1,0 +1,304 @@
+//! A technique that lives across frames: [`ShadowRenderer`].
+//!
+//! [`crate::Engine::renderer`] builds a technique once for a prepared scene — its pipelines
+//! (through the context's pipeline cache), maps, descriptor sets, counters and query pool — and
+//! the renderer then records frame after frame with nothing created: command buffers and fences
+//! come from the context's pool, reads go through its one readback buffer, and the NaN/Inf and
+//! range checks are a GPU pass ([`VisibilityChecks`]) whose 12-byte result is the only thing
+//! read back. A frame is either submitted by penumbra ([`ShadowRenderer::render`], timed per
+//! pass) or recorded into the caller's command buffer ([`ShadowRenderer::record`]).
+//!
+//! The receivers (light clipping, normal offset) depend only on a few knobs and the light view,
+//! so they are shared view-sample data: a cache in the prepared scene keeps one per distinct description in
+//! the prepared scene, where every renderer of that scene can borrow it.
+
+use std::collections::BTreeMap;
+use std::sync::Mutex;
+
+use ash::vk;
+
+use crate::engine::PreparedScene;
+use crate::error::{Error, Result};
+use crate::gpu::{Context, PassTime, Timestamps};
+use crate::passes::{LightView, ReceiverDesc, Receivers, VisibilityChecks, VisibilityCounts};
+use crate::techniques::{Params, Technique, TechniqueInfo, TechniqueSetup};
+
+/// The receivers a prepared scene has built, one per (description, light view), never removed
+/// while the scene lives: renderers borrow them for the scene's lifetime.
+#[derive(Default)]
+pub(crate) struct ReceiverCache {
+    // Boxed and leaked into raw pointers so the `Receivers` never move while borrowed, and
+    // reclaimed only in `Drop`, when no borrow of the scene (hence of them) can remain.
+    entries: Mutex<Vec<(ReceiverDesc, bool, *mut Receivers)>>,
+}
+
+// SAFETY: the pointers are owned boxes, only dereferenced as shared references; `Receivers` is
+// itself Send + Sync (Vulkan handles and `Arc`s), so sharing or moving the cache is sharing or
+// moving boxes of it.
+unsafe impl Send for ReceiverCache {}
+unsafe impl Sync for ReceiverCache {}
+
+impl ReceiverCache {
+    /// The receivers for `desc` and the light view (`receiver_fit`: fitted to the view samples),
+    /// built with `make` the first time.
+    pub(crate) fn get_or_create(
+        &self,
+        desc: &ReceiverDesc,
+        receiver_fit: bool,
+        make: impl FnOnce() -> Result<Receivers>,
+    ) -> Result<&Receivers> {
+        let mut entries = self.entries.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, _, r)) = entries
+            .iter()
+            .find(|(d, fit, _)| d == desc && *fit == receiver_fit)
+        {
+            // SAFETY: a live box (see `entries`); shared borrows only.
+            return Ok(unsafe { &**r });
+        }
+        let r = Box::into_raw(Box::new(make()?));
+        entries.push((*desc, receiver_fit, r));
+        // SAFETY: as above; the box is freed only when `self` drops.
+        Ok(unsafe { &*r })
+    }
+
+    /// How many are held (each distinct knob set that changes them adds one).
+    pub(crate) fn len(&self) -> usize {
+        self.entries.lock().unwrap_or_else(|e| e.into_inner()).len()
+    }
+}
+
+impl Drop for ReceiverCache {
+    fn drop(&mut self) {
+        let entries = self.entries.get_mut().unwrap_or_else(|e| e.into_inner());
+        for (_, _, r) in entries.drain(..) {
+            // SAFETY: made by `Box::into_raw` above, freed once; `&mut self` means no borrow.
+            drop(unsafe { Box::from_raw(r) });
+        }
+    }
+}
+
+/// One technique built for one prepared scene, ready to render frame after frame.
+pub struct ShadowRenderer<'a> {
+    ctx: Context,
+    prepared: &'a PreparedScene,
+    info: &'static TechniqueInfo,
+    params: Params,
+    light_view: &'a LightView,
+    receivers: Option<&'a Receivers>,
+    technique: Box<dyn Technique + 'a>,
+    checks: VisibilityChecks,
+    timestamps: Timestamps,
+    memory_bytes: u64,
+    /// Whether the last frame was submitted by [`ShadowRenderer::render`] (so its pass times
+    /// are in `timestamps`).
+    timed: bool,
+}
+
+impl<'a> ShadowRenderer<'a> {
+    /// Builds `info` with resolved `params` on `prepared` (what [`crate::Engine::renderer`]
+    /// calls).
+    pub(crate) fn new(
+        ctx: &'a Context,
+        prepared: &'a PreparedScene,
+        info: &'static TechniqueInfo,
+        params: Params,
+    ) -> Result<ShadowRenderer<'a>> {
+        // `fit`: the scene's box (0) or the view samples and their casters (1, the default).
+        let fits = info.shadow_map && !info.per_light_sample;
+        let receiver_fit = fits && params.u32("fit")? == 1;
+        let light_view = if receiver_fit {
+            &prepared.receiver_light_view
+        } else {
+            &prepared.light_view
+        };
+        let receivers = if info.shadow_map {
+            let desc = ReceiverDesc {
+                light_clip: params.u32("light_clip")? == 1,
+                normal_offset: params.f32("normal_offset")?,
+                map_size: texel_grid(&params)?,
+                clips_itself: info.clips_light,
+                skip_horizon: params.u32("horizon_skip")? == 1,
+            };
+            if desc.needed() {
+                Some(prepared.receivers.get_or_create(&desc, receiver_fit, || {
+                    Receivers::new(
+                        ctx,
+                        &prepared.view,
+                        &prepared.light,
+                        light_view,
+                        &prepared.visibility,
+                        &desc,
+                    )
+                })?)
+            } else {
+                None
+            }
+        } else {
+            None
+        };
+        let setup = TechniqueSetup {
+            ctx,
+            geometry: &prepared.geometry,
+            positions: &prepared.positions,
+            indices: &prepared.indices,
+            view: &prepared.view,
+            receivers: receivers.map_or(&prepared.view.positions, |r| &r.lookup),
+            light: &prepared.light,
+            camera: &prepared.camera,
+            light_view,
+            visibility: &prepared.visibility,
+            receiver_bounds: &prepared.receiver_bounds,
+        };
+        let before = ctx.live_bytes();
+        let technique = (info.create)(&setup, &params)?;
+        // What the technique holds across frames, measured rather than declared.
+        let memory_bytes = ctx.live_bytes().saturating_sub(before);
+        let checks = VisibilityChecks::new(ctx, &prepared.view.positions, &prepared.visibility)?;
+        let timestamps = Timestamps::new(ctx, 16)?;
+        Ok(ShadowRenderer {
+            ctx: ctx.clone(),
+            prepared,
+            info,
+            params,
+            light_view,
+            receivers,
+            technique,
+            checks,
+            timestamps,
+            memory_bytes,
+            timed: false,
+        })
+    }
+
+    /// Renders one frame on penumbra's queue and waits for it; each pass is timed
+    /// ([`ShadowRenderer::pass_times`]). Allocates nothing once the first frame has run.
+    pub fn render(&mut self) -> Result<()> {
+        let (receivers, technique, checks) = (self.receivers, &mut self.technique, &self.checks);
+        let result = self.ctx.submit(Some(&mut self.timestamps), |rec| {
+            record_frame(receivers, technique.as_mut(), checks, rec)
+        });
+        self.timed = result.is_ok();
+        result
+    }
+
+    /// Records one frame into `cmd`, the caller's command buffer, without submitting it. The
+    /// caller's images ([`crate::gpu::Image::borrowed`]) need no barrier around it: penumbra's
+    /// first use of each waits for all earlier commands, and the recording ends with each back
+    /// in its stated layout, visible to all later commands. Read results
+    /// ([`ShadowRenderer::counters`], [`ShadowRenderer::checks`],
+    /// [`ShadowRenderer::read_visibility`]) only after the submission has completed.
+    ///
+    /// # Safety
+    /// `cmd` must be a primary command buffer of this device, in the recording state, outside
+    /// a render pass, from a pool of [`Context::queue_family`], and submitted to a queue of that
+    /// family. Everything this renderer and its scene hold must outlive the submission's
+    /// completion, and no other submission using them may run concurrently with it.
+    pub unsafe fn record(&mut self, cmd: vk::CommandBuffer) -> Result<()> {
+        self.timed = false;
+        let (receivers, technique, checks) = (self.receivers, &mut self.technique, &self.checks);
+        // SAFETY: the caller's contract, passed on.
+        unsafe {
+            self.ctx.record_into(cmd, |rec| {
+                record_frame(receivers, technique.as_mut(), checks, rec)
+            })
+        }
+    }
+
+    /// Per-pass GPU times of the last frame [`ShadowRenderer::render`] submitted
+    /// (`gpu_ms: None` without timestamps); empty after a [`ShadowRenderer::record`]ed frame.
+    pub fn pass_times(&self) -> Result<Vec<PassTime>> {
+        if self.timed {
+            self.timestamps.results()
+        } else {
+            Ok(Vec::new())
+        }
+    }
+
+    /// The technique's counters after the last completed frame, with the receivers' (which cover
+    /// every view sample, where the technique counted only those it evaluated).
+    pub fn counters(&self) -> Result<BTreeMap<String, u64>> {
+        let mut counters: BTreeMap<String, u64> = self.technique.counters()?.into_iter().collect();
+        if let Some(r) = self.receivers {
+            counters.extend(r.counters()?);
+        }
+        Ok(counters)
+    }
+
+    /// NaN, infinite and out-of-range visibility among the view samples of the last completed
+    /// frame, counted on the GPU.
+    pub fn checks(&self) -> Result<VisibilityCounts> {
+        self.checks.read(&self.ctx)
+    }
+
+    /// Reads the last completed frame's visibility back (row-major, 1 for background). The
+    /// caller's visibility image needs `TRANSFER_SRC` usage for this.
+    pub fn read_visibility(&self) -> Result<Vec<f32>> {
+        let v = &self.prepared.visibility;
+        if !v.desc.usage.contains(vk::ImageUsageFlags::TRANSFER_SRC) {
+            return Err(Error::InvalidArgument(format!(
+                "image '{}' lacks TRANSFER_SRC usage: it cannot be read back",
+                v.name
+            )));
+        }
+        Ok(crate::gpu::f32s(&self.ctx.read_image(v)?))
+    }
+
+    /// The technique instance (its shadow map, pages and intermediate images, for inspection).
+    pub fn technique(&self) -> &dyn Technique {
+        self.technique.as_ref()
+    }
+
+    /// The registered technique it runs.
+    pub fn info(&self) -> &'static TechniqueInfo {
+        self.info
+    }
+
+    /// Its resolved knobs.
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+
+    /// The light view it renders with (the scene fit or the receiver fit, by its `fit` knob).
+    pub fn light_view(&self) -> &LightView {
+        self.light_view
+    }
+
+    /// Device memory the technique holds (its maps, images and buffers; the shared view
+    /// samples, receivers and visibility excluded), measured from the allocations it made.
+    pub fn memory_bytes(&self) -> u64 {
+        self.memory_bytes
+    }
+}
+
+/// Records one frame: the receivers, the technique, the receivers' finish (light clipping), then
+/// the visibility checks outside any timed pass.
+fn record_frame(
+    receivers: Option<&Receivers>,
+    technique: &mut dyn Technique,
+    checks: &VisibilityChecks,
+    rec: &mut crate::gpu::Recorder<'_>,
+) -> Result<()> {
+    if let Some(r) = receivers {
+        r.record_prepare(rec)?;
+    }
+    technique.record(rec)?;
+    if let Some(r) = receivers {
+        r.record_finish(rec)?;
+    }
+    checks.record(rec)
+}
+
+/// Texels per side of the grid a shadow-map technique's texel unit refers to: `map_size`, a
+/// virtual map's `virtual_size`, or pvssm's `lowres_size` (what the normal offset's texel unit
+/// and `map_texels_used` count in).
+pub(crate) fn texel_grid(params: &Params) -> Result<u32> {
+    if params.values().contains_key("lowres_size") {
+        // pvssm: the receivers' offset is measured in the blocker search's texels, the map whose
+        // depths a receiver must clear to find no false blocker in its own surface.
+        params.u32("lowres_size")
+    } else if params.values().contains_key("virtual_size") {
+        params.u32("virtual_size")
+    } else {
+        params.u32("map_size")
+    }
+}

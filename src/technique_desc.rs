@@ -1,0 +1,272 @@
+//! Typed technique descriptions for library users: [`TechniqueKind`] names a technique without a
+//! string, and [`TechniqueDesc`] sets its knobs with typed values, each checked when it is set
+//! against the technique's knob table (name, integer or real, range, the names of an enumerated
+//! knob) so a mistake surfaces where it is made, with the knobs the technique has. The CLI and
+//! the bench keep the string map ([`crate::Engine::renderer`]); a description resolves to the
+//! same map, so both paths share one resolution against the scene's defaults.
+
+use std::collections::BTreeMap;
+
+use crate::error::{Error, Result};
+use crate::techniques::{self, Knob, TechniqueInfo};
+
+macro_rules! technique_kinds {
+    ($($variant:ident => $name:literal: $doc:literal,)*) => {
+        /// Every technique penumbra implements (see `penumbra techniques` for each one's knobs).
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        #[non_exhaustive]
+        pub enum TechniqueKind {
+            $(#[doc = $doc] $variant,)*
+        }
+
+        impl TechniqueKind {
+            /// Every kind, in the registry's order.
+            pub const ALL: &'static [TechniqueKind] = &[$(TechniqueKind::$variant,)*];
+
+            /// Its registered (CLI) name.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(TechniqueKind::$variant => $name,)*
+                }
+            }
+        }
+    };
+}
+
+technique_kinds! {
+    Hard => "hard": "Standard shadow mapping: one nearest-texel depth test from the light centre.",
+    Pcf => "pcf": "Percentage-closer filtering over a fixed kernel of bilinear tests.",
+    Lispsm => "lispsm": "Light-space perspective shadow map: one map warped along the view direction.",
+    AverageMaps => "average-maps": "Brute-force soft shadows: the average of hard maps from light samples.",
+    Reference => "reference": "Ground truth: shadow rays through a BVH to stratified light samples.",
+    ReferenceSingleLayer => "reference-single-layer": "Ground truth with only the occluders seen from the light centre.",
+    PcfPoisson => "pcf-poisson": "PCF over a rotated Poisson disk.",
+    PcfCoverage => "pcf-coverage": "Exact texel-coverage box PCF, continuous in the kernel width.",
+    Vsm => "vsm": "Variance shadow maps.",
+    Esm => "esm": "Exponential shadow maps.",
+    Evsm => "evsm": "Exponential variance shadow maps.",
+    Msm => "msm": "Moment shadow maps: four blurred moments, Hamburger lower bound.",
+    Csm => "csm": "Convolution shadow maps (Fourier basis).",
+    Savsm => "savsm": "Summed-area variance shadow maps.",
+    Pcss => "pcss": "Percentage-closer soft shadows: blocker search, exact-coverage filter.",
+    Cssm => "cssm": "Convolution soft shadows: PCSS from a Fourier basis in summed-area tables.",
+    Vssm => "vssm": "Variance soft shadow mapping: blocker depth and filter from moment SATs.",
+    Essm => "essm": "Exponential soft shadow mapping: blocker depth and ESM over the footprint.",
+    Rmsm => "rmsm": "Resolution-matched virtual shadow map: GPU page requests, pool, page draws.",
+    Pvssm => "pvssm": "Predicted virtual soft shadow maps: exact PCSS filtering on predicted pages.",
+    Izb => "izb": "Irregular z-buffer: exact hard shadows at the view samples.",
+    IzbSoft => "izb-soft": "Irregular z-buffer with a light-sample bitmask per view sample.",
+    Cascades => "cascades": "Cascaded shadow maps: z-partitions, one map each, blended at the borders.",
+    Atty => "atty": "Soft shadow maps: occluder micropatches summed into a light-space map.",
+    Bitmask => "bitmask": "Back-projected micropatches OR-ed into light-sample bitmasks.",
+}
+
+impl TechniqueKind {
+    /// The kind registered under `name`.
+    pub fn from_name(name: &str) -> Result<TechniqueKind> {
+        TechniqueKind::ALL
+            .iter()
+            .copied()
+            .find(|k| k.name() == name)
+            .ok_or_else(|| Error::UnknownTechnique {
+                name: name.to_string(),
+                known: TechniqueKind::ALL
+                    .iter()
+                    .map(|k| k.name().to_string())
+                    .collect(),
+            })
+    }
+
+    /// Its registry entry (summary, knobs, constructor).
+    pub fn info(self) -> Result<&'static TechniqueInfo> {
+        techniques::find(self.name())
+    }
+}
+
+impl std::fmt::Display for TechniqueKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A typed knob value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum KnobValue {
+    /// An integer (a size, a count, a 0/1 switch).
+    Int(i64),
+    /// A real number.
+    Real(f64),
+    /// One of an enumerated knob's names (e.g. `fit = "scene"`).
+    Choice(&'static str),
+}
+
+impl From<i64> for KnobValue {
+    fn from(v: i64) -> Self {
+        KnobValue::Int(v)
+    }
+}
+
+impl From<u32> for KnobValue {
+    fn from(v: u32) -> Self {
+        KnobValue::Int(i64::from(v))
+    }
+}
+
+impl From<f64> for KnobValue {
+    fn from(v: f64) -> Self {
+        KnobValue::Real(v)
+    }
+}
+
+impl From<f32> for KnobValue {
+    fn from(v: f32) -> Self {
+        KnobValue::Real(f64::from(v))
+    }
+}
+
+impl From<bool> for KnobValue {
+    fn from(v: bool) -> Self {
+        KnobValue::Int(i64::from(v))
+    }
+}
+
+impl From<&'static str> for KnobValue {
+    fn from(v: &'static str) -> Self {
+        KnobValue::Choice(v)
+    }
+}
+
+/// A technique and the knobs set on it; unset knobs take their defaults (the technique's or the
+/// scene's) when a renderer is built.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TechniqueDesc {
+    kind: TechniqueKind,
+    overrides: BTreeMap<String, String>,
+}
+
+impl TechniqueDesc {
+    /// `kind` with every knob at its default.
+    pub fn new(kind: TechniqueKind) -> TechniqueDesc {
+        TechniqueDesc {
+            kind,
+            overrides: BTreeMap::new(),
+        }
+    }
+
+    /// Sets knob `name`, checked now: an unknown knob, a real for an integer knob, a value out
+    /// of range or a name an enumerated knob does not have is an [`Error::Parameter`] naming
+    /// the knob and what it accepts.
+    pub fn with(mut self, name: &str, value: impl Into<KnobValue>) -> Result<TechniqueDesc> {
+        let info = self.kind.info()?;
+        let knobs = info.all_knobs();
+        let fail = |message: String| Error::Parameter {
+            technique: info.name.to_string(),
+            message,
+        };
+        let knob: &Knob = knobs.iter().find(|k| k.name == name).ok_or_else(|| {
+            fail(format!(
+                "no knob '{name}'; it has {}",
+                knobs.iter().map(|k| k.name).collect::<Vec<_>>().join(", ")
+            ))
+        })?;
+        let number = match value.into() {
+            KnobValue::Choice(choice) => {
+                let index = knob.names.iter().position(|n| *n == choice);
+                match index {
+                    Some(i) => i as f64,
+                    None if knob.names.is_empty() => {
+                        return Err(fail(format!(
+                            "knob '{name}' takes a number, not the name '{choice}'"
+                        )))
+                    }
+                    None => {
+                        return Err(fail(format!(
+                            "knob '{name}' has no choice '{choice}'; expected one of {}",
+                            knob.names.join(", ")
+                        )))
+                    }
+                }
+            }
+            KnobValue::Int(v) => v as f64,
+            KnobValue::Real(v) => {
+                if knob.integer {
+                    return Err(fail(format!("knob '{name}' takes an integer, not {v}")));
+                }
+                v
+            }
+        };
+        if !number.is_finite() || number < knob.min || number > knob.max {
+            return Err(fail(format!(
+                "knob '{name}' = {number} is outside [{}, {}]",
+                knob.min, knob.max
+            )));
+        }
+        // `{:?}` prints the shortest text that reads back as the same f64.
+        let text = if knob.integer {
+            format!("{}", number as i64)
+        } else {
+            format!("{number:?}")
+        };
+        self.overrides.insert(name.to_string(), text);
+        Ok(self)
+    }
+
+    /// The technique.
+    pub fn kind(&self) -> TechniqueKind {
+        self.kind
+    }
+
+    /// The knobs set, as the knob → text map the CLI uses.
+    pub fn overrides(&self) -> &BTreeMap<String, String> {
+        &self.overrides
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_registered_technique_has_a_kind_and_back() {
+        let registered: Vec<&str> = techniques::registry().iter().map(|t| t.name).collect();
+        let kinds: Vec<&str> = TechniqueKind::ALL.iter().map(|k| k.name()).collect();
+        assert_eq!(registered, kinds);
+        for k in TechniqueKind::ALL {
+            assert_eq!(TechniqueKind::from_name(k.name()).expect("known"), *k);
+        }
+        assert!(matches!(
+            TechniqueKind::from_name("pcss2"),
+            Err(Error::UnknownTechnique { .. })
+        ));
+    }
+
+    #[test]
+    fn knobs_are_checked_when_set() {
+        let d = TechniqueDesc::new(TechniqueKind::Pcss)
+            .with("map_size", 256u32)
+            .expect("a size")
+            .with("fit", "scene")
+            .expect("a named choice")
+            .with("normal_offset", 0.5)
+            .expect("a real");
+        assert_eq!(d.overrides()["map_size"], "256");
+        assert_eq!(d.overrides()["fit"], "0");
+        assert_eq!(d.overrides()["normal_offset"], "0.5");
+        let err = |r: Result<TechniqueDesc>| r.expect_err("refused").to_string();
+        let e = err(TechniqueDesc::new(TechniqueKind::Pcss).with("map_sise", 256u32));
+        assert!(
+            e.contains("no knob 'map_sise'") && e.contains("map_size"),
+            "{e}"
+        );
+        let e = err(TechniqueDesc::new(TechniqueKind::Pcss).with("map_size", 256.5));
+        assert!(e.contains("takes an integer"), "{e}");
+        let e = err(TechniqueDesc::new(TechniqueKind::Pcss).with("map_size", 1u32));
+        assert!(e.contains("outside [16"), "{e}");
+        let e = err(TechniqueDesc::new(TechniqueKind::Pcss).with("fit", "camera"));
+        assert!(e.contains("expected one of scene, view"), "{e}");
+        let e = err(TechniqueDesc::new(TechniqueKind::Pcss).with("map_size", "big"));
+        assert!(e.contains("takes a number"), "{e}");
+        let e = err(TechniqueDesc::new(TechniqueKind::Pcss).with("normal_offset", f64::NAN));
+        assert!(e.contains("outside"), "{e}");
+    }
+}

@@ -1,0 +1,372 @@
+//! penumbra as a library: a renderer that lives across frames allocates nothing in steady state,
+//! renders the same frame bit for bit, records into the caller's command buffer under
+//! synchronization validation, reads the caller's images and rejects wrong ones with clear
+//! errors, and counts NaN/Inf/out-of-range results on the GPU exactly as its CPU twin does.
+
+mod common;
+
+use std::collections::BTreeMap;
+
+use ash::vk;
+use glam::Vec4;
+use penumbra::engine::count_bad;
+use penumbra::gpu::{Image, ImageDesc};
+use penumbra::passes::{ViewSamples, VisibilityChecks};
+use penumbra::scene::Scene;
+use penumbra::{Engine, Error, TechniqueDesc, TechniqueKind};
+
+fn small_scene() -> Scene {
+    let mut scene = Scene::open("plane-boxes").expect("scene");
+    scene.camera.width = 96;
+    scene.camera.height = 64;
+    scene
+}
+
+fn knobs(pairs: &[(&str, &str)]) -> BTreeMap<String, String> {
+    pairs
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect()
+}
+
+#[test]
+fn steady_state_frames_create_nothing_on_the_device() {
+    let engine = common::engine();
+    let prepared = engine.prepare(&small_scene()).expect("prepare");
+    let ctx = engine.context();
+    // Techniques with the most moving parts: maps, pages, SATs, per-sample lists.
+    for (technique, set) in [
+        ("pcss", knobs(&[("map_size", "256")])),
+        ("pvssm", knobs(&[])),
+        ("vssm", knobs(&[("map_size", "256")])),
+        ("rmsm", knobs(&[])),
+        ("izb", knobs(&[])),
+        ("bitmask", knobs(&[("map_size", "128")])),
+    ] {
+        let at_start = ctx.creation_counts();
+        let mut renderer = engine
+            .renderer(&prepared, technique, &set)
+            .expect("renderer");
+        // The counter sees creation: building a technique makes pipelines and memory.
+        let built = ctx.creation_counts();
+        assert!(built.objects > at_start.objects, "{technique}: {built:?}");
+        // The first frame may grow the shared readback buffer and fill the submit pool.
+        renderer.render().expect("first frame");
+        renderer.counters().expect("counters");
+        renderer.checks().expect("checks");
+        renderer.read_visibility().expect("visibility");
+        let before = ctx.creation_counts();
+        for _ in 0..10 {
+            renderer.render().expect("frame");
+            renderer.pass_times().expect("times");
+            renderer.counters().expect("counters");
+            let checks = renderer.checks().expect("checks");
+            assert_eq!(
+                checks.nan + checks.inf + checks.out_of_range,
+                0,
+                "{technique}"
+            );
+        }
+        renderer.read_visibility().expect("visibility");
+        assert_eq!(
+            ctx.creation_counts(),
+            before,
+            "{technique}: 10 frames created device memory or objects"
+        );
+    }
+    drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}
+
+#[test]
+fn the_same_frame_twice_is_bit_identical() {
+    let engine = common::engine();
+    let prepared = engine.prepare(&small_scene()).expect("prepare");
+    for technique in ["pcss", "pvssm", "izb-soft"] {
+        let desc = TechniqueDesc::new(TechniqueKind::from_name(technique).expect("kind"));
+        let mut renderer = engine.renderer_for(&prepared, &desc).expect("renderer");
+        renderer.render().expect("frame 1");
+        let first = renderer.read_visibility().expect("read 1");
+        renderer.render().expect("frame 2");
+        let second = renderer.read_visibility().expect("read 2");
+        drop(renderer);
+        // A second renderer of the same technique shares the scene's receivers.
+        let mut again = engine.renderer_for(&prepared, &desc).expect("renderer 2");
+        again.render().expect("frame 3");
+        let third = again.read_visibility().expect("read 3");
+        for (name, other) in [("second frame", &second), ("second renderer", &third)] {
+            let differing = first
+                .iter()
+                .zip(other.iter())
+                .filter(|(a, b)| a.to_bits() != b.to_bits())
+                .count();
+            if differing > 0 {
+                common::write_diff(&format!("bit-identical-{technique}"), 96, 64, &first, other);
+            }
+            assert_eq!(
+                differing, 0,
+                "{technique}: {name} differs in {differing} pixels"
+            );
+        }
+    }
+    assert!(prepared.receiver_sets() <= 3);
+    drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}
+
+#[test]
+fn a_frame_recorded_into_the_callers_command_buffer_matches_a_submitted_one() {
+    let engine = common::engine();
+    let ctx = engine.context().clone();
+    let prepared = engine.prepare(&small_scene()).expect("prepare");
+    let mut renderer = engine
+        .renderer(&prepared, "pcss", &knobs(&[("map_size", "256")]))
+        .expect("renderer");
+    renderer.render().expect("submitted frame");
+    let submitted = renderer.read_visibility().expect("read");
+    let device = ctx.device();
+    let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family());
+    let pool = unsafe { device.create_command_pool(&pool_info, None) }.expect("pool");
+    let alloc = vk::CommandBufferAllocateInfo::default()
+        .command_pool(pool)
+        .level(vk::CommandBufferLevel::PRIMARY)
+        .command_buffer_count(1);
+    let cmd = unsafe { device.allocate_command_buffers(&alloc) }.expect("cmd")[0];
+    let fence =
+        unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.expect("fence");
+    unsafe {
+        device
+            .begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default())
+            .expect("begin");
+        renderer.record(cmd).expect("record");
+        device.end_command_buffer(cmd).expect("end");
+        let queue = device.get_device_queue(ctx.queue_family(), 0);
+        let cmds = [cmd];
+        let submit = vk::SubmitInfo::default().command_buffers(&cmds);
+        device
+            .queue_submit(queue, &[submit], fence)
+            .expect("submit");
+        device
+            .wait_for_fences(&[fence], true, u64::MAX)
+            .expect("wait");
+    }
+    assert!(renderer.pass_times().expect("times").is_empty());
+    let recorded = renderer.read_visibility().expect("read");
+    assert_eq!(renderer.checks().expect("checks").nan, 0);
+    assert!(
+        submitted
+            .iter()
+            .zip(&recorded)
+            .all(|(a, b)| a.to_bits() == b.to_bits()),
+        "the recorded frame differs from the submitted one"
+    );
+    unsafe {
+        device.destroy_fence(fence, None);
+        device.destroy_command_pool(pool, None);
+    }
+    drop(renderer);
+    drop(prepared);
+    common::assert_clean(&ctx.validation());
+}
+
+/// An image the "caller" owns: penumbra's own `Image` stands in for the caller's allocation,
+/// and `Image::borrowed` wraps its handle as a caller's image would be.
+fn owned(engine: &Engine, name: &str, format: vk::Format, w: u32, h: u32) -> Image {
+    let usage = vk::ImageUsageFlags::STORAGE
+        | vk::ImageUsageFlags::TRANSFER_SRC
+        | vk::ImageUsageFlags::TRANSFER_DST
+        | vk::ImageUsageFlags::COLOR_ATTACHMENT;
+    Image::new(
+        engine.context(),
+        name,
+        ImageDesc::new_2d(format, w, h, usage),
+    )
+    .expect("image")
+}
+
+#[test]
+fn the_callers_images_are_used_in_their_layouts_and_wrong_ones_are_clear_errors() {
+    let engine = common::engine();
+    let ctx = engine.context().clone();
+    let scene = small_scene();
+    // penumbra's own view samples, copied into "caller" images left in GENERAL.
+    let reference = engine.prepare(&scene).expect("prepare");
+    let mut r = engine
+        .renderer(&reference, "pcf", &knobs(&[("map_size", "256")]))
+        .expect("renderer");
+    r.render().expect("frame");
+    let expected = r.read_visibility().expect("read");
+    drop(r);
+    let rgba = vk::Format::R32G32B32A32_SFLOAT;
+    let (w, h) = (96, 64);
+    let positions = owned(&engine, "caller positions", rgba, w, h);
+    let normals = owned(&engine, "caller normals", rgba, w, h);
+    let visibility = owned(&engine, "caller visibility", vk::Format::R32_SFLOAT, w, h);
+    let pos_bytes = ctx.read_image(&reference.view.positions).expect("read");
+    let nrm_bytes = ctx.read_image(&reference.view.normals).expect("read");
+    ctx.submit(None, |rec| {
+        rec.upload_image(&positions, &pos_bytes)?;
+        rec.upload_image(&normals, &nrm_bytes)?;
+        rec.upload_image(&visibility, &vec![0u8; (w * h * 4) as usize])?;
+        rec.use_image(&positions, penumbra::gpu::Access::ComputeWrite);
+        rec.use_image(&normals, penumbra::gpu::Access::ComputeWrite);
+        rec.use_image(&visibility, penumbra::gpu::Access::ComputeWrite);
+        Ok(())
+    })
+    .expect("fill the caller's images");
+    let borrow = |image: &Image, layout| unsafe {
+        Image::borrowed(
+            &ctx,
+            &format!("{} (borrowed)", image.name),
+            image.raw,
+            image.desc,
+            layout,
+        )
+    };
+    let general = vk::ImageLayout::GENERAL;
+
+    // Wrong layout, format, size and usage: each refused with what was expected.
+    let e = borrow(&positions, vk::ImageLayout::UNDEFINED)
+        .err()
+        .expect("undefined layout refused");
+    assert!(
+        matches!(e, Error::InvalidArgument(_)) && e.to_string().contains("UNDEFINED"),
+        "{e}"
+    );
+    let wrong_format = ViewSamples::from_images(
+        &scene.camera,
+        borrow(&visibility, general).expect("wrap"),
+        borrow(&normals, general).expect("wrap"),
+    )
+    .err()
+    .expect("R32F positions");
+    assert!(
+        wrong_format
+            .to_string()
+            .contains("expected R32G32B32A32_SFLOAT"),
+        "{wrong_format}"
+    );
+    let mut wide = scene.camera;
+    wide.width = 128;
+    let wrong_size = ViewSamples::from_images(
+        &wide,
+        borrow(&positions, general).expect("wrap"),
+        borrow(&normals, general).expect("wrap"),
+    )
+    .err()
+    .expect("96x64 images for a 128-wide camera");
+    assert!(
+        wrong_size.to_string().contains("expected 128x64"),
+        "{wrong_size}"
+    );
+    let mut no_storage = visibility.desc;
+    no_storage.usage = vk::ImageUsageFlags::TRANSFER_SRC;
+    let view = ViewSamples::from_images(
+        &scene.camera,
+        borrow(&positions, general).expect("wrap"),
+        borrow(&normals, general).expect("wrap"),
+    )
+    .expect("view samples");
+    let unusable = unsafe {
+        Image::borrowed(
+            &ctx,
+            "visibility without storage",
+            visibility.raw,
+            no_storage,
+            general,
+        )
+    }
+    .expect("wrap");
+    let e = engine
+        .prepare_with_view_samples(&scene, view, unusable)
+        .err()
+        .expect("visibility without STORAGE");
+    assert!(e.to_string().contains("lacks STORAGE"), "{e}");
+
+    // The right images: the same visibility as penumbra's own view samples, twice (the
+    // images are back in GENERAL after each recording, or validation would object).
+    let view = ViewSamples::from_images(
+        &scene.camera,
+        borrow(&positions, general).expect("wrap"),
+        borrow(&normals, general).expect("wrap"),
+    )
+    .expect("view samples");
+    let prepared = engine
+        .prepare_with_view_samples(&scene, view, borrow(&visibility, general).expect("wrap"))
+        .expect("prepare on the caller's images");
+    let mut renderer = engine
+        .renderer(&prepared, "pcf", &knobs(&[("map_size", "256")]))
+        .expect("renderer");
+    for _ in 0..2 {
+        renderer.render().expect("frame");
+        let got = renderer.read_visibility().expect("read");
+        let differing = expected
+            .iter()
+            .zip(&got)
+            .filter(|(a, b)| a.to_bits() != b.to_bits())
+            .count();
+        if differing > 0 {
+            common::write_diff("caller-images", w, h, &expected, &got);
+        }
+        assert_eq!(differing, 0, "caller images give another visibility");
+    }
+    // The caller's image is still the caller's: penumbra wrote into it.
+    let direct = penumbra::gpu::f32s(&ctx.read_image(&visibility).expect("read"));
+    assert_eq!(direct.len(), expected.len());
+    drop(renderer);
+    drop(prepared);
+    drop(reference);
+    common::assert_clean(&ctx.validation());
+}
+
+#[test]
+fn gpu_visibility_checks_count_what_the_cpu_twin_counts() {
+    let ctx = common::context();
+    let (w, h) = (37u32, 23u32);
+    let n = (w * h) as usize;
+    // Every class planted, some on background (which must not count), at irregular places so a
+    // workgroup-edge bug shows.
+    let mut positions = vec![Vec4::new(0.0, 0.0, 0.0, 1.0); n];
+    let mut visibility = vec![0.5f32; n];
+    for i in 0..n {
+        if i % 11 == 3 {
+            positions[i].w = 0.0;
+        }
+        visibility[i] = match i % 7 {
+            0 => f32::NAN,
+            1 if i % 3 == 0 => f32::INFINITY,
+            2 if i % 5 == 0 => f32::NEG_INFINITY,
+            3 => -0.25,
+            4 if i % 2 == 0 => 1.5,
+            5 => 1.0,
+            _ => (i as f32 * 0.013).fract(),
+        };
+    }
+    let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST;
+    let pos_image = Image::new(
+        &ctx,
+        "planted positions",
+        ImageDesc::new_2d(vk::Format::R32G32B32A32_SFLOAT, w, h, usage),
+    )
+    .expect("image");
+    let vis_image = Image::new(
+        &ctx,
+        "planted visibility",
+        ImageDesc::new_2d(vk::Format::R32_SFLOAT, w, h, usage),
+    )
+    .expect("image");
+    let checks = VisibilityChecks::new(&ctx, &pos_image, &vis_image).expect("checks");
+    ctx.submit(None, |rec| {
+        rec.upload_image(&pos_image, bytemuck::cast_slice(&positions))?;
+        rec.upload_image(&vis_image, bytemuck::cast_slice(&visibility))?;
+        checks.record(rec)
+    })
+    .expect("count");
+    let gpu = checks.read(&ctx).expect("read");
+    let (nan, inf, range) = count_bad(&visibility, &positions);
+    assert!(nan > 0 && inf > 0 && range > 0, "every class planted");
+    assert_eq!((gpu.nan, gpu.inf, gpu.out_of_range), (nan, inf, range));
+    drop(checks);
+    drop((pos_image, vis_image));
+    common::assert_clean(&ctx.validation());
+}

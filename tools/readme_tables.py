@@ -11,6 +11,7 @@ named command):
     python3 tools/readme_tables.py stress DIR           # DIR from `penumbra stress`
     python3 tools/readme_tables.py skipping DIR         # DIR from `bench --suite skipping`
     python3 tools/readme_tables.py selection DIR        # DIR from `bench --suite selection`
+    python3 tools/readme_tables.py reuse DIR            # DIR from `bench --suite reuse`
 
 `receivers`: per technique, the configuration with clipping on that has the lowest penumbra MAE
 on teapot-rect (lowest RMSE on spot-point), with the same configuration's clip-off figures and
@@ -33,6 +34,10 @@ then every `known` row with its reason, from stress.json.
 `skipping`: technique × scene, the speed-up of skipping on over off and the share of view samples
 it decided without the full work, then the largest number of pixels that differed, from
 skipping.json.
+`reuse`: per technique, over the scenes of reuse.json, the median host (calling-thread) CPU
+milliseconds of the first frame, the second and a rebuilt renderer, the largest second/first
+ratio, the median process CPU milliseconds of the first and second frames, and what the second
+frames created (device allocations + objects, summed).
 `selection`: every held-out scene with the features, the pick, its predicted and measured error
 and time, and the slowest candidate within the budget, from selection.json.
 """
@@ -376,6 +381,28 @@ def skipping(directory):
         print(f"| `{t}` | {off} | " + " | ".join(row.get(s, "") for s in scenes) + f" | {d_cell} |")
 
 
+def reuse(directory):
+    import statistics
+    d = json.loads((Path(directory) / "reuse.json").read_text())
+    by = {}
+    for r in d["rows"]:
+        by.setdefault(r["technique"], []).append(r)
+    scenes = sorted({r["scene"] for r in d["rows"]})
+    passed = sum(1 for r in d["rows"] if r["pass"])
+    print(f"{passed} of {len(d['rows'])} rows meet the claim; {len(scenes)} scenes; {d['device']} ({d['driver']}).\n")
+    print("| technique | host ms: first | second | rebuilt | second/first (largest) | process ms: first | second | created by second frames |")
+    print("|---|---|---|---|---|---|---|---|")
+    med = lambda rows, step, key: statistics.median(r[step][key] for r in rows)
+    for t, rows in by.items():
+        ratio = max(r["second_over_first_thread_cpu"] for r in rows)
+        created = sum(r["second_frame_allocations"] + r["second_frame_objects"] for r in rows)
+        print(
+            f"| `{t}` | {med(rows, 'first', 'thread_cpu_ms'):.1f} | {med(rows, 'second', 'thread_cpu_ms'):.1f} | "
+            f"{med(rows, 'rebuilt', 'thread_cpu_ms'):.1f} | {ratio:.3f} | "
+            f"{med(rows, 'first', 'process_cpu_ms'):.0f} | {med(rows, 'second', 'process_cpu_ms'):.0f} | {created} |"
+        )
+
+
 def selection(directory):
     d = json.loads((Path(directory) / "selection.json").read_text())
     print(
@@ -408,6 +435,9 @@ if __name__ == "__main__":
         sys.exit(0)
     if len(sys.argv) == 3 and sys.argv[1] == "selection":
         selection(sys.argv[2])
+        sys.exit(0)
+    if len(sys.argv) == 3 and sys.argv[1] == "reuse":
+        reuse(sys.argv[2])
         sys.exit(0)
     if len(sys.argv) == 3 and sys.argv[1] == "stress":
         stress(sys.argv[2])

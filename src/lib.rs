@@ -114,6 +114,6 @@ pub use engine::{Engine, Frame, FrameStats, PreparedScene};
 pub use error::{Error, Result};
 pub use gpu::{Context, ContextDesc, CreationCounts, Image};
 pub use passes::{ViewSamples, VisibilityCounts};
-pub use renderer::ShadowRenderer;
+pub use renderer::{Retuned, ShadowRenderer};
 pub use scene::{Camera, Light, Scene};
 pub use technique_desc::{KnobValue, TechniqueDesc, TechniqueKind};

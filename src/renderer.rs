@@ -77,8 +77,23 @@ impl Drop for ReceiverCache {
     }
 }
 
+/// What [`ShadowRenderer::set_knobs`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Retuned {
+    /// The knobs resolve to the ones it has: nothing to do.
+    Unchanged,
+    /// Only knobs that change no resource differed (push constants, the dynamic depth bias):
+    /// applied in place, nothing created.
+    InPlace,
+    /// A knob that shapes a resource (a map size, a receiver knob, a structure) changed: the
+    /// technique was rebuilt (the scene's receivers and the pipeline cache still shared).
+    Rebuilt,
+}
+
 /// One technique built for one prepared scene, ready to render frame after frame.
 pub struct ShadowRenderer<'a> {
+    /// The engine's context, which technique builds borrow.
+    engine_ctx: &'a Context,
     ctx: Context,
     prepared: &'a PreparedScene,
     info: &'static TechniqueInfo,
@@ -156,6 +171,7 @@ impl<'a> ShadowRenderer<'a> {
         let checks = VisibilityChecks::new(ctx, &prepared.view.positions, &prepared.visibility)?;
         let timestamps = Timestamps::new(ctx, 16)?;
         Ok(ShadowRenderer {
+            engine_ctx: ctx,
             ctx: ctx.clone(),
             prepared,
             info,
@@ -241,6 +257,36 @@ impl<'a> ShadowRenderer<'a> {
             )));
         }
         Ok(crate::gpu::f32s(&self.ctx.read_image(v)?))
+    }
+
+    /// Changes knobs (knob → value text, resolved against the technique's table and the scene's
+    /// defaults like [`crate::Engine::renderer`]'s): in place when only knobs that change no
+    /// resource differ, else by rebuilding the technique. On an error (a bad knob, a rebuild that
+    /// fails) the renderer keeps its previous knobs and state.
+    pub fn set_knobs(&mut self, overrides: &BTreeMap<String, String>) -> Result<Retuned> {
+        let params = self.info.params(overrides, &self.prepared.defaults)?;
+        if params.values() == self.params.values() {
+            return Ok(Retuned::Unchanged);
+        }
+        // A knob the receivers depend on is never retunable, so an in-place change keeps them.
+        if self.technique.retune(&params)? {
+            self.params = params;
+            return Ok(Retuned::InPlace);
+        }
+        *self = ShadowRenderer::new(self.engine_ctx, self.prepared, self.info, params)?;
+        Ok(Retuned::Rebuilt)
+    }
+
+    /// [`ShadowRenderer::set_knobs`] from a typed description of the same technique.
+    pub fn set(&mut self, desc: &crate::TechniqueDesc) -> Result<Retuned> {
+        if desc.kind().name() != self.info.name {
+            return Err(Error::InvalidArgument(format!(
+                "this renderer runs '{}', the description is of '{}': build a new renderer",
+                self.info.name,
+                desc.kind()
+            )));
+        }
+        self.set_knobs(desc.overrides())
     }
 
     /// The technique instance (its shadow map, pages and intermediate images, for inspection).

@@ -370,3 +370,125 @@ fn gpu_visibility_checks_count_what_the_cpu_twin_counts() {
     drop((pos_image, vis_image));
     common::assert_clean(&ctx.validation());
 }
+
+#[test]
+fn knob_changes_apply_in_place_or_rebuild_and_match_a_fresh_renderer() {
+    let engine = common::engine();
+    let ctx = engine.context().clone();
+    let prepared = engine.prepare(&small_scene()).expect("prepare");
+    let fresh = |set: &BTreeMap<String, String>, technique: &str| {
+        let mut r = engine.renderer(&prepared, technique, set).expect("fresh");
+        r.render().expect("fresh frame");
+        r.read_visibility().expect("read")
+    };
+    let same = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+    // (technique, built with, changed in place, changed by a rebuild)
+    type Knobs<'a> = &'a [(&'a str, &'a str)];
+    let cases: [(&str, Knobs, Knobs, Knobs); 6] = [
+        (
+            "hard",
+            &[("map_size", "256")],
+            &[("bias_constant", "4")],
+            &[("map_size", "128")],
+        ),
+        (
+            "pcf",
+            &[("map_size", "256"), ("kernel", "3")],
+            &[("kernel", "5"), ("bias_slope", "3")],
+            &[("map_size", "512"), ("kernel", "5")],
+        ),
+        (
+            "pcf-poisson",
+            &[("map_size", "256")],
+            &[("radius", "2.5")],
+            &[("taps", "8")],
+        ),
+        (
+            "pcf-coverage",
+            &[("map_size", "256")],
+            &[("kernel", "4.5")],
+            &[("light_clip", "0")],
+        ),
+        (
+            "pcss",
+            &[("map_size", "256")],
+            &[
+                ("search_taps", "4"),
+                ("filter_taps", "4"),
+                ("max_width", "32"),
+            ],
+            &[("skip", "off")],
+        ),
+        ("pvssm", &[], &[], &[("rho_scale", "0.5")]),
+    ];
+    for (technique, base, in_place, rebuild) in cases {
+        let base = knobs(base);
+        let mut r = engine
+            .renderer(&prepared, technique, &base)
+            .expect("renderer");
+        r.render().expect("frame");
+        assert_eq!(
+            r.set_knobs(&base).expect("same"),
+            penumbra::Retuned::Unchanged
+        );
+        if !in_place.is_empty() {
+            let mut set = base.clone();
+            set.extend(knobs(in_place));
+            let before = ctx.creation_counts();
+            assert_eq!(
+                r.set_knobs(&set).expect("in place"),
+                penumbra::Retuned::InPlace,
+                "{technique}: {in_place:?}"
+            );
+            r.render().expect("retuned frame");
+            assert_eq!(
+                ctx.creation_counts(),
+                before,
+                "{technique}: a retune created objects"
+            );
+            let got = r.read_visibility().expect("read");
+            assert!(
+                same(&got, &fresh(&set, technique)),
+                "{technique}: retuned ≠ fresh"
+            );
+            assert_eq!(
+                r.params().values(),
+                engine
+                    .renderer(&prepared, technique, &set)
+                    .expect("r")
+                    .params()
+                    .values()
+            );
+        }
+        // A bad knob is refused and leaves the renderer as it was.
+        let kept = r.params().values().clone();
+        let mut bad = base.clone();
+        bad.insert("no_such_knob".into(), "1".into());
+        assert!(r.set_knobs(&bad).is_err());
+        assert_eq!(r.params().values(), &kept);
+        let mut set = base.clone();
+        set.extend(knobs(rebuild));
+        assert_eq!(
+            r.set_knobs(&set).expect("rebuild"),
+            penumbra::Retuned::Rebuilt,
+            "{technique}: {rebuild:?}"
+        );
+        r.render().expect("rebuilt frame");
+        let got = r.read_visibility().expect("read");
+        assert!(
+            same(&got, &fresh(&set, technique)),
+            "{technique}: rebuilt ≠ fresh"
+        );
+    }
+    // A description of another technique is refused.
+    let mut r = engine
+        .renderer(&prepared, "pcf", &BTreeMap::new())
+        .expect("pcf");
+    let e = r
+        .set(&TechniqueDesc::new(TechniqueKind::Pcss))
+        .expect_err("another technique");
+    assert!(e.to_string().contains("build a new renderer"), "{e}");
+    drop(r);
+    drop(prepared);
+    common::assert_clean(&ctx.validation());
+}

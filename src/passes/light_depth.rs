@@ -134,6 +134,19 @@ impl ShadowMap {
         })
     }
 
+    /// Changes the depth bias (dynamic state: nothing is rebuilt), refusing a clamp the device
+    /// cannot apply as [`ShadowMap::new`] does.
+    pub fn set_bias(&mut self, ctx: &Context, bias: DepthBias) -> Result<()> {
+        if bias.clamp != 0.0 && !ctx.info().depth_bias_clamp {
+            return Err(crate::error::Error::Unsupported {
+                device: ctx.info().name.clone(),
+                feature: "depthBiasClamp (set bias_clamp = 0)".into(),
+            });
+        }
+        self.desc.bias = bias;
+        Ok(())
+    }
+
     /// Records the depth pass as its own timed pass (named `light-depth`).
     pub fn record(&self, rec: &mut Recorder<'_>, geometry: &SceneGeometry) -> Result<()> {
         rec.begin_pass("light-depth")?;

@@ -170,4 +170,10 @@ impl Technique for Lispsm<'_> {
     fn shadow_map(&self) -> Option<&ShadowMap> {
         self.pass.shadow_map()
     }
+
+    fn retune(&mut self, params: &Params) -> Result<bool> {
+        // The warp (`n_scale`) and the lookup mode (`filter`) shape the map and the pass: the
+        // pass refuses them, as they are not among its retunable knobs.
+        self.pass.retune(params)
+    }
 }

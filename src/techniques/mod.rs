@@ -105,6 +105,30 @@ pub trait Technique {
     fn images(&self) -> Vec<(&'static str, &Image)> {
         Vec::new()
     }
+
+    /// Takes `params` without rebuilding, when every knob that differs from the ones it was
+    /// built with changes no resource (a push constant, the rasterizer's dynamic depth bias):
+    /// returns `true`, and the next frame renders exactly as a technique built with `params`
+    /// would. Otherwise returns `false` and changes nothing; the caller rebuilds. The default
+    /// takes nothing in place.
+    fn retune(&mut self, params: &Params) -> Result<bool> {
+        let _ = params;
+        Ok(false)
+    }
+}
+
+/// The knobs that are the rasterizer's dynamic depth bias: retunable on any shadow map.
+pub(crate) const BIAS_KNOBS: [&str; 3] = ["bias_constant", "bias_slope", "bias_clamp"];
+
+/// Whether every knob whose value differs between `built` and `next` is in `allowed` (the same
+/// knob set on both: one technique's resolutions).
+pub(crate) fn only_changed(built: &Params, next: &Params, allowed: &[&str]) -> bool {
+    let (a, b) = (built.values(), next.values());
+    a.len() == b.len()
+        && a.iter().all(|(k, v)| {
+            b.get(k)
+                .is_some_and(|w| w.to_bits() == v.to_bits() || allowed.contains(&k.as_str()))
+        })
 }
 
 /// Reads a counters buffer back as `(name, value)` pairs, one u32 slot per name in order: what

@@ -13,7 +13,8 @@
 use glam::IVec2;
 
 use super::{
-    Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS,
+    Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, BIAS_KNOBS,
+    SHADOW_MAP_KNOBS,
 };
 use crate::cpu::pcf::COUNTER_NAMES;
 use crate::error::Result;
@@ -138,7 +139,14 @@ pub(crate) struct ViewPass<'a, P> {
     view_size: IVec2,
     // The set refers to the setup's images, and each frame draws this geometry.
     geometry: &'a SceneGeometry,
+    /// The knobs it was built with, and the ones besides the bias that only change `push`, with
+    /// the function that applies them ([`ViewPass::retunable`]).
+    built: Params,
+    retune_push: Option<PushRetune<P>>,
 }
+
+/// Knobs that only change the push constants, and how to apply them to the old block.
+pub(crate) type PushRetune<P> = (&'static [&'static str], fn(&Params, &P) -> Result<P>);
 
 impl<'a, P: bytemuck::Pod> ViewPass<'a, P> {
     /// Builds the map from `light_view` (the setup's, or one a technique derived from it, such
@@ -182,7 +190,20 @@ impl<'a, P: bytemuck::Pod> ViewPass<'a, P> {
             push,
             view_size: IVec2::new(setup.view.width as i32, setup.view.height as i32),
             geometry: setup.geometry,
+            built: params.clone(),
+            retune_push: None,
         })
+    }
+
+    /// Lets `knobs` be retuned in place by `apply` (which rebuilds the push block from the new
+    /// knobs and the old block); the bias is always retunable.
+    pub(crate) fn retunable(
+        mut self,
+        knobs: &'static [&'static str],
+        apply: fn(&Params, &P) -> Result<P>,
+    ) -> Self {
+        self.retune_push = Some((knobs, apply));
+        self
     }
 }
 
@@ -198,7 +219,7 @@ pub(crate) fn pcf_pass<'a>(
     kernel: i32,
     receiver_plane: i32,
 ) -> Result<ViewPass<'a, PcfPush>> {
-    ViewPass::new(
+    let pass = ViewPass::new(
         setup,
         light_view,
         params,
@@ -214,7 +235,20 @@ pub(crate) fn pcf_pass<'a>(
             receiver_plane,
             pad: 0,
         },
-    )
+    )?;
+    // The filtered lookup (mode 1) reads its kernel and receiver-plane switch from the push
+    // constants; the nearest-texel test takes neither.
+    Ok(if mode == 1 {
+        pass.retunable(&["kernel", "receiver_plane_bias"], |params, old| {
+            Ok(PcfPush {
+                kernel: params.u32("kernel")? as i32,
+                receiver_plane: params.u32("receiver_plane_bias")? as i32,
+                ..*old
+            })
+        })
+    } else {
+        pass
+    })
 }
 
 impl<P: bytemuck::Pod> Technique for ViewPass<'_, P> {
@@ -238,5 +272,23 @@ impl<P: bytemuck::Pod> Technique for ViewPass<'_, P> {
 
     fn shadow_map(&self) -> Option<&ShadowMap> {
         Some(&self.shadow_map)
+    }
+
+    fn retune(&mut self, params: &Params) -> Result<bool> {
+        let push_knobs = self.retune_push.map_or(&[][..], |(k, _)| k);
+        let allowed: Vec<&str> = BIAS_KNOBS.iter().chain(push_knobs).copied().collect();
+        if !super::only_changed(&self.built, params, &allowed) {
+            return Ok(false);
+        }
+        // Everything is computed before anything changes: a refused bias keeps the old state.
+        let push = match self.retune_push {
+            Some((_, apply)) => apply(params, &self.push)?,
+            None => self.push,
+        };
+        self.shadow_map
+            .set_bias(&self.ctx, shadow_map_desc(params)?.bias)?;
+        self.push = push;
+        self.built = params.clone();
+        Ok(true)
     }
 }

@@ -71,4 +71,13 @@ fn pcf_coverage<'a>(
             pad: [0; 2],
         },
     )
+    .map(|pass| {
+        pass.retunable(&["kernel", "receiver_plane_bias"], |params, old| {
+            Ok(PcfCoveragePush {
+                kernel: params.f32("kernel")?,
+                receiver_plane: params.u32("receiver_plane_bias")? as i32,
+                ..*old
+            })
+        })
+    })
 }

@@ -99,4 +99,15 @@ fn pcf_poisson<'a>(
             pad: 0,
         },
     )
+    // The disk's size (`taps`) is a buffer; its radius and the receiver-plane switch are push
+    // constants.
+    .map(|pass| {
+        pass.retunable(&["radius", "receiver_plane_bias"], |params, old| {
+            Ok(PcfPoissonPush {
+                radius: params.f32("radius")?,
+                receiver_plane: params.u32("receiver_plane_bias")? as i32,
+                ..*old
+            })
+        })
+    })
 }

@@ -66,7 +66,8 @@ use glam::{IVec2, Mat4, Vec2};
 use super::pcf::shadow_map_desc;
 use super::soft_light::{soft_light, MAX_WIDTH, MIN_KERNEL};
 use super::{
-    Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS,
+    Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, BIAS_KNOBS,
+    SHADOW_MAP_KNOBS,
 };
 use crate::error::{Error, Result};
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
@@ -231,6 +232,8 @@ struct Pcss<'a> {
     _unused_levels: (Image, Image),
     push: PcssPush,
     geometry: &'a SceneGeometry,
+    /// The knobs it was built with (what [`Technique::retune`] compares against).
+    built: Params,
     shadow_map: Box<ShadowMap>,
 }
 
@@ -241,27 +244,49 @@ fn parameter(message: String) -> Error {
     }
 }
 
+/// The knobs that only change [`PcssPush`]: retunable in place (with the bias).
+const PUSH_KNOBS: [&str; 5] = [
+    "search_taps",
+    "filter_taps",
+    "min_kernel",
+    "max_width",
+    "receiver_plane_bias",
+];
+
+/// [`PUSH_KNOBS`] from `params`, checked together: (search taps, filter taps, min kernel,
+/// max width, receiver plane).
+fn push_knobs(params: &Params) -> Result<(i32, i32, f32, f32, i32)> {
+    let search_taps = params.u32("search_taps")? as i32;
+    let filter_taps = params.u32("filter_taps")? as i32;
+    let min_kernel = params.f32("min_kernel")?;
+    let max_width = params.f32("max_width")?;
+    let receiver_plane = params.u32("receiver_plane_bias")? as i32;
+    if min_kernel > max_width {
+        return Err(parameter(format!(
+            "min_kernel = {min_kernel} exceeds max_width = {max_width}"
+        )));
+    }
+    if (search_taps == 0 || filter_taps == 0) && max_width > EXHAUSTIVE_MAX_WIDTH {
+        return Err(parameter(format!(
+            "max_width = {max_width} with an exhaustive search or filter: at most \
+             {EXHAUSTIVE_MAX_WIDTH} texels (software drivers stop loops after 65 535 \
+             iterations); set search_taps and filter_taps, or a smaller max_width"
+        )));
+    }
+    Ok((
+        search_taps,
+        filter_taps,
+        min_kernel,
+        max_width,
+        receiver_plane,
+    ))
+}
+
 impl<'a> Pcss<'a> {
     fn new(setup: &TechniqueSetup<'a>, params: &Params) -> Result<Self> {
         let ctx = setup.ctx;
-        let search_taps = params.u32("search_taps")? as i32;
-        let filter_taps = params.u32("filter_taps")? as i32;
         let skip = params.u32("skip")? as i32;
-        let min_kernel = params.f32("min_kernel")?;
-        let max_width = params.f32("max_width")?;
-        let receiver_plane = params.u32("receiver_plane_bias")? as i32;
-        if min_kernel > max_width {
-            return Err(parameter(format!(
-                "min_kernel = {min_kernel} exceeds max_width = {max_width}"
-            )));
-        }
-        if (search_taps == 0 || filter_taps == 0) && max_width > EXHAUSTIVE_MAX_WIDTH {
-            return Err(parameter(format!(
-                "max_width = {max_width} with an exhaustive search or filter: at most \
-                 {EXHAUSTIVE_MAX_WIDTH} texels (software drivers stop loops after 65 535 \
-                 iterations); set search_taps and filter_taps, or a smaller max_width"
-            )));
-        }
+        let (search_taps, filter_taps, min_kernel, max_width, receiver_plane) = push_knobs(params)?;
         let shadow_map = Box::new(ShadowMap::new(
             ctx,
             *setup.light_view,
@@ -345,6 +370,7 @@ impl<'a> Pcss<'a> {
             _unused_levels: unused_levels,
             push,
             geometry: setup.geometry,
+            built: params.clone(),
             shadow_map,
         })
     }
@@ -377,6 +403,26 @@ impl Technique for Pcss<'_> {
 
     fn shadow_map(&self) -> Option<&ShadowMap> {
         Some(&self.shadow_map)
+    }
+
+    fn retune(&mut self, params: &Params) -> Result<bool> {
+        let allowed: Vec<&str> = BIAS_KNOBS.iter().chain(&PUSH_KNOBS).copied().collect();
+        if !super::only_changed(&self.built, params, &allowed) {
+            return Ok(false);
+        }
+        let (search_taps, filter_taps, min_kernel, max_width, receiver_plane) = push_knobs(params)?;
+        self.shadow_map
+            .set_bias(&self.ctx, shadow_map_desc(params)?.bias)?;
+        self.push = PcssPush {
+            search_taps,
+            filter_taps,
+            min_kernel,
+            max_width,
+            receiver_plane,
+            ..self.push
+        };
+        self.built = params.clone();
+        Ok(true)
     }
 }
 

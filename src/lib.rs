@@ -9,7 +9,8 @@
 //! in `w`). *Visibility* is one R32F value per pixel in `[0, 1]`: 1 lit, 0 umbra.
 //!
 //! 1. An [`Engine`] runs on a Vulkan device: its own ([`Engine::new`]) or the caller's
-//!    ([`Context::from_raw`] then [`Engine::from_context`]).
+//!    ([`Context::from_raw_device`], optionally with the caller's `gpu-allocator`, then
+//!    [`Engine::from_context`]).
 //! 2. [`Engine::prepare`] uploads a [`Scene`] (meshes, camera, light) and renders its view
 //!    samples; [`Engine::prepare_with_view_samples`] takes the caller's G-buffer and visibility
 //!    images instead ([`gpu::Image::borrowed`], [`passes::ViewSamples::from_images`]).

@@ -103,6 +103,60 @@ fn renders_on_a_device_the_host_owns() {
             assert!(frame.stats.counters["umbra"] + frame.stats.counters["penumbra"] > 0);
         }
     }
+    // Again, with penumbra's memory taken from the host's own gpu-allocator.
+    let allocator =
+        gpu_allocator::vulkan::Allocator::new(&gpu_allocator::vulkan::AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device: pd,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })
+        .expect("the host's allocator");
+    let allocator = std::sync::Arc::new(std::sync::Mutex::new(allocator));
+    {
+        let ctx = unsafe {
+            Context::from_raw_device(penumbra::gpu::RawDevice {
+                entry: entry.clone(),
+                instance: instance.clone(),
+                physical_device: pd,
+                device: device.clone(),
+                queue_family: family,
+                features: Default::default(),
+                allocator: Some(allocator.clone()),
+            })
+        }
+        .expect("wrap the host's device and allocator");
+        let engine = Engine::from_context(ctx);
+        let mut scene = Scene::open("plane-boxes").expect("scene");
+        scene.camera.width = 96;
+        scene.camera.height = 64;
+        let prepared = engine.prepare(&scene).expect("prepare");
+        let mut set = BTreeMap::new();
+        set.insert("map_size".to_string(), "256".to_string());
+        let mut renderer = engine.renderer(&prepared, "pcf", &set).expect("renderer");
+        renderer.render().expect("frame");
+        assert_eq!(renderer.checks().expect("checks").nan, 0);
+        let report = allocator.lock().expect("lock").generate_report();
+        assert!(
+            report.allocations.iter().any(|a| a.name == "shadow map"),
+            "penumbra's shadow map comes from the host's allocator: {:?}",
+            report
+                .allocations
+                .iter()
+                .map(|a| &a.name)
+                .collect::<Vec<_>>()
+        );
+    }
+    // Everything penumbra took went back.
+    let report = allocator.lock().expect("lock").generate_report();
+    assert!(
+        report.allocations.is_empty(),
+        "{} left",
+        report.allocations.len()
+    );
+    drop(allocator);
     // penumbra is gone; the host's device and instance are still valid and are destroyed now:
     // any object penumbra leaked would be reported here.
     unsafe {

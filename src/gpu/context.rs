@@ -132,7 +132,8 @@ pub(crate) struct DeviceShared {
     queue: Mutex<vk::Queue>,
     pub(crate) debug_utils: Option<ash::ext::debug_utils::Device>,
     messenger: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
-    pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
+    /// penumbra's own allocator, or the caller's ([`RawDevice::allocator`]).
+    pub(crate) allocator: ManuallyDrop<Arc<Mutex<Allocator>>>,
     pub(crate) command_pool: Mutex<vk::CommandPool>,
     /// Command buffers and fences whose submissions have completed, reused by the next submit so
     /// a steady-state frame allocates neither.
@@ -246,6 +247,24 @@ impl EnabledFeatures {
             ),
         ]
     }
+}
+
+/// A device the caller created and keeps owning, for [`Context::from_raw_device`].
+pub struct RawDevice {
+    /// The Vulkan entry points the instance was created with.
+    pub entry: ash::Entry,
+    /// The instance.
+    pub instance: ash::Instance,
+    /// The physical device.
+    pub physical_device: vk::PhysicalDevice,
+    /// The device (Vulkan 1.3 `dynamicRendering` and `synchronization2` enabled).
+    pub device: ash::Device,
+    /// A queue family with graphics and compute; penumbra submits to its queue 0.
+    pub queue_family: u32,
+    /// The optional features enabled on `device` ([`EnabledFeatures::supported`]).
+    pub features: EnabledFeatures,
+    /// The caller's allocator, to take penumbra's memory from; `None`: an allocator of its own.
+    pub allocator: Option<Arc<Mutex<Allocator>>>,
 }
 
 /// Running totals of what penumbra has created on the device.
@@ -713,6 +732,40 @@ impl Context {
         queue_family: u32,
         enabled: &EnabledFeatures,
     ) -> Result<Context> {
+        // SAFETY: the caller's contract, passed on.
+        unsafe {
+            Self::from_raw_device(RawDevice {
+                entry,
+                instance,
+                physical_device,
+                device,
+                queue_family,
+                features: *enabled,
+                allocator: None,
+            })
+        }
+    }
+
+    /// Wraps the caller's device as described by `raw` ([`Context::from_raw`] and
+    /// [`Context::from_raw_with_features`] are shorthands): with `raw.allocator`, every buffer
+    /// and image penumbra makes is sub-allocated from the caller's `gpu-allocator` instead of an
+    /// allocator of its own, and each is freed back to it when dropped.
+    ///
+    /// # Safety
+    /// As [`Context::from_raw_with_features`]; and the allocator, if any, must have been
+    /// created for this instance, physical device and device, and must not be dropped while
+    /// penumbra's resources live (penumbra holds an `Arc` of it, so this holds unless the
+    /// caller destroys the device first).
+    pub unsafe fn from_raw_device(raw: RawDevice) -> Result<Context> {
+        let RawDevice {
+            entry,
+            instance,
+            physical_device,
+            device,
+            queue_family,
+            features: enabled,
+            allocator,
+        } = raw;
         let mut info = query_info(&instance, physical_device)?;
         if let Err(why) = &info.usable {
             return Err(Error::Unsupported {
@@ -736,7 +789,7 @@ impl Context {
         info.depth_bias_clamp = enabled.depth_bias_clamp;
         info.clip_distance = enabled.clip_distance;
         let debug_utils = false;
-        let shared = Self::assemble(
+        let mut shared = Self::assemble(
             entry,
             instance,
             physical_device,
@@ -748,6 +801,11 @@ impl Context {
             Arc::new(ValidationLog::default()),
             None,
         )?;
+        if let Some(a) = allocator {
+            // penumbra's own (empty) allocator goes; the caller's takes its place.
+            unsafe { ManuallyDrop::drop(&mut shared.allocator) };
+            shared.allocator = ManuallyDrop::new(a);
+        }
         Ok(Context {
             shared: Arc::new(shared),
         })
@@ -815,7 +873,7 @@ impl Context {
             queue: Mutex::new(queue),
             debug_utils,
             messenger: None,
-            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            allocator: ManuallyDrop::new(Arc::new(Mutex::new(allocator))),
             command_pool: Mutex::new(command_pool),
             submit_slots: Mutex::new(Vec::new()),
             pipeline_cache,

@@ -20,7 +20,7 @@ mod validation;
 
 pub use commands::{f32s, u32s, Recorder};
 pub use context::{
-    enumerate_devices, Context, ContextDesc, CreationCounts, DeviceInfo, EnabledFeatures,
+    enumerate_devices, Context, ContextDesc, CreationCounts, DeviceInfo, EnabledFeatures, RawDevice,
 };
 pub use pipeline::{
     shader_interface, shader_names, shader_spirv, Binding, DescriptorSet, GraphicsDesc, Pipeline,

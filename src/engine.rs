@@ -223,7 +223,9 @@ impl Engine {
         let bounds_pass = crate::passes::ReceiverBoundsPass::new(ctx, &view, &light_view)?;
         let mut timestamps = Timestamps::new(ctx, 1)?;
         ctx.submit(Some(&mut timestamps), |rec| {
-            if !view.is_external() {
+            if view.is_external() {
+                view.record_reconstruction(rec)?;
+            } else {
                 view.record(rec, &geometry, &scene.camera)?;
             }
             // Outside the timed pass: view_pass stays the view samples' time alone.

@@ -13,7 +13,8 @@
 //!    [`Engine::from_context`]).
 //! 2. [`Engine::prepare`] uploads a [`Scene`] (meshes, camera, light) and renders its view
 //!    samples; [`Engine::prepare_with_view_samples`] takes the caller's G-buffer and visibility
-//!    images instead ([`gpu::Image::borrowed`], [`passes::ViewSamples::from_images`]).
+//!    images instead ([`gpu::Image::borrowed`]; [`passes::ViewSamples::from_images`] for world
+//!    position + normal, [`passes::ViewSamples::from_depth`] for depth + normal).
 //! 3. [`Engine::renderer_for`] builds one technique ([`TechniqueDesc`]: a [`TechniqueKind`] and
 //!    typed knobs checked as they are set) into a [`ShadowRenderer`] that lives across frames.
 //! 4. Each frame, [`ShadowRenderer::render`] submits and waits (timed per pass), or

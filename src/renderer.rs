@@ -189,9 +189,10 @@ impl<'a> ShadowRenderer<'a> {
     /// Renders one frame on penumbra's queue and waits for it; each pass is timed
     /// ([`ShadowRenderer::pass_times`]). Allocates nothing once the first frame has run.
     pub fn render(&mut self) -> Result<()> {
+        let view = &self.prepared.view;
         let (receivers, technique, checks) = (self.receivers, &mut self.technique, &self.checks);
         let result = self.ctx.submit(Some(&mut self.timestamps), |rec| {
-            record_frame(receivers, technique.as_mut(), checks, rec)
+            record_frame(view, receivers, technique.as_mut(), checks, rec)
         });
         self.timed = result.is_ok();
         result
@@ -211,11 +212,12 @@ impl<'a> ShadowRenderer<'a> {
     /// completion, and no other submission using them may run concurrently with it.
     pub unsafe fn record(&mut self, cmd: vk::CommandBuffer) -> Result<()> {
         self.timed = false;
+        let view = &self.prepared.view;
         let (receivers, technique, checks) = (self.receivers, &mut self.technique, &self.checks);
         // SAFETY: the caller's contract, passed on.
         unsafe {
             self.ctx.record_into(cmd, |rec| {
-                record_frame(receivers, technique.as_mut(), checks, rec)
+                record_frame(view, receivers, technique.as_mut(), checks, rec)
             })
         }
     }
@@ -316,14 +318,17 @@ impl<'a> ShadowRenderer<'a> {
     }
 }
 
-/// Records one frame: the receivers, the technique, the receivers' finish (light clipping), then
-/// the visibility checks outside any timed pass.
+/// Records one frame: the view samples' unprojection (for a depth G-buffer), the receivers, the
+/// technique, the receivers' finish (light clipping), then the visibility checks outside any
+/// timed pass.
 fn record_frame(
+    view: &crate::passes::ViewSamples,
     receivers: Option<&Receivers>,
     technique: &mut dyn Technique,
     checks: &VisibilityChecks,
     rec: &mut crate::gpu::Recorder<'_>,
 ) -> Result<()> {
+    view.record_reconstruction(rec)?;
     if let Some(r) = receivers {
         r.record_prepare(rec)?;
     }

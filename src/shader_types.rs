@@ -29,6 +29,24 @@ pub struct ViewSamplesPush {
     pub forward: Vec4,
 }
 
+/// `glsl/view_samples/from_depth.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct FromDepthPush {
+    /// Vulkan clip space (y down, depth 0..1) → world: the camera's inverse view-projection.
+    pub inv_view_proj: Mat4,
+    /// xyz: the camera position.
+    pub eye: Vec4,
+    /// xyz: the unit view direction.
+    pub forward: Vec4,
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// Padding to the block's declared size.
+    pub pad0: i32,
+    /// Padding to the block's declared size.
+    pub pad1: i32,
+}
+
 /// `glsl/receivers/prepare.comp`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]

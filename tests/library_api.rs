@@ -492,3 +492,151 @@ fn knob_changes_apply_in_place_or_rebuild_and_match_a_fresh_renderer() {
     drop(prepared);
     common::assert_clean(&ctx.validation());
 }
+
+/// A depth image as `camera.view_projection()` writes it, from world positions (1 for
+/// background): the test's own projection, not the GPU pass's set-up.
+fn depth_of(camera: &penumbra::Camera, positions: &[Vec4]) -> Vec<f32> {
+    let vp = camera.view_projection();
+    positions
+        .iter()
+        .map(|p| {
+            if p.w <= 0.0 {
+                1.0
+            } else {
+                let c = vp * p.truncate().extend(1.0);
+                c.z / c.w
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn view_samples_from_a_depth_gbuffer_match_the_cpu_twin_and_the_raster_samples() {
+    let engine = common::engine();
+    let ctx = engine.context().clone();
+    let scene = small_scene();
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let own = engine.prepare(&scene).expect("prepare");
+    let positions = own.sample_positions(&ctx).expect("positions");
+    let normals = own.view.read_normals(&ctx).expect("normals");
+    let depth = depth_of(&scene.camera, &positions);
+    // The caller's normals: unnormalised and some facing away, which the pass must fix.
+    let normal_in: Vec<Vec4> = normals
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            let s = if i % 3 == 0 { -2.5 } else { 0.75 };
+            (n.truncate() * s).extend(0.0)
+        })
+        .collect();
+    let (twin_positions, twin_normals) =
+        penumbra::cpu::view_samples::from_depth(&scene.camera, &depth, &normal_in);
+    let extent = {
+        let mut b = penumbra::scene::Aabb::EMPTY;
+        for p in &own.positions {
+            b.extend(*p);
+        }
+        b.radius()
+    };
+    for (format, bytes) in [
+        (
+            vk::Format::R32_SFLOAT,
+            bytemuck::cast_slice::<f32, u8>(&depth).to_vec(),
+        ),
+        (
+            vk::Format::D32_SFLOAT,
+            bytemuck::cast_slice::<f32, u8>(&depth).to_vec(),
+        ),
+    ] {
+        let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
+        let depth_image = Image::new(&ctx, "caller depth", ImageDesc::new_2d(format, w, h, usage))
+            .expect("depth");
+        let normal_image = Image::new(
+            &ctx,
+            "caller normals",
+            ImageDesc::new_2d(vk::Format::R32G32B32A32_SFLOAT, w, h, usage),
+        )
+        .expect("normals");
+        ctx.submit(None, |rec| {
+            rec.upload_image(&depth_image, &bytes)?;
+            rec.upload_image(&normal_image, bytemuck::cast_slice(&normal_in))
+        })
+        .expect("upload");
+        let view = ViewSamples::from_depth(&ctx, &scene.camera, depth_image, normal_image)
+            .expect("view samples from depth");
+        let visibility = owned(&engine, "visibility", vk::Format::R32_SFLOAT, w, h);
+        let prepared = engine
+            .prepare_with_view_samples(&scene, view, visibility)
+            .expect("prepare from depth");
+        let got_positions = prepared.sample_positions(&ctx).expect("read");
+        let got_normals = prepared.view.read_normals(&ctx).expect("read");
+        let mut worst = (0.0f32, 0.0f32);
+        for i in 0..got_positions.len() {
+            let (g, t) = (got_positions[i], twin_positions[i]);
+            assert_eq!(g.w, t.w, "{format:?}: sample/background differs at {i}");
+            worst.0 = worst.0.max((g.truncate() - t.truncate()).length() / extent);
+            let (gn, tn) = (got_normals[i], twin_normals[i]);
+            worst.1 = worst
+                .1
+                .max((gn.truncate() - tn.truncate()).abs().max_element());
+            // And against the raster view samples the depth came from.
+            assert_eq!(g.w, positions[i].w, "{format:?}: coverage differs at {i}");
+            if g.w > 0.0 {
+                let d = (g.truncate() - positions[i].truncate()).length() / extent;
+                assert!(d < 1e-3, "{format:?}: pixel {i} unprojects {d} away");
+                assert!(
+                    (gn.truncate() - normals[i].truncate()).length() < 1e-5,
+                    "normal {i}"
+                );
+            }
+        }
+        assert!(
+            worst.0 < 1e-4 && worst.1 < 1e-5,
+            "{format:?}: worst vs twin {worst:?}"
+        );
+        // A technique on them agrees with the same technique on the raster samples.
+        let set = knobs(&[("map_size", "256")]);
+        let mut r = engine.renderer(&prepared, "pcf", &set).expect("renderer");
+        r.render().expect("frame");
+        let from_depth = r.read_visibility().expect("read");
+        let mut o = engine.renderer(&own, "pcf", &set).expect("renderer");
+        o.render().expect("frame");
+        let raster = o.read_visibility().expect("read");
+        let differing = from_depth
+            .iter()
+            .zip(&raster)
+            .filter(|(a, b)| (*a - *b).abs() > 1e-3)
+            .count();
+        if differing * 100 > from_depth.len() {
+            common::write_diff("from-depth", w, h, &raster, &from_depth);
+        }
+        assert!(
+            differing * 100 <= from_depth.len(),
+            "{format:?}: {differing} pixels differ"
+        );
+    }
+    // The wrong input is refused with what was expected.
+    let no_sampled = Image::new(
+        &ctx,
+        "storage-only depth",
+        ImageDesc::new_2d(vk::Format::R32_SFLOAT, w, h, vk::ImageUsageFlags::STORAGE),
+    )
+    .expect("image");
+    let normals_ok = Image::new(
+        &ctx,
+        "normals",
+        ImageDesc::new_2d(
+            vk::Format::R16G16B16A16_SFLOAT,
+            w,
+            h,
+            vk::ImageUsageFlags::SAMPLED,
+        ),
+    )
+    .expect("image");
+    let e = ViewSamples::from_depth(&ctx, &scene.camera, no_sampled, normals_ok)
+        .err()
+        .expect("refused");
+    assert!(e.to_string().contains("lacks SAMPLED"), "{e}");
+    drop(own);
+    common::assert_clean(&ctx.validation());
+}

@@ -206,6 +206,17 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
+            vec!["view_samples/from_depth.comp"],
+            twin!(FromDepthPush {
+                inv_view_proj,
+                eye,
+                forward,
+                view_size,
+                pad0,
+                pad1
+            }),
+        ),
+        (
             vec!["receivers/prepare.comp"],
             twin!(ReceiversPush {
                 light_position,

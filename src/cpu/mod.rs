@@ -39,4 +39,5 @@ pub mod shadow_map;
 pub mod sort;
 #[cfg(test)]
 pub(crate) mod test_support;
+pub mod view_samples;
 pub mod vssm;

@@ -7,13 +7,16 @@
 //! direction). Full f32 so a receiver's depth reprojected into the light is not quantized.
 
 use ash::vk;
-use glam::Vec4;
+use glam::{IVec2, Vec4};
 
 use super::SceneGeometry;
 use crate::error::{Error, Result};
-use crate::gpu::{f32s, Access, Context, GraphicsDesc, Image, ImageDesc, Pipeline, Recorder};
+use crate::gpu::{
+    f32s, Access, Binding, Context, DescriptorSet, GraphicsDesc, Image, ImageDesc, Pipeline,
+    Recorder, Sampler,
+};
 use crate::scene::Camera;
-use crate::shader_types::ViewSamplesPush;
+use crate::shader_types::{FromDepthPush, ViewSamplesPush};
 
 const SAMPLE_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
@@ -23,6 +26,9 @@ pub struct ViewSamples {
     /// The raster pipeline and depth buffer; `None` for the caller's images, which penumbra
     /// reads but never renders.
     raster: Option<(Pipeline, Image)>,
+    /// For the caller's depth and normal G-buffer: the pass that unprojects it into
+    /// `positions` and `normals` at the start of each frame.
+    from_depth: Option<FromDepth>,
     /// xyz world position, w = 1 for a sample and 0 for background.
     pub positions: Image,
     /// xyz normal facing the camera, w linear view depth.
@@ -65,6 +71,7 @@ impl ViewSamples {
         )?;
         Ok(ViewSamples {
             raster: Some((pipeline, depth)),
+            from_depth: None,
             positions: Image::new(
                 ctx,
                 "view positions",
@@ -91,11 +98,102 @@ impl ViewSamples {
         }
         Ok(ViewSamples {
             raster: None,
+            from_depth: None,
             positions,
             normals,
             width: camera.width,
             height: camera.height,
         })
+    }
+
+    /// View samples from the caller's depth and normal G-buffer: `depth` (D32_SFLOAT or
+    /// R32_SFLOAT, as `camera.view_projection()` writes it: 0..1, cleared to 1 for background)
+    /// and `normals` (xyz a world-space normal of any length and either facing, in
+    /// R32G32B32A32_SFLOAT, R16G16B16A16_SFLOAT or _SNORM, or R8G8B8A8_SNORM), both with
+    /// `SAMPLED` usage and `camera`'s size. Each frame first unprojects them into penumbra's own
+    /// positions and normals (`glsl/view_samples/from_depth.comp`, CPU twin
+    /// [`crate::cpu::view_samples::from_depth`]), which is what the techniques then read.
+    pub fn from_depth(
+        ctx: &Context,
+        camera: &Camera,
+        depth: Image,
+        normals: Image,
+    ) -> Result<ViewSamples> {
+        let (w, h) = (camera.width, camera.height);
+        check_sampled(
+            &depth,
+            &[vk::Format::D32_SFLOAT, vk::Format::R32_SFLOAT],
+            w,
+            h,
+        )?;
+        check_sampled(
+            &normals,
+            &[
+                SAMPLE_FORMAT,
+                vk::Format::R16G16B16A16_SFLOAT,
+                vk::Format::R16G16B16A16_SNORM,
+                vk::Format::R8G8B8A8_SNORM,
+            ],
+            w,
+            h,
+        )?;
+        let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
+        let out_positions = Image::new(
+            ctx,
+            "view positions (from depth)",
+            ImageDesc::new_2d(SAMPLE_FORMAT, w, h, usage),
+        )?;
+        let out_normals = Image::new(
+            ctx,
+            "view normals (from depth)",
+            ImageDesc::new_2d(SAMPLE_FORMAT, w, h, usage),
+        )?;
+        let pipeline = Pipeline::compute(ctx, "view_samples/from_depth.comp")?;
+        let sampler = Sampler::nearest_border_white(ctx, "caller G-buffer sampler")?;
+        let set = DescriptorSet::new(
+            ctx,
+            &pipeline,
+            &[
+                Binding::Sampled(&depth, &sampler),
+                Binding::Sampled(&normals, &sampler),
+                Binding::Image(&out_positions),
+                Binding::Image(&out_normals),
+            ],
+        )?;
+        let forward = (camera.target - camera.position).normalize_or_zero();
+        let push = FromDepthPush {
+            inv_view_proj: camera.view_projection().inverse(),
+            eye: camera.position.extend(1.0),
+            forward: forward.extend(0.0),
+            view_size: IVec2::new(w as i32, h as i32),
+            pad0: 0,
+            pad1: 0,
+        };
+        Ok(ViewSamples {
+            raster: None,
+            from_depth: Some(FromDepth {
+                pipeline,
+                set,
+                push,
+                _inputs: (depth, normals, sampler),
+            }),
+            positions: out_positions,
+            normals: out_normals,
+            width: w,
+            height: h,
+        })
+    }
+
+    /// For view samples from a depth G-buffer ([`ViewSamples::from_depth`]): records the pass
+    /// that unprojects it (what every frame starts with, outside any timed pass). Nothing for the
+    /// other kinds.
+    pub fn record_reconstruction(&self, rec: &mut Recorder<'_>) -> Result<()> {
+        let Some(f) = &self.from_depth else {
+            return Ok(());
+        };
+        // Untimed, like the view-sample raster pass is outside a technique's time: it is the
+        // caller's view samples' cost, shared by every technique.
+        rec.dispatch(&f.pipeline, &f.set, &f.push, [self.width, self.height, 1])
     }
 
     /// Whether these are the caller's images ([`ViewSamples::from_images`]).
@@ -177,6 +275,39 @@ pub(crate) fn check_image(
         return Err(Error::InvalidArgument(format!(
             "image '{}' lacks STORAGE usage (has {:?}): penumbra's compute passes bind it as a \
              storage image",
+            image.name, d.usage
+        )));
+    }
+    Ok(())
+}
+
+/// The unprojection pass of [`ViewSamples::from_depth`] and the caller's images it reads.
+struct FromDepth {
+    pipeline: Pipeline,
+    set: DescriptorSet,
+    push: FromDepthPush,
+    // Read by the set every frame.
+    _inputs: (Image, Image, Sampler),
+}
+
+/// That `image` is a sampled image of one of `formats` and `width`×`height`.
+fn check_sampled(image: &Image, formats: &[vk::Format], width: u32, height: u32) -> Result<()> {
+    let d = &image.desc;
+    if !formats.contains(&d.format) {
+        return Err(Error::InvalidArgument(format!(
+            "image '{}' is {:?}: expected one of {formats:?}",
+            image.name, d.format
+        )));
+    }
+    if (d.width, d.height) != (width, height) {
+        return Err(Error::InvalidArgument(format!(
+            "image '{}' is {}x{}: expected {width}x{height} (the camera's size)",
+            image.name, d.width, d.height
+        )));
+    }
+    if !d.usage.contains(vk::ImageUsageFlags::SAMPLED) {
+        return Err(Error::InvalidArgument(format!(
+            "image '{}' lacks SAMPLED usage (has {:?}): the pass reads it with texelFetch",
             image.name, d.usage
         )));
     }

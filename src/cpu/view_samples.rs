@@ -23,7 +23,9 @@ pub fn from_depth(camera: &Camera, depth: &[f32], normal_in: &[Vec4]) -> (Vec<Ve
             let d = depth[i];
             let n = normal_in[i].truncate();
             let len = n.length();
-            if !(d < 1.0) || !(d >= 0.0) || !(len > 1e-20) {
+            // As the shader's `!(d < 1.0) || !(d >= 0.0) || !(len > 1e-20)`: NaN fails every test.
+            let usable = (0.0..1.0).contains(&d) && len > 1e-20;
+            if !usable {
                 continue;
             }
             let ndc =

@@ -34,6 +34,17 @@ unsafe extern "system" fn count(
     vk::FALSE
 }
 
+fn small_scene() -> Scene {
+    let mut scene = Scene::open("plane-boxes").expect("scene");
+    scene.camera.width = 96;
+    scene.camera.height = 64;
+    scene
+}
+
+fn map_256() -> BTreeMap<String, String> {
+    BTreeMap::from([("map_size".to_string(), "256".to_string())])
+}
+
 #[test]
 fn renders_on_a_device_the_host_owns() {
     let entry = unsafe { ash::Entry::load() }.expect("Vulkan loader");
@@ -89,12 +100,8 @@ fn renders_on_a_device_the_host_owns() {
             "optional features are assumed off on a borrowed device"
         );
         let engine = Engine::from_context(ctx);
-        let mut scene = Scene::open("plane-boxes").expect("scene");
-        scene.camera.width = 96;
-        scene.camera.height = 64;
-        let prepared = engine.prepare(&scene).expect("prepare");
-        let mut set = BTreeMap::new();
-        set.insert("map_size".to_string(), "256".to_string());
+        let prepared = engine.prepare(&small_scene()).expect("prepare");
+        let set = map_256();
         for technique in ["pcf", "vsm"] {
             let frame = engine
                 .render(&prepared, technique, &set, 1)
@@ -129,13 +136,10 @@ fn renders_on_a_device_the_host_owns() {
         }
         .expect("wrap the host's device and allocator");
         let engine = Engine::from_context(ctx);
-        let mut scene = Scene::open("plane-boxes").expect("scene");
-        scene.camera.width = 96;
-        scene.camera.height = 64;
-        let prepared = engine.prepare(&scene).expect("prepare");
-        let mut set = BTreeMap::new();
-        set.insert("map_size".to_string(), "256".to_string());
-        let mut renderer = engine.renderer(&prepared, "pcf", &set).expect("renderer");
+        let prepared = engine.prepare(&small_scene()).expect("prepare");
+        let mut renderer = engine
+            .renderer(&prepared, "pcf", &map_256())
+            .expect("renderer");
         renderer.render().expect("frame");
         assert_eq!(renderer.checks().expect("checks").nan, 0);
         let report = allocator.lock().expect("lock").generate_report();

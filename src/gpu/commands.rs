@@ -423,10 +423,10 @@ impl Recorder<'_> {
         Ok(staging)
     }
 
-    /// Copies `src` into `dst` (a host-visible buffer) and makes it visible to the host.
-    pub fn copy_image_to_buffer(&mut self, src: &Image, dst: &Buffer) {
+    /// Copies the whole of `src`, tightly packed, into `dst` (a raw buffer handle at least
+    /// `src.byte_size()` long) after the barrier `src` needs; `dst` is the caller's to order.
+    fn copy_image_into(&mut self, src: &Image, dst: vk::Buffer) {
         self.use_image(src, Access::TransferRead);
-        self.use_buffer(dst, Access::TransferWrite);
         let region = vk::BufferImageCopy::default()
             .image_subresource(src.subresource_layers())
             .image_extent(vk::Extent3D {
@@ -439,11 +439,10 @@ impl Recorder<'_> {
                 self.cmd,
                 src.raw,
                 vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                dst.raw,
+                dst,
                 &[region],
             )
         };
-        self.use_buffer(dst, Access::HostRead);
     }
 
     /// Copies a whole buffer into `dst` (a host-visible buffer) and makes it visible to the host.
@@ -719,25 +718,7 @@ impl Context {
             device: self.info().name.clone(),
             feature: format!("readback of format {:?}", src.desc.format),
         })?;
-        self.read_back(&src.name, size, |rec, dst| {
-            rec.use_image(src, Access::TransferRead);
-            let region = vk::BufferImageCopy::default()
-                .image_subresource(src.subresource_layers())
-                .image_extent(vk::Extent3D {
-                    width: src.desc.width,
-                    height: src.desc.height,
-                    depth: 1,
-                });
-            unsafe {
-                rec.ctx.device().cmd_copy_image_to_buffer(
-                    rec.cmd,
-                    src.raw,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    dst,
-                    &[region],
-                )
-            };
-        })
+        self.read_back(&src.name, size, |rec, dst| rec.copy_image_into(src, dst))
     }
 
     /// Records `copy` into the readback buffer (at least `size` bytes), submits, waits, and
@@ -774,17 +755,6 @@ impl Context {
             .and_then(|a| a.mapped_slice())
             .map(|s| &s[..size as usize]);
         mapped_bytes(&self.info().name, &format!("{name} (readback)"), bytes)
-    }
-
-    /// A host-visible buffer to copy results into.
-    pub fn readback_buffer(&self, name: &str, size: u64) -> Result<Buffer> {
-        Buffer::new(
-            self,
-            &format!("{name} (readback)"),
-            size,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-        )
     }
 }
 

@@ -328,16 +328,8 @@ impl Image {
             unsafe { device.bind_image_memory(raw, a.memory(), a.offset()) }
                 .vk("vkBindImageMemory")?;
         }
-        let view_info = vk::ImageViewCreateInfo::default()
-            .image(raw)
-            .view_type(vk::ImageViewType::TYPE_2D)
-            .format(desc.format)
-            .subresource_range(image.subresource_range());
-        image.view =
-            unsafe { device.create_image_view(&view_info, None) }.vk("vkCreateImageView")?;
-        ctx.shared.counts.object();
+        image.create_view()?;
         ctx.set_name(raw, name);
-        ctx.set_name(image.view, name);
         Ok(image)
     }
 
@@ -388,16 +380,23 @@ impl Image {
             name: name.to_string(),
             tracker: Arc::new(Tracker::external(layout)),
         };
-        let view_info = vk::ImageViewCreateInfo::default()
-            .image(raw)
-            .view_type(vk::ImageViewType::TYPE_2D)
-            .format(desc.format)
-            .subresource_range(image.subresource_range());
-        image.view =
-            unsafe { ctx.device().create_image_view(&view_info, None) }.vk("vkCreateImageView")?;
-        ctx.shared.counts.object();
-        ctx.set_name(image.view, name);
+        image.create_view()?;
         Ok(image)
+    }
+
+    /// Makes `view`, a view of the whole image (on failure `view` stays null and `Drop` skips
+    /// it).
+    fn create_view(&mut self) -> Result<()> {
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(self.raw)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(self.desc.format)
+            .subresource_range(self.subresource_range());
+        self.view = unsafe { self.ctx.device().create_image_view(&view_info, None) }
+            .vk("vkCreateImageView")?;
+        self.ctx.shared.counts.object();
+        self.ctx.set_name(self.view, &self.name);
+        Ok(())
     }
 
     /// Whether the caller owns it ([`Image::borrowed`]).

@@ -118,4 +118,4 @@ pub use gpu::{Context, ContextDesc, CreationCounts, Image};
 pub use passes::{ViewSamples, VisibilityCounts};
 pub use renderer::{Retuned, ShadowRenderer};
 pub use scene::{Camera, Light, Scene};
-pub use technique_desc::{KnobValue, TechniqueDesc, TechniqueKind};
+pub use technique_desc::{KnobChoice, KnobValue, TechniqueDesc, TechniqueKind};

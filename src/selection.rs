@@ -194,8 +194,11 @@ pub fn analyse(engine: &Engine, prepared: &PreparedScene) -> Result<SceneFeature
     let mut knobs = BTreeMap::new();
     knobs.insert("search_taps".to_string(), "8".to_string());
     knobs.insert("map_size".to_string(), "1024".to_string());
-    let frame = engine.render(prepared, "pcss", &knobs, 1)?;
-    let count = |k: &str| frame.stats.counters.get(k).copied().unwrap_or(0);
+    // One frame of one renderer: the counters are all it needs (no warm-up, no readback).
+    let mut probe = engine.renderer(prepared, "pcss", &knobs)?;
+    probe.render()?;
+    let counters = probe.counters()?;
+    let count = |k: &str| counters.get(k).copied().unwrap_or(0);
     let samples = count("view_samples").max(1);
     let penumbra_fraction = count("penumbra").min(samples) as f64 / samples as f64;
     Ok(SceneFeatures {

@@ -136,6 +136,120 @@ impl From<&'static str> for KnobValue {
     }
 }
 
+/// An enumerated knob's value as a Rust enum: the knob it sets and the name each variant stands
+/// for. A test holds every enum to the knob tables (same names, same order) of every technique
+/// that has the knob.
+pub trait KnobChoice: Copy + 'static {
+    /// The knob it sets.
+    const KNOB: &'static str;
+    /// Every value, in the knob's order (the index is the knob's number).
+    const ALL: &'static [Self];
+    /// The name the knob table gives this value.
+    fn name(self) -> &'static str;
+}
+
+macro_rules! knob_choices {
+    ($(
+        $(#[doc = $doc:literal])*
+        $ty:ident for $knob:literal { $($(#[doc = $vdoc:literal])* $variant:ident => $name:literal,)* }
+    )*) => {$(
+        $(#[doc = $doc])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum $ty {
+            $($(#[doc = $vdoc])* $variant,)*
+        }
+
+        impl KnobChoice for $ty {
+            const KNOB: &'static str = $knob;
+            const ALL: &'static [$ty] = &[$($ty::$variant,)*];
+            fn name(self) -> &'static str {
+                match self {
+                    $($ty::$variant => $name,)*
+                }
+            }
+        }
+
+        impl From<$ty> for KnobValue {
+            fn from(v: $ty) -> KnobValue {
+                KnobValue::Choice(v.name())
+            }
+        }
+    )*};
+}
+
+knob_choices! {
+    /// `fit` (every shadow-map technique but the per-light-sample ones): what the light view is
+    /// fitted to.
+    Fit for "fit" {
+        /// The scene's bounding box.
+        Scene => "scene",
+        /// The view samples and the casters between them and the light.
+        View => "view",
+    }
+    /// `filter` of `lispsm` and `cascades`: the lookup.
+    LookupFilter for "filter" {
+        /// One nearest-texel depth test.
+        Hard => "hard",
+        /// A box of bilinear tests.
+        Pcf => "pcf",
+    }
+    /// `filter` of `rmsm`: how a page texel is read.
+    PageFilter for "filter" {
+        /// The nearest texel.
+        Nearest => "nearest",
+        /// Bilinear depth tests.
+        Bilinear => "bilinear",
+    }
+    /// `skip` of `pcss`: the min/max structure that classifies regions first.
+    PcssSkip for "skip" {
+        /// No classification.
+        Off => "off",
+        /// An N-buffer (exact).
+        NBuffer => "nbuffer",
+        /// A min/max pyramid (a superset; cheaper to build).
+        Pyramid => "pyramid",
+    }
+    /// `skip` of `atty` and `bitmask`: an N-buffer classification first.
+    NBufferSkip for "skip" {
+        /// No classification.
+        Off => "off",
+        /// Classify by an N-buffer.
+        NBuffer => "nbuffer",
+    }
+    /// `skip` of `pvssm`: the coarse look before the blocker search.
+    PvssmSkip for "skip" {
+        /// No coarse look.
+        Off => "off",
+        /// Decide lit samples from a coarse look first.
+        Coarse => "coarse",
+    }
+    /// `rho` of `pvssm`: the perceptual metric that predicts the page resolution.
+    RhoMode for "rho" {
+        /// The user study's dynamic-occluder metric.
+        Dynamic => "dynamic",
+        /// The static (cubic) metric.
+        Static => "static",
+    }
+    /// `partition` of `cascades`: where the depth range is split.
+    Partition for "partition" {
+        /// The practical split (with `lambda`).
+        Pssm => "pssm",
+        /// Splits and windows fitted to the view samples' depth histogram.
+        Sdsm => "sdsm",
+        /// Uniform splits.
+        Uniform => "uniform",
+        /// Logarithmic splits.
+        Log => "log",
+    }
+    /// `combine` of `bitmask`: how micropatches combine.
+    Combine for "combine" {
+        /// OR the patches' light-sample masks.
+        Bitmask => "bitmask",
+        /// Sum their hidden areas (over-darkens where they overlap).
+        Add => "add",
+    }
+}
+
 /// A technique and the knobs set on it; unset knobs take their defaults (the technique's or the
 /// scene's) when a renderer is built.
 #[derive(Clone, Debug, PartialEq)]
@@ -211,6 +325,16 @@ impl TechniqueDesc {
         Ok(self)
     }
 
+    /// Sets an enumerated knob from its Rust enum (e.g. `.choose(PcssSkip::NBuffer)`), checked
+    /// like [`TechniqueDesc::with`]: a technique without the knob, or without that value of it,
+    /// is refused.
+    pub fn choose<C: KnobChoice>(self, choice: C) -> Result<TechniqueDesc>
+    where
+        KnobValue: From<C>,
+    {
+        self.with(C::KNOB, choice)
+    }
+
     /// The technique.
     pub fn kind(&self) -> TechniqueKind {
         self.kind
@@ -225,6 +349,71 @@ impl TechniqueDesc {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// (knob, names) of every enum.
+    fn enums() -> Vec<(&'static str, Vec<&'static str>)> {
+        fn names<C: KnobChoice>() -> (&'static str, Vec<&'static str>) {
+            (C::KNOB, C::ALL.iter().map(|c| c.name()).collect())
+        }
+        vec![
+            names::<Fit>(),
+            names::<LookupFilter>(),
+            names::<PageFilter>(),
+            names::<PcssSkip>(),
+            names::<NBufferSkip>(),
+            names::<PvssmSkip>(),
+            names::<RhoMode>(),
+            names::<Partition>(),
+            names::<Combine>(),
+        ]
+    }
+
+    #[test]
+    fn every_enumerated_knob_has_an_enum_with_its_names_in_order() {
+        let enums = enums();
+        for info in techniques::registry() {
+            for knob in info.all_knobs().iter().filter(|k| !k.names.is_empty()) {
+                assert!(
+                    enums
+                        .iter()
+                        .any(|(k, n)| *k == knob.name && n.as_slice() == knob.names),
+                    "{}: knob {} {:?} has no enum",
+                    info.name,
+                    knob.name,
+                    knob.names
+                );
+            }
+        }
+        // And no enum is orphaned: each matches some technique's knob.
+        for (knob, names) in &enums {
+            assert!(
+                techniques::registry().iter().any(|t| t
+                    .all_knobs()
+                    .iter()
+                    .any(|k| k.name == *knob && k.names == names.as_slice())),
+                "enum for {knob} {names:?} matches no technique"
+            );
+        }
+    }
+
+    #[test]
+    fn enums_set_their_knob_and_a_foreign_value_is_refused() {
+        let d = TechniqueDesc::new(TechniqueKind::Pcss)
+            .choose(PcssSkip::NBuffer)
+            .expect("pcss has skip = nbuffer")
+            .choose(Fit::Scene)
+            .expect("fit");
+        assert_eq!(d.overrides()["skip"], "1");
+        assert_eq!(d.overrides()["fit"], "0");
+        let e = TechniqueDesc::new(TechniqueKind::Pvssm)
+            .choose(PcssSkip::Pyramid)
+            .expect_err("pvssm's skip has no pyramid");
+        assert!(e.to_string().contains("expected one of off, coarse"), "{e}");
+        let e = TechniqueDesc::new(TechniqueKind::Hard)
+            .choose(Partition::Log)
+            .expect_err("hard has no partition");
+        assert!(e.to_string().contains("no knob 'partition'"), "{e}");
+    }
 
     #[test]
     fn every_registered_technique_has_a_kind_and_back() {

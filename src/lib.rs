@@ -39,8 +39,11 @@
 //! needs no barrier of its own on either side. [`ShadowRenderer::record`] submits nothing; its
 //! results ([`ShadowRenderer::checks`], counters, a readback) are valid once the caller's
 //! submission has completed, and the caller must not run another submission using the same
-//! renderer or images concurrently. penumbra's own submissions use the queue it was given and
-//! wait on a fence before returning.
+//! renderer or images concurrently. Each recorded frame is submitted exactly once (penumbra
+//! tracks resource states at record time). penumbra's own submissions use queue 0 of the family
+//! it was given and wait on a fence before returning; barriers order work within one queue, so
+//! work the caller submits on another queue must be complete (or semaphore-ordered) before
+//! penumbra uses the same images.
 //!
 //! # Example
 //!

@@ -205,11 +205,19 @@ impl<'a> ShadowRenderer<'a> {
     /// ([`ShadowRenderer::counters`], [`ShadowRenderer::checks`],
     /// [`ShadowRenderer::read_visibility`]) only after the submission has completed.
     ///
+    /// penumbra tracks every resource's state as it records, so each successful `record` must be
+    /// submitted exactly once, before this renderer (or another on the same scene) records or
+    /// renders again; after an error, do not submit `cmd` and drop the renderer (its tracked
+    /// states no longer match the device).
+    ///
     /// # Safety
     /// `cmd` must be a primary command buffer of this device, in the recording state, outside
     /// a render pass, from a pool of [`Context::queue_family`], and submitted to a queue of that
     /// family. Everything this renderer and its scene hold must outlive the submission's
-    /// completion, and no other submission using them may run concurrently with it.
+    /// completion, and no other submission using them may run concurrently with it. Barriers
+    /// order work within one queue: on a queue other than penumbra's, the caller orders its
+    /// submissions against penumbra's (semaphores), and [`ShadowRenderer::render`] returns only
+    /// after its own work completed.
     pub unsafe fn record(&mut self, cmd: vk::CommandBuffer) -> Result<()> {
         self.timed = false;
         let view = &self.prepared.view;

@@ -98,6 +98,8 @@ pub struct ShadowRenderer<'a> {
     prepared: &'a PreparedScene,
     info: &'static TechniqueInfo,
     params: Params,
+    /// Whether `technique` is `hard` standing in for `info` ([`hard_path`]).
+    hard_path: bool,
     light_view: &'a LightView,
     receivers: Option<&'a Receivers>,
     technique: Box<dyn Technique + 'a>,
@@ -118,6 +120,11 @@ impl<'a> ShadowRenderer<'a> {
         info: &'static TechniqueInfo,
         params: Params,
     ) -> Result<ShadowRenderer<'a>> {
+        // What is built: the technique asked for, or `hard` in its place (its `hard_path`).
+        let (reported, reported_params) = (info, params.clone());
+        let hard = hard_path(prepared, info, &params)?;
+        let hard_path = hard.is_some();
+        let (info, params) = hard.unwrap_or((info, params));
         // `fit`: the scene's box (0) or the view samples and their casters (1, the default).
         let fits = info.shadow_map && !info.per_light_sample;
         let receiver_fit = fits && params.u32("fit")? == 1;
@@ -174,8 +181,9 @@ impl<'a> ShadowRenderer<'a> {
             engine_ctx: ctx,
             ctx: ctx.clone(),
             prepared,
-            info,
-            params,
+            info: reported,
+            params: reported_params,
+            hard_path,
             light_view,
             receivers,
             technique,
@@ -247,6 +255,9 @@ impl<'a> ShadowRenderer<'a> {
         if let Some(r) = self.receivers {
             counters.extend(r.counters()?);
         }
+        if self.info.has_hard_path() {
+            counters.insert("hard_path".into(), u64::from(self.hard_path));
+        }
         Ok(counters)
     }
 
@@ -279,7 +290,8 @@ impl<'a> ShadowRenderer<'a> {
             return Ok(Retuned::Unchanged);
         }
         // A knob the receivers depend on is never retunable, so an in-place change keeps them.
-        if self.technique.retune(&params)? {
+        // A stand-in `hard` was built from other knobs: rebuild (the light may still be small).
+        if !self.hard_path && self.technique.retune(&params)? {
             self.params = params;
             return Ok(Retuned::InPlace);
         }
@@ -324,6 +336,47 @@ impl<'a> ShadowRenderer<'a> {
     pub fn memory_bytes(&self) -> u64 {
         self.memory_bytes
     }
+}
+
+/// For a technique with a hard path ([`TechniqueInfo::has_hard_path`], knob `hard_path` on):
+/// `hard` and its knobs (the map size, bias and receiver knobs the two share, the rest at
+/// `hard`'s defaults) when the widest penumbra the scene's light can cast on that map is under
+/// half a texel — a soft filter would then blur the hard edge by its minimum kernel and nothing
+/// else; `None` otherwise.
+fn hard_path(
+    prepared: &PreparedScene,
+    info: &'static TechniqueInfo,
+    params: &Params,
+) -> Result<Option<(&'static TechniqueInfo, Params)>> {
+    if !info.has_hard_path() || params.u32("hard_path")? == 0 {
+        return Ok(None);
+    }
+    let hard = crate::techniques::find("hard")?;
+    let shared: BTreeMap<String, String> = hard
+        .all_knobs()
+        .iter()
+        .filter_map(|k| {
+            let v = params.values().get(k.name)?;
+            Some((k.name.to_string(), format!("{v:?}")))
+        })
+        .collect();
+    let hard_params = hard.params(&shared, &prepared.defaults)?;
+    let view = if hard_params.u32("fit")? == 1 {
+        &prepared.receiver_light_view
+    } else {
+        &prepared.light_view
+    };
+    let bounds = &prepared.receiver_bounds;
+    if bounds.receivers == 0 {
+        return Ok(None);
+    }
+    let widest = crate::techniques::soft_light::max_penumbra_texels(
+        &prepared.light,
+        view,
+        hard_params.u32("map_size")?,
+        bounds.max.z,
+    )?;
+    Ok((widest < 0.5).then_some((hard, hard_params)))
 }
 
 /// Records one frame: the view samples' unprojection (for a depth G-buffer), the receivers, the

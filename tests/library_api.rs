@@ -640,3 +640,50 @@ fn view_samples_from_a_depth_gbuffer_match_the_cpu_twin_and_the_raster_samples()
     drop(own);
     common::assert_clean(&ctx.validation());
 }
+
+#[test]
+fn a_light_too_small_for_a_penumbra_takes_the_hard_path_when_asked() {
+    let engine = common::engine();
+    let ctx = engine.context().clone();
+    // A point light: no penumbra at all. And a rect light: a wide one.
+    let point = small_scene(); // plane-boxes' light is a point light
+    assert_eq!(point.light.kind(), "point");
+    let mut rect = Scene::open("plane-boxes@rect").expect("scene");
+    rect.camera.width = 96;
+    rect.camera.height = 64;
+    for (scene, expect_hard) in [(point, true), (rect, false)] {
+        let prepared = engine.prepare(&scene).expect("prepare");
+        let hard = {
+            let mut r = engine
+                .renderer(&prepared, "hard", &knobs(&[("map_size", "256")]))
+                .expect("hard");
+            r.render().expect("frame");
+            r.read_visibility().expect("read")
+        };
+        for technique in ["pcss", "vssm", "bitmask", "average-maps"] {
+            let set = knobs(&[("map_size", "256"), ("hard_path", "1")]);
+            let mut r = engine
+                .renderer(&prepared, technique, &set)
+                .expect("renderer");
+            r.render().expect("frame");
+            let counters = r.counters().expect("counters");
+            assert_eq!(counters["hard_path"], u64::from(expect_hard), "{technique}");
+            let got = r.read_visibility().expect("read");
+            let same = got
+                .iter()
+                .zip(&hard)
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert_eq!(
+                same, expect_hard,
+                "{technique}: the hard path is the hard test"
+            );
+            // Off (the default), the soft technique runs and says so.
+            let mut off = engine
+                .renderer(&prepared, technique, &knobs(&[("map_size", "256")]))
+                .expect("renderer");
+            off.render().expect("frame");
+            assert_eq!(off.counters().expect("counters")["hard_path"], 0);
+        }
+    }
+    common::assert_clean(&ctx.validation());
+}

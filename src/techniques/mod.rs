@@ -28,7 +28,8 @@ pub mod virtual_map;
 pub mod vssm;
 
 pub use params::{
-    Knob, KnobDefault, Params, FIT, LIGHT_CLIP, NORMAL_OFFSET, RECEIVER_KNOBS, SHADOW_MAP_KNOBS,
+    Knob, KnobDefault, Params, FIT, HARD_PATH, LIGHT_CLIP, NORMAL_OFFSET, RECEIVER_KNOBS,
+    SHADOW_MAP_KNOBS,
 };
 
 use crate::error::{Error, Result};
@@ -207,7 +208,20 @@ impl TechniqueInfo {
             };
             knobs.extend(RECEIVER_KNOBS.iter().filter(|k| !skip(k)));
         }
+        if self.has_hard_path() {
+            knobs.push(HARD_PATH);
+        }
         knobs
+    }
+
+    /// Whether it is a soft technique whose softness comes from the light's size alone, so that
+    /// under a light too small to cast a visible penumbra the hard test is the same image (the
+    /// engine then renders `hard` instead, with the `hard_path` knob on).
+    pub fn has_hard_path(&self) -> bool {
+        matches!(
+            self.name,
+            "average-maps" | "pcss" | "cssm" | "vssm" | "essm" | "pvssm" | "atty" | "bitmask"
+        )
     }
 
     /// Resolves `overrides` against [`TechniqueInfo::all_knobs`] and the scene's defaults.

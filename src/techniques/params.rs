@@ -159,6 +159,22 @@ pub const HORIZON_SKIP: Knob = Knob {
     names: &[],
 };
 
+/// `hard_path`: a soft technique whose light cannot cast a penumbra half a texel wide on its map
+/// renders the hard test instead (the engine decides from the light's footprint at the nearest
+/// possible blocker and the farthest receiver; counted as `hard_path`). Off by default: under a
+/// point light the soft techniques' minimum kernel is a one-texel box filter, which the hard
+/// test is not, and the measured tables were made with it.
+pub const HARD_PATH: Knob = Knob {
+    name: "hard_path",
+    summary: "1: under a light too small to cast a penumbra half a texel wide (a point light), \
+              render the hard test instead (counted as hard_path); 0: always the soft technique",
+    default: KnobDefault::Value(0.0),
+    min: 0.0,
+    max: 1.0,
+    integer: true,
+    names: &[],
+};
+
 /// The knobs the engine adds to every shadow-map technique: it prepares the receivers (light
 /// clipping, normal offset, horizon umbra) and the light view around the technique (see
 /// [`crate::passes::receivers`]).

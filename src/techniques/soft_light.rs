@@ -103,6 +103,30 @@ pub fn soft_light(light: &Light, view: &LightView, map_size: u32) -> Result<Soft
     Ok(SoftLight { size, perspective })
 }
 
+/// The widest penumbra `light` can cast on a `map_size`² map rendered with `view`, in texels:
+/// the footprint of the nearest possible blocker (the view's near plane) on the farthest
+/// receiver (`receiver_far`, the largest distance along the view's axis). A bound, not an
+/// estimate: no blocker–receiver pair of the scene gives a wider one.
+pub fn max_penumbra_texels(
+    light: &Light,
+    view: &LightView,
+    map_size: u32,
+    receiver_far: f32,
+) -> Result<f32> {
+    let s = soft_light(light, view, map_size)?;
+    let size = s.size.max_element();
+    if size == 0.0 {
+        return Ok(0.0);
+    }
+    let near = view.near.max(f32::MIN_POSITIVE);
+    let far = receiver_far.max(near);
+    Ok(if s.perspective {
+        size * (1.0 / near - 1.0 / far)
+    } else {
+        size * (far - near)
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -527,6 +527,45 @@ fn compare_writes_a_page_that_agrees_with_its_table() {
 /// `bench --suite skipping` on one scene: each technique run with its skipping on and off,
 /// the same output both ways, what was skipped counted.
 #[test]
+fn reuse_suite_times_first_second_and_rebuilt_frames() {
+    let dir = out_dir("reuse");
+    let out = dir.to_str().expect("utf-8");
+    let o = penumbra(&[
+        "bench",
+        "--suite",
+        "reuse",
+        "--quick",
+        "--scenes",
+        "plane-boxes@rect",
+        "--techniques",
+        "hard,pcss",
+        "--out",
+        out,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(dir.join("reuse.json")).expect("json");
+    let json: serde_json::Value = serde_json::from_str(&text).expect("parse");
+    let rows = json["rows"].as_array().expect("rows");
+    assert_eq!(rows.len(), 2);
+    for r in rows {
+        let t = r["technique"].as_str().expect("technique");
+        for step in ["first", "second", "rebuilt"] {
+            for key in ["wall_ms", "process_cpu_ms", "thread_cpu_ms"] {
+                assert!(
+                    r[step][key].as_f64().is_some_and(|ms| ms >= 0.0),
+                    "{t} {step} {key}: {r}"
+                );
+            }
+        }
+        // The suite's own claim, which it exits non-zero on: nothing created by a second frame.
+        assert_eq!(r["second_frame_allocations"], 0, "{t}");
+        assert_eq!(r["second_frame_objects"], 0, "{t}");
+        assert_eq!(r["pass"], true, "{t}: {r}");
+    }
+    assert!(dir.join("reuse.csv").is_file());
+}
+
+#[test]
 fn skipping_suite_compares_skipping_on_and_off() {
     let dir = out_dir("skipping");
     let out = dir.to_str().expect("utf-8");

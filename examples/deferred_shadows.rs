@@ -2,17 +2,20 @@
 //!
 //! The "engine" here owns everything Vulkan: it creates the instance (with the validation layers,
 //! synchronization validation and its own message counter), picks the device, creates it, and
-//! allocates its vertex buffer and G-buffer with plain `ash` and `vkAllocateMemory`. It renders
-//! the G-buffer (world position, normal + linear depth) with its own graphics pipeline — built
-//! here from the SPIR-V of penumbra's view-sample shaders, which write exactly that layout — and
-//! each frame records, into one command buffer of its own: the G-buffer pass, penumbra's shadow
-//! technique ([`ShadowRenderer::record`]) writing visibility into the engine's own R32F image,
-//! and a copy of normals and visibility for the shading. It shades on the host
-//! (`albedo × (ambient + diffuse × visibility)`) and writes `shaded.png` and `visibility.png`.
+//! allocates its vertex buffer and G-buffer with plain `ash` and `vkAllocateMemory`. Its G-buffer
+//! is what engines keep: a D32 depth buffer and an RGBA16F world-normal target, rendered by its
+//! own graphics pipeline and shaders (`examples/deferred_shadows/gbuffer.{vert,frag}`). penumbra
+//! reads them as they are ([`ViewSamples::from_depth`]: it unprojects the depth with the camera's
+//! matrices itself). Each frame records, into one command buffer of the engine's: the G-buffer
+//! pass, penumbra's shadow technique ([`ShadowRenderer::record`]) writing visibility into the
+//! engine's own R32F image, and copies of depth, normals and visibility for the shading. It
+//! shades on the host (`albedo × (ambient + diffuse × visibility)`, positions unprojected from the
+//! depth) and writes `shaded.png` and `visibility.png`.
 //!
 //! penumbra picks the best soft technique the device runs, in order of preference (`pvssm`, the
-//! centrepiece, then `pcss`, then `pcf-poisson`). The engine's images stay in `GENERAL` between
-//! passes; penumbra's recording needs no barrier from the engine on either side, and
+//! centrepiece, then `pcss`, then `pcf-poisson`). Between passes the engine keeps its G-buffer in
+//! `SHADER_READ_ONLY_OPTIMAL` and the visibility image in `GENERAL`, and tells penumbra so;
+//! penumbra's recording needs no barrier from the engine on either side, and
 //! synchronization validation checks that claim. At the end penumbra is dropped first, then the
 //! engine destroys its own objects and the device: the validation layer's object tracker reports
 //! any object penumbra left behind there.
@@ -297,10 +300,9 @@ impl Host {
         Ok(self.images.len() - 1)
     }
 
-    /// The G-buffer pipeline: position-only vertices, two RGBA32F targets and D32 depth.
+    /// The G-buffer pipeline: position-only vertices, one RGBA16F normal target and D32 depth.
     fn gbuffer_pipeline(&mut self) -> Result<(), Failure> {
-        let module = |name: &str| -> Result<vk::ShaderModule, Failure> {
-            let bytes = penumbra::gpu::shader_spirv(name)?;
+        let module = |bytes: &[u8]| -> Result<vk::ShaderModule, Failure> {
             let words: Vec<u32> = bytes
                 .chunks_exact(4)
                 .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
@@ -308,10 +310,10 @@ impl Host {
             let info = vk::ShaderModuleCreateInfo::default().code(&words);
             Ok(unsafe { self.device.create_shader_module(&info, None) }?)
         };
-        let vert = module("passes/view_samples.vert")?;
-        let frag = module("passes/view_samples.frag")?;
+        let vert = module(include_bytes!("deferred_shadows/gbuffer.vert.spv"))?;
+        let frag = module(include_bytes!("deferred_shadows/gbuffer.frag.spv"))?;
         let ranges = [vk::PushConstantRange {
-            stage_flags: vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+            stage_flags: vk::ShaderStageFlags::VERTEX,
             offset: 0,
             size: std::mem::size_of::<GbufferPush>() as u32,
         }];
@@ -357,12 +359,12 @@ impl Host {
             .depth_write_enable(true)
             .depth_compare_op(vk::CompareOp::LESS_OR_EQUAL);
         let blend_attachments = [vk::PipelineColorBlendAttachmentState::default()
-            .color_write_mask(vk::ColorComponentFlags::RGBA); 2];
+            .color_write_mask(vk::ColorComponentFlags::RGBA)];
         let blend =
             vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
         let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
         let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-        let formats = [vk::Format::R32G32B32A32_SFLOAT; 2];
+        let formats = [NORMAL_FORMAT];
         let mut rendering = vk::PipelineRenderingCreateInfo::default()
             .color_attachment_formats(&formats)
             .depth_attachment_format(vk::Format::D32_SFLOAT);
@@ -418,14 +420,23 @@ impl Host {
     }
 }
 
-/// The G-buffer shaders' push constants (penumbra's `ViewSamplesPush` layout).
+/// The G-buffer shaders' push constants (`gbuffer.vert`).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct GbufferPush {
     view_proj: [f32; 16],
-    eye: [f32; 4],
-    forward: [f32; 4],
 }
+
+/// The engine's normal target.
+const NORMAL_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
+
+/// Where the engine keeps its G-buffer between passes (what it tells penumbra).
+const GBUFFER_LAYOUT: vk::ImageLayout = vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL;
+
+/// Image indices in `Host::images`.
+const DEPTH: usize = 0;
+const NORMALS: usize = 1;
+const VISIBILITY: usize = 2;
 
 fn range(aspect: vk::ImageAspectFlags) -> vk::ImageSubresourceRange {
     vk::ImageSubresourceRange {
@@ -461,7 +472,7 @@ fn transition(
         .collect()
 }
 
-/// The engine's G-buffer pass: GENERAL → attachments, draw, → GENERAL again.
+/// The engine's G-buffer pass: its layout between passes → attachments, draw, → back.
 fn record_gbuffer(
     host: &Host,
     cmd: vk::CommandBuffer,
@@ -470,35 +481,34 @@ fn record_gbuffer(
     indices: (usize, u32),
 ) {
     let d = &host.device;
-    let (pos, nrm, depth) = (&host.images[0], &host.images[1], &host.images[2]);
+    let (nrm, depth) = (&host.images[NORMALS], &host.images[DEPTH]);
     let color = vk::ImageAspectFlags::COLOR;
-    let (w, h) = (pos.desc.width, pos.desc.height);
+    let depth_aspect = vk::ImageAspectFlags::DEPTH;
+    let (w, h) = (nrm.desc.width, nrm.desc.height);
     let mut barriers = transition(
-        &[(pos.image, color), (nrm.image, color)],
-        vk::ImageLayout::GENERAL,
+        &[(nrm.image, color)],
+        GBUFFER_LAYOUT,
         vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
     );
     barriers.extend(transition(
-        &[(depth.image, vk::ImageAspectFlags::DEPTH)],
-        vk::ImageLayout::UNDEFINED,
+        &[(depth.image, depth_aspect)],
+        GBUFFER_LAYOUT,
         vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
     ));
     let clear = vk::ClearValue {
         color: vk::ClearColorValue { float32: [0.0; 4] },
     };
-    let colors = [pos.view, nrm.view].map(|view| {
-        vk::RenderingAttachmentInfo::default()
-            .image_view(view)
-            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(clear)
-    });
+    let colors = [vk::RenderingAttachmentInfo::default()
+        .image_view(nrm.view)
+        .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+        .load_op(vk::AttachmentLoadOp::CLEAR)
+        .store_op(vk::AttachmentStoreOp::STORE)
+        .clear_value(clear)];
     let depth_attachment = vk::RenderingAttachmentInfo::default()
         .image_view(depth.view)
         .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
         .load_op(vk::AttachmentLoadOp::CLEAR)
-        .store_op(vk::AttachmentStoreOp::DONT_CARE)
+        .store_op(vk::AttachmentStoreOp::STORE)
         .clear_value(vk::ClearValue {
             depth_stencil: vk::ClearDepthStencilValue {
                 depth: 1.0,
@@ -517,18 +527,19 @@ fn record_gbuffer(
         .layer_count(1)
         .color_attachments(&colors)
         .depth_attachment(&depth_attachment);
-    let camera = &scene.camera;
-    let forward = (camera.target - camera.position).normalize_or_zero();
     let push = GbufferPush {
-        view_proj: camera.view_projection().to_cols_array(),
-        eye: camera.position.extend(1.0).to_array(),
-        forward: forward.extend(0.0).to_array(),
+        view_proj: scene.camera.view_projection().to_cols_array(),
     };
-    let back = transition(
-        &[(pos.image, color), (nrm.image, color)],
+    let mut back = transition(
+        &[(nrm.image, color)],
         vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-        vk::ImageLayout::GENERAL,
+        GBUFFER_LAYOUT,
     );
+    back.extend(transition(
+        &[(depth.image, depth_aspect)],
+        vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+        GBUFFER_LAYOUT,
+    ));
     unsafe {
         d.cmd_pipeline_barrier2(
             cmd,
@@ -552,7 +563,7 @@ fn record_gbuffer(
         d.cmd_push_constants(
             cmd,
             host.layout,
-            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+            vk::ShaderStageFlags::VERTEX,
             0,
             bytemuck::bytes_of(&push),
         );
@@ -564,6 +575,18 @@ fn record_gbuffer(
             cmd,
             &vk::DependencyInfo::default().image_memory_barriers(&back),
         );
+    }
+}
+
+/// An IEEE half to f32 (the engine's normal target is RGBA16F).
+fn f16_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exponent = i32::from((h >> 10) & 0x1f);
+    let mantissa = f32::from(h & 0x3ff);
+    sign * match exponent {
+        0 => mantissa * 2f32.powi(-24),
+        31 => f32::INFINITY,
+        e => (1.0 + mantissa / 1024.0) * 2f32.powi(e - 15),
     }
 }
 
@@ -631,27 +654,29 @@ fn render(host: &mut Host, scene: &Scene, frames: u32, out: &Path) -> Result<Rep
         (indices.len() * 4) as u64,
         bytemuck::cast_slice(&indices),
     )?;
-    let gbuffer_usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
-        | vk::ImageUsageFlags::STORAGE
-        | vk::ImageUsageFlags::TRANSFER_SRC;
-    let rgba = vk::Format::R32G32B32A32_SFLOAT;
-    host.image(ImageDesc::new_2d(rgba, w, h, gbuffer_usage))?; // 0: positions
-    host.image(ImageDesc::new_2d(rgba, w, h, gbuffer_usage))?; // 1: normals
+    // Sampled: the engine's own deferred passes read them, and so does penumbra.
+    let read = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_SRC;
     host.image(ImageDesc::new_2d(
         vk::Format::D32_SFLOAT,
         w,
         h,
-        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-    ))?; // 2: depth
+        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | read,
+    ))?; // DEPTH
+    host.image(ImageDesc::new_2d(
+        NORMAL_FORMAT,
+        w,
+        h,
+        vk::ImageUsageFlags::COLOR_ATTACHMENT | read,
+    ))?; // NORMALS
     host.image(ImageDesc::new_2d(
         vk::Format::R32_SFLOAT,
         w,
         h,
         vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
-    ))?; // 3: visibility
+    ))?; // VISIBILITY
     let texels = (w * h) as u64;
-    // Positions, normals (16 bytes a texel each) and visibility (4), copied back for shading.
-    let readback = host.buffer(vk::BufferUsageFlags::TRANSFER_DST, texels * 36, &[])?;
+    // Depth (4 bytes a texel), normals (8) and visibility (4), copied back for shading.
+    let readback = host.buffer(vk::BufferUsageFlags::TRANSFER_DST, texels * 16, &[])?;
     host.gbuffer_pipeline()?;
     let alloc = vk::CommandBufferAllocateInfo::default()
         .command_pool(host.pool)
@@ -659,23 +684,29 @@ fn render(host: &mut Host, scene: &Scene, frames: u32, out: &Path) -> Result<Rep
         .command_buffer_count(1);
     let cmd = unsafe { host.device.allocate_command_buffers(&alloc) }?[0];
 
-    // Frame 0: the G-buffer alone, its images and the visibility image left in GENERAL, the
-    // layout the engine keeps them in between passes (what it tells penumbra).
+    // Frame 0: the G-buffer alone (penumbra fits its light view to the samples it holds), the
+    // images first put in the layouts the engine keeps them in between passes.
     begin(host, cmd)?;
     let color = vk::ImageAspectFlags::COLOR;
-    let to_general = transition(
-        &[
-            (host.images[0].image, color),
-            (host.images[1].image, color),
-            (host.images[3].image, color),
-        ],
+    let mut initial = transition(
+        &[(host.images[VISIBILITY].image, color)],
         vk::ImageLayout::UNDEFINED,
         vk::ImageLayout::GENERAL,
     );
+    initial.extend(transition(
+        &[(host.images[NORMALS].image, color)],
+        vk::ImageLayout::UNDEFINED,
+        GBUFFER_LAYOUT,
+    ));
+    initial.extend(transition(
+        &[(host.images[DEPTH].image, vk::ImageAspectFlags::DEPTH)],
+        vk::ImageLayout::UNDEFINED,
+        GBUFFER_LAYOUT,
+    ));
     unsafe {
         host.device.cmd_pipeline_barrier2(
             cmd,
-            &vk::DependencyInfo::default().image_memory_barriers(&to_general),
+            &vk::DependencyInfo::default().image_memory_barriers(&initial),
         )
     };
     record_gbuffer(
@@ -700,21 +731,23 @@ fn render(host: &mut Host, scene: &Scene, frames: u32, out: &Path) -> Result<Rep
     }?;
     let engine = Engine::from_context(ctx.clone());
     let general = vk::ImageLayout::GENERAL;
-    let wrap = |i: usize, name: &str| unsafe {
+    let wrap = |i: usize, name: &str, layout| unsafe {
         Image::borrowed(
             &ctx,
             name,
             host.images[i].image,
             host.images[i].desc,
-            general,
+            layout,
         )
     };
-    let view = ViewSamples::from_images(
+    let view = ViewSamples::from_depth(
+        &ctx,
         &scene.camera,
-        wrap(0, "engine positions")?,
-        wrap(1, "engine normals")?,
+        wrap(DEPTH, "engine depth", GBUFFER_LAYOUT)?,
+        wrap(NORMALS, "engine normals", GBUFFER_LAYOUT)?,
     )?;
-    let prepared = engine.prepare_with_view_samples(scene, view, wrap(3, "engine visibility")?)?;
+    let visibility = wrap(VISIBILITY, "engine visibility", general)?;
+    let prepared = engine.prepare_with_view_samples(scene, view, visibility)?;
     let mut chosen = None;
     for kind in PREFERENCE {
         match engine.renderer_for(&prepared, &TechniqueDesc::new(kind)) {
@@ -742,12 +775,12 @@ fn render(host: &mut Host, scene: &Scene, frames: u32, out: &Path) -> Result<Rep
             (index_buffer, indices.len() as u32),
         );
         unsafe { renderer.record(cmd) }?;
-        // No barrier after penumbra: it left visibility in GENERAL, visible to all commands.
-        // The engine's copies want TRANSFER_SRC_OPTIMAL, and go back to GENERAL after.
-        let copy = |offset: u64| vk::BufferImageCopy {
+        // No barrier after penumbra: it left its images in their layouts, visible to all
+        // commands. The engine's copies want TRANSFER_SRC_OPTIMAL, and go back after.
+        let copy = |offset: u64, aspect_mask| vk::BufferImageCopy {
             buffer_offset: offset,
             image_subresource: vk::ImageSubresourceLayers {
-                aspect_mask: color,
+                aspect_mask,
                 mip_level: 0,
                 base_array_layer: 0,
                 layer_count: 1,
@@ -764,13 +797,17 @@ fn render(host: &mut Host, scene: &Scene, frames: u32, out: &Path) -> Result<Rep
             .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
             .dst_stage_mask(vk::PipelineStageFlags2::HOST)
             .dst_access_mask(vk::AccessFlags2::HOST_READ)];
-        let copied: Vec<_> = [0, 1, 3]
-            .iter()
-            .map(|&i| (host.images[i].image, color))
-            .collect();
+        let depth_aspect = vk::ImageAspectFlags::DEPTH;
         let src = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
-        let to_src = transition(&copied, general, src);
-        let back = transition(&copied, src, general);
+        let gbuffer = [
+            (host.images[DEPTH].image, depth_aspect),
+            (host.images[NORMALS].image, color),
+        ];
+        let vis = [(host.images[VISIBILITY].image, color)];
+        let mut to_src = transition(&gbuffer, GBUFFER_LAYOUT, src);
+        to_src.extend(transition(&vis, general, src));
+        let mut back = transition(&gbuffer, src, GBUFFER_LAYOUT);
+        back.extend(transition(&vis, src, general));
         unsafe {
             let d = &host.device;
             let dst = host.buffers[readback].0;
@@ -781,13 +818,17 @@ fn render(host: &mut Host, scene: &Scene, frames: u32, out: &Path) -> Result<Rep
                 )
             };
             barriers(&to_src);
-            for (image, offset) in [(0, 0), (1, texels * 16), (3, texels * 32)] {
+            for (image, offset, aspect) in [
+                (DEPTH, 0, depth_aspect),
+                (NORMALS, texels * 4, color),
+                (VISIBILITY, texels * 12, color),
+            ] {
                 d.cmd_copy_image_to_buffer(
                     cmd,
                     host.images[image].image,
                     src,
                     dst,
-                    &[copy(offset)],
+                    &[copy(offset, aspect)],
                 );
             }
             barriers(&back);
@@ -806,22 +847,22 @@ fn render(host: &mut Host, scene: &Scene, frames: u32, out: &Path) -> Result<Rep
     drop(engine);
     drop(ctx);
 
-    // Shade on the host: a grey albedo, a little ambient, Lambert towards the light.
-    let bytes = host.read(readback, (texels * 36) as usize)?;
-    let floats: Vec<f32> = bytes
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
-    let (positions, rest) = floats.split_at((texels * 4) as usize);
-    let (normals, visibility) = rest.split_at((texels * 4) as usize);
+    // Shade on the host: a grey albedo, a little ambient, Lambert towards the light, with world
+    // positions unprojected from the depth as the engine's lighting pass would.
+    let bytes = host.read(readback, (texels * 16) as usize)?;
+    let word = |i: usize| [bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]];
+    let half = |i: usize| f16_to_f32(u16::from_le_bytes([bytes[i], bytes[i + 1]]));
+    let inverse = scene.camera.view_projection().inverse();
+    let eye = scene.camera.position;
     let mut shaded = Vec::with_capacity((texels * 3) as usize);
     let mut grey = Vec::with_capacity(texels as usize);
     let (mut sum, mut samples, mut umbra, mut penumbra_count) = (0.0f64, 0usize, 0usize, 0usize);
     for i in 0..texels as usize {
-        let p = glam::Vec4::from_slice(&positions[i * 4..i * 4 + 4]);
-        let n = glam::Vec3::from_slice(&normals[i * 4..i * 4 + 3]);
-        let v = visibility[i];
-        let rgb = if p.w <= 0.0 {
+        let depth = f32::from_le_bytes(word(i * 4));
+        let n0 = (texels as usize) * 4 + i * 8;
+        let mut n = glam::Vec3::new(half(n0), half(n0 + 2), half(n0 + 4));
+        let v = f32::from_le_bytes(word((texels as usize) * 12 + i * 4));
+        let rgb = if depth >= 1.0 {
             [40u8, 44, 52] // background
         } else {
             samples += 1;
@@ -831,9 +872,15 @@ fn render(host: &mut Host, scene: &Scene, frames: u32, out: &Path) -> Result<Rep
             } else if v < 1.0 {
                 penumbra_count += 1;
             }
+            let (x, y) = ((i as u32 % w) as f32, (i as u32 / w) as f32);
+            let ndc = glam::Vec2::new((x + 0.5) / w as f32, (y + 0.5) / h as f32) * 2.0 - 1.0;
+            let p = inverse.project_point3(ndc.extend(depth));
+            if n.dot(eye - p) < 0.0 {
+                n = -n;
+            }
             let to_light = match scene.light {
                 penumbra::scene::Light::Directional { direction, .. } => -direction,
-                other => other.centre().unwrap_or_default() - p.truncate(),
+                other => other.centre().unwrap_or_default() - p,
             }
             .normalize_or_zero();
             let diffuse = n.dot(to_light).max(0.0);

@@ -37,6 +37,24 @@ fn committed_spirv_is_up_to_date() {
     );
 }
 
+/// The embedding example's own shaders, compiled next to their sources by `compile-shaders`.
+#[cfg(feature = "shader-compiler")]
+#[test]
+fn the_examples_spirv_is_up_to_date() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/deferred_shadows");
+    let compiled = penumbra::shader_compiler::compile_all(&dir).expect("compile");
+    assert_eq!(compiled.len(), 2, "gbuffer.vert and gbuffer.frag");
+    for s in &compiled {
+        let path = dir.join(format!("{}.spv", s.name));
+        let committed = std::fs::read(&path).unwrap_or_default();
+        assert!(
+            committed == s.spirv,
+            "{} is stale: run `cargo run --features shader-compiler --bin compile-shaders`",
+            path.display()
+        );
+    }
+}
+
 #[test]
 fn every_module_passes_spirv_val() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));

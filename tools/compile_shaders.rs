@@ -28,5 +28,17 @@ fn main() -> anyhow::Result<()> {
         );
     }
     println!("{} shaders compiled", shaders.len());
+    // The embedding example's own shaders (the host engine's, not the library's): compiled the
+    // same way, written next to their sources, included by the example with `include_bytes!`.
+    let example = root.join("examples").join("deferred_shadows");
+    for s in penumbra::shader_compiler::compile_all(&example)? {
+        let path = example.join(format!("{}.spv", s.name));
+        std::fs::write(&path, &s.spirv).with_context(|| format!("writing {}", path.display()))?;
+        println!(
+            "{:>7} bytes  {}",
+            s.spirv.len(),
+            path.strip_prefix(&root)?.display()
+        );
+    }
     Ok(())
 }

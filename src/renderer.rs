@@ -9,8 +9,11 @@
 //! pass) or recorded into the caller's command buffer ([`ShadowRenderer::record`]).
 //!
 //! The receivers (light clipping, normal offset) depend only on a few knobs and the light view,
-//! so they are shared view-sample data: a cache in the prepared scene keeps one per distinct description in
-//! the prepared scene, where every renderer of that scene can borrow it.
+//! so they are shared view-sample data: the prepared scene keeps one set per distinct
+//! description, which every renderer of that scene borrows. Knob changes apply in place where
+//! they change no resource ([`ShadowRenderer::set_knobs`], [`Technique::retune`]); a soft
+//! technique with `hard_path` on renders `hard` in its place under a light too small for a
+//! penumbra.
 
 use std::collections::BTreeMap;
 use std::sync::Mutex;

@@ -28,7 +28,9 @@
 //! everything made from it while the caller's device lives on leaves no penumbra object behind
 //! (the embedding example checks this with the validation layer's object tracker). A steady-state
 //! frame creates no device memory and no Vulkan object ([`Context::creation_counts`]). penumbra
-//! starts no thread and keeps no global state beyond the embedded SPIR-V.
+//! starts no thread and keeps no global state beyond the embedded SPIR-V. An [`Engine`] and a
+//! [`PreparedScene`] are `Send + Sync`; a [`ShadowRenderer`] is `Send` (build it on one thread,
+//! record it on another; penumbra's own submissions lock its queue).
 //!
 //! # Synchronization
 //!

@@ -687,3 +687,18 @@ fn a_light_too_small_for_a_penumbra_takes_the_hard_path_when_asked() {
     }
     common::assert_clean(&ctx.validation());
 }
+
+/// What an engine can hand to other threads: the engine and a prepared scene are shared
+/// (`Sync`), a renderer moves to the thread that records it (`Send`). Checked at compile time.
+#[test]
+fn engines_scenes_and_renderers_cross_threads() {
+    fn send<T: Send>() {}
+    fn sync<T: Sync>() {}
+    send::<penumbra::Engine>();
+    sync::<penumbra::Engine>();
+    send::<penumbra::PreparedScene>();
+    sync::<penumbra::PreparedScene>();
+    send::<penumbra::ShadowRenderer<'static>>();
+    send::<penumbra::Context>();
+    sync::<penumbra::Context>();
+}

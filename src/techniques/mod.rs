@@ -69,8 +69,9 @@ pub struct TechniqueSetup<'a> {
     pub receiver_bounds: &'a ReceiverBounds,
 }
 
-/// A technique instance, ready to record frames. It borrows the setup's resources (`'a`).
-pub trait Technique {
+/// A technique instance, ready to record frames. It borrows the setup's resources (`'a`), and
+/// is `Send` so a renderer can move to the thread that records it.
+pub trait Technique: Send {
     /// Records one frame: every pass the technique needs, ending with `visibility` written.
     fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()>;
 

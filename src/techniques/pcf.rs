@@ -251,7 +251,7 @@ pub(crate) fn pcf_pass<'a>(
     })
 }
 
-impl<P: bytemuck::Pod> Technique for ViewPass<'_, P> {
+impl<P: bytemuck::Pod + Send> Technique for ViewPass<'_, P> {
     fn record(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
         self.shadow_map.record(rec, self.geometry)?;
         rec.begin_pass(self.name)?;

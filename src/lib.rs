@@ -30,7 +30,9 @@
 //! frame creates no device memory and no Vulkan object ([`Context::creation_counts`]). penumbra
 //! starts no thread and keeps no global state beyond the embedded SPIR-V. An [`Engine`] and a
 //! [`PreparedScene`] are `Send + Sync`; a [`ShadowRenderer`] is `Send` (build it on one thread,
-//! record it on another; penumbra's own submissions lock its queue).
+//! record it on another; penumbra's own submissions lock its queue). Renderers of one prepared
+//! scene share its images (view samples, receivers, visibility): use them from one thread at a
+//! time.
 //!
 //! # Synchronization
 //!

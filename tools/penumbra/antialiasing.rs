@@ -158,9 +158,7 @@ pub fn run(args: &AntialiasingArgs) -> anyhow::Result<()> {
              supersampling"
         );
     }
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let engine = crate::engine_with_pipeline_cache(args.validation, args.device.clone())?;
+    let engine = crate::suite_engine(&args.out, args.validation, args.device.clone())?;
     let mut rows = Vec::new();
     for spec in &args.scenes {
         let mut scene = Scene::open(spec)?;
@@ -255,12 +253,10 @@ pub fn run(args: &AntialiasingArgs) -> anyhow::Result<()> {
     let path = args.out.join("antialiasing.json");
     std::fs::write(&path, serde_json::to_string_pretty(&json)?)
         .with_context(|| format!("writing {}", path.display()))?;
-    let ctx = engine.context();
-    println!(
-        "wrote {}, {}",
-        path.display(),
-        crate::validation_summary(args.validation, &ctx.validation().counts())
-    );
-    // Like every other command: a validation error or warning fails the run.
-    crate::finish_validation(args.validation, &ctx.validation(), &args.out)
+    crate::suite_done(
+        engine.context(),
+        args.validation,
+        &args.out,
+        format_args!("wrote {}", path.display()),
+    )
 }

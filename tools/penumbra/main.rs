@@ -700,6 +700,29 @@ pub(crate) fn engine_with_pipeline_cache(
     })?))
 }
 
+/// Creates `out` and the engine a bench suite runs on (validation as asked, the pipeline cache).
+pub(crate) fn suite_engine(
+    out: &Path,
+    validation: bool,
+    device: Option<String>,
+) -> anyhow::Result<CliEngine> {
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    engine_with_pipeline_cache(validation, device)
+}
+
+/// How every suite ends: `what` (what it wrote) with the validation summary, then, like every
+/// other command, failure on any validation error or warning (messages in OUT/validation.txt).
+pub(crate) fn suite_done(
+    ctx: &penumbra::Context,
+    validation: bool,
+    out: &Path,
+    what: std::fmt::Arguments<'_>,
+) -> anyhow::Result<()> {
+    let log = ctx.validation();
+    println!("{what}, {}", validation_summary(validation, &log.counts()));
+    finish_validation(validation, &log, out)
+}
+
 fn main() {
     let cli = Cli::parse();
     let result = match &cli.command {

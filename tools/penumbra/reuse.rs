@@ -96,9 +96,7 @@ fn scenes(args: &ReuseArgs) -> anyhow::Result<Vec<Scene>> {
 
 pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {
     let techniques = crate::techniques_or_all(&args.techniques)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let engine = crate::engine_with_pipeline_cache(args.validation, args.device.clone())?;
+    let engine = crate::suite_engine(&args.out, args.validation, args.device.clone())?;
     let ctx = engine.context();
     let mut rows = Vec::new();
     let mut csv = String::from(
@@ -215,13 +213,12 @@ pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {
         .with_context(|| format!("writing {}", path.display()))?;
     let path = args.out.join("reuse.csv");
     std::fs::write(&path, csv).with_context(|| format!("writing {}", path.display()))?;
-    let counts = ctx.validation().counts();
-    println!(
-        "wrote {}, {}",
-        args.out.display(),
-        crate::validation_summary(args.validation, &counts)
-    );
-    crate::finish_validation(args.validation, &ctx.validation(), &args.out)?;
+    crate::suite_done(
+        ctx,
+        args.validation,
+        &args.out,
+        format_args!("wrote {}", args.out.display()),
+    )?;
     if !failed.is_empty() {
         anyhow::bail!(
             "{} rows miss the claim (second frame < half the first's host CPU time, nothing \

@@ -94,9 +94,7 @@ fn sweeps(quick: bool) -> anyhow::Result<Vec<Sweep>> {
 
 pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
     let techniques = crate::techniques_or_all(&args.techniques)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let engine = crate::engine_with_pipeline_cache(args.validation, args.device.clone())?;
+    let engine = crate::suite_engine(&args.out, args.validation, args.device.clone())?;
     let sweeps = sweeps(args.quick)?;
     let none = BTreeMap::new();
     // times[sweep][technique] = points
@@ -205,12 +203,10 @@ pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
     )?;
     std::fs::write(args.out.join("scaling.csv"), csv)?;
     write_scaling_chart(&args.out.join("scaling.png"), &panels)?;
-    let ctx = engine.context();
-    println!(
-        "wrote {}, {}",
-        args.out.display(),
-        crate::validation_summary(args.validation, &ctx.validation().counts())
-    );
-    // Like every other command: a validation error or warning fails the run.
-    crate::finish_validation(args.validation, &ctx.validation(), &args.out)
+    crate::suite_done(
+        engine.context(),
+        args.validation,
+        &args.out,
+        format_args!("wrote {}", args.out.display()),
+    )
 }

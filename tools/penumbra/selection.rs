@@ -83,9 +83,7 @@ pub fn run(args: &SelectionArgs) -> anyhow::Result<()> {
             args.max_error
         );
     }
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let engine = crate::engine_with_pipeline_cache(args.validation, args.device.clone())?;
+    let engine = crate::suite_engine(&args.out, args.validation, args.device.clone())?;
     let ctx = engine.context();
     let cache = args.cache.as_deref();
 
@@ -217,15 +215,17 @@ pub fn run(args: &SelectionArgs) -> anyhow::Result<()> {
         serde_json::to_string_pretty(&json)? + "\n",
     )?;
     std::fs::write(args.out.join("selection.csv"), csv)?;
-    let counts = ctx.validation().counts();
-    println!(
-        "held out: {met} of {total} picks within {} measured, {not_slower} of {total} not slower \
-         than the slowest candidate within it; wrote {}, {}",
-        args.max_error,
-        args.out.display(),
-        crate::validation_summary(args.validation, &counts)
-    );
-    crate::finish_validation(args.validation, &ctx.validation(), &args.out)?;
+    crate::suite_done(
+        ctx,
+        args.validation,
+        &args.out,
+        format_args!(
+            "held out: {met} of {total} picks within {} measured, {not_slower} of {total} not \
+             slower than the slowest candidate within it; wrote {}",
+            args.max_error,
+            args.out.display()
+        ),
+    )?;
     // The quick run is a smoke run of the machinery (two calibration scenes): it enforces nothing.
     let need = if args.quick { 0 } else { MUST_MEET.min(total) };
     if met < need || (!args.quick && not_slower < total) {

@@ -149,9 +149,7 @@ fn scenes(args: &SkippingArgs) -> anyhow::Result<Vec<Scene>> {
 
 pub fn run(args: &SkippingArgs) -> anyhow::Result<()> {
     let techniques = crate::techniques_or_all(&args.techniques)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let engine = crate::engine_with_pipeline_cache(args.validation, args.device.clone())?;
+    let engine = crate::suite_engine(&args.out, args.validation, args.device.clone())?;
     let ctx = engine.context();
     let scenes = scenes(args)?;
     let mut rows = Vec::new();
@@ -287,14 +285,16 @@ pub fn run(args: &SkippingArgs) -> anyhow::Result<()> {
         serde_json::to_string_pretty(&json)? + "\n",
     )?;
     std::fs::write(args.out.join("skipping.csv"), csv)?;
-    let counts = ctx.validation().counts();
-    println!(
-        "wrote {} ({} rows), {}",
-        args.out.display(),
-        json["rows"].as_array().map_or(0, Vec::len),
-        crate::validation_summary(args.validation, &counts)
-    );
-    crate::finish_validation(args.validation, &ctx.validation(), &args.out)?;
+    crate::suite_done(
+        ctx,
+        args.validation,
+        &args.out,
+        format_args!(
+            "wrote {} ({} rows)",
+            args.out.display(),
+            json["rows"].as_array().map_or(0, Vec::len)
+        ),
+    )?;
     if failed_rows > 0 {
         anyhow::bail!(
             "{failed_rows} rows changed the output with skipping off beyond their bound (see \

@@ -120,13 +120,16 @@ impl ViewSamples {
         normals: Image,
     ) -> Result<ViewSamples> {
         let (w, h) = (camera.width, camera.height);
-        check_sampled(
+        let sampled = vk::ImageUsageFlags::SAMPLED;
+        let why = "the pass reads it with texelFetch";
+        check_input(
             &depth,
             &[vk::Format::D32_SFLOAT, vk::Format::R32_SFLOAT],
-            w,
-            h,
+            (w, h),
+            sampled,
+            why,
         )?;
-        check_sampled(
+        check_input(
             &normals,
             &[
                 SAMPLE_FORMAT,
@@ -134,8 +137,9 @@ impl ViewSamples {
                 vk::Format::R16G16B16A16_SNORM,
                 vk::Format::R8G8B8A8_SNORM,
             ],
-            w,
-            h,
+            (w, h),
+            sampled,
+            why,
         )?;
         let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
         let out_positions = Image::new(
@@ -258,23 +262,43 @@ pub(crate) fn check_image(
     width: u32,
     height: u32,
 ) -> Result<()> {
+    check_input(
+        image,
+        &[format],
+        (width, height),
+        vk::ImageUsageFlags::STORAGE,
+        "penumbra's compute passes bind it as a storage image",
+    )
+}
+
+/// That `image` is one of `formats`, `size` and has `usage` (needed because `why`).
+fn check_input(
+    image: &Image,
+    formats: &[vk::Format],
+    size: (u32, u32),
+    usage: vk::ImageUsageFlags,
+    why: &str,
+) -> Result<()> {
     let d = &image.desc;
-    if d.format != format {
+    if !formats.contains(&d.format) {
+        let expected = match formats {
+            [one] => format!("{one:?}"),
+            all => format!("one of {all:?}"),
+        };
         return Err(Error::InvalidArgument(format!(
-            "image '{}' is {:?}: expected {format:?}",
+            "image '{}' is {:?}: expected {expected}",
             image.name, d.format
         )));
     }
-    if (d.width, d.height) != (width, height) {
+    if (d.width, d.height) != size {
         return Err(Error::InvalidArgument(format!(
-            "image '{}' is {}x{}: expected {width}x{height} (the camera's size)",
-            image.name, d.width, d.height
+            "image '{}' is {}x{}: expected {}x{} (the camera's size)",
+            image.name, d.width, d.height, size.0, size.1
         )));
     }
-    if !d.usage.contains(vk::ImageUsageFlags::STORAGE) {
+    if !d.usage.contains(usage) {
         return Err(Error::InvalidArgument(format!(
-            "image '{}' lacks STORAGE usage (has {:?}): penumbra's compute passes bind it as a \
-             storage image",
+            "image '{}' lacks {usage:?} usage (has {:?}): {why}",
             image.name, d.usage
         )));
     }
@@ -288,30 +312,6 @@ struct FromDepth {
     push: FromDepthPush,
     // Read by the set every frame.
     _inputs: (Image, Image, Sampler),
-}
-
-/// That `image` is a sampled image of one of `formats` and `width`×`height`.
-fn check_sampled(image: &Image, formats: &[vk::Format], width: u32, height: u32) -> Result<()> {
-    let d = &image.desc;
-    if !formats.contains(&d.format) {
-        return Err(Error::InvalidArgument(format!(
-            "image '{}' is {:?}: expected one of {formats:?}",
-            image.name, d.format
-        )));
-    }
-    if (d.width, d.height) != (width, height) {
-        return Err(Error::InvalidArgument(format!(
-            "image '{}' is {}x{}: expected {width}x{height} (the camera's size)",
-            image.name, d.width, d.height
-        )));
-    }
-    if !d.usage.contains(vk::ImageUsageFlags::SAMPLED) {
-        return Err(Error::InvalidArgument(format!(
-            "image '{}' lacks SAMPLED usage (has {:?}): the pass reads it with texelFetch",
-            image.name, d.usage
-        )));
-    }
-    Ok(())
 }
 
 fn to_vec4(f: &[f32]) -> Vec<Vec4> {

@@ -1,10 +1,13 @@
 //! The public entry point: prepare a scene once, then render any technique on it.
 //!
 //! [`Engine::prepare`] uploads the scene's triangles, fits the light view and renders the camera's
-//! view samples — work every technique shares, done once. [`Engine::render`] builds a technique
-//! with its knobs, records it for a warm-up frame (lavapipe compiles shaders at first dispatch)
-//! and then `frames` timed frames, and returns the visibility of the last with [`FrameStats`]:
-//! the median GPU time of each pass, the technique's counters, the NaN count and, for a
+//! view samples — work every technique shares, done once ([`Engine::prepare_with_view_samples`]
+//! takes the caller's images instead). [`Engine::renderer`] builds a technique into a
+//! [`ShadowRenderer`] that renders frame after frame: what a library user keeps.
+//! [`Engine::render`] is the measuring path the CLI and the bench use: a fresh renderer, a
+//! warm-up frame (lavapipe compiles shaders at first dispatch), then `frames` timed frames, and
+//! the visibility of the last with [`FrameStats`]: the median GPU time of each pass, the
+//! technique's counters, the NaN/Inf/out-of-range counts (from the GPU checks) and, for a
 //! shadow-map technique, the sampling error of its grids ([`crate::sampling_error`]).
 
 use std::collections::BTreeMap;
@@ -261,7 +264,8 @@ impl Engine {
     }
 
     /// Renders `technique` with `overrides` (knob → value text) on `prepared`: one warm-up
-    /// frame, then `frames` timed frames (at least 1).
+    /// frame, then `frames` timed frames (at least 1). Each call builds a fresh renderer and
+    /// reads the visibility back; to render repeatedly, keep one from [`Engine::renderer`].
     pub fn render(
         &self,
         prepared: &PreparedScene,

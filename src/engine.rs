@@ -63,22 +63,44 @@ pub struct PreparedScene {
     pub triangles: usize,
     /// The receivers built for its renderers, shared by all of them.
     pub(crate) receivers: ReceiverCache,
-    /// The view samples' positions read back once, for penumbra's own (unchanging) samples.
-    positions_read: std::sync::OnceLock<Vec<Vec4>>,
+    /// The view samples' positions and normals read back once, for penumbra's own
+    /// (unchanging) samples.
+    samples_read: [std::sync::OnceLock<Vec<Vec4>>; 2],
 }
 
 impl PreparedScene {
     /// The view samples' positions on the host (row-major; w > 0 marks a sample): read back once
     /// for penumbra's own view samples, on every call for the caller's (which may have changed).
     pub fn sample_positions(&self, ctx: &Context) -> Result<Vec<Vec4>> {
+        self.read_once(&self.samples_read[0], ctx, &self.view.positions)
+    }
+
+    /// The view samples' normals (w: linear view depth), read back like
+    /// [`PreparedScene::sample_positions`].
+    pub fn sample_normals(&self, ctx: &Context) -> Result<Vec<Vec4>> {
+        self.read_once(&self.samples_read[1], ctx, &self.view.normals)
+    }
+
+    fn read_once(
+        &self,
+        cell: &std::sync::OnceLock<Vec<Vec4>>,
+        ctx: &Context,
+        image: &Image,
+    ) -> Result<Vec<Vec4>> {
+        let read = || -> Result<Vec<Vec4>> {
+            Ok(f32s(&ctx.read_image(image)?)
+                .chunks_exact(4)
+                .map(Vec4::from_slice)
+                .collect())
+        };
         if self.view.is_external() {
-            return self.view.read_positions(ctx);
+            return read();
         }
-        if let Some(p) = self.positions_read.get() {
-            return Ok(p.clone());
+        if let Some(v) = cell.get() {
+            return Ok(v.clone());
         }
-        let p = self.view.read_positions(ctx)?;
-        Ok(self.positions_read.get_or_init(|| p).clone())
+        let v = read()?;
+        Ok(cell.get_or_init(|| v).clone())
     }
 
     /// How many receiver sets (light clipping, normal offset) its renderers have built: one per
@@ -259,7 +281,7 @@ impl Engine {
             view_pass,
             triangles: scene.triangle_count(),
             receivers: ReceiverCache::default(),
-            positions_read: std::sync::OnceLock::new(),
+            samples_read: Default::default(),
         })
     }
 
@@ -371,7 +393,7 @@ impl Engine {
         }
         let (aliasing, sampling_error) = match (&positions, grids.is_empty()) {
             (Some(positions), false) => {
-                let normals = prepared.view.read_normals(ctx)?;
+                let normals = prepared.sample_normals(ctx)?;
                 let (map, summary) = sampling_error(&prepared.camera, positions, &normals, &grids);
                 (Some(map), summary)
             }

@@ -95,9 +95,8 @@ pub enum Retuned {
 
 /// One technique built for one prepared scene, ready to render frame after frame.
 pub struct ShadowRenderer<'a> {
-    /// The engine's context, which technique builds borrow.
-    engine_ctx: &'a Context,
-    ctx: Context,
+    /// The engine's context, which the technique borrows.
+    ctx: &'a Context,
     prepared: &'a PreparedScene,
     info: &'static TechniqueInfo,
     params: Params,
@@ -181,8 +180,7 @@ impl<'a> ShadowRenderer<'a> {
         let checks = VisibilityChecks::new(ctx, &prepared.view.positions, &prepared.visibility)?;
         let timestamps = Timestamps::new(ctx, 16)?;
         Ok(ShadowRenderer {
-            engine_ctx: ctx,
-            ctx: ctx.clone(),
+            ctx,
             prepared,
             info: reported,
             params: reported_params,
@@ -267,7 +265,7 @@ impl<'a> ShadowRenderer<'a> {
     /// NaN, infinite and out-of-range visibility among the view samples of the last completed
     /// frame, counted on the GPU.
     pub fn checks(&self) -> Result<VisibilityCounts> {
-        self.checks.read(&self.ctx)
+        self.checks.read(self.ctx)
     }
 
     /// Reads the last completed frame's visibility back (row-major, 1 for background). The
@@ -298,7 +296,7 @@ impl<'a> ShadowRenderer<'a> {
             self.params = params;
             return Ok(Retuned::InPlace);
         }
-        *self = ShadowRenderer::new(self.engine_ctx, self.prepared, self.info, params)?;
+        *self = ShadowRenderer::new(self.ctx, self.prepared, self.info, params)?;
         Ok(Retuned::Rebuilt)
     }
 

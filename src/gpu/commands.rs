@@ -783,23 +783,17 @@ impl ReadbackStaging {
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let raw = unsafe { device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
         let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
-        let allocation = ctx
-            .allocator()
-            .allocate(&gpu_allocator::vulkan::AllocationCreateDesc {
-                name: "readback",
-                requirements,
-                location: MemoryLocation::GpuToCpu,
-                linear: true,
-                allocation_scheme: gpu_allocator::vulkan::AllocationScheme::GpuAllocatorManaged,
-            });
-        let allocation = match allocation {
+        let allocation = match super::resources::allocate_uncounted(
+            ctx,
+            "readback",
+            requirements,
+            MemoryLocation::GpuToCpu,
+            true,
+        ) {
             Ok(a) => a,
-            Err(source) => {
+            Err(e) => {
                 unsafe { device.destroy_buffer(raw, None) };
-                return Err(Error::Allocation {
-                    name: "readback".into(),
-                    source,
-                });
+                return Err(e);
             }
         };
         let bound =
@@ -808,7 +802,6 @@ impl ReadbackStaging {
         self.raw = raw;
         self.allocation = Some(allocation);
         self.size = size;
-        ctx.shared.counts.memory();
         ctx.set_name(raw, "readback");
         if let Err(e) = bound {
             self.destroy(device, &mut ctx.allocator());

@@ -22,6 +22,22 @@ fn allocate(
     location: MemoryLocation,
     linear: bool,
 ) -> Result<Allocation> {
+    let allocation = allocate_uncounted(ctx, name, requirements, location, linear)?;
+    ctx.shared
+        .live_bytes
+        .fetch_add(allocation.size(), std::sync::atomic::Ordering::Relaxed);
+    Ok(allocation)
+}
+
+/// [`allocate`] without adding to `live_bytes` (what techniques are measured by): for the
+/// context's own readback buffer. Still counted in [`Context::creation_counts`].
+pub(crate) fn allocate_uncounted(
+    ctx: &Context,
+    name: &str,
+    requirements: vk::MemoryRequirements,
+    location: MemoryLocation,
+    linear: bool,
+) -> Result<Allocation> {
     let allocation = ctx
         .allocator()
         .allocate(&AllocationCreateDesc {
@@ -35,9 +51,6 @@ fn allocate(
             name: name.to_string(),
             source,
         })?;
-    ctx.shared
-        .live_bytes
-        .fetch_add(allocation.size(), std::sync::atomic::Ordering::Relaxed);
     ctx.shared.counts.memory();
     Ok(allocation)
 }

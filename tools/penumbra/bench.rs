@@ -205,6 +205,38 @@ fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, Vec<f64>)> 
     }
 }
 
+/// Opens the scenes a suite runs on: scene files or procedural specs, or `stress:NAME` for a
+/// stress case's scene (at `size`, its builder's argument); `size` also resizes the others'
+/// cameras when given.
+pub fn suite_scenes(
+    specs: &[String],
+    size: Option<(u32, u32)>,
+) -> anyhow::Result<Vec<penumbra::scene::Scene>> {
+    let (w, h) = size.unwrap_or((512, 384));
+    specs
+        .iter()
+        .map(|spec| {
+            if let Some(name) = spec.strip_prefix("stress:") {
+                let Some(case) = penumbra::stress::cases::cases()
+                    .into_iter()
+                    .find(|c| c.name == name)
+                else {
+                    anyhow::bail!("--scenes {spec}: no stress case '{name}' (see penumbra stress)");
+                };
+                let mut scene = (case.scene)(w, h)?;
+                scene.name = name.to_string();
+                return Ok(scene);
+            }
+            let mut scene = penumbra::scene::Scene::open(spec)?;
+            if size.is_some() {
+                scene.camera.width = w;
+                scene.camera.height = h;
+            }
+            Ok(scene)
+        })
+        .collect()
+}
+
 pub fn bundled_scenes() -> anyhow::Result<Vec<String>> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let mut scenes: Vec<String> = std::fs::read_dir(&dir)

@@ -82,16 +82,8 @@ fn scenes(args: &ReuseArgs) -> anyhow::Result<Vec<Scene>> {
     } else {
         args.scenes.clone()
     };
-    let (w, h) = if args.quick { (256, 192) } else { (512, 384) };
-    specs
-        .iter()
-        .map(|spec| {
-            let mut scene = Scene::open(spec)?;
-            scene.camera.width = w;
-            scene.camera.height = h;
-            Ok(scene)
-        })
-        .collect()
+    let size = if args.quick { (256, 192) } else { (512, 384) };
+    crate::bench::suite_scenes(&specs, Some(size))
 }
 
 pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {

@@ -123,28 +123,7 @@ fn scenes(args: &SkippingArgs) -> anyhow::Result<Vec<Scene>> {
             "stress:all-in-shadow".to_string(),
         ]);
     }
-    let mut out = Vec::new();
-    for spec in &specs {
-        if let Some(name) = spec.strip_prefix("stress:") {
-            let Some(case) = penumbra::stress::cases::cases()
-                .into_iter()
-                .find(|c| c.name == name)
-            else {
-                anyhow::bail!("--scenes {spec}: no stress case '{name}' (see penumbra stress)");
-            };
-            let mut scene = (case.scene)(w, h)?;
-            scene.name = name.to_string();
-            out.push(scene);
-            continue;
-        }
-        let mut scene = Scene::open(spec)?;
-        if args.quick {
-            scene.camera.width = w;
-            scene.camera.height = h;
-        }
-        out.push(scene);
-    }
-    Ok(out)
+    crate::bench::suite_scenes(&specs, args.quick.then_some((w, h)))
 }
 
 pub fn run(args: &SkippingArgs) -> anyhow::Result<()> {

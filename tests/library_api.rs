@@ -596,6 +596,18 @@ fn view_samples_from_a_depth_gbuffer_match_the_cpu_twin_and_the_raster_samples()
                 );
             }
         }
+        if !(worst.0 < 1e-4 && worst.1 < 1e-5) {
+            // The linear view depth (normals' w) of both, scaled to the frame's range.
+            let far = twin_normals.iter().map(|n| n.w).fold(1e-6f32, f32::max);
+            let depth = |v: &[Vec4]| v.iter().map(|n| n.w / far).collect::<Vec<f32>>();
+            common::write_diff(
+                &format!("from-depth-{format:?}"),
+                w,
+                h,
+                &depth(&twin_normals),
+                &depth(&got_normals),
+            );
+        }
         assert!(
             worst.0 < 1e-4 && worst.1 < 1e-5,
             "{format:?}: worst vs twin {worst:?}"

@@ -8,6 +8,10 @@
 //! - **rebuilt**: drop it, build a new renderer of the same technique and render one frame —
 //!   what `Engine::render` pays per call, with the pipeline cache and the driver warm.
 //!
+//! The prepared scene keeps the receiver sets its renderers build, so a technique's first step
+//! includes building them only when no earlier technique of the run needed the same set: first
+//! steps compare a technique with itself, not techniques with one another.
+//!
 //! Each is timed three ways: wall clock, the calling thread's CPU time (the host work: building
 //! pipelines and resources, recording, submitting, reading 12 bytes of checks back) and the
 //! process's CPU time (every thread), from `/proc/self/task/*/schedstat` (nanoseconds). On a

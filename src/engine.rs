@@ -72,27 +72,20 @@ impl PreparedScene {
     /// The view samples' positions on the host (row-major; w > 0 marks a sample): read back once
     /// for penumbra's own view samples, on every call for the caller's (which may have changed).
     pub fn sample_positions(&self, ctx: &Context) -> Result<Vec<Vec4>> {
-        self.read_once(&self.samples_read[0], ctx, &self.view.positions)
+        self.read_once(&self.samples_read[0], || self.view.read_positions(ctx))
     }
 
     /// The view samples' normals (w: linear view depth), read back like
     /// [`PreparedScene::sample_positions`].
     pub fn sample_normals(&self, ctx: &Context) -> Result<Vec<Vec4>> {
-        self.read_once(&self.samples_read[1], ctx, &self.view.normals)
+        self.read_once(&self.samples_read[1], || self.view.read_normals(ctx))
     }
 
     fn read_once(
         &self,
         cell: &std::sync::OnceLock<Vec<Vec4>>,
-        ctx: &Context,
-        image: &Image,
+        read: impl Fn() -> Result<Vec<Vec4>>,
     ) -> Result<Vec<Vec4>> {
-        let read = || -> Result<Vec<Vec4>> {
-            Ok(f32s(&ctx.read_image(image)?)
-                .chunks_exact(4)
-                .map(Vec4::from_slice)
-                .collect())
-        };
         if self.view.is_external() {
             return read();
         }

@@ -8,7 +8,7 @@
 use std::collections::BTreeMap;
 
 use crate::error::{Error, Result};
-use crate::techniques::{self, Knob, TechniqueInfo};
+use crate::techniques::{self, TechniqueInfo};
 
 macro_rules! technique_kinds {
     ($($variant:ident => $name:literal: $doc:literal,)*) => {
@@ -267,59 +267,28 @@ impl TechniqueDesc {
         }
     }
 
-    /// Sets knob `name`, checked now: an unknown knob, a real for an integer knob, a value out
-    /// of range or a name an enumerated knob does not have is an [`Error::Parameter`] naming
-    /// the knob and what it accepts.
+    /// Sets knob `name`, checked now by the same resolution the CLI's `key=value` goes through:
+    /// an unknown knob, a fraction for an integer knob, a value out of range or a name an
+    /// enumerated knob does not have is an [`Error::Parameter`] naming the knob and what it
+    /// accepts.
     pub fn with(mut self, name: &str, value: impl Into<KnobValue>) -> Result<TechniqueDesc> {
         let info = self.kind.info()?;
-        let knobs = info.all_knobs();
-        let fail = |message: String| Error::Parameter {
-            technique: info.name.to_string(),
-            message,
+        let text = match value.into() {
+            KnobValue::Int(v) => v.to_string(),
+            // `{:?}` prints the shortest text that reads back as the same f64.
+            KnobValue::Real(v) => format!("{v:?}"),
+            KnobValue::Choice(choice) => choice.to_string(),
         };
-        let knob: &Knob = knobs.iter().find(|k| k.name == name).ok_or_else(|| {
-            fail(format!(
-                "no knob '{name}'; it has {}",
-                knobs.iter().map(|k| k.name).collect::<Vec<_>>().join(", ")
-            ))
-        })?;
-        let number = match value.into() {
-            KnobValue::Choice(choice) => {
-                let index = knob.names.iter().position(|n| *n == choice);
-                match index {
-                    Some(i) => i as f64,
-                    None if knob.names.is_empty() => {
-                        return Err(fail(format!(
-                            "knob '{name}' takes a number, not the name '{choice}'"
-                        )))
-                    }
-                    None => {
-                        return Err(fail(format!(
-                            "knob '{name}' has no choice '{choice}'; expected one of {}",
-                            knob.names.join(", ")
-                        )))
-                    }
-                }
-            }
-            KnobValue::Int(v) => v as f64,
-            KnobValue::Real(v) => {
-                if knob.integer {
-                    return Err(fail(format!("knob '{name}' takes an integer, not {v}")));
-                }
-                v
-            }
-        };
-        if !number.is_finite() || number < knob.min || number > knob.max {
-            return Err(fail(format!(
-                "knob '{name}' = {number} is outside [{}, {}]",
-                knob.min, knob.max
-            )));
-        }
-        // `{:?}` prints the shortest text that reads back as the same f64.
-        let text = if knob.integer {
-            format!("{}", number as i64)
+        // The CLI's resolution checks it (name, number or named value, range, integer), with
+        // the default scene standing in for the one the renderer will be built on.
+        let single = BTreeMap::from([(name.to_string(), text)]);
+        let resolved = info.params(&single, &crate::scene::SceneDefaults::default())?;
+        let v = resolved.get(name)?;
+        let integer = info.all_knobs().iter().any(|k| k.name == name && k.integer);
+        let text = if integer {
+            format!("{}", v as i64)
         } else {
-            format!("{number:?}")
+            format!("{v:?}")
         };
         self.overrides.insert(name.to_string(), text);
         Ok(self)
@@ -408,11 +377,11 @@ mod tests {
         let e = TechniqueDesc::new(TechniqueKind::Pvssm)
             .choose(PcssSkip::Pyramid)
             .expect_err("pvssm's skip has no pyramid");
-        assert!(e.to_string().contains("expected one of off, coarse"), "{e}");
+        assert!(e.to_string().contains("is not one of off, coarse"), "{e}");
         let e = TechniqueDesc::new(TechniqueKind::Hard)
             .choose(Partition::Log)
             .expect_err("hard has no partition");
-        assert!(e.to_string().contains("no knob 'partition'"), "{e}");
+        assert!(e.to_string().contains("unknown knob 'partition'"), "{e}");
     }
 
     #[test]
@@ -444,17 +413,17 @@ mod tests {
         let err = |r: Result<TechniqueDesc>| r.expect_err("refused").to_string();
         let e = err(TechniqueDesc::new(TechniqueKind::Pcss).with("map_sise", 256u32));
         assert!(
-            e.contains("no knob 'map_sise'") && e.contains("map_size"),
+            e.contains("unknown knob 'map_sise'") && e.contains("map_size"),
             "{e}"
         );
         let e = err(TechniqueDesc::new(TechniqueKind::Pcss).with("map_size", 256.5));
-        assert!(e.contains("takes an integer"), "{e}");
+        assert!(e.contains("must be an integer"), "{e}");
         let e = err(TechniqueDesc::new(TechniqueKind::Pcss).with("map_size", 1u32));
         assert!(e.contains("outside [16"), "{e}");
         let e = err(TechniqueDesc::new(TechniqueKind::Pcss).with("fit", "camera"));
-        assert!(e.contains("expected one of scene, view"), "{e}");
+        assert!(e.contains("is not one of scene, view"), "{e}");
         let e = err(TechniqueDesc::new(TechniqueKind::Pcss).with("map_size", "big"));
-        assert!(e.contains("takes a number"), "{e}");
+        assert!(e.contains("is not a number"), "{e}");
         let e = err(TechniqueDesc::new(TechniqueKind::Pcss).with("normal_offset", f64::NAN));
         assert!(e.contains("outside"), "{e}");
     }

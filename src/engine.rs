@@ -17,6 +17,7 @@ use glam::{Vec3, Vec4};
 
 use crate::error::{Error, Result};
 use crate::gpu::{f32s, Context, ContextDesc, Image, ImageDesc, PassTime, Timestamps};
+use crate::passes::caster_cull::{CasterCull, CasterTest};
 use crate::passes::{LightView, SceneGeometry, ViewSamples};
 use crate::renderer::{texel_grid, ReceiverCache, ShadowRenderer};
 use crate::sampling_error::{sampling_error, SamplingSummary};
@@ -66,6 +67,8 @@ pub struct PreparedScene {
     /// The view samples' positions and normals read back once, for penumbra's own
     /// (unchanging) samples.
     samples_read: [std::sync::OnceLock<Vec<Vec4>>; 2],
+    /// The caster test, run once (penumbra's own samples only).
+    caster_test: std::sync::OnceLock<CasterTest>,
 }
 
 impl PreparedScene {
@@ -94,6 +97,28 @@ impl PreparedScene {
         }
         let v = read()?;
         Ok(cell.get_or_init(|| v).clone())
+    }
+
+    /// Whether no triangle can shadow any view sample, proved by [`CasterCull`] on the GPU the
+    /// first time it is asked (one submission). Always `false` for the caller's view samples
+    /// ([`Engine::prepare_with_view_samples`]): they change from frame to frame, and a proof for
+    /// one frame would make a renderer write "lit" into a later frame with shadows.
+    pub fn nothing_casts(&self, ctx: &Context) -> Result<bool> {
+        Ok(self.caster_test(ctx)?.is_some_and(|t| !t.may_cast))
+    }
+
+    /// What [`PreparedScene::nothing_casts`] found — the triangles it looked at and its GPU
+    /// time — running it the first time; `None` for the caller's view samples (not tested).
+    pub fn caster_test(&self, ctx: &Context) -> Result<Option<CasterTest>> {
+        if self.view.is_external() {
+            return Ok(None);
+        }
+        if let Some(t) = self.caster_test.get() {
+            return Ok(Some(*t));
+        }
+        let eps = crate::passes::caster_cull::tolerance(&self.positions);
+        let test = CasterCull::new(ctx, &self.view, &self.geometry, &self.light, eps)?.run()?;
+        Ok(Some(*self.caster_test.get_or_init(|| test)))
     }
 
     /// How many receiver sets (light clipping, normal offset) its renderers have built: one per
@@ -275,6 +300,7 @@ impl Engine {
             triangles: scene.triangle_count(),
             receivers: ReceiverCache::default(),
             samples_read: Default::default(),
+            caster_test: Default::default(),
         })
     }
 

@@ -24,6 +24,7 @@ use crate::engine::PreparedScene;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, PassTime, Timestamps};
 use crate::passes::{LightView, ReceiverDesc, Receivers, VisibilityChecks, VisibilityCounts};
+use crate::techniques::unshadowed::Unshadowed;
 use crate::techniques::{Params, Technique, TechniqueInfo, TechniqueSetup};
 
 /// The receivers a prepared scene has built, one per (description, light view), never removed
@@ -102,6 +103,9 @@ pub struct ShadowRenderer<'a> {
     params: Params,
     /// Whether `technique` is `hard` standing in for `info` ([`hard_path`]).
     hard_path: bool,
+    /// Whether `technique` is the lit answer standing in for `info`: no triangle can cast into
+    /// the view ([`PreparedScene::nothing_casts`], knob `caster_skip`).
+    caster_skip: bool,
     light_view: &'a LightView,
     receivers: Option<&'a Receivers>,
     technique: Box<dyn Technique + 'a>,
@@ -122,9 +126,21 @@ impl<'a> ShadowRenderer<'a> {
         info: &'static TechniqueInfo,
         params: Params,
     ) -> Result<ShadowRenderer<'a>> {
-        // What is built: the technique asked for, or `hard` in its place (its `hard_path`).
+        // What is built: the technique asked for, the lit answer in its place when nothing can
+        // cast into the view (`caster_skip`), or `hard` in its place (its `hard_path`).
         let (reported, reported_params) = (info, params.clone());
-        let hard = hard_path(prepared, info, &params)?;
+        let caster_skip = info.has_caster_skip()
+            && params.u32("caster_skip")? == 1
+            && prepared.nothing_casts(ctx)?;
+        if caster_skip && info.name == crate::techniques::izb::IZB_SOFT.name {
+            // The skip makes no technique run where it could not have.
+            crate::techniques::izb::soft_applicable(&prepared.light)?;
+        }
+        let hard = if caster_skip {
+            None
+        } else {
+            hard_path(prepared, info, &params)?
+        };
         let hard_path = hard.is_some();
         let (info, params) = hard.unwrap_or((info, params));
         // `fit`: the scene's box (0) or the view samples and their casters (1, the default).
@@ -135,15 +151,8 @@ impl<'a> ShadowRenderer<'a> {
         } else {
             &prepared.light_view
         };
-        let receivers = if info.shadow_map {
-            let desc = ReceiverDesc {
-                light_clip: params.u32("light_clip")? == 1,
-                normal_offset: params.f32("normal_offset")?,
-                map_size: texel_grid(&params)?,
-                clips_itself: info.clips_light,
-                skip_horizon: params.u32("horizon_skip")? == 1,
-            };
-            if desc.needed() {
+        let receivers = match receiver_desc(info, &params, caster_skip)? {
+            Some(desc) if desc.needed() => {
                 Some(prepared.receivers.get_or_create(&desc, receiver_fit, || {
                     Receivers::new(
                         ctx,
@@ -154,11 +163,8 @@ impl<'a> ShadowRenderer<'a> {
                         &desc,
                     )
                 })?)
-            } else {
-                None
             }
-        } else {
-            None
+            _ => None,
         };
         let setup = TechniqueSetup {
             ctx,
@@ -174,7 +180,11 @@ impl<'a> ShadowRenderer<'a> {
             receiver_bounds: &prepared.receiver_bounds,
         };
         let before = ctx.live_bytes();
-        let technique = (info.create)(&setup, &params)?;
+        let technique: Box<dyn Technique + 'a> = if caster_skip {
+            Box::new(Unshadowed::new(&setup)?)
+        } else {
+            (info.create)(&setup, &params)?
+        };
         // What the technique holds across frames, measured rather than declared.
         let memory_bytes = ctx.live_bytes().saturating_sub(before);
         let checks = VisibilityChecks::new(ctx, &prepared.view.positions, &prepared.visibility)?;
@@ -185,6 +195,7 @@ impl<'a> ShadowRenderer<'a> {
             info: reported,
             params: reported_params,
             hard_path,
+            caster_skip,
             light_view,
             receivers,
             technique,
@@ -259,6 +270,9 @@ impl<'a> ShadowRenderer<'a> {
         if self.info.has_hard_path() {
             counters.insert("hard_path".into(), u64::from(self.hard_path));
         }
+        if self.info.has_caster_skip() {
+            counters.insert("caster_skip".into(), u64::from(self.caster_skip));
+        }
         Ok(counters)
     }
 
@@ -291,8 +305,8 @@ impl<'a> ShadowRenderer<'a> {
             return Ok(Retuned::Unchanged);
         }
         // A knob the receivers depend on is never retunable, so an in-place change keeps them.
-        // A stand-in `hard` was built from other knobs: rebuild (the light may still be small).
-        if !self.hard_path && self.technique.retune(&params)? {
+        // A stand-in (`hard`, the lit answer) was built from other knobs: rebuild.
+        if !self.hard_path && !self.caster_skip && self.technique.retune(&params)? {
             self.params = params;
             return Ok(Retuned::InPlace);
         }
@@ -378,6 +392,40 @@ fn hard_path(
         bounds.max.z,
     )?;
     Ok((widest < 0.5).then_some((hard, hard_params)))
+}
+
+/// The receivers `info` needs with `params`: a shadow-map technique's from its receiver knobs;
+/// for the lit answer standing in for any technique (`caster_skip`), the light's clipping by
+/// the receiver's tangent plane (the technique's `light_clip` where it has one), applied to
+/// V = 1 rather than kept from a technique that clips its own light samples. `None`: none.
+fn receiver_desc(
+    info: &TechniqueInfo,
+    params: &Params,
+    caster_skip: bool,
+) -> Result<Option<ReceiverDesc>> {
+    let has = |k: &str| params.values().contains_key(k);
+    if !info.shadow_map && !caster_skip {
+        return Ok(None);
+    }
+    let light_clip = !has("light_clip") || params.u32("light_clip")? == 1;
+    let normal_offset = if has("normal_offset") {
+        params.f32("normal_offset")?
+    } else {
+        0.0
+    };
+    let map_size = if info.shadow_map {
+        texel_grid(params)?
+    } else {
+        1
+    };
+    let skip_horizon = !has("horizon_skip") || params.u32("horizon_skip")? == 1;
+    Ok(Some(ReceiverDesc {
+        light_clip,
+        normal_offset,
+        map_size,
+        clips_itself: info.clips_light && !caster_skip,
+        skip_horizon,
+    }))
 }
 
 /// Records one frame: the view samples' unprojection (for a depth G-buffer), the receivers, the

@@ -288,3 +288,33 @@ pub struct PvssmMipPush {
     /// Padding to the block's declared size.
     pub pad0: u32,
 }
+
+/// `glsl/caster_cull/tiles.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct CasterTilesPush {
+    /// View-sample image size.
+    pub view_size: IVec2,
+    /// Tiles across and down (16×16 pixels each).
+    pub tile_count: IVec2,
+}
+
+/// `glsl/caster_cull/test.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct CasterTestPush {
+    /// xyz: a point or rect light's position; a directional light's unit direction towards it.
+    pub light_position: Vec4,
+    /// xyz: a rect light's full edge u.
+    pub light_u: Vec4,
+    /// xyz: a rect light's full edge v; w: a directional light's cone bound 2 sin(radius / 2).
+    pub light_v: Vec4,
+    /// Triangles to test.
+    pub triangles: u32,
+    /// Tiles (16×16 pixels each).
+    pub tile_count: u32,
+    /// Distance below which a sample counts as on a triangle's plane (world units).
+    pub eps: f32,
+    /// 0 point, 1 rect, 2 directional.
+    pub kind: i32,
+}

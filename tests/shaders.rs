@@ -279,6 +279,25 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
+            vec!["caster_cull/tiles.comp"],
+            twin!(CasterTilesPush {
+                view_size,
+                tile_count
+            }),
+        ),
+        (
+            vec!["caster_cull/test.comp"],
+            twin!(CasterTestPush {
+                light_position,
+                light_u,
+                light_v,
+                triangles,
+                tile_count,
+                eps,
+                kind
+            }),
+        ),
+        (
             vec!["receiver_bounds/project.comp"],
             twin!(ReceiverBoundsPush {
                 light_view,

@@ -10,6 +10,7 @@ pub mod average_maps;
 pub mod backprojection;
 pub mod bitmask;
 pub mod cascades;
+pub mod caster_cull;
 pub mod compact;
 pub mod conservative_raster;
 pub mod cssm;

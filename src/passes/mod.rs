@@ -5,6 +5,7 @@
 //! that count NaN, infinite and out-of-range results on the GPU.
 
 pub mod cascade_fit;
+pub mod caster_cull;
 mod geometry;
 mod light_depth;
 mod light_view;

@@ -300,6 +300,26 @@ pub struct IzbPush {
     pub phase: u32,
 }
 
+/// Whether `izb-soft` can run under `light`: not under a sun disk (its light samples are points
+/// of an area light). Also what the renderer checks before standing the lit answer in for it.
+pub fn soft_applicable(light: &crate::scene::Light) -> Result<()> {
+    if let crate::scene::Light::Directional {
+        angular_diameter_deg,
+        ..
+    } = *light
+    {
+        if angular_diameter_deg > 0.0 {
+            return Err(Error::NotApplicable {
+                technique: IZB_SOFT.name.to_string(),
+                what: "a sun disk (angular diameter > 0): rect, point and hard directional \
+                       lights only"
+                    .into(),
+            });
+        }
+    }
+    Ok(())
+}
+
 impl<'a> Izb<'a> {
     fn new(setup: &TechniqueSetup<'a>, params: &Params, soft: bool) -> Result<Izb<'a>> {
         let ctx = setup.ctx;
@@ -312,15 +332,11 @@ impl<'a> Izb<'a> {
         let capacity = u64::from(params.u32("pair_capacity")?) * 1_000_000;
         let (mut kind, centre, u, v) = light_encoding(setup.light, name)?;
         let extent = u != Vec3::ZERO || v != Vec3::ZERO;
+        if soft {
+            soft_applicable(setup.light)?;
+        }
         if kind == KIND_DIRECTIONAL && extent {
-            if soft {
-                return Err(Error::NotApplicable {
-                    technique: name.to_string(),
-                    what: "a sun disk (angular diameter > 0): rect, point and hard directional \
-                           lights only"
-                        .into(),
-                });
-            }
+            // izb under a sun disk: the hard test from its centre direction.
         } else if kind == KIND_RECT && !(soft && extent) {
             // izb, or a rect of zero extent: a point at the centre.
             kind = KIND_POINT;

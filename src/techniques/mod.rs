@@ -24,12 +24,13 @@ pub mod pvssm;
 pub mod rmsm;
 pub mod savsm;
 pub mod soft_light;
+pub mod unshadowed;
 pub mod virtual_map;
 pub mod vssm;
 
 pub use params::{
-    Knob, KnobDefault, Params, FIT, HARD_PATH, LIGHT_CLIP, NORMAL_OFFSET, RECEIVER_KNOBS,
-    SHADOW_MAP_KNOBS,
+    Knob, KnobDefault, Params, CASTER_SKIP, FIT, HARD_PATH, LIGHT_CLIP, NORMAL_OFFSET,
+    RECEIVER_KNOBS, SHADOW_MAP_KNOBS,
 };
 
 use crate::error::{Error, Result};
@@ -212,7 +213,17 @@ impl TechniqueInfo {
         if self.has_hard_path() {
             knobs.push(HARD_PATH);
         }
+        if self.has_caster_skip() {
+            knobs.push(CASTER_SKIP);
+        }
         knobs
+    }
+
+    /// Whether the engine may replace it by the lit answer when no triangle can cast into the
+    /// view (knob `caster_skip`): every technique but the ray-cast references, which are the
+    /// ground truth the skip is measured against.
+    pub fn has_caster_skip(&self) -> bool {
+        self.shadow_map || self.name.starts_with("izb")
     }
 
     /// Whether it is a soft technique whose softness comes from the light's size alone, so that

@@ -175,6 +175,19 @@ pub const HARD_PATH: Knob = Knob {
     names: &[],
 };
 
+/// `caster_skip`: when the engine proves that no triangle can shadow any view sample, the
+/// technique is replaced by the lit answer (no map at all; see [`crate::passes::caster_cull`]).
+pub const CASTER_SKIP: Knob = Knob {
+    name: "caster_skip",
+    summary: "1: when no triangle can shadow any view sample, write the lit answer without a \
+              map (counted as caster_skip; exact); 0: always the technique (to measure the skip)",
+    default: KnobDefault::Value(1.0),
+    min: 0.0,
+    max: 1.0,
+    integer: true,
+    names: &[],
+};
+
 /// The knobs the engine adds to every shadow-map technique: it prepares the receivers (light
 /// clipping, normal offset, horizon umbra) and the light view around the technique (see
 /// [`crate::passes::receivers`]).

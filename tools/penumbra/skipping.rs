@@ -14,6 +14,10 @@
 //! sample-unit counters (horizon umbra, lit/umbra classification, receivers outside the light),
 //! `other_skips` names the rest.
 //!
+//! The one opt-in skip, `hard_path` (a soft technique renders `hard` under a light too small for
+//! a penumbra), is measured the other way round in rows of its own: on = `hard_path=1`, off =
+//! the defaults; where it is not taken (an area light) the two must be bit-identical.
+//!
 //! A skip should change the work, not the image; where turning it off changes a few pixels the
 //! reason was measured and is stated with a cap ([`known_difference`]: samples that feed their
 //! neighbours, 0.01 % of the view samples; atty's receiver map and bitmask's micropatch gaps,
@@ -100,6 +104,18 @@ const CASTER_SKIP_MAE: f64 = 0.01;
 const CASTER_SKIP_REASON: &str = "caster_skip: nothing can cast into the view, so skipping on \
     writes the exact lit answer without a map and off is the technique's own error on an \
     unshadowed scene; bound: mean |dV| <= 0.01 (the stress suite's bound there)";
+
+/// The row label of the opt-in hard path (on: `hard_path=1`; off: the defaults).
+const HARD_PATH_LABEL: &str = "hard_path=1 vs 0 (opt-in)";
+
+/// Mean |ΔV| allowed where the hard path is taken: it renders `hard` in place of a soft filter
+/// whose only softness under such a light is its one-texel minimum kernel (and `cssm`'s series
+/// ringing), so the images differ along shadow edges.
+const HARD_PATH_MAE: f64 = 0.05;
+
+const HARD_PATH_REASON: &str = "hard_path=1: `hard` in place of a soft filter under a light too \
+    small for a half-texel penumbra; they differ at shadow edges (the soft filter's one-texel \
+    minimum kernel, cssm's ringing); bound: mean |dV| <= 0.05. Not taken: bit-identical";
 
 /// Mean |a − b| over the view samples (background is 1 in both).
 fn mean_abs_difference(a: &[f32], b: &[f32], samples: u64) -> f64 {
@@ -304,6 +320,69 @@ pub fn run(args: &SkippingArgs) -> anyhow::Result<()> {
                 max_diff.map_or(String::new(), |m| m.to_string()),
             );
             rows.push(row);
+            if find(t)?.has_hard_path() {
+                // The opt-in skip, measured the other way round: on = `hard_path=1`, off = the
+                // defaults (the run above).
+                let knobs = BTreeMap::from([("hard_path".to_string(), "1".to_string())]);
+                let hp = engine
+                    .render(&prepared, t, &knobs, args.frames)
+                    .with_context(|| format!("{t} with hard_path=1 on {}", prepared.name))?;
+                let taken = hp.stats.counters.get("hard_path") == Some(&1);
+                let (n, m) =
+                    penumbra::metrics::bitwise_difference(&hp.visibility, &on_frame.visibility);
+                let mean = mean_abs_difference(&hp.visibility, &on_frame.visibility, samples);
+                // Not taken: the same technique with the same knobs otherwise, bit for bit.
+                let pass = if taken { mean <= HARD_PATH_MAE } else { n == 0 };
+                failed_rows += usize::from(!pass);
+                let speedup = match (hp.stats.total_gpu_ms, on_frame.stats.total_gpu_ms) {
+                    (Some(on), Some(off)) if on > 0.0 => Some(off / on),
+                    _ => None,
+                };
+                let skipped = if taken { samples } else { 0 };
+                println!(
+                    "{:<24} {:<14} {:<40} {:>9} {:>9} {:>7} {:>9} {:>9} {:>9}",
+                    prepared.name,
+                    t,
+                    HARD_PATH_LABEL,
+                    opt(hp.stats.total_gpu_ms, 2),
+                    opt(on_frame.stats.total_gpu_ms, 2),
+                    opt(speedup, 2),
+                    skipped,
+                    n,
+                    format!("{m:.4}")
+                );
+                let _ = writeln!(
+                    csv,
+                    "\"{}\",{t},\"{HARD_PATH_LABEL}\",{},{},{},{skipped},{},\"hard_path={}\",{n},{},{m}",
+                    prepared.name,
+                    opt(hp.stats.total_gpu_ms, 4),
+                    opt(on_frame.stats.total_gpu_ms, 4),
+                    opt(speedup, 4),
+                    skipped as f64 / samples.max(1) as f64,
+                    u8::from(taken),
+                    if taken { samples as usize } else { 0 },
+                );
+                rows.push(serde_json::json!({
+                    "scene": prepared.name,
+                    "technique": t,
+                    "off_knobs": HARD_PATH_LABEL,
+                    "ms_on": hp.stats.total_gpu_ms,
+                    "ms_off": on_frame.stats.total_gpu_ms,
+                    "speedup": speedup,
+                    "skipped_samples": skipped,
+                    "other_skips": format!("hard_path={}", u8::from(taken)),
+                    "view_samples": samples,
+                    "hard_path_taken": taken,
+                    "differing_pixels": n,
+                    "max_abs_diff": m,
+                    "mean_abs_diff": mean,
+                    "allowed_differing": if taken { samples } else { 0 },
+                    "known_difference": if taken { Some(HARD_PATH_REASON) } else { None },
+                    "pass": pass,
+                    "counters_on": hp.stats.counters,
+                    "counters_off": on_frame.stats.counters,
+                }));
+            }
         }
     }
     let json = serde_json::json!({

@@ -305,7 +305,7 @@ pub struct CasterTilesPush {
 pub struct CasterTestPush {
     /// xyz: a point or rect light's position; a directional light's unit direction towards it.
     pub light_position: Vec4,
-    /// xyz: a rect light's full edge u.
+    /// xyz: a rect light's full edge u; w: a directional light's tan(angular radius).
     pub light_u: Vec4,
     /// xyz: a rect light's full edge v; w: a directional light's cone bound 2 sin(radius / 2).
     pub light_v: Vec4,

@@ -343,3 +343,66 @@ fn degenerate_triangles_cast_nothing() {
     ));
     common::assert_clean(&ctx.validation());
 }
+
+/// `plane-boxes` seen from above a corner of its ground on the light's side: the boxes and
+/// spheres are in the scene but their shadows fall away from the view. Each triangle's plane has
+/// view samples beyond it (the plane test alone proves nothing here); its shadow volume misses
+/// every tile. Checked against the ray-cast reference: every view sample is lit there.
+fn corner_view(light: &str) -> Scene {
+    let mut scene = Scene::procedural(&format!("plane-boxes:6@{light}")).expect("scene");
+    scene.camera.position = Vec3::new(-10.0, 5.0, 10.5);
+    scene.camera.target = Vec3::new(-10.0, 0.0, 9.8);
+    scene.camera.width = 128;
+    scene.camera.height = 96;
+    scene.name = format!("plane-boxes-corner@{light}");
+    scene
+}
+
+#[test]
+fn casters_whose_shadows_miss_the_view_cast_nothing_into_it() {
+    let engine = common::engine();
+    let ctx = engine.context().clone();
+    for light in ["rect", "point", "directional"] {
+        let scene = corner_view(light);
+        assert!(!gpu_and_twin(&scene), "{light}: a caster found");
+        let prepared = engine.prepare(&scene).expect("prepare");
+        let truth = engine
+            .render(
+                &prepared,
+                "reference",
+                &common::knobs(&[("samples", "4")]),
+                1,
+            )
+            .expect("reference");
+        let positions = prepared.view.read_positions(&ctx).expect("positions");
+        let samples = positions.iter().filter(|p| p.w > 0.0).count();
+        assert!(samples > 5000, "{light}: the ground fills the view");
+        let lowest = truth
+            .visibility
+            .iter()
+            .zip(&positions)
+            .filter(|(_, p)| p.w > 0.0)
+            .map(|(v, _)| *v)
+            .fold(1.0f32, f32::min);
+        assert_eq!(
+            lowest, 1.0,
+            "{light}: the reference sees a shadow in the view"
+        );
+        let mut r = engine
+            .renderer(&prepared, "pcss", &common::knobs(&[]))
+            .expect("renderer");
+        r.render().expect("frame");
+        assert_eq!(r.counters().expect("counters")["caster_skip"], 1, "{light}");
+        assert_eq!(
+            r.read_visibility().expect("read"),
+            truth.visibility,
+            "{light}"
+        );
+    }
+    // The same scene seen from its usual camera: the boxes shadow the ground in view.
+    let mut usual = Scene::procedural("plane-boxes:6@rect").expect("scene");
+    usual.camera.width = 128;
+    usual.camera.height = 96;
+    assert!(gpu_and_twin(&usual));
+    common::assert_clean(&ctx.validation());
+}

@@ -370,7 +370,8 @@ fn empty_and_fully_shadowed_scenes() {
     let plane = common::bare_plane(rect_light());
     let prepared = engine.prepare(&plane).expect("prepare");
     for technique in ["izb", "izb-soft"] {
-        let f = render(&engine, &prepared, technique, &[]);
+        // The technique itself (the caster skip would answer without it).
+        let f = render(&engine, &prepared, technique, &[("caster_skip", "0")]);
         assert_eq!(
             counter(&f, "umbra") + counter(&f, "penumbra"),
             0,
@@ -379,6 +380,10 @@ fn empty_and_fully_shadowed_scenes() {
         // The plane lies at its own samples' depth: culled, it takes no pair.
         assert_eq!(counter(&f, "pairs"), 0, "{technique}");
         assert!(f.visibility.iter().all(|&v| v == 1.0), "{technique}");
+        // With the skip (the default) the same image, and no pair at all.
+        let skipped = render(&engine, &prepared, technique, &[]);
+        assert_eq!(counter(&skipped, "caster_skip"), 1, "{technique}");
+        assert_eq!(skipped.visibility, f.visibility, "{technique}");
     }
     // A wide slab between the light and the plane: everything in umbra.
     let mut covered = common::bare_plane(rect_light());

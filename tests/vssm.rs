@@ -258,6 +258,8 @@ fn finite_at_extreme_knobs_and_depth_ranges() {
         for (min_kernel, max_width) in [("64", "1"), ("0.01", "1024")] {
             let knobs = common::knobs(&[
                 ("map_size", "256"),
+                // The technique itself on the bare plane too (not the caster skip).
+                ("caster_skip", "0"),
                 ("min_variance", "0"),
                 ("subdivision", "8"),
                 ("min_kernel", min_kernel),

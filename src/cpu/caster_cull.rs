@@ -1,5 +1,6 @@
 //! CPU twin of `glsl/caster_cull/` (`tiles.comp`, `test.comp`): the view samples' bounds per
-//! 16×16-pixel tile, and whether any triangle may shadow any of them
+//! 16×16-pixel tile, and whether any triangle may shadow any of them (its plane separating a
+//! tile's samples from the light, and the tile meeting its shadow volume)
 //! ([`crate::passes::caster_cull`] explains the test).
 //!
 //! The twin computes the light's interval from the [`Light`] as the scene gives it (not the
@@ -124,6 +125,124 @@ fn light_side(light: &Light, n: DVec3, d: f64, eps: f64) -> (bool, bool) {
     (hi > tol, lo < -tol)
 }
 
+/// The light's extreme points, homogeneous: (position, 1) for a point or a rect's corners,
+/// (direction towards it, 0) for a sun — its centre, or for a disk the corners of the square of
+/// half-side tan(radius) around the centre direction in its tangent plane, which holds the disk.
+fn light_corners(light: &Light) -> Vec<(DVec3, f64)> {
+    match *light {
+        Light::Point { position } => vec![(position.as_dvec3(), 1.0)],
+        Light::Rect { position, u, v } => [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)]
+            .iter()
+            .map(|&(a, b)| {
+                let c = position.as_dvec3() + a * u.as_dvec3() + b * v.as_dvec3();
+                (c, 1.0)
+            })
+            .collect(),
+        Light::Directional {
+            direction,
+            angular_diameter_deg,
+        } => {
+            let w = -direction.as_dvec3();
+            let t = (f64::from(angular_diameter_deg).to_radians() / 2.0).tan();
+            if t <= 0.0 {
+                return vec![(w, 0.0)];
+            }
+            // Any orthonormal pair perpendicular to w: every such square holds the disk.
+            let e1 = w.any_orthonormal_vector();
+            let e2 = w.cross(e1);
+            [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)]
+                .iter()
+                .map(|&(a, b)| (w + t * (a * e1 + b * e2), 0.0))
+                .collect()
+        }
+    }
+}
+
+/// The interval of `n·p − d` over a tile's samples: its box's interval intersected with its
+/// slab's.
+fn tile_interval(t: &TileBounds, n: DVec3, d: f64) -> (f64, f64) {
+    let (lo, hi) = (t.lo.as_dvec3(), t.hi.as_dvec3());
+    // The box's extremes of n·p are at its corners.
+    let (mut bmin, mut bmax) = (f64::INFINITY, f64::NEG_INFINITY);
+    for k in 0..8 {
+        let p = DVec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        bmin = bmin.min(n.dot(p) - d);
+        bmax = bmax.max(n.dot(p) - d);
+    }
+    // The slab: n = s·m + w, so n·p ∈ s·[slab] + (w·p over the box).
+    let m = t.axis.as_dvec3();
+    let s = if n.dot(m) < 0.0 { -1.0 } else { 1.0 };
+    let w = n - s * m;
+    let (slo, shi) = (f64::from(t.slab[0]), f64::from(t.slab[1]));
+    let along = if s > 0.0 { (slo, shi) } else { (-shi, -slo) };
+    let centre = 0.5 * (lo + hi);
+    let half = 0.5 * (hi - lo);
+    let (wc, wr) = (w.dot(centre), w.abs().dot(half));
+    (
+        bmin.max(along.0 + wc - wr - d),
+        bmax.min(along.1 + wc + wr - d),
+    )
+}
+
+/// Whether triangle `v` and the convex hull of the tile's box and the light's corners project
+/// apart on `n` (a direction corner stretches the hull to infinity along it).
+fn apart(t: &TileBounds, n: DVec3, v: [DVec3; 3], corners: &[(DVec3, f64)], eps: f64) -> bool {
+    let len = n.length();
+    if len.is_nan() || len <= 0.0 || !len.is_finite() {
+        return false;
+    }
+    let n = n / len;
+    let (lo, hi) = (t.lo.as_dvec3(), t.hi.as_dvec3());
+    let centre = n.dot(0.5 * (lo + hi));
+    let r = n.abs().dot(0.5 * (hi - lo));
+    let (mut hmin, mut hmax) = (centre - r, centre + r);
+    for &(l, w) in corners {
+        let x = n.dot(l);
+        if w > 0.0 {
+            hmin = hmin.min(x);
+            hmax = hmax.max(x);
+        } else if x > 0.0 {
+            hmax = f64::INFINITY;
+        } else if x < 0.0 {
+            hmin = f64::NEG_INFINITY;
+        }
+    }
+    let p = v.map(|x| n.dot(x));
+    let (tmin, tmax) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+    tmin > hmax + eps || tmax < hmin - eps
+}
+
+/// Whether no segment from the tile's samples to the light can meet triangle `v`: a separating
+/// axis between the triangle and the hull of the tile's box and the light (from the hull's
+/// spine to the triangle's centroid, and each edge crossed with the spine).
+fn outside_shadow_volume(
+    t: &TileBounds,
+    v: [DVec3; 3],
+    light: &Light,
+    corners: &[(DVec3, f64)],
+    eps: f64,
+) -> bool {
+    let centre = 0.5 * (t.lo.as_dvec3() + t.hi.as_dvec3());
+    let g = (v[0] + v[1] + v[2]) / 3.0;
+    let (spine, nearest) = match *light {
+        Light::Directional { direction, .. } => {
+            let w = -direction.as_dvec3();
+            (w, centre + (g - centre).dot(w).max(0.0) * w)
+        }
+        Light::Point { position } | Light::Rect { position, .. } => {
+            let spine = position.as_dvec3() - centre;
+            let s = ((g - centre).dot(spine) / spine.length_squared().max(1e-30)).clamp(0.0, 1.0);
+            (spine, centre + s * spine)
+        }
+    };
+    apart(t, g - nearest, v, corners, eps)
+        || (0..3).any(|e| apart(t, (v[(e + 1) % 3] - v[e]).cross(spine), v, corners, eps))
+}
+
 /// Whether some triangle of `positions`/`indices` may shadow some sample of `tiles` under
 /// `light`: a sample and a light point strictly on opposite sides of its plane, beyond `eps`
 /// (world units) — the twin of `test.comp`'s decision. `false` proves nothing casts.
@@ -135,6 +254,7 @@ pub fn may_cast(
     eps: f32,
 ) -> bool {
     let eps = f64::from(eps);
+    let corners = light_corners(light);
     indices.chunks_exact(3).any(|t| {
         let [a, b, c] = [0, 1, 2].map(|k| positions[t[k] as usize].as_dvec3());
         let n = (b - a).cross(c - a);
@@ -150,32 +270,9 @@ pub fn may_cast(
             return false;
         }
         tiles.iter().filter(|t| t.samples > 0).any(|t| {
-            let (lo, hi) = (t.lo.as_dvec3(), t.hi.as_dvec3());
-            // The box's extremes of n·p are at its corners.
-            let corners = (0..8).map(|k| {
-                DVec3::new(
-                    if k & 1 == 0 { lo.x } else { hi.x },
-                    if k & 2 == 0 { lo.y } else { hi.y },
-                    if k & 4 == 0 { lo.z } else { hi.z },
-                )
-            });
-            let (mut bmin, mut bmax) = (f64::INFINITY, f64::NEG_INFINITY);
-            for p in corners {
-                bmin = bmin.min(n.dot(p) - d);
-                bmax = bmax.max(n.dot(p) - d);
-            }
-            // The slab: n = s·m + w, so n·p ∈ s·[slab] + (w·p over the box).
-            let m = t.axis.as_dvec3();
-            let s = if n.dot(m) < 0.0 { -1.0 } else { 1.0 };
-            let w = n - s * m;
-            let (slo, shi) = (f64::from(t.slab[0]), f64::from(t.slab[1]));
-            let along = if s > 0.0 { (slo, shi) } else { (-shi, -slo) };
-            let centre = 0.5 * (lo + hi);
-            let half = 0.5 * (hi - lo);
-            let (wc, wr) = (w.dot(centre), w.abs().dot(half));
-            let imin = bmin.max(along.0 + wc - wr - d);
-            let imax = bmax.min(along.1 + wc + wr - d);
-            (imin < -eps && above) || (imax > eps && below)
+            let (imin, imax) = tile_interval(t, n, d);
+            let beyond = (imin < -eps && above) || (imax > eps && below);
+            beyond && !outside_shadow_volume(t, [a, b, c], light, &corners, eps)
         })
     })
 }

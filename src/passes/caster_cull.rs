@@ -12,14 +12,21 @@
 //!    the plane, but whose slabs are as thin as the rasterised positions' rounding.
 //! 2. `caster_cull/test.comp` takes each triangle's plane, the interval of signed distances of
 //!    the light's points to it (a point, a rect's corners, the sun's cone of directions) and of
-//!    each tile's samples (the box's interval intersected with the slab's), and reports the
-//!    first triangle that may have a sample and a light point on opposite sides, beyond the
-//!    ray-cast reference's ray offset (2⁻¹⁶ of the scene's largest coordinate: a sample closer
-//!    than that to a plane is on it for the reference's rays too). It stops at the first one: the
-//!    question is "any", and in a scene that casts it is answered after a few triangles.
+//!    each tile's samples (the box's interval intersected with the slab's), and looks for a
+//!    sample and a light point on opposite sides, beyond the ray-cast reference's ray offset
+//!    (2⁻¹⁶ of the scene's largest coordinate: a sample closer than that to a plane is on it
+//!    for the reference's rays too). The tile must also meet the triangle's shadow volume:
+//!    every segment from a tile sample to a light point lies in the convex hull of the tile's
+//!    box and the light's extreme points (a rect's corners, a point, rays along the corners of
+//!    a square of sun directions that holds its disk), so an axis on which that hull and the
+//!    triangle project apart proves the triangle shadows none of the tile's samples — which
+//!    proves the casters whose shadows fall outside the view. It stops at the first triangle
+//!    that may cast: the question is "any", and in a scene that casts it is answered after a
+//!    few triangles.
 //!
-//! "None may cast" is a proof; "some may" proves nothing (a box under the ground, a caster
-//! whose shadow falls outside the view: both are reported as possible casters). The test runs
+//! "None may cast" is a proof; "some may" proves nothing: the tests see each tile's bounds, not
+//! its samples, so a shadow volume that meets a tile's box and slab without reaching any of its
+//! samples still counts. The test runs
 //! once per prepared scene, on penumbra's own view samples only — the caller's images change
 //! from frame to frame, so for them the answer would not hold ([`crate::PreparedScene`]).
 //!
@@ -59,12 +66,14 @@ pub fn test_push(light: &Light, triangles: u32, tile_count: u32, eps: f32) -> Ca
             direction,
             angular_diameter_deg,
         } => {
-            // |w - w0| <= 2 sin(radius / 2) for every direction w within the sun's radius.
-            let cone = 2.0 * (0.25 * angular_diameter_deg.to_radians()).sin();
+            // |w - w0| <= 2 sin(radius / 2) for every direction w within the sun's radius; the
+            // shadow-volume test takes the square of half-side tan(radius) around w0.
+            let radius = 0.5 * angular_diameter_deg.to_radians();
+            let cone = 2.0 * (0.5 * radius).sin();
             (
                 2,
                 (-direction).extend(0.0),
-                Vec4::ZERO,
+                Vec3::ZERO.extend(radius.tan()),
                 Vec3::ZERO.extend(cone),
             )
         }

@@ -247,6 +247,20 @@ pub fn cases() -> Vec<Case> {
             bound: |_| Bound::Mae(0.01),
         },
         Case {
+            name: "shadows-outside-view",
+            summary: "the boxes in the scene, the camera over a corner of the ground on the \
+                      light's side, where none of their shadows falls: all lit",
+            quick: true,
+            scene: |w, h| {
+                let mut s = baseline(w, h)?;
+                s.camera.position = Vec3::new(-10.0, 5.0, 10.5);
+                s.camera.target = Vec3::new(-10.0, 0.0, 9.8);
+                Ok(s)
+            },
+            knobs: all,
+            bound: |_| Bound::Mae(0.01),
+        },
+        Case {
             name: "all-in-shadow",
             summary: "a roof between the light and everything, the camera under it: all umbra",
             quick: true,

@@ -24,7 +24,8 @@
 //! 2 %); a row past its bound fails the run after everything is written.
 //!
 //! Scenes: the bundled scenes (or `--scenes`, where `stress:NAME` is a stress case's scene) plus
-//! two from the stress suite where a scene needs almost no work — `nothing-casts` (a lone plane:
+//! three from the stress suite where a scene needs almost no work — `nothing-casts` (a lone
+//! plane: all lit), `shadows-outside-view` (casters in the scene, none of their shadows in view:
 //! all lit) and `all-in-shadow` (a roof over everything: all umbra).
 
 use std::collections::BTreeMap;
@@ -156,6 +157,7 @@ fn scenes(args: &SkippingArgs) -> anyhow::Result<Vec<Scene>> {
     if args.scenes.is_empty() {
         specs.extend([
             "stress:nothing-casts".to_string(),
+            "stress:shadows-outside-view".to_string(),
             "stress:all-in-shadow".to_string(),
         ]);
     }

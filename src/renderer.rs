@@ -11,9 +11,11 @@
 //! The receivers (light clipping, normal offset) depend only on a few knobs and the light view,
 //! so they are shared view-sample data: the prepared scene keeps one set per distinct
 //! description, which every renderer of that scene borrows. Knob changes apply in place where
-//! they change no resource ([`ShadowRenderer::set_knobs`], [`Technique::retune`]); a soft
-//! technique with `hard_path` on renders `hard` in its place under a light too small for a
-//! penumbra.
+//! they change no resource ([`ShadowRenderer::set_knobs`], [`Technique::retune`]). Two
+//! stand-ins may take a technique's place: where the scene proves that no triangle can shadow
+//! any view sample ([`PreparedScene::nothing_casts`], knob `caster_skip`, on by default) the
+//! lit answer without a map ([`crate::techniques::unshadowed`]); and a soft technique with
+//! `hard_path` on renders `hard` under a light too small for a penumbra.
 
 use std::collections::BTreeMap;
 use std::sync::Mutex;

@@ -642,3 +642,64 @@ fn flat_unoccluded_plane_at_the_default_bias() {
     }
     common::assert_clean(&engine.context().validation());
 }
+
+/// A technique, its knobs and the channels its filtered image should hold.
+type Packing = (&'static str, &'static [(&'static str, &'static str)], u64);
+
+/// Unused basis channels are skipped (`pack_channels`, the default): ESM's filtered image has one
+/// channel, VSM's and two-component EVSM's two, one-term CSM's two, the rest four — and the
+/// output is the same bit for bit as with all four stored, with less memory.
+#[test]
+fn packing_the_used_channels_changes_nothing_but_the_work() {
+    let engine = common::engine();
+    let prepared = engine.prepare(&box_on_plane()).expect("prepare");
+    let two = {
+        let info = engine.context().info();
+        if info.storage_image_extended_formats && info.rg32f_storage {
+            2
+        } else {
+            4
+        }
+    };
+    let cases: [Packing; 7] = [
+        ("esm", &[], 1),
+        ("vsm", &[], two),
+        ("evsm", &[("components", "2")], two),
+        ("evsm", &[("components", "4")], 4),
+        ("msm", &[], 4),
+        ("csm", &[("terms", "1")], two),
+        ("csm", &[("terms", "3")], 4),
+    ];
+    for (technique, set, channels) in cases {
+        let render = |pack: &str| {
+            let mut knobs = common::knobs(set);
+            knobs.insert("map_size".into(), "256".into());
+            knobs.insert("pack_channels".into(), pack.into());
+            engine
+                .render(&prepared, technique, &knobs, 1)
+                .unwrap_or_else(|e| panic!("{technique} {set:?}: {e}"))
+        };
+        let (packed, full) = (render("1"), render("0"));
+        let c = &packed.stats.counters;
+        assert_eq!(c["channels"], channels, "{technique} {set:?}");
+        assert_eq!(c["skipped_channels"], 4 - channels, "{technique} {set:?}");
+        assert_eq!(full.stats.counters["channels"], 4, "{technique} {set:?}");
+        let differing = packed
+            .visibility
+            .iter()
+            .zip(&full.visibility)
+            .filter(|(a, b)| a.to_bits() != b.to_bits())
+            .count();
+        assert_eq!(differing, 0, "{technique} {set:?}: packed and full differ");
+        if channels < 4 {
+            assert!(
+                packed.stats.memory_bytes < full.stats.memory_bytes,
+                "{technique} {set:?}: {} vs {} bytes",
+                packed.stats.memory_bytes,
+                full.stats.memory_bytes
+            );
+        }
+    }
+    drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}

@@ -539,8 +539,14 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
         (
             vec![
                 "filtered/encode.comp",
+                "filtered/encode_rg.comp",
+                "filtered/encode_r.comp",
                 "filtered/blur.comp",
+                "filtered/blur_rg.comp",
+                "filtered/blur_r.comp",
                 "filtered/reconstruct.comp",
+                "filtered/reconstruct_rg.comp",
+                "filtered/reconstruct_r.comp",
             ],
             twin!(FilteredPush {
                 light_view_proj,

@@ -12,6 +12,29 @@ const int MODE_EVSM = 2;
 const int MODE_MSM = 3;
 const int MODE_CSM = 4;
 
+// The channels the filtered image stores, one variant of each shader per count (encode.comp,
+// encode_rg.comp, encode_r.comp, ...): 4, 2 (VSM, two-component EVSM, one-term CSM) or 1 (ESM).
+// A technique's unused basis channels are then neither stored nor filtered.
+#ifndef CHANNELS
+#define CHANNELS 4
+#endif
+#if CHANNELS == 1
+#define CHANNEL_FORMAT r32f
+#define channel_t float
+#define to_channels(v) ((v).x)
+#define from_channels(c) vec4((c), 0.0, 0.0, 0.0)
+#elif CHANNELS == 2
+#define CHANNEL_FORMAT rg32f
+#define channel_t vec2
+#define to_channels(v) ((v).xy)
+#define from_channels(c) vec4((c), 0.0, 0.0)
+#else
+#define CHANNEL_FORMAT rgba32f
+#define channel_t vec4
+#define to_channels(v) (v)
+#define from_channels(c) (c)
+#endif
+
 // The widest blur: the shared-memory aprons are sized for it.
 const int MAX_RADIUS = 16;
 

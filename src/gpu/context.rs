@@ -89,6 +89,9 @@ pub struct DeviceInfo {
     /// `shaderClipDistance`: vertex shaders may write `gl_ClipDistance` (virtual shadow maps clip
     /// each page's casters to the page's rectangle of the atlas with it).
     pub clip_distance: bool,
+    /// `shaderStorageImageExtendedFormats`: storage images of two-channel formats such as
+    /// `R32G32_SFLOAT` (the filtered maps of two-channel techniques use it when present).
+    pub storage_image_extended_formats: bool,
     /// `VK_EXT_conservative_rasterization`.
     pub conservative_rasterization: bool,
     /// `VK_EXT_fragment_shader_interlock`.
@@ -97,6 +100,9 @@ pub struct DeviceInfo {
     pub ray_query: bool,
     /// Whether `D32_SFLOAT` can be sampled with linear filtering.
     pub depth_linear_filter: bool,
+    /// Whether `R32G32_SFLOAT` images can be storage images (optimal tiling); with
+    /// [`DeviceInfo::storage_image_extended_formats`], what two-channel filtered maps need.
+    pub rg32f_storage: bool,
     /// `maxComputeSharedMemorySize` in bytes.
     pub max_shared_memory: u32,
     /// `maxStorageBufferRange` in bytes.
@@ -171,6 +177,8 @@ pub struct EnabledFeatures {
     pub depth_bias_clamp: bool,
     /// `shaderClipDistance` (pvssm's and rmsm's page draws).
     pub clip_distance: bool,
+    /// `shaderStorageImageExtendedFormats` (two-channel filtered maps; four channels without).
+    pub storage_image_extended_formats: bool,
 }
 
 impl EnabledFeatures {
@@ -192,6 +200,7 @@ impl EnabledFeatures {
             subgroup_extended_types: info.subgroup_extended_types,
             depth_bias_clamp: info.depth_bias_clamp,
             clip_distance: info.clip_distance,
+            storage_image_extended_formats: info.storage_image_extended_formats,
         }
     }
 
@@ -209,7 +218,11 @@ impl EnabledFeatures {
             .shader_float64(self.float64 || core.shader_float64 == vk::TRUE)
             .shader_int64(self.int64 || core.shader_int64 == vk::TRUE)
             .depth_bias_clamp(self.depth_bias_clamp || core.depth_bias_clamp == vk::TRUE)
-            .shader_clip_distance(self.clip_distance || core.shader_clip_distance == vk::TRUE);
+            .shader_clip_distance(self.clip_distance || core.shader_clip_distance == vk::TRUE)
+            .shader_storage_image_extended_formats(
+                self.storage_image_extended_formats
+                    || core.shader_storage_image_extended_formats == vk::TRUE,
+            );
         let v12 = v12
             .shader_buffer_int64_atomics(
                 self.int64_atomics || v12.shader_buffer_int64_atomics == vk::TRUE,
@@ -221,7 +234,7 @@ impl EnabledFeatures {
     }
 
     /// (name, in `self`, in `other`) per feature.
-    fn pairs(&self, other: &EnabledFeatures) -> [(&'static str, bool, bool); 6] {
+    fn pairs(&self, other: &EnabledFeatures) -> [(&'static str, bool, bool); 7] {
         [
             ("shaderFloat64", self.float64, other.float64),
             ("shaderInt64", self.int64, other.int64),
@@ -244,6 +257,11 @@ impl EnabledFeatures {
                 "shaderClipDistance",
                 self.clip_distance,
                 other.clip_distance,
+            ),
+            (
+                "shaderStorageImageExtendedFormats",
+                self.storage_image_extended_formats,
+                other.storage_image_extended_formats,
             ),
         ]
     }
@@ -485,6 +503,8 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<Device
     let has_ext = |name: &CStr| exts.iter().any(|e| e.as_c_str() == name);
     let depth_props =
         unsafe { instance.get_physical_device_format_properties(pd, vk::Format::D32_SFLOAT) };
+    let rg32f_props =
+        unsafe { instance.get_physical_device_format_properties(pd, vk::Format::R32G32_SFLOAT) };
     let queue = find_queue_family(instance, pd);
     let v = props.api_version;
     let usable = if vk::api_version_major(v) < 1
@@ -540,12 +560,16 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<Device
         subgroup_extended_types: f12.shader_subgroup_extended_types == vk::TRUE,
         depth_bias_clamp: features.depth_bias_clamp == vk::TRUE,
         clip_distance: features.shader_clip_distance == vk::TRUE,
+        storage_image_extended_formats: features.shader_storage_image_extended_formats == vk::TRUE,
         conservative_rasterization: has_ext(ash::ext::conservative_rasterization::NAME),
         fragment_shader_interlock: has_ext(ash::ext::fragment_shader_interlock::NAME),
         ray_query: has_ext(ash::khr::ray_query::NAME),
         depth_linear_filter: depth_props
             .optimal_tiling_features
             .contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR),
+        rg32f_storage: rg32f_props
+            .optimal_tiling_features
+            .contains(vk::FormatFeatureFlags::STORAGE_IMAGE),
         max_shared_memory: props.limits.max_compute_shared_memory_size,
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
         max_texel_buffer_elements: props.limits.max_texel_buffer_elements,
@@ -788,6 +812,7 @@ impl Context {
         info.subgroup_extended_types = enabled.subgroup_extended_types;
         info.depth_bias_clamp = enabled.depth_bias_clamp;
         info.clip_distance = enabled.clip_distance;
+        info.storage_image_extended_formats = enabled.storage_image_extended_formats;
         let debug_utils = false;
         let mut shared = Self::assemble(
             entry,
@@ -1043,6 +1068,7 @@ fn create_device(
         .shader_int64(info.int64)
         .depth_bias_clamp(info.depth_bias_clamp)
         .shader_clip_distance(info.clip_distance)
+        .shader_storage_image_extended_formats(info.storage_image_extended_formats)
         .shader_storage_image_write_without_format(false);
     let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
         .shader_buffer_int64_atomics(info.int64_atomics)

@@ -6,8 +6,9 @@
 //! techniques (samples whose tangent plane hides the whole light are evaluated, then
 //! overwritten with their 0), `skip = off` where the technique has its own classification
 //! (pcss's min/max pyramid or N-buffer, atty's and bitmask's N-buffer, pvssm's coarse look),
-//! and `caster_skip = 0` (where the engine proved that nothing can cast into the view, skipping
-//! on renders no map at all: [`penumbra::passes::caster_cull`]).
+//! `pack_channels = 0` on the filtered maps (their unused basis channels stored and filtered
+//! too) and `caster_skip = 0` (where the engine proved that nothing can cast into the view,
+//! skipping on renders no map at all: [`penumbra::passes::caster_cull`]).
 //! Skips that are part of how a technique works and have no switch (izb's triangle culling and
 //! tangent-plane rejection, the virtual maps' page culling, cascades left empty, vssm's and
 //! cssm's classification) are reported from the counters only: `skipped_samples` sums the
@@ -58,8 +59,9 @@ const SAMPLE_SKIPS: [&str; 4] = [
 ];
 
 /// Counters of other skipped work (not in samples), listed by name in the `other_skips` column.
-const OTHER_SKIPS: [&str; 4] = [
+const OTHER_SKIPS: [&str; 5] = [
     "caster_skip",
+    "skipped_channels",
     "triangles_culled",
     "behind_tangent_plane",
     "cascades_skipped",
@@ -133,6 +135,9 @@ fn off_switches(technique: &str) -> anyhow::Result<Vec<(String, String)>> {
     }
     if knobs.iter().any(|k| k.name == "skip") {
         off.push(("skip".to_string(), "off".to_string()));
+    }
+    if knobs.iter().any(|k| k.name == "pack_channels") {
+        off.push(("pack_channels".to_string(), "0".to_string()));
     }
     if knobs.iter().any(|k| k.name == "caster_skip") {
         off.push(("caster_skip".to_string(), "0".to_string()));

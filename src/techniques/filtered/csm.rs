@@ -90,13 +90,14 @@ pub const DEPTH_RANGE: Knob = Knob {
     names: &[],
 };
 
-const KNOBS: [Knob; 10] = [
+const KNOBS: [Knob; 11] = [
     COMMON_KNOBS[0],
     COMMON_KNOBS[1],
     COMMON_KNOBS[2],
     COMMON_KNOBS[3],
     COMMON_KNOBS[4],
     COMMON_KNOBS[5],
+    COMMON_KNOBS[6],
     TERMS,
     DAMPING,
     OFFSET,

@@ -35,13 +35,14 @@ pub const EXPONENT: Knob = Knob {
     names: &[],
 };
 
-const KNOBS: [Knob; 7] = [
+const KNOBS: [Knob; 8] = [
     COMMON_KNOBS[0],
     COMMON_KNOBS[1],
     COMMON_KNOBS[2],
     COMMON_KNOBS[3],
     COMMON_KNOBS[4],
     COMMON_KNOBS[5],
+    COMMON_KNOBS[6],
     EXPONENT,
 ];
 

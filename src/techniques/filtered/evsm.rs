@@ -70,13 +70,14 @@ pub const MIN_VARIANCE: Knob = Knob {
     names: &[],
 };
 
-const KNOBS: [Knob; 11] = [
+const KNOBS: [Knob; 12] = [
     COMMON_KNOBS[0],
     COMMON_KNOBS[1],
     COMMON_KNOBS[2],
     COMMON_KNOBS[3],
     COMMON_KNOBS[4],
     COMMON_KNOBS[5],
+    COMMON_KNOBS[6],
     COMPONENTS,
     EXPONENT_POSITIVE,
     EXPONENT_NEGATIVE,

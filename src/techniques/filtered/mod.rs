@@ -5,9 +5,20 @@
 //! three compute passes over it (`glsl/filtered/`):
 //!
 //! 1. `encode.comp` linearises each depth into z ∈ `[0,1]` between the light view's near and far
-//!    planes, encodes it into up to four channels of one RGBA32F storage image (moments, warped
+//!    planes, encodes it into up to four channels of one storage image (moments, warped
 //!    moments, c·z, or Fourier basis values) and blurs each row horizontally — fused, so the D32
 //!    map is read once and each texel encoded once per workgroup.
+//!
+//! **Unused basis channels are skipped** (`pack_channels`, on by default): the image has only
+//! the channels the technique's basis uses ([`FilterConfig::used_channels`]) — R32F for ESM's
+//! c·z, RG32F for VSM's two moments, two-component EVSM and one-term CSM, RGBA32F otherwise —
+//! and each shader has a variant per channel count (`encode_r.comp`, `encode_rg.comp`, ...;
+//! bodies in `*_body.glsl`, `CHANNELS` in `filtered.glsl`), so no unused channel is encoded,
+//! stored, blurred or fetched. On lavapipe every 32-bit channel of an image store is its own
+//! loop, so this is the filters' main saving. RG32F storage needs
+//! `shaderStorageImageExtendedFormats`; without it two-channel techniques keep four. The
+//! output is the same either way (the used channels see the same arithmetic); counters
+//! `channels` and `skipped_channels`.
 //! 2. `blur.comp` blurs the columns **in place** (skipped at `filter_radius` 0): a workgroup owns
 //!    whole columns and walks down them through a ring of rows in shared memory, writing only rows
 //!    it has already read. A ping-pong pair would double the resident image; this keeps it at one
@@ -34,8 +45,9 @@
 //! channels) at a time — encode, blur, add their contribution into the visibility image — so
 //! memory stays at one RGBA32F image whatever M is, and only the M terms asked for are computed.
 //!
-//! **Memory per shadow-map texel** while running, every technique: 4 B (D32) + 16 B (the RGBA32F
-//! image) = 20 B. The classic stored sizes (Table 5.1 of the book) are in each technique's
+//! **Memory per shadow-map texel** while running: 4 B (D32) + 4 B per stored channel — 8 B for
+//! ESM, 12 B for VSM and two-component EVSM, 20 B for the rest (20 B for all with
+//! `pack_channels = 0`). The classic stored sizes (Table 5.1 of the book) are in each technique's
 //! module: they are what a renderer that keeps the filtered map would hold.
 //!
 //! CPU twin: [`crate::cpu::filtered`].
@@ -63,8 +75,17 @@ pub const MAX_RADIUS: u32 = 16;
 /// Rows one `encode.comp` workgroup walks through (`ROWS` there).
 const ENCODE_ROWS: u32 = 4;
 
-/// The format of the filtered image.
+/// The format of the filtered image with all four channels.
 pub const FILTERED_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
+/// The format of a filtered image of `channels` (1, 2 or 4) channels.
+pub fn filtered_format(channels: u32) -> vk::Format {
+    match channels {
+        1 => vk::Format::R32_SFLOAT,
+        2 => vk::Format::R32G32_SFLOAT,
+        _ => FILTERED_FORMAT,
+    }
+}
 
 /// Which formula the shaders apply (`MODE_*` in `filtered.glsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -99,6 +120,35 @@ pub struct FilterConfig {
 }
 
 impl FilterConfig {
+    /// The channels of its basis each texel needs: ESM's c·z alone, VSM's two moments, EVSM's
+    /// `components`, MSM's four, CSM's sin and cos of two terms a group (one term: two).
+    pub fn used_channels(&self) -> u32 {
+        match self.mode {
+            Mode::Esm => 1,
+            Mode::Vsm => 2,
+            Mode::Evsm => self.components,
+            Mode::Msm => 4,
+            Mode::Csm => {
+                if self.terms <= 1 {
+                    2
+                } else {
+                    4
+                }
+            }
+        }
+    }
+
+    /// The channels the filtered image stores on a device: [`FilterConfig::used_channels`] with
+    /// `pack` on, except that two channels need `shaderStorageImageExtendedFormats` and
+    /// `R32G32_SFLOAT` storage (else four); always four with `pack` off.
+    pub fn stored_channels(&self, pack: bool, info: &crate::gpu::DeviceInfo) -> u32 {
+        match self.used_channels() {
+            _ if !pack => 4,
+            2 if !(info.storage_image_extended_formats && info.rg32f_storage) => 4,
+            n => n,
+        }
+    }
+
     /// Dispatch groups of the encode–blur–reconstruct chain: ⌈M/2⌉ for CSM, else 1.
     pub fn groups(&self) -> u32 {
         if self.mode == Mode::Csm {
@@ -197,14 +247,28 @@ pub const FILTER_SHAPE: Knob = Knob {
     names: &[],
 };
 
-/// The knobs every filtered technique starts with: the shadow map's, then the blur's.
-pub const COMMON_KNOBS: [Knob; 6] = [
+/// `pack_channels`: store and filter only the channels the technique's basis uses.
+pub const PACK_CHANNELS: Knob = Knob {
+    name: "pack_channels",
+    summary: "1: the filtered image holds only the channels the technique uses (ESM 1, VSM and \
+              2-component EVSM 2; same output, counted as skipped_channels); 0: always four",
+    default: KnobDefault::Value(1.0),
+    min: 0.0,
+    max: 1.0,
+    integer: true,
+    names: &[],
+};
+
+/// The knobs every filtered technique starts with: the shadow map's, then the blur's, then the
+/// channel packing.
+pub const COMMON_KNOBS: [Knob; 7] = [
     SHADOW_MAP_KNOBS[0],
     SHADOW_MAP_KNOBS[1],
     SHADOW_MAP_KNOBS[2],
     SHADOW_MAP_KNOBS[3],
     FILTER_RADIUS,
     FILTER_SHAPE,
+    PACK_CHANNELS,
 ];
 
 /// A [`FilterConfig`] with the blur knobs read and everything else zero.
@@ -239,6 +303,8 @@ struct Filtered<'a> {
     ctx: Context,
     name: &'static str,
     config: FilterConfig,
+    /// Channels the filtered image stores (of the four the shaders could write).
+    channels: u32,
     shadow_map: ShadowMap,
     // Only the descriptor sets use it; held so it lives as long as they do.
     _filtered: Image,
@@ -263,19 +329,26 @@ pub fn create<'a>(
     let ctx = setup.ctx;
     let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params)?)?;
     let size = shadow_map.desc.size;
+    let channels = config.stored_channels(params.u32("pack_channels")? == 1, ctx.info());
     let filtered = Image::new(
         ctx,
         &format!("{name} filtered map"),
         ImageDesc::new_2d(
-            FILTERED_FORMAT,
+            filtered_format(channels),
             size,
             size,
             vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
         ),
     )?;
-    let encode = Pipeline::compute(ctx, "filtered/encode.comp")?;
-    let blur = Pipeline::compute(ctx, "filtered/blur.comp")?;
-    let reconstruct = Pipeline::compute(ctx, "filtered/reconstruct.comp")?;
+    // One variant of each shader per channel count (the image's format qualifier).
+    let suffix = match channels {
+        1 => "_r",
+        2 => "_rg",
+        _ => "",
+    };
+    let encode = Pipeline::compute(ctx, &format!("filtered/encode{suffix}.comp"))?;
+    let blur = Pipeline::compute(ctx, &format!("filtered/blur{suffix}.comp"))?;
+    let reconstruct = Pipeline::compute(ctx, &format!("filtered/reconstruct{suffix}.comp"))?;
     let counters = Buffer::storage(
         ctx,
         &format!("{name} counters"),
@@ -304,6 +377,7 @@ pub fn create<'a>(
         ctx: ctx.clone(),
         name,
         config,
+        channels,
         shadow_map,
         _filtered: filtered,
         encode,
@@ -381,6 +455,9 @@ impl Technique for Filtered<'_> {
         if self.config.mode == Mode::Csm {
             out.push(("terms".to_string(), self.config.terms as u64));
         }
+        // Channels stored and filtered per texel, and those of the four skipped as unused.
+        out.push(("channels".to_string(), u64::from(self.channels)));
+        out.push(("skipped_channels".to_string(), u64::from(4 - self.channels)));
         Ok(out)
     }
 
@@ -414,8 +491,14 @@ mod tests {
         assert_eq!(size_of::<FilteredPush>(), 128);
         for shader in [
             "filtered/encode.comp",
+            "filtered/encode_rg.comp",
+            "filtered/encode_r.comp",
             "filtered/blur.comp",
+            "filtered/blur_rg.comp",
+            "filtered/blur_r.comp",
             "filtered/reconstruct.comp",
+            "filtered/reconstruct_rg.comp",
+            "filtered/reconstruct_r.comp",
         ] {
             let declared = shader_interface(shader).expect("embedded").1;
             assert_eq!(

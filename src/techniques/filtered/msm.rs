@@ -49,13 +49,14 @@ pub const DEPTH_BIAS: Knob = Knob {
     names: &[],
 };
 
-const KNOBS: [Knob; 8] = [
+const KNOBS: [Knob; 9] = [
     COMMON_KNOBS[0],
     COMMON_KNOBS[1],
     COMMON_KNOBS[2],
     COMMON_KNOBS[3],
     COMMON_KNOBS[4],
     COMMON_KNOBS[5],
+    COMMON_KNOBS[6],
     MOMENT_BIAS,
     DEPTH_BIAS,
 ];

@@ -43,13 +43,14 @@ pub const BLEED_REDUCTION: Knob = Knob {
     names: &[],
 };
 
-const KNOBS: [Knob; 8] = [
+const KNOBS: [Knob; 9] = [
     COMMON_KNOBS[0],
     COMMON_KNOBS[1],
     COMMON_KNOBS[2],
     COMMON_KNOBS[3],
     COMMON_KNOBS[4],
     COMMON_KNOBS[5],
+    COMMON_KNOBS[6],
     MIN_VARIANCE,
     BLEED_REDUCTION,
 ];

@@ -47,22 +47,27 @@ vec3 vertex(uint i) {
     return vec3(vertices[v], vertices[v + 1], vertices[v + 2]);
 }
 
-// n.x over the light's points (minus d for a positional light).
+// Past any coordinate: the end of a hull stretched to infinity.
+const float INF = 3.0e38;
+
+// The light's extreme points as homogeneous points: (position, 1) or (direction towards it, 0),
+// filled by light_corners().
+vec4 corners[4];
+int corner_count;
+
+// n.x over the light's points (minus d for a positional light): over a point or a rect's
+// corners (the rect is their hull); for a sun, n.w over its cone of directions.
 vec2 light_interval(vec3 n, float d) {
     if (pc.kind == 2) {
         float c = dot(n, pc.light_position.xyz);
         return vec2(c - pc.light_v.w, c + pc.light_v.w);
     }
-    vec3 o = pc.light_position.xyz;
-    if (pc.kind == 0) {
-        float s = dot(n, o) - d;
-        return vec2(s);
+    vec2 j = vec2(INF, -INF);
+    for (int k = 0; k < corner_count; ++k) {
+        float s = dot(n, corners[k].xyz) - d;
+        j = vec2(min(j.x, s), max(j.y, s));
     }
-    vec3 u = 0.5 * pc.light_u.xyz;
-    vec3 v = 0.5 * pc.light_v.xyz;
-    float c = dot(n, o) - d;
-    float r = abs(dot(n, u)) + abs(dot(n, v));
-    return vec2(c - r, c + r);
+    return j;
 }
 
 // n.p - d over a tile's samples: its box's interval intersected with its slab's.
@@ -85,12 +90,6 @@ vec2 tile_interval(uint t, vec3 n, float d) {
     return vec2(max(box.x, slab.x), min(box.y, slab.y));
 }
 
-// Past any coordinate: the end of a hull stretched to infinity.
-const float INF = 3.0e38;
-
-// The light's extreme points as homogeneous points: (position, 1) or (direction towards it, 0).
-vec4 corners[4];
-int corner_count;
 
 void light_corners() {
     if (pc.kind == 0) {

@@ -97,22 +97,8 @@ pub fn tile_bounds(
 /// The interval of `n·x − d` over the light's points (for a directional light, of `n·w` over
 /// its directions w towards it, widened to the chord bound 2 sin(radius/2)); whether it counts
 /// as above or below the plane uses `eps` for a positional light and 0 for a directional one.
-fn light_side(light: &Light, n: DVec3, d: f64, eps: f64) -> (bool, bool) {
+fn light_side(light: &Light, corners: &[(DVec3, f64)], n: DVec3, d: f64, eps: f64) -> (bool, bool) {
     let (lo, hi, tol) = match *light {
-        Light::Point { position } => {
-            let s = n.dot(position.as_dvec3()) - d;
-            (s, s, eps)
-        }
-        Light::Rect { position, u, v } => {
-            let corners = [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)]
-                .map(|(a, b)| position.as_dvec3() + a * u.as_dvec3() + b * v.as_dvec3());
-            let s = corners.map(|c| n.dot(c) - d);
-            (
-                s.iter().copied().fold(f64::INFINITY, f64::min),
-                s.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-                eps,
-            )
-        }
         Light::Directional {
             direction,
             angular_diameter_deg,
@@ -121,6 +107,11 @@ fn light_side(light: &Light, n: DVec3, d: f64, eps: f64) -> (bool, bool) {
             let cone = 2.0 * (f64::from(angular_diameter_deg).to_radians() / 4.0).sin();
             (c - cone, c + cone, 0.0)
         }
+        // A point, or a rect's corners (the rect is their hull).
+        _ => corners.iter().fold(
+            (f64::INFINITY, f64::NEG_INFINITY, eps),
+            |(lo, hi, tol), &(l, _)| (lo.min(n.dot(l) - d), hi.max(n.dot(l) - d), tol),
+        ),
     };
     (hi > tol, lo < -tol)
 }
@@ -265,7 +256,7 @@ pub fn may_cast(
         }
         let n = n.normalize();
         let d = n.dot(a);
-        let (above, below) = light_side(light, n, d, eps);
+        let (above, below) = light_side(light, &corners, n, d, eps);
         if !above && !below {
             return false;
         }

@@ -120,6 +120,64 @@ const HARD_PATH_REASON: &str = "hard_path=1: `hard` in place of a soft filter un
     small for a half-texel penumbra; they differ at shadow edges (the soft filter's one-texel \
     minimum kernel, cssm's ringing); bound: mean |dV| <= 0.05. Not taken: bit-identical";
 
+/// Time off over time on, where both were timed.
+fn speedup(on: Option<f64>, off: Option<f64>) -> Option<f64> {
+    match (on, off) {
+        (Some(on), Some(off)) if on > 0.0 => Some(off / on),
+        _ => None,
+    }
+}
+
+/// One row as printed and as written to `skipping.csv`.
+struct Line<'a> {
+    scene: &'a str,
+    technique: &'a str,
+    off: &'a str,
+    ms_on: Option<f64>,
+    ms_off: Option<f64>,
+    skipped: u64,
+    samples: u64,
+    other: &'a str,
+    differing: Option<usize>,
+    allowed: Option<u64>,
+    max_diff: Option<f32>,
+}
+
+/// Prints `line` and appends it to `csv`.
+fn report(csv: &mut String, line: &Line<'_>) {
+    let opt = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |x| format!("{x:.d$}"));
+    let text = |v: Option<String>| v.unwrap_or_default();
+    let speedup = speedup(line.ms_on, line.ms_off);
+    println!(
+        "{:<24} {:<14} {:<40} {:>9} {:>9} {:>7} {:>9} {:>9} {:>9}",
+        line.scene,
+        line.technique,
+        line.off,
+        opt(line.ms_on, 2),
+        opt(line.ms_off, 2),
+        opt(speedup, 2),
+        line.skipped,
+        line.differing.map_or("-".into(), |n| n.to_string()),
+        opt(line.max_diff.map(f64::from), 4)
+    );
+    let _ = writeln!(
+        csv,
+        "\"{}\",{},\"{}\",{},{},{},{},{},\"{}\",{},{},{}",
+        line.scene,
+        line.technique,
+        line.off,
+        opt(line.ms_on, 4),
+        opt(line.ms_off, 4),
+        opt(speedup, 4),
+        line.skipped,
+        line.skipped as f64 / line.samples.max(1) as f64,
+        line.other,
+        text(line.differing.map(|n| n.to_string())),
+        text(line.allowed.map(|n| n.to_string())),
+        text(line.max_diff.map(|m| m.to_string())),
+    );
+}
+
 /// Mean |a − b| over the view samples (background is 1 in both).
 fn mean_abs_difference(a: &[f32], b: &[f32], samples: u64) -> f64 {
     let sum: f64 = a.iter().zip(b).map(|(x, y)| f64::from((x - y).abs())).sum();
@@ -295,36 +353,22 @@ pub fn run(args: &SkippingArgs) -> anyhow::Result<()> {
                 row["max_abs_diff"] = serde_json::json!(m);
                 row["counters_off"] = serde_json::json!(off_frame.stats.counters);
             }
-            let speedup = match (on_frame.stats.total_gpu_ms, ms_off) {
-                (Some(on), Some(off)) if on > 0.0 => Some(off / on),
-                _ => None,
-            };
-            row["speedup"] = serde_json::json!(speedup);
-            let fraction = skipped as f64 / samples.max(1) as f64;
-            let opt = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |x| format!("{x:.d$}"));
-            println!(
-                "{:<24} {:<14} {:<40} {:>9} {:>9} {:>7} {:>9} {:>9} {:>9}",
-                prepared.name,
-                t,
-                off_label,
-                opt(on_frame.stats.total_gpu_ms, 2),
-                opt(ms_off, 2),
-                opt(speedup, 2),
-                skipped,
-                differing.map_or("-".into(), |n| n.to_string()),
-                opt(max_diff.map(f64::from), 4)
-            );
-            let _ = writeln!(
-                csv,
-                "\"{}\",{t},\"{off_label}\",{},{},{},{skipped},{fraction},\"{other}\",{},{},{}",
-                prepared.name,
-                opt(on_frame.stats.total_gpu_ms, 4),
-                opt(ms_off, 4),
-                opt(speedup, 4),
-                differing.map_or(String::new(), |n| n.to_string()),
-                row.get("allowed_differing")
-                    .map_or(String::new(), |v| v.to_string()),
-                max_diff.map_or(String::new(), |m| m.to_string()),
+            row["speedup"] = serde_json::json!(speedup(on_frame.stats.total_gpu_ms, ms_off));
+            report(
+                &mut csv,
+                &Line {
+                    scene: &prepared.name,
+                    technique: t,
+                    off: &off_label,
+                    ms_on: on_frame.stats.total_gpu_ms,
+                    ms_off,
+                    skipped,
+                    samples,
+                    other: &other,
+                    differing,
+                    allowed: row["allowed_differing"].as_u64(),
+                    max_diff,
+                },
             );
             rows.push(row);
             if find(t)?.has_hard_path() {
@@ -341,33 +385,23 @@ pub fn run(args: &SkippingArgs) -> anyhow::Result<()> {
                 // Not taken: the same technique with the same knobs otherwise, bit for bit.
                 let pass = if taken { mean <= HARD_PATH_MAE } else { n == 0 };
                 failed_rows += usize::from(!pass);
-                let speedup = match (hp.stats.total_gpu_ms, on_frame.stats.total_gpu_ms) {
-                    (Some(on), Some(off)) if on > 0.0 => Some(off / on),
-                    _ => None,
-                };
+                let hp_speedup = speedup(hp.stats.total_gpu_ms, on_frame.stats.total_gpu_ms);
                 let skipped = if taken { samples } else { 0 };
-                println!(
-                    "{:<24} {:<14} {:<40} {:>9} {:>9} {:>7} {:>9} {:>9} {:>9}",
-                    prepared.name,
-                    t,
-                    HARD_PATH_LABEL,
-                    opt(hp.stats.total_gpu_ms, 2),
-                    opt(on_frame.stats.total_gpu_ms, 2),
-                    opt(speedup, 2),
-                    skipped,
-                    n,
-                    format!("{m:.4}")
-                );
-                let _ = writeln!(
-                    csv,
-                    "\"{}\",{t},\"{HARD_PATH_LABEL}\",{},{},{},{skipped},{},\"hard_path={}\",{n},{},{m}",
-                    prepared.name,
-                    opt(hp.stats.total_gpu_ms, 4),
-                    opt(on_frame.stats.total_gpu_ms, 4),
-                    opt(speedup, 4),
-                    skipped as f64 / samples.max(1) as f64,
-                    u8::from(taken),
-                    if taken { samples as usize } else { 0 },
+                report(
+                    &mut csv,
+                    &Line {
+                        scene: &prepared.name,
+                        technique: t,
+                        off: HARD_PATH_LABEL,
+                        ms_on: hp.stats.total_gpu_ms,
+                        ms_off: on_frame.stats.total_gpu_ms,
+                        skipped,
+                        samples,
+                        other: &format!("hard_path={}", u8::from(taken)),
+                        differing: Some(n),
+                        allowed: Some(skipped),
+                        max_diff: Some(m),
+                    },
                 );
                 rows.push(serde_json::json!({
                     "scene": prepared.name,
@@ -375,7 +409,7 @@ pub fn run(args: &SkippingArgs) -> anyhow::Result<()> {
                     "off_knobs": HARD_PATH_LABEL,
                     "ms_on": hp.stats.total_gpu_ms,
                     "ms_off": on_frame.stats.total_gpu_ms,
-                    "speedup": speedup,
+                    "speedup": hp_speedup,
                     "skipped_samples": skipped,
                     "other_skips": format!("hard_path={}", u8::from(taken)),
                     "view_samples": samples,

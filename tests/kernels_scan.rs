@@ -10,7 +10,7 @@ use penumbra::gpu::{u32s, Buffer, Image, ImageDesc};
 use penumbra::kernels::compact::Compact;
 use penumbra::kernels::reduce::{chunk_size, Reduce, ReduceStats, SUM_TOLERANCE};
 use penumbra::kernels::scan::{Scan, ScanKind, ScanVariant};
-use penumbra::kernels::sort::RadixSort;
+use penumbra::kernels::sort::{RadixSort, SortLayout};
 use penumbra::Context;
 
 /// xorshift32: deterministic inputs without an RNG crate.
@@ -189,9 +189,14 @@ fn compaction_is_stable_and_counts_on_the_gpu() {
 #[test]
 fn radix_sort_equals_stable_sort_by_key() {
     let ctx = common::context();
-    for variant in variants(&ctx) {
-        let sort = RadixSort::with_variant(&ctx, variant).expect("sort pipelines");
-        for &n in &[0usize, 1, 2, 63, 1023, 1025, 5000, 120_001] {
+    let layouts = [SortLayout::Cooperative, SortLayout::Serial];
+    for (variant, layout) in variants(&ctx)
+        .into_iter()
+        .flat_map(|v| layouts.map(|l| (v, l)))
+    {
+        let sort = RadixSort::with_layout(&ctx, variant, layout).expect("sort pipelines");
+        // Around both layouts' block sizes (1024 and 512 keys) and their 4-key loads.
+        for &n in &[0usize, 1, 2, 63, 511, 513, 1023, 1025, 1027, 5000, 120_001] {
             let random = random_u32s(n, n as u32 + 5);
             let cases = [
                 ("random 32-bit keys", random.clone(), 32),
@@ -211,11 +216,12 @@ fn radix_sort_equals_stable_sort_by_key() {
                 expected.sort_by_key(|p| p.0);
                 let (k, v) = sort.run(keys, &values, *bits).expect("sort");
                 let got: Vec<(u32, u32)> = k.into_iter().zip(v).collect();
-                assert!(got == expected, "{variant:?} sort of {n} {what}");
-                let twin = cpu::sort::sort_by_key(keys, &values, *bits);
+                assert!(got == expected, "{variant:?} {layout:?} sort of {n} {what}");
+                let twin =
+                    cpu::sort::sort_by_key_in_blocks(keys, &values, *bits, layout.block() as usize);
                 assert!(
                     twin.0.iter().copied().zip(twin.1).eq(expected),
-                    "twin, {n} {what}"
+                    "twin, {layout:?}, {n} {what}"
                 );
             }
         }
@@ -383,6 +389,7 @@ fn quick_bench_rows_are_verified() {
         );
         assert!(r.bytes >= 4 << 20, "{}: {} bytes", r.primitive, r.bytes);
     }
-    assert_eq!(rows.len(), 4 + variants(&ctx).len());
+    // Scan per variant; compaction; sort per layout; two reductions.
+    assert_eq!(rows.len(), 5 + variants(&ctx).len());
     common::assert_clean(&ctx.validation());
 }

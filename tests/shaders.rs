@@ -688,6 +688,8 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "kernels/sort_histogram_subgroup.comp",
                 "kernels/sort_scatter_shared.comp",
                 "kernels/sort_scatter_subgroup.comp",
+                "kernels/sort_serial_histogram.comp",
+                "kernels/sort_serial_scatter.comp",
             ],
             twin!(sort::SortPush {
                 n,

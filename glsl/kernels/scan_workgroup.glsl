@@ -14,7 +14,6 @@
 
 // One total per subgroup; gl_NumSubgroups <= WG_THREADS whatever the subgroup size.
 shared uint wg_subgroup_sums[WG_THREADS];
-shared uvec4 wg_subgroup_sums4[WG_THREADS];
 
 uint wg_exclusive_add(uint x) {
     uint within = subgroupExclusiveAdd(x);
@@ -44,29 +43,32 @@ uint wg_exclusive_add(uint x) {
     return result;
 }
 
-uvec4 wg_exclusive_add4(uvec4 x) {
-    uvec4 within = subgroupExclusiveAdd(x);
-    uvec4 total = subgroupAdd(x);
+
+
+// Exclusive sums of two uvec4s per invocation at once, with one barrier: each subgroup posts its
+// totals, then every invocation adds up the totals of the subgroups before its own (fewer than
+// WG_THREADS / gl_SubgroupSize: 7 at most on lavapipe's 8 lanes, 1 on a 32-wide GPU). On lavapipe
+// every barrier switches all of the workgroup's SIMD rows, and two separate scans of a uvec4 cost
+// six: more than half of the sort histogram's time. Call it at most once per invocation (the
+// totals are not guarded against a second call).
+shared uvec4 wg_pair_sums[2 * WG_THREADS];
+
+void wg_exclusive_add4x2(inout uvec4 a, inout uvec4 b) {
+    uvec4 before_a = subgroupExclusiveAdd(a);
+    uvec4 before_b = subgroupExclusiveAdd(b);
+    uvec4 total_a = subgroupAdd(a);
+    uvec4 total_b = subgroupAdd(b);
     if (subgroupElect()) {
-        wg_subgroup_sums4[gl_SubgroupID] = total;
+        wg_pair_sums[2 * gl_SubgroupID] = total_a;
+        wg_pair_sums[2 * gl_SubgroupID + 1] = total_b;
     }
     barrier();
-    if (gl_SubgroupID == 0) {
-        uvec4 carry = uvec4(0);
-        for (uint first = 0; first < gl_NumSubgroups; first += gl_SubgroupSize) {
-            uint i = first + gl_SubgroupInvocationID;
-            uvec4 s = i < gl_NumSubgroups ? wg_subgroup_sums4[i] : uvec4(0);
-            uvec4 e = subgroupExclusiveAdd(s);
-            if (i < gl_NumSubgroups) {
-                wg_subgroup_sums4[i] = e + carry;
-            }
-            carry += subgroupAdd(s);
-        }
+    for (uint s = 0; s < gl_SubgroupID; ++s) {
+        before_a += wg_pair_sums[2 * s];
+        before_b += wg_pair_sums[2 * s + 1];
     }
-    barrier();
-    uvec4 result = within + wg_subgroup_sums4[gl_SubgroupID];
-    barrier();
-    return result;
+    a = before_a;
+    b = before_b;
 }
 
 #else
@@ -80,8 +82,6 @@ uvec4 wg_exclusive_add4(uvec4 x) {
 
 shared uint wg_scan[WG_THREADS];
 shared uint wg_segment_sums[WG_SEGMENTS];
-shared uvec4 wg_scan4[WG_THREADS];
-shared uvec4 wg_segment_sums4[WG_SEGMENTS];
 
 uint wg_exclusive_add(uint x) {
     uint t = gl_LocalInvocationIndex;
@@ -112,32 +112,39 @@ uint wg_exclusive_add(uint x) {
     return result;
 }
 
-uvec4 wg_exclusive_add4(uvec4 x) {
+
+
+// wg_exclusive_add4x2 without subgroup operations: both raking scans in one round of barriers.
+shared uvec4 wg_pair_scan[2 * WG_THREADS];
+shared uvec4 wg_pair_segments[2 * WG_SEGMENTS];
+
+void wg_exclusive_add4x2(inout uvec4 a, inout uvec4 b) {
     uint t = gl_LocalInvocationIndex;
-    wg_scan4[t] = x;
+    wg_pair_scan[t] = a;
+    wg_pair_scan[WG_THREADS + t] = b;
     barrier();
-    if (t < WG_SEGMENTS) {
+    if (t < 2 * WG_SEGMENTS) {
+        uint first = (t % WG_SEGMENTS) * WG_SEGMENT + (t / WG_SEGMENTS) * WG_THREADS;
         uvec4 sum = uvec4(0);
-        for (uint j = t * WG_SEGMENT; j < (t + 1) * WG_SEGMENT; ++j) {
-            uvec4 v = wg_scan4[j];
-            wg_scan4[j] = sum;
+        for (uint j = first; j < first + WG_SEGMENT; ++j) {
+            uvec4 v = wg_pair_scan[j];
+            wg_pair_scan[j] = sum;
             sum += v;
         }
-        wg_segment_sums4[t] = sum;
+        wg_pair_segments[t] = sum;
     }
     barrier();
-    if (t == 0) {
+    if (t < 2) {
         uvec4 sum = uvec4(0);
-        for (uint j = 0; j < WG_SEGMENTS; ++j) {
-            uvec4 v = wg_segment_sums4[j];
-            wg_segment_sums4[j] = sum;
+        for (uint j = t * WG_SEGMENTS; j < (t + 1) * WG_SEGMENTS; ++j) {
+            uvec4 v = wg_pair_segments[j];
+            wg_pair_segments[j] = sum;
             sum += v;
         }
     }
     barrier();
-    uvec4 result = wg_scan4[t] + wg_segment_sums4[t / WG_SEGMENT];
-    barrier();
-    return result;
+    a = wg_pair_scan[t] + wg_pair_segments[t / WG_SEGMENT];
+    b = wg_pair_scan[WG_THREADS + t] + wg_pair_segments[WG_SEGMENTS + t / WG_SEGMENT];
 }
 
 #endif

@@ -8,7 +8,11 @@
 //! count is rounded up to an even number so that the result ends where it started (a pass on
 //! digits that are all zero is a stable copy). Tolerance against the GPU: exact.
 
-use super::scan::{scan, BLOCK};
+use super::scan::scan;
+pub use super::scan::BLOCK;
+
+/// Keys per chunk of the serial layout (`glsl/kernels/sort_serial.glsl`), one invocation each.
+pub const SERIAL_CHUNK: usize = 512;
 
 /// Bits per digit.
 pub const RADIX_BITS: u32 = 4;
@@ -21,12 +25,14 @@ pub fn passes(key_bits: u32) -> u32 {
     digits + digits % 2
 }
 
-/// `sort_histogram.comp`: counts of digit `(key >> shift) & 15` per block, digit-major:
-/// `hist[digit * blocks + block]`.
-pub fn histogram(keys: &[u32], shift: u32) -> Vec<u32> {
-    let blocks = keys.len().div_ceil(BLOCK).max(1);
+/// `sort_histogram.glsl` (`block` = [`BLOCK`]) and `sort_serial_histogram.comp` (`block` =
+/// [`SERIAL_CHUNK`]): counts of digit `(key >> shift) & 15` per block of `block` keys,
+/// digit-major: `hist[digit * blocks + block]`.
+pub fn histogram(keys: &[u32], shift: u32, block: usize) -> Vec<u32> {
+    let size = block;
+    let blocks = keys.len().div_ceil(size).max(1);
     let mut hist = vec![0u32; RADIX * blocks];
-    for (b, block) in keys.chunks(BLOCK).enumerate() {
+    for (b, block) in keys.chunks(size).enumerate() {
         for &k in block {
             hist[((k >> shift) as usize & (RADIX - 1)) * blocks + b] += 1;
         }
@@ -34,45 +40,60 @@ pub fn histogram(keys: &[u32], shift: u32) -> Vec<u32> {
     hist
 }
 
-/// `sort_scatter.glsl`: moves each element to `offsets[digit * blocks + block]` plus its rank
-/// among the earlier elements of its block with the same digit.
+/// `sort_scatter.glsl` and `sort_serial_scatter.comp` (blocks of `block` keys, as
+/// [`histogram`]): moves each element to `offsets[digit * blocks + block]` plus its rank among
+/// the earlier elements of its block with the same digit.
 pub fn scatter(
     keys: &[u32],
     values: &[u32],
     offsets: &[u32],
     shift: u32,
-    keys_out: &mut [u32],
-    values_out: &mut [u32],
+    block: usize,
+    out: (&mut [u32], &mut [u32]),
 ) {
-    let blocks = keys.len().div_ceil(BLOCK).max(1);
-    for (b, block) in keys.chunks(BLOCK).enumerate() {
+    let (keys_out, values_out) = out;
+    let size = block;
+    let blocks = keys.len().div_ceil(size).max(1);
+    for (b, block) in keys.chunks(size).enumerate() {
         let mut seen = [0u32; RADIX];
         for (i, &k) in block.iter().enumerate() {
             let d = (k >> shift) as usize & (RADIX - 1);
             let dst = (offsets[d * blocks + b] + seen[d]) as usize;
             seen[d] += 1;
             keys_out[dst] = k;
-            values_out[dst] = values[b * BLOCK + i];
+            values_out[dst] = values[b * size + i];
         }
     }
 }
 
-/// Sorts `(key, value)` pairs by the low `key_bits` bits of the key, stably.
+/// Sorts `(key, value)` pairs by the low `key_bits` bits of the key, stably, as the GPU's
+/// cooperative layout does (blocks of [`BLOCK`]).
 pub fn sort_by_key(keys: &[u32], values: &[u32], key_bits: u32) -> (Vec<u32>, Vec<u32>) {
+    sort_by_key_in_blocks(keys, values, key_bits, BLOCK)
+}
+
+/// [`sort_by_key`] with histogram blocks of `block` keys ([`SERIAL_CHUNK`] for the serial
+/// layout): the tables differ, the result does not (a stable sort's order is unique).
+pub fn sort_by_key_in_blocks(
+    keys: &[u32],
+    values: &[u32],
+    key_bits: u32,
+    block: usize,
+) -> (Vec<u32>, Vec<u32>) {
     let mut keys = keys.to_vec();
     let mut values = values.to_vec();
     let mut keys_tmp = vec![0; keys.len()];
     let mut values_tmp = vec![0; keys.len()];
     for pass in 0..passes(key_bits) {
         let shift = pass * RADIX_BITS;
-        let offsets = scan(&histogram(&keys, shift), false);
+        let offsets = scan(&histogram(&keys, shift, block), false);
         scatter(
             &keys,
             &values,
             &offsets,
             shift,
-            &mut keys_tmp,
-            &mut values_tmp,
+            block,
+            (&mut keys_tmp, &mut values_tmp),
         );
         std::mem::swap(&mut keys, &mut keys_tmp);
         std::mem::swap(&mut values, &mut values_tmp);
@@ -108,9 +129,11 @@ mod tests {
             let values: Vec<u32> = (0..n as u32).collect();
             let mut expected: Vec<(u32, u32)> = keys.iter().copied().zip(values.clone()).collect();
             expected.sort_by_key(|p| p.0);
-            let (k, v) = sort_by_key(&keys, &values, 7);
-            let got: Vec<(u32, u32)> = k.into_iter().zip(v).collect();
-            assert_eq!(got, expected, "n = {n}");
+            for block in [BLOCK, SERIAL_CHUNK] {
+                let (k, v) = sort_by_key_in_blocks(&keys, &values, 7, block);
+                let got: Vec<(u32, u32)> = k.into_iter().zip(v).collect();
+                assert_eq!(got, expected, "n = {n}, blocks of {block}");
+            }
         }
     }
 }

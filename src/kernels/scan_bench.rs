@@ -13,7 +13,7 @@ use ash::vk;
 use super::compact::Compact;
 use super::reduce::{Reduce, SUM_TOLERANCE};
 use super::scan::{Scan, ScanKind, ScanVariant};
-use super::sort::RadixSort;
+use super::sort::{RadixSort, SortLayout};
 use super::KernelBenchRow;
 use crate::cpu;
 use crate::error::Result;
@@ -134,8 +134,8 @@ fn bench_compact(ctx: &Context, n: usize, runs: usize) -> Result<KernelBenchRow>
     Ok(row(name, n, ms, bytes, verified))
 }
 
-fn bench_sort(ctx: &Context, n: usize, runs: usize) -> Result<KernelBenchRow> {
-    let sort = RadixSort::new(ctx)?;
+fn bench_sort(ctx: &Context, layout: SortLayout, n: usize, runs: usize) -> Result<KernelBenchRow> {
+    let sort = RadixSort::with_layout(ctx, ScanVariant::best(ctx), layout)?;
     let keys = random_u32s(n, 3);
     let values: Vec<u32> = (0..n as u32).collect();
     let k = storage_with(ctx, "bench sort keys", &keys)?;
@@ -144,7 +144,7 @@ fn bench_sort(ctx: &Context, n: usize, runs: usize) -> Result<KernelBenchRow> {
     ctx.submit(None, |rec| sort.record(rec, &binding))?;
     let (ek, ev) = cpu::sort::sort_by_key(&keys, &values, 32);
     let verified = u32s(&ctx.read_buffer(&k)?) == ek && u32s(&ctx.read_buffer(&v)?) == ev;
-    let name = "sort-by-key-u32".to_string();
+    let name = format!("sort-by-key-u32-{}", layout.name());
     // Sorted input would make the scatter unrealistically coherent: re-upload before each run.
     let upload = |rec: &mut Recorder<'_>| {
         rec.upload(&k, bytemuck::cast_slice(&keys))?;
@@ -254,7 +254,11 @@ pub fn bench_rows(ctx: &Context, quick: bool) -> Result<Vec<KernelBenchRow>> {
             rows.push(bench_scan(ctx, variant, n, runs)?);
         }
         rows.push(bench_compact(ctx, n, runs)?);
-        rows.push(bench_sort(ctx, n, runs)?);
+        // The device's layout first, then the other one for comparison.
+        let best = SortLayout::best(ctx);
+        for layout in [best, best.other()] {
+            rows.push(bench_sort(ctx, layout, n, runs)?);
+        }
         rows.push(bench_reduce(ctx, n, runs)?);
         rows.push(bench_reduce_image(ctx, side, runs)?);
     }

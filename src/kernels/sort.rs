@@ -1,16 +1,27 @@
-//! Stable sort of `u32` keys with a `u32` payload: an LSD radix sort built on the scan. Used to
-//! group tile requests by tile ID and to bin samples by cell.
+//! Stable sort of `u32` keys with a `u32` payload: an LSD radix sort built on the scan, for
+//! grouping work by key (tile requests by tile, samples by cell). The techniques bundled today
+//! bin with counting passes of their own (IZB's per-cell lists, the virtual maps' page table);
+//! the kernel bench measures this one.
 //!
 //! Design: 4-bit digits, least significant first, two kernels per digit. `sort_histogram`
-//! counts each block's digits (workgroup sums of packed counts, no atomics) into a digit-major
-//! table (`hist[digit * blocks + block]`); one
+//! counts each block's digits into a digit-major table (`hist[digit * blocks + block]`); one
 //! exclusive [`Scan`] of that table gives every (digit, block) the position where its run
 //! starts; `sort_scatter` moves each pair there plus its rank among the block's equal digits,
 //! ranks following input order. Each pass is stable, hence the sort. 4-bit digits (8 passes for
-//! 32-bit keys) rather than 8-bit (4 passes): the table stays at 16 entries per block (n/64
-//! entries, one cheap scan) and a block's 16 ranks come from two workgroup scans of `uvec4`s,
-//! each component packing two 16-bit digit counts; 8-bit digits would need a 256-entry table per
-//! block (n/4 entries to scan every pass) and a multi-split inside the workgroup.
+//! 32-bit keys) rather than 8-bit (4 passes): the table stays at 16 entries per block (one cheap
+//! scan) and the ranks stay in registers (16 counters in two `uvec4`s of 16-bit halves); 8-bit
+//! digits would need a 256-entry table per block and a multi-split inside the workgroup.
+//!
+//! Two layouts ([`SortLayout`]), chosen from the device's type, not its name:
+//! - **cooperative** (GPUs): 64 invocations share a block of 1024 keys, 16 consecutive keys each
+//!   (read four a load); the block's counts and each invocation's ranks come from one workgroup
+//!   scan of the packed counters (`wg_exclusive_add4x2`: both halves, one barrier);
+//! - **serial** (devices that run a workgroup on one CPU thread, such as lavapipe): each
+//!   invocation owns a chunk of 512 keys and walks it in order, counting bytes then 16-bit
+//!   halves, and moving pairs from 16 cursors; no scan, subgroup operation or barrier in either
+//!   kernel. On lavapipe (Mesa 25) a barrier makes the shader a set of coroutines and the
+//!   workgroup scans cost more than the keys: 1M pairs sort in ~65 ms serially against ~140 ms
+//!   cooperatively (`penumbra bench --suite kernels`, both rows).
 //!
 //! Keys narrower than 32 bits sort faster: [`RadixSort::bind`] takes the number of significant
 //! low bits (higher bits are ignored), and the pass count is rounded up to even so the result
@@ -19,10 +30,8 @@
 //!
 //! Use: [`RadixSort::new`] once, [`RadixSort::bind`] to the key and value buffers (sorted in
 //! place; the binding owns ping-pong copies), [`RadixSort::record`] as often as needed;
-//! [`RadixSort::run`] uploads, sorts and reads back. Both kernels use the workgroup scan of the
-//! chosen [`ScanVariant`]. On lavapipe the scatter dominates (random 4-byte stores); 1M pairs
-//! take a few hundred milliseconds there, so keep test sizes modest. CPU twin:
-//! [`crate::cpu::sort`].
+//! [`RadixSort::run`] uploads, sorts and reads back. CPU twin: [`crate::cpu::sort`] (blocks of
+//! either layout's size: the tables differ, the sorted result does not).
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
@@ -91,27 +100,98 @@ impl SortBinding {
     }
 }
 
+/// How the sort's two kernels share a block of keys among invocations. Both give the same
+/// result (each pass is the same stable digit sort); they differ in what the device runs well.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SortLayout {
+    /// 64 invocations share a block of 1024 keys, 16 consecutive keys each, and rank them with
+    /// workgroup scans of packed digit counts: loads close together, a workgroup per block, as a
+    /// GPU wants.
+    Cooperative,
+    /// Each invocation walks its own chunk of 512 keys in order, with no workgroup scan, subgroup
+    /// operation or barrier (`glsl/kernels/sort_serial.glsl`): for devices that run a workgroup
+    /// on one CPU thread, where a barrier makes the shader a set of coroutines and the
+    /// workgroup scans cost more than the keys themselves.
+    Serial,
+}
+
+impl SortLayout {
+    /// [`SortLayout::Serial`] on a device whose type is CPU (it runs workgroups on CPU threads),
+    /// else [`SortLayout::Cooperative`]: from the queried device type, not its name.
+    pub fn best(ctx: &Context) -> SortLayout {
+        if ctx.info().device_type == "cpu" {
+            SortLayout::Serial
+        } else {
+            SortLayout::Cooperative
+        }
+    }
+
+    /// `cooperative` or `serial` (bench row names).
+    pub fn name(self) -> &'static str {
+        match self {
+            SortLayout::Cooperative => "cooperative",
+            SortLayout::Serial => "serial",
+        }
+    }
+
+    /// The other layout.
+    pub fn other(self) -> SortLayout {
+        match self {
+            SortLayout::Cooperative => SortLayout::Serial,
+            SortLayout::Serial => SortLayout::Cooperative,
+        }
+    }
+
+    /// Keys per histogram entry: a workgroup's block or an invocation's chunk.
+    pub fn block(self) -> u32 {
+        match self {
+            SortLayout::Cooperative => crate::cpu::sort::BLOCK as u32,
+            SortLayout::Serial => crate::cpu::sort::SERIAL_CHUNK as u32,
+        }
+    }
+}
+
 /// The radix-sort pipelines. Create once per context.
 pub struct RadixSort {
     ctx: Context,
     scan: Scan,
+    layout: SortLayout,
     histogram: Pipeline,
     scatter: Pipeline,
 }
 
 impl RadixSort {
-    /// Pipelines with the best scan variant for the device.
+    /// Pipelines with the best scan variant and layout for the device.
     pub fn new(ctx: &Context) -> Result<RadixSort> {
         RadixSort::with_variant(ctx, ScanVariant::best(ctx))
     }
 
-    /// Pipelines with the given workgroup-scan variant (for the table scan and the ranks).
+    /// Pipelines with the given workgroup-scan variant (for the table scan, and for the ranks
+    /// of the cooperative layout) and the device's best [`SortLayout`].
     pub fn with_variant(ctx: &Context, variant: ScanVariant) -> Result<RadixSort> {
-        let histogram = format!("kernels/sort_histogram_{}.comp", variant.suffix());
-        let scatter = format!("kernels/sort_scatter_{}.comp", variant.suffix());
+        RadixSort::with_layout(ctx, variant, SortLayout::best(ctx))
+    }
+
+    /// Pipelines with the given workgroup-scan variant and layout (tests run every pair).
+    pub fn with_layout(
+        ctx: &Context,
+        variant: ScanVariant,
+        layout: SortLayout,
+    ) -> Result<RadixSort> {
+        let (histogram, scatter) = match layout {
+            SortLayout::Cooperative => (
+                format!("kernels/sort_histogram_{}.comp", variant.suffix()),
+                format!("kernels/sort_scatter_{}.comp", variant.suffix()),
+            ),
+            SortLayout::Serial => (
+                "kernels/sort_serial_histogram.comp".to_string(),
+                "kernels/sort_serial_scatter.comp".to_string(),
+            ),
+        };
         Ok(RadixSort {
             ctx: ctx.clone(),
             scan: Scan::with_variant(ctx, variant)?,
+            layout,
             histogram: Pipeline::compute(ctx, &histogram)?,
             scatter: Pipeline::compute(ctx, &scatter)?,
         })
@@ -129,7 +209,7 @@ impl RadixSort {
         check_len(&self.ctx, "sort", len as u64, SCAN_BLOCK)?;
         check_buffer("sort", keys, 4 * len as u64)?;
         check_buffer("sort", values, 4 * len as u64)?;
-        let blocks = len.div_ceil(SCAN_BLOCK).max(1);
+        let blocks = len.div_ceil(self.layout.block()).max(1);
         let table_len = RADIX as u32 * blocks;
         let ctx = &self.ctx;
         let keys_tmp = Buffer::storage(ctx, "sort keys (ping-pong)", 4 * len as u64)?;
@@ -139,7 +219,11 @@ impl RadixSort {
             DescriptorSet::new(
                 ctx,
                 &self.histogram,
-                &[Binding::Buffer(k), Binding::Buffer(&table)],
+                &[
+                    Binding::Buffer(k),
+                    Binding::Buffer(&table),
+                    Binding::Buffer(k),
+                ],
             )
         };
         let scatter_set = |from: [&Buffer; 2], to: [&Buffer; 2]| {
@@ -152,6 +236,8 @@ impl RadixSort {
                     Binding::Buffer(&table),
                     Binding::Buffer(to[0]),
                     Binding::Buffer(to[1]),
+                    Binding::Buffer(from[0]),
+                    Binding::Buffer(from[1]),
                 ],
             )
         };
@@ -178,9 +264,13 @@ impl RadixSort {
         if binding.len == 0 {
             return Ok(());
         }
-        // One workgroup per block of each kernel.
-        let hist_threads = [binding.blocks * self.histogram.local_size[0], 1, 1];
-        let scatter_threads = [binding.blocks * self.scatter.local_size[0], 1, 1];
+        // Cooperative: one workgroup per block; serial: one invocation per chunk.
+        let threads = |p: &Pipeline| match self.layout {
+            SortLayout::Cooperative => [binding.blocks * p.local_size[0], 1, 1],
+            SortLayout::Serial => [binding.blocks, 1, 1],
+        };
+        let hist_threads = threads(&self.histogram);
+        let scatter_threads = threads(&self.scatter);
         for pass in 0..binding.passes {
             let push = SortPush {
                 n: binding.len,
@@ -246,6 +336,8 @@ mod tests {
             "kernels/sort_histogram_shared.comp",
             "kernels/sort_scatter_subgroup.comp",
             "kernels/sort_scatter_shared.comp",
+            "kernels/sort_serial_histogram.comp",
+            "kernels/sort_serial_scatter.comp",
         ] {
             let declared = shader_interface(shader).expect("embedded shader").1;
             assert_eq!(

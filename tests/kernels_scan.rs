@@ -29,13 +29,17 @@ fn random_u32s(n: usize, seed: u32) -> Vec<u32> {
 /// The variants to test: shared memory always, subgroups where supported (else say so).
 fn variants(ctx: &Context) -> Vec<ScanVariant> {
     if ctx.info().subgroup_arithmetic {
-        vec![ScanVariant::Subgroup, ScanVariant::SharedMemory]
+        vec![
+            ScanVariant::Subgroup,
+            ScanVariant::SharedMemory,
+            ScanVariant::Serial,
+        ]
     } else {
         eprintln!(
             "skipping the subgroup variant: no subgroup arithmetic on {}",
             ctx.info().name
         );
-        vec![ScanVariant::SharedMemory]
+        vec![ScanVariant::SharedMemory, ScanVariant::Serial]
     }
 }
 

@@ -673,6 +673,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             vec![
                 "kernels/scan_block_shared.comp",
                 "kernels/scan_block_subgroup.comp",
+                "kernels/scan_block_serial.comp",
                 "kernels/scan_add.comp",
             ],
             twin!(scan::ScanPush {

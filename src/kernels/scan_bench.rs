@@ -243,9 +243,16 @@ fn bench_reduce_image(ctx: &Context, side: u32, runs: usize) -> Result<KernelBen
 pub fn bench_rows(ctx: &Context, quick: bool) -> Result<Vec<KernelBenchRow>> {
     let sides: &[u32] = if quick { &[1024] } else { &[1024, 4096] };
     let runs = if quick { 3 } else { 5 };
+    // The device's best first, then every other variant it supports.
     let mut variants = vec![ScanVariant::best(ctx)];
-    if variants[0] != ScanVariant::SharedMemory {
-        variants.push(ScanVariant::SharedMemory);
+    for v in [
+        ScanVariant::Serial,
+        ScanVariant::Subgroup,
+        ScanVariant::SharedMemory,
+    ] {
+        if !variants.contains(&v) && v.require(ctx).is_ok() {
+            variants.push(v);
+        }
     }
     let mut rows = Vec::new();
     for &side in sides {

@@ -179,10 +179,17 @@ impl RadixSort {
         layout: SortLayout,
     ) -> Result<RadixSort> {
         let (histogram, scatter) = match layout {
-            SortLayout::Cooperative => (
-                format!("kernels/sort_histogram_{}.comp", variant.suffix()),
-                format!("kernels/sort_scatter_{}.comp", variant.suffix()),
-            ),
+            SortLayout::Cooperative => {
+                // The ranks need a workgroup scan even where the table's scan is serial.
+                let ranks = match variant {
+                    ScanVariant::Serial => ScanVariant::cooperative(ctx),
+                    v => v,
+                };
+                (
+                    format!("kernels/sort_histogram_{}.comp", ranks.suffix()),
+                    format!("kernels/sort_scatter_{}.comp", ranks.suffix()),
+                )
+            }
             SortLayout::Serial => (
                 "kernels/sort_serial_histogram.comp".to_string(),
                 "kernels/sort_serial_scatter.comp".to_string(),

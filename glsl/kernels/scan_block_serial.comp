@@ -1,0 +1,62 @@
+#version 460
+// scan_block.glsl's first pass in the serial layout (src/kernels/scan.rs `ScanVariant::Serial`):
+// one invocation scans a whole block of SCAN_BLOCK = 1024 elements in order, with no workgroup
+// scan and no barrier, and writes the block's scan (block-local, exclusive or inclusive) and its
+// total: the same blocks and results as the cooperative variants, so block totals, scan_add and
+// compaction are unchanged. For devices that run a workgroup on one CPU thread (lavapipe), where
+// a barrier makes the shader a set of coroutines. Full blocks move four elements a load and a
+// store; the last, partial block one at a time, so nothing past `n` is touched. src and dst may
+// be the same buffer: each element is read before it is written, by the same invocation.
+// CPU twin: src/cpu/scan.rs (`scan_block`).
+
+#define BLOCK 1024
+
+layout(local_size_x = 64) in;
+
+layout(set = 0, binding = 0) readonly buffer Src { uint src[]; };
+layout(set = 0, binding = 1) writeonly buffer Dst { uint dst[]; };
+layout(set = 0, binding = 2) writeonly buffer BlockSums { uint block_sums[]; };
+// src and dst again, four elements an access.
+layout(set = 0, binding = 3) readonly buffer Src4 { uvec4 src4[]; };
+layout(set = 0, binding = 4) writeonly buffer Dst4 { uvec4 dst4[]; };
+
+layout(push_constant) uniform Push {
+    uint n;          // elements in src/dst
+    uint inclusive;  // 1: dst[i] includes src[i]
+    uint flags;      // 1: scan (src[i] != 0 ? 1 : 0) instead of src[i] (stream compaction)
+    uint pad;
+} pc;
+
+void main() {
+    uint block = gl_GlobalInvocationID.x;
+    uint first = block * BLOCK;
+    if (first >= pc.n) {
+        return;
+    }
+    uint last = min(first + BLOCK, pc.n);
+    uint running = 0;
+    if (last - first == BLOCK) {
+        for (uint j = first / 4; j < last / 4; ++j) {
+            uvec4 v = src4[j];
+            if (pc.flags != 0) {
+                v = uvec4(notEqual(v, uvec4(0u)));
+            }
+            // Inclusive sums within the four, then the running total before them.
+            uvec4 s = uvec4(v.x, v.x + v.y, v.x + v.y + v.z, v.x + v.y + v.z + v.w);
+            uvec4 out4 = running + (pc.inclusive != 0 ? s : s - v);
+            dst4[j] = out4;
+            running += s.w;
+        }
+    } else {
+        for (uint i = first; i < last; ++i) {
+            uint v = src[i];
+            if (pc.flags != 0) {
+                v = v != 0 ? 1u : 0u;
+            }
+            uint before = running;
+            running += v;
+            dst[i] = pc.inclusive != 0 ? running : before;
+        }
+    }
+    block_sums[block] = running;
+}

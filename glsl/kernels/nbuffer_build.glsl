@@ -2,9 +2,16 @@
 // starting at p, p + (d, 0), p + (0, d), p + (d, d) with d = 2^l; windows starting outside the
 // image are empty (the neutral value), so every window is clipped at the right and bottom edges.
 // NBUFFER_FROM_SOURCE: level 0 is the source image (R32F or D32), read with texelFetch.
+//
+// Each invocation walks one column down a chain of CHAIN output rows d apart (y, y + d, ...):
+// output row y combines the horizontal pairs (p, p + (d, 0)) of rows y and y + d, and row
+// y + d's pair is also the upper half of the next output in the chain, so each pair is read
+// once for two outputs (4.5 loads a texel instead of 8). Invocations along x are neighbouring
+// columns (one SIMD row on lavapipe, coalesced on a GPU). Measured on lavapipe (Mesa 25), 10
+// levels of 1024²: 179 -> 110-129 ms; the two R32F stores a texel are now most of the cost.
 // CPU twin: src/cpu/nbuffer.rs `build`.
 
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = 64, local_size_y = 1) in;
 
 #ifdef NBUFFER_FROM_SOURCE
 layout(set = 0, binding = 0) uniform sampler2D source;
@@ -32,27 +39,36 @@ layout(push_constant) uniform Push {
     int pad;
 } pc;
 
-void main() {
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    if (any(greaterThanEqual(p, pc.size))) {
-        return;
-    }
-    int d = pc.step;
-    bool right = p.x + d < pc.size.x;
-    bool below = p.y + d < pc.size.y;
+// Output rows per invocation (src/kernels/nbuffer.rs NBUFFER_CHAIN).
+#define CHAIN 8
+
+// The (min, max) of the texels p and p + (d, 0) of the level read, the second only if inside.
+vec2 pair(ivec2 p, int d) {
     vec2 m = fetch(p);
-    if (right) {
+    if (p.x + d < pc.size.x) {
         vec2 v = fetch(p + ivec2(d, 0));
         m = vec2(min(m.x, v.x), max(m.y, v.y));
     }
-    if (below) {
-        vec2 v = fetch(p + ivec2(0, d));
-        m = vec2(min(m.x, v.x), max(m.y, v.y));
+    return m;
+}
+
+void main() {
+    int x = int(gl_GlobalInvocationID.x);
+    int d = pc.step;
+    int residue = int(gl_GlobalInvocationID.y) % d;
+    int chain = int(gl_GlobalInvocationID.y) / d;
+    int y = residue + chain * CHAIN * d;
+    if (x >= pc.size.x || y >= pc.size.y) {
+        return;
     }
-    if (right && below) {
-        vec2 v = fetch(p + ivec2(d, d));
-        m = vec2(min(m.x, v.x), max(m.y, v.y));
+    vec2 upper = pair(ivec2(x, y), d);
+    for (int k = 0; k < CHAIN && y < pc.size.y; ++k, y += d) {
+        vec2 m = upper;
+        if (y + d < pc.size.y) {
+            upper = pair(ivec2(x, y + d), d);
+            m = vec2(min(m.x, upper.x), max(m.y, upper.y));
+        }
+        imageStore(dst_min, ivec2(x, y), vec4(m.x));
+        imageStore(dst_max, ivec2(x, y), vec4(m.y));
     }
-    imageStore(dst_min, p, vec4(m.x));
-    imageStore(dst_max, p, vec4(m.y));
 }

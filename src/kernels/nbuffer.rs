@@ -7,7 +7,9 @@
 //! are pairs of R32F storage images (min, max). R32F rather than one RG32F image because RG32F
 //! storage needs `shaderStorageImageExtendedFormats`; images rather than buffers because a
 //! level of a 8192² map (512 MiB) exceeds one buffer binding. Level l + 1 combines four level-l
-//! windows d = 2^l apart (one dispatch per level, reading the level below: ping-pong).
+//! windows d = 2^l apart (one dispatch per level, reading the level below: ping-pong); each
+//! invocation walks a column down a chain of rows d apart, so every horizontal pair it reads
+//! serves two outputs (`glsl/kernels/nbuffer_build.glsl`).
 //!
 //! Memory is L × w × h × 8 bytes — 13 levels of a 4096² map are 1.6 GiB — so
 //! [`NBuffer::new`] takes the highest level wanted: queries on larger squares stay exact, they
@@ -20,6 +22,9 @@ use crate::cpu::nbuffer::full_levels;
 use crate::error::{Error, Result};
 use crate::gpu::{f32s, Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline};
 use crate::gpu::{Recorder, Sampler};
+
+/// Output rows per invocation of `nbuffer_build.glsl` (its `CHAIN`).
+const NBUFFER_CHAIN: u32 = 8;
 
 /// The highest level `glsl/include/nbuffer.glsl` binds (2^14 = 16384, the largest image side).
 pub const MAX_LEVEL: u32 = 14;
@@ -208,7 +213,15 @@ impl<'a> NBuffer<'a> {
                 pad: 0,
             };
             let pipeline = if l == 0 { &self.first } else { &self.next };
-            rec.dispatch(pipeline, set, &push, [self.width, self.height, 1])?;
+            // One invocation per column and chain of CHAIN rows d apart (nbuffer_build.glsl).
+            let d = 1u32 << l;
+            let chains = self.height.div_ceil(d).div_ceil(NBUFFER_CHAIN);
+            rec.dispatch(
+                pipeline,
+                set,
+                &push,
+                [self.width, d.min(self.height) * chains, 1],
+            )?;
         }
         Ok(())
     }

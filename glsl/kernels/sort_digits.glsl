@@ -10,6 +10,16 @@
 
 #define RADIX 16
 
+// src/kernels/sort.rs SortPush, shared by all four sort kernels.
+layout(push_constant) uniform Push {
+    uint n;
+    // The digit is (key >> shift) & 15.
+    uint shift;
+    // Blocks (cooperative layout) or chunks (serial): the histogram's row length.
+    uint num_blocks;
+    uint pad;
+} pc;
+
 uvec4 digit_slot(uint d) {
     return uvec4(equal(uvec4((d >> 1) & 3u), uvec4(0u, 1u, 2u, 3u)));
 }
@@ -36,6 +46,13 @@ uint widen_bytes(uint x) {
 void widen_counts(uvec4 c, out uvec4 low, out uvec4 high) {
     low = uvec4(widen_bytes(c.x), widen_bytes(c.x >> 16), widen_bytes(c.y), widen_bytes(c.y >> 16));
     high = uvec4(widen_bytes(c.z), widen_bytes(c.z >> 16), widen_bytes(c.w), widen_bytes(c.w >> 16));
+}
+
+// Entry d of 16 u32s held as four uvec4s (digits 0-3, 4-7, 8-11, 12-15), by selects.
+uint digit_entry(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uint d) {
+    uvec4 o = d < 8u ? (d < 4u ? q0 : q1) : (d < 12u ? q2 : q3);
+    uint c = d & 3u;
+    return c == 0u ? o.x : (c == 1u ? o.y : (c == 2u ? o.z : o.w));
 }
 
 uint digit_count(uvec4 low, uvec4 high, uint d) {

@@ -23,34 +23,12 @@ layout(set = 0, binding = 1) writeonly buffer Hist { uint hist[]; };
 // The same buffer as `keys`, four keys a load (see sort_scatter.glsl).
 layout(set = 0, binding = 2) readonly buffer Keys4 { uvec4 keys4[]; };
 
-layout(push_constant) uniform Push {
-    uint n;
-    uint shift;
-    uint num_blocks;
-    uint pad;
-} pc;
+#include "sort_count.glsl"
 
 void main() {
     uint first = gl_WorkGroupID.x * BLOCK + gl_LocalInvocationIndex * ITEMS;
-    uvec4 c = uvec4(0u);
-    if ((gl_WorkGroupID.x + 1) * BLOCK <= pc.n) {
-        for (uint j = 0; j < ITEMS / 4; ++j) {
-            uvec4 k = (keys4[first / 4 + j] >> pc.shift) & (RADIX - 1);
-            count_digit8(c, k.x);
-            count_digit8(c, k.y);
-            count_digit8(c, k.z);
-            count_digit8(c, k.w);
-        }
-    } else {
-        for (uint i = 0; i < ITEMS; ++i) {
-            bool valid = first + i < pc.n;
-            if (valid) {
-                count_digit8(c, (keys[first + i] >> pc.shift) & (RADIX - 1));
-            }
-        }
-    }
     uvec4 low, high;
-    widen_counts(c, low, high);
+    count_keys(first, (gl_WorkGroupID.x + 1) * BLOCK <= pc.n, low, high);
     // The last invocation's exclusive count plus its own is the block's total.
     uvec4 low_total = low;
     uvec4 high_total = high;

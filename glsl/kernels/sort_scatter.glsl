@@ -19,23 +19,18 @@
 
 layout(local_size_x = WG_THREADS) in;
 
-layout(set = 0, binding = 0) readonly buffer KeysIn { uint keys_in[]; };
+layout(set = 0, binding = 0) readonly buffer KeysIn { uint keys[]; };
 layout(set = 0, binding = 1) readonly buffer ValuesIn { uint values_in[]; };
 layout(set = 0, binding = 2) readonly buffer Offsets { uint offsets[]; };
 layout(set = 0, binding = 3) writeonly buffer KeysOut { uint keys_out[]; };
 layout(set = 0, binding = 4) writeonly buffer ValuesOut { uint values_out[]; };
-// keys_in and values_in again, four elements a load: a full block reads its pairs as uvec4s
+// keys and values_in again, four elements a load: a full block reads its pairs as uvec4s
 // (each invocation's 16 pairs are consecutive and 16-aligned), a quarter of the loads; the
 // last, partial block reads one element at a time so nothing past `n` is touched.
-layout(set = 0, binding = 5) readonly buffer KeysIn4 { uvec4 keys_in4[]; };
+layout(set = 0, binding = 5) readonly buffer Keys4 { uvec4 keys4[]; };
 layout(set = 0, binding = 6) readonly buffer ValuesIn4 { uvec4 values_in4[]; };
 
-layout(push_constant) uniform Push {
-    uint n;
-    uint shift;
-    uint num_blocks;
-    uint pad;
-} pc;
+#include "sort_count.glsl"
 
 // Moves one pair to its digit's run in the output: the run's start for this block plus the pairs
 // of the block with that digit before it, then counts it.
@@ -43,9 +38,7 @@ void move(uint k, uint v, inout uvec4 before_low, inout uvec4 before_high, uvec4
     uint d = (k >> pc.shift) & (RADIX - 1);
     uint rank = digit_count(before_low, before_high, d);
     count_digit(before_low, before_high, d, 1u);
-    uvec4 o = d < 8u ? (d < 4u ? offset[0] : offset[1]) : (d < 12u ? offset[2] : offset[3]);
-    uint c = d & 3u;
-    uint dst = (c == 0u ? o.x : (c == 1u ? o.y : (c == 2u ? o.z : o.w))) + rank;
+    uint dst = digit_entry(offset[0], offset[1], offset[2], offset[3], d) + rank;
     keys_out[dst] = k;
     values_out[dst] = v;
 }
@@ -53,25 +46,8 @@ void move(uint k, uint v, inout uvec4 before_low, inout uvec4 before_high, uvec4
 void main() {
     uint first = gl_WorkGroupID.x * BLOCK + gl_LocalInvocationIndex * ITEMS;
     bool full = (gl_WorkGroupID.x + 1) * BLOCK <= pc.n;
-    uvec4 c = uvec4(0u);
-    if (full) {
-        for (uint j = 0; j < ITEMS / 4; ++j) {
-            uvec4 d = (keys_in4[first / 4 + j] >> pc.shift) & (RADIX - 1);
-            count_digit8(c, d.x);
-            count_digit8(c, d.y);
-            count_digit8(c, d.z);
-            count_digit8(c, d.w);
-        }
-    } else {
-        for (uint i = 0; i < ITEMS; ++i) {
-            bool valid = first + i < pc.n;
-            if (valid) {
-                count_digit8(c, (keys_in[first + i] >> pc.shift) & (RADIX - 1));
-            }
-        }
-    }
     uvec4 low, high;
-    widen_counts(c, low, high);
+    count_keys(first, full, low, high);
     // Per digit: how many of the block's pairs before this invocation's have it.
     uvec4 before_low = low;
     uvec4 before_high = high;
@@ -86,7 +62,7 @@ void main() {
     }
     if (full) {
         for (uint j = 0; j < ITEMS / 4; ++j) {
-            uvec4 k = keys_in4[first / 4 + j];
+            uvec4 k = keys4[first / 4 + j];
             uvec4 v = values_in4[first / 4 + j];
             move(k.x, v.x, before_low, before_high, offset);
             move(k.y, v.y, before_low, before_high, offset);
@@ -98,7 +74,7 @@ void main() {
             if (first + i >= pc.n) {
                 break;
             }
-            move(keys_in[first + i], values_in[first + i], before_low, before_high, offset);
+            move(keys[first + i], values_in[first + i], before_low, before_high, offset);
         }
     }
 }

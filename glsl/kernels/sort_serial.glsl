@@ -14,14 +14,6 @@
 
 layout(local_size_x = 64) in;
 
-layout(push_constant) uniform Push {
-    uint n;
-    uint shift;
-    // Chunks (the histogram's row length).
-    uint num_blocks;
-    uint pad;
-} pc;
-
 uint digit_of(uint key) {
     return (key >> pc.shift) & (RADIX - 1);
 }

@@ -20,9 +20,7 @@ uvec4 cursor0, cursor1, cursor2, cursor3;
 
 void move(uint k, uint v) {
     uint d = digit_of(k);
-    uvec4 o = d < 8u ? (d < 4u ? cursor0 : cursor1) : (d < 12u ? cursor2 : cursor3);
-    uint c = d & 3u;
-    uint dst = c == 0u ? o.x : (c == 1u ? o.y : (c == 2u ? o.z : o.w));
+    uint dst = digit_entry(cursor0, cursor1, cursor2, cursor3, d);
     keys_out[dst] = k;
     values_out[dst] = v;
     cursor0 += uvec4(equal(uvec4(d), uvec4(0u, 1u, 2u, 3u)));

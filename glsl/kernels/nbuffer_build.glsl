@@ -8,7 +8,8 @@
 // y + d's pair is also the upper half of the next output in the chain, so each pair is read
 // once for two outputs (4.5 loads a texel instead of 8). Invocations along x are neighbouring
 // columns (one SIMD row on lavapipe, coalesced on a GPU). Measured on lavapipe (Mesa 25), 10
-// levels of 1024²: 179 -> 110-129 ms; the two R32F stores a texel are now most of the cost.
+// levels of 1024²: 179 -> 77-149 ms (the run-to-run range on a 2-core VM); neither the loads nor
+// the two R32F stores a texel dominate what is left (dropping one store saved ~15 %).
 // CPU twin: src/cpu/nbuffer.rs `build`.
 
 layout(local_size_x = 64, local_size_y = 1) in;

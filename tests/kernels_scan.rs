@@ -371,6 +371,18 @@ fn reductions_of_images_count_planted_nans() {
     let bad = Image::new(&ctx, "rgba8", bad).expect("image");
     let result = reduce.result_buffer().expect("buffer");
     assert!(reduce.bind_image(&bad, &result).is_err());
+    // Narrower than a workgroup (64): an invocation's texel cursor wraps several rows a step.
+    for (w, h) in [(37u32, 23u32), (1, 300), (64, 3)] {
+        let values = planted_floats((w * h) as usize, w + h, -1.0, 1.0, 7, 11);
+        let desc = ImageDesc::new_2d(vk::Format::R32_SFLOAT, w, h, usage);
+        let image = Image::new(&ctx, "narrow", desc).expect("image");
+        ctx.submit(None, |rec| {
+            rec.upload_image(&image, bytemuck::cast_slice(&values))
+        })
+        .expect("upload");
+        let gpu = reduce.run_image(&image).expect("reduce");
+        check_stats(&gpu, &values, &format!("{w}x{h} image"));
+    }
     common::assert_clean(&ctx.validation());
 }
 

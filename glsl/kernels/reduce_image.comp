@@ -6,8 +6,9 @@
 
 layout(set = 0, binding = 0, r32f) uniform readonly image2D image;
 
-float load_value(uint i) {
-    return imageLoad(image, ivec2(i % pc.width, i / pc.width)).r;
+#define REDUCE_IMAGE
+float load_texel(ivec2 p) {
+    return imageLoad(image, p).r;
 }
 
 #include "reduce_partial.glsl"

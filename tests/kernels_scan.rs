@@ -26,7 +26,8 @@ fn random_u32s(n: usize, seed: u32) -> Vec<u32> {
         .collect()
 }
 
-/// The variants to test: shared memory always, subgroups where supported (else say so).
+/// The variants to test: shared memory and serial always, subgroups where supported (else say
+/// so).
 fn variants(ctx: &Context) -> Vec<ScanVariant> {
     if ctx.info().subgroup_arithmetic {
         vec![
@@ -356,13 +357,17 @@ fn reductions_of_images_count_planted_nans() {
     values[(50 * w + 7) as usize] = f32::INFINITY;
     values[(51 * w + 7) as usize] = -0.25;
     let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST;
-    let desc = ImageDesc::new_2d(vk::Format::R32_SFLOAT, w, h, usage);
-    let image = Image::new(&ctx, "visibility", desc).expect("image");
-    ctx.submit(None, |rec| {
-        rec.upload_image(&image, bytemuck::cast_slice(&values))
-    })
-    .expect("upload");
-    let gpu = reduce.run_image(&image).expect("reduce");
+    // Uploads `values` as a w × h R32F image and reduces it on the GPU.
+    let reduce_image = |w: u32, h: u32, values: &[f32]| {
+        let desc = ImageDesc::new_2d(vk::Format::R32_SFLOAT, w, h, usage);
+        let image = Image::new(&ctx, "visibility", desc).expect("image");
+        ctx.submit(None, |rec| {
+            rec.upload_image(&image, bytemuck::cast_slice(values))
+        })
+        .expect("upload");
+        reduce.run_image(&image).expect("reduce")
+    };
+    let gpu = reduce_image(w, h, &values);
     assert_eq!((gpu.nan_count, gpu.inf_count), (nans.len() as u32, 1));
     assert_eq!(gpu.min, -0.25);
     check_stats(&gpu, &values, "image");
@@ -374,13 +379,7 @@ fn reductions_of_images_count_planted_nans() {
     // Narrower than a workgroup (64): an invocation's texel cursor wraps several rows a step.
     for (w, h) in [(37u32, 23u32), (1, 300), (64, 3)] {
         let values = planted_floats((w * h) as usize, w + h, -1.0, 1.0, 7, 11);
-        let desc = ImageDesc::new_2d(vk::Format::R32_SFLOAT, w, h, usage);
-        let image = Image::new(&ctx, "narrow", desc).expect("image");
-        ctx.submit(None, |rec| {
-            rec.upload_image(&image, bytemuck::cast_slice(&values))
-        })
-        .expect("upload");
-        let gpu = reduce.run_image(&image).expect("reduce");
+        let gpu = reduce_image(w, h, &values);
         check_stats(&gpu, &values, &format!("{w}x{h} image"));
     }
     common::assert_clean(&ctx.validation());

@@ -1,5 +1,5 @@
 // Filtered shadow maps, pass 2: the vertical half of the separable blur, in place, so the
-// technique keeps one RGBA32F image whatever its filter. A workgroup owns a strip of COLUMNS
+// technique keeps one filtered image whatever its filter. A workgroup owns a strip of COLUMNS
 // whole columns and walks down it CHUNK rows at a time through a ring of RING rows in shared
 // memory: it only ever writes rows above the ones it still has to read, and no other workgroup
 // touches its columns, so reading and writing the same image cannot race. Rows outside the map

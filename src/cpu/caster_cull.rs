@@ -108,10 +108,14 @@ fn light_side(light: &Light, corners: &[(DVec3, f64)], n: DVec3, d: f64, eps: f6
             (c - cone, c + cone, 0.0)
         }
         // A point, or a rect's corners (the rect is their hull).
-        _ => corners.iter().fold(
-            (f64::INFINITY, f64::NEG_INFINITY, eps),
-            |(lo, hi, tol), &(l, _)| (lo.min(n.dot(l) - d), hi.max(n.dot(l) - d), tol),
-        ),
+        _ => {
+            let s = corners.iter().map(|&(l, _)| n.dot(l) - d);
+            (
+                s.clone().fold(f64::INFINITY, f64::min),
+                s.fold(f64::NEG_INFINITY, f64::max),
+                eps,
+            )
+        }
     };
     (hi > tol, lo < -tol)
 }

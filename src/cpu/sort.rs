@@ -25,14 +25,14 @@ pub fn passes(key_bits: u32) -> u32 {
     digits + digits % 2
 }
 
-/// `sort_histogram.glsl` (`block` = [`BLOCK`]) and `sort_serial_histogram.comp` (`block` =
-/// [`SERIAL_CHUNK`]): counts of digit `(key >> shift) & 15` per block of `block` keys,
+/// `sort_histogram.glsl` (`block_len` = [`BLOCK`]) and `sort_serial_histogram.comp`
+/// (`block_len` = [`SERIAL_CHUNK`]): counts of digit `(key >> shift) & 15` per block of
+/// `block_len` keys,
 /// digit-major: `hist[digit * blocks + block]`.
-pub fn histogram(keys: &[u32], shift: u32, block: usize) -> Vec<u32> {
-    let size = block;
-    let blocks = keys.len().div_ceil(size).max(1);
+pub fn histogram(keys: &[u32], shift: u32, block_len: usize) -> Vec<u32> {
+    let blocks = keys.len().div_ceil(block_len).max(1);
     let mut hist = vec![0u32; RADIX * blocks];
-    for (b, block) in keys.chunks(size).enumerate() {
+    for (b, block) in keys.chunks(block_len).enumerate() {
         for &k in block {
             hist[((k >> shift) as usize & (RADIX - 1)) * blocks + b] += 1;
         }
@@ -40,7 +40,7 @@ pub fn histogram(keys: &[u32], shift: u32, block: usize) -> Vec<u32> {
     hist
 }
 
-/// `sort_scatter.glsl` and `sort_serial_scatter.comp` (blocks of `block` keys, as
+/// `sort_scatter.glsl` and `sort_serial_scatter.comp` (blocks of `block_len` keys, as
 /// [`histogram`]): moves each element to `offsets[digit * blocks + block]` plus its rank among
 /// the earlier elements of its block with the same digit.
 pub fn scatter(
@@ -48,20 +48,19 @@ pub fn scatter(
     values: &[u32],
     offsets: &[u32],
     shift: u32,
-    block: usize,
+    block_len: usize,
     out: (&mut [u32], &mut [u32]),
 ) {
     let (keys_out, values_out) = out;
-    let size = block;
-    let blocks = keys.len().div_ceil(size).max(1);
-    for (b, block) in keys.chunks(size).enumerate() {
+    let blocks = keys.len().div_ceil(block_len).max(1);
+    for (b, block) in keys.chunks(block_len).enumerate() {
         let mut seen = [0u32; RADIX];
         for (i, &k) in block.iter().enumerate() {
             let d = (k >> shift) as usize & (RADIX - 1);
             let dst = (offsets[d * blocks + b] + seen[d]) as usize;
             seen[d] += 1;
             keys_out[dst] = k;
-            values_out[dst] = values[b * size + i];
+            values_out[dst] = values[b * block_len + i];
         }
     }
 }

@@ -118,6 +118,15 @@ pub struct DeviceInfo {
     pub usable: Result<(), String>,
 }
 
+impl DeviceInfo {
+    /// Whether the device runs each workgroup on one CPU thread (`deviceType` CPU, as lavapipe):
+    /// there barriers and workgroup scans cost more than cheap per-element work, so the scan and
+    /// the sort take their serial layouts. From the queried type, never the driver's name.
+    pub fn runs_workgroups_on_cpu_threads(&self) -> bool {
+        self.device_type == "cpu"
+    }
+}
+
 /// `usable` as JSON: `true`, or the reason it is not.
 fn serialize_usable<S: serde::Serializer>(
     usable: &Result<(), String>,

@@ -86,11 +86,13 @@ pub enum ScanVariant {
 }
 
 impl ScanVariant {
-    /// The fastest variant for the device: [`ScanVariant::Serial`] where the device type is CPU
-    /// (queried, not the driver's name), else the best workgroup scan
-    /// ([`ScanVariant::cooperative`]).
+    /// The fastest variant for the device: [`ScanVariant::Serial`] where it runs workgroups on
+    /// CPU threads ([`DeviceInfo::runs_workgroups_on_cpu_threads`]), else the best workgroup
+    /// scan ([`ScanVariant::cooperative`]).
+    ///
+    /// [`DeviceInfo::runs_workgroups_on_cpu_threads`]: crate::gpu::DeviceInfo::runs_workgroups_on_cpu_threads
     pub fn best(ctx: &Context) -> ScanVariant {
-        if ctx.info().device_type == "cpu" {
+        if ctx.info().runs_workgroups_on_cpu_threads() {
             ScanVariant::Serial
         } else {
             ScanVariant::cooperative(ctx)

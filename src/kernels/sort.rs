@@ -116,10 +116,12 @@ pub enum SortLayout {
 }
 
 impl SortLayout {
-    /// [`SortLayout::Serial`] on a device whose type is CPU (it runs workgroups on CPU threads),
-    /// else [`SortLayout::Cooperative`]: from the queried device type, not its name.
+    /// [`SortLayout::Serial`] on a device that runs workgroups on CPU threads
+    /// ([`DeviceInfo::runs_workgroups_on_cpu_threads`]), else [`SortLayout::Cooperative`].
+    ///
+    /// [`DeviceInfo::runs_workgroups_on_cpu_threads`]: crate::gpu::DeviceInfo::runs_workgroups_on_cpu_threads
     pub fn best(ctx: &Context) -> SortLayout {
-        if ctx.info().device_type == "cpu" {
+        if ctx.info().runs_workgroups_on_cpu_threads() {
             SortLayout::Serial
         } else {
             SortLayout::Cooperative

@@ -177,7 +177,9 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
         }
         int lo_bit = wi * 32;
         uint box = 0u;
-        for (int j = max(c0.y, lo_bit / na); j <= min(c1.y, (lo_bit + 31) / na); ++j) {
+        int row0 = int((float(lo_bit) + 0.5) * P.pattern_f.x);
+        int row1 = int((float(lo_bit + 31) + 0.5) * P.pattern_f.x);
+        for (int j = max(c0.y, row0); j <= min(c1.y, row1); ++j) {
             int b0 = max(j * na + c0.x, lo_bit) - lo_bit;
             int b1 = min(j * na + c1.x, lo_bit + 31) - lo_bit;
             if (b0 <= b1) {
@@ -190,7 +192,10 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
             todo &= todo - 1u;
             uint mask = 1u << uint(b);
             int bit = lo_bit + b;
-            int j = bit / na;
+            // Row and column without an integer division (a scalar loop over the SIMD lanes
+            // on a CPU driver): bit + 1/2 lies mid-way between multiples of n_a, far from the
+            // f32 product's rounding.
+            int j = int((float(bit) + 0.5) * P.pattern_f.x);
             int i = bit - j * na;
             // The reference's light sample, ray and tangent-plane test, to the bit.
             vec2 x = light_cell_point(s_seed, i, j, na, P.pattern_f.xy, P.pattern.z != 0);
@@ -257,6 +262,9 @@ void main() {
         m_fresh = 0u;
         m_behind = 0u;
         m_rays = 0u;
+        int light_samples = na * nb;
+        bool one_word = light_samples <= 32;
+        uint all_bits = light_samples >= 32 ? 0xFFFFFFFFu : (1u << uint(light_samples)) - 1u;
         for (uint k = item.t0; k < item.t1; ++k) {
             // The same triangle for every invocation: uniform loads.
             int t = int(texelFetch(tri_list_texels, int(k)).x);
@@ -271,7 +279,11 @@ void main() {
             float light_side = a - spread > tol ? 1.0 : (a + spread < -tol ? -1.0 : 0.0);
             float zmin = min(va.w, min(vb.w, vc.w));
             float zmax = max(va.w, max(vb.w, vc.w));
-            if (live) {
+            // A sample with one mask word whose every light sample is decided (blocked or
+            // behind its tangent plane: an umbra) skips the test; as a loop, so that a SIMD
+            // group whose samples are all decided skips it altogether.
+            bool open = !one_word || (m_bits | m_fresh | m_behind) != all_bits;
+            WHEN(live && open) {
                 test_triangle(va, vb, vc, normal, light_side, zmin, zmax);
             }
         }

@@ -106,11 +106,12 @@ const SOFT_ITEM_PASSES: u32 = 30_000;
 const SOFT_ITEM_TRIANGLES: u32 = 256;
 
 /// Triangles per work item of `izb-soft` with an `n_a × n_b` light-sample grid: a triangle
-/// costs a SIMD group at most `n_a·n_b + n_b + 2·words + 3` loop passes (the mask-word, row and
-/// column loops are entered on every pass of the loop around them, even with no lane in them).
+/// costs a SIMD group at most `n_a·n_b + n_b + 2·words + 4` loop passes (the still-open,
+/// mask-word, row and column loops are entered on every pass of the loop around them, even with
+/// no lane in them).
 pub fn soft_item_triangles(na: u32, nb: u32) -> u32 {
     let words = (na * nb).div_ceil(32);
-    (SOFT_ITEM_PASSES / (na * nb + nb + 2 * words + 3)).clamp(1, SOFT_ITEM_TRIANGLES)
+    (SOFT_ITEM_PASSES / (na * nb + nb + 2 * words + 4)).clamp(1, SOFT_ITEM_TRIANGLES)
 }
 /// Workgroups of the large-footprint passes (`LARGE_GROUPS` in `glsl/izb/izb.glsl`).
 const LARGE_GROUPS: u32 = 1024;

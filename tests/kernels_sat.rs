@@ -6,11 +6,11 @@ mod common;
 use ash::vk;
 use penumbra::cpu::nbuffer::{brute_minmax, full_levels};
 use penumbra::cpu::sat::{brute_box_sum, build_f32, build_f64, build_u32, build_u32_fixed};
-use penumbra::cpu::sat::{build_u64, build_u64_fixed, fixed_point, SatTable};
+use penumbra::cpu::sat::{build_blocked, build_u64, build_u64_fixed, fixed_point, SatTable};
 use penumbra::gpu::{Context, Image};
 use penumbra::kernels::minmax::MinMaxPyramid;
 use penumbra::kernels::nbuffer::NBuffer;
-use penumbra::kernels::sat::{source_image, Sat, SatPrecision, SatRect};
+use penumbra::kernels::sat::{source_image, Sat, SatLayout, SatPrecision, SatRect};
 
 /// splitmix64.
 struct Rng(u64);
@@ -50,19 +50,50 @@ fn float_image(ctx: &Context, format: vk::Format, w: u32, h: u32, data: &[f32]) 
 }
 
 fn build<'a>(ctx: &Context, source: &'a Image, precision: SatPrecision, band_rows: u32) -> Sat<'a> {
-    let sat = Sat::with_band_rows(ctx, source, precision, band_rows).expect("sat");
+    build_in(
+        ctx,
+        source,
+        precision,
+        band_rows,
+        SatLayout::best(ctx.info()),
+    )
+}
+
+fn build_in<'a>(
+    ctx: &Context,
+    source: &'a Image,
+    precision: SatPrecision,
+    band_rows: u32,
+    layout: SatLayout,
+) -> Sat<'a> {
+    let sat = Sat::with_layout(ctx, source, precision, band_rows, layout).expect("sat");
     ctx.submit(None, |rec| sat.record(rec)).expect("build");
     sat
 }
 
-/// Builds every supported precision of a `w × h` table and compares it with the CPU twin, bit
-/// for bit (float tables given the GPU's own centring offset; their source is `float_format`).
+/// Builds every supported precision of a `w × h` table in both layouts and compares it with the
+/// CPU twin, bit for bit (float tables given the GPU's own centring offset, in the layout's order
+/// of additions; their source is `float_format`; integer tables are exact in any order, so the
+/// serial twin checks both layouts).
 fn every_precision_matches_cpu(
+    ctx: &Context,
+    size: (u32, u32),
+    float_format: vk::Format,
+    band_rows: u32,
+    seed: u64,
+) {
+    for layout in SatLayout::ALL {
+        every_precision_in_layout_matches_cpu(ctx, size, float_format, band_rows, seed, layout);
+    }
+}
+
+fn every_precision_in_layout_matches_cpu(
     ctx: &Context,
     (w, h): (u32, u32),
     float_format: vk::Format,
     band_rows: u32,
     seed: u64,
+    layout: SatLayout,
 ) {
     let mut rng = Rng(seed);
     let ints: Vec<u32> = (0..w * h).map(|_| rng.next() as u32).collect();
@@ -74,10 +105,14 @@ fn every_precision_matches_cpu(
             eprintln!("skipping {} (unsupported)", precision.name());
             continue;
         }
-        let what = format!("{} {w}x{h} bands of {band_rows}", precision.name());
+        let what = format!(
+            "{} {} {w}x{h} bands of {band_rows}",
+            layout.name(),
+            precision.name()
+        );
         match precision {
             SatPrecision::U32 => {
-                let sat = build(ctx, &int_src, precision, band_rows);
+                let sat = build_in(ctx, &int_src, precision, band_rows, layout);
                 assert_eq!(
                     sat.read::<u32>().expect("read"),
                     build_u32(&ints, w, h),
@@ -85,7 +120,7 @@ fn every_precision_matches_cpu(
                 );
             }
             SatPrecision::U64 => {
-                let sat = build(ctx, &int_src, precision, band_rows);
+                let sat = build_in(ctx, &int_src, precision, band_rows, layout);
                 assert_eq!(
                     sat.read::<u64>().expect("read"),
                     build_u64(&ints, w, h),
@@ -93,17 +128,17 @@ fn every_precision_matches_cpu(
                 );
             }
             SatPrecision::U32Fixed(bits) => {
-                let sat = build(ctx, &float_src, precision, band_rows);
+                let sat = build_in(ctx, &float_src, precision, band_rows, layout);
                 let cpu = build_u32_fixed(&floats, w, h, bits);
                 assert_eq!(sat.read::<u32>().expect("read"), cpu, "{what}");
             }
             SatPrecision::U64Fixed(bits) => {
-                let sat = build(ctx, &float_src, precision, band_rows);
+                let sat = build_in(ctx, &float_src, precision, band_rows, layout);
                 let cpu = build_u64_fixed(&floats, w, h, bits);
                 assert_eq!(sat.read::<u64>().expect("read"), cpu, "{what}");
             }
             SatPrecision::F32 | SatPrecision::F32Centred => {
-                let sat = build(ctx, &float_src, precision, band_rows);
+                let sat = build_in(ctx, &float_src, precision, band_rows, layout);
                 let gpu = sat.read::<f32>().expect("read");
                 if precision == SatPrecision::F32 {
                     assert_eq!(gpu.offset, 0.0);
@@ -115,14 +150,24 @@ fn every_precision_matches_cpu(
                         gpu.offset
                     );
                 }
-                assert!(gpu == build_f32(&floats, w, h, gpu.offset), "{what}");
+                let cpu = match layout {
+                    SatLayout::Serial => build_f32(&floats, w, h, gpu.offset),
+                    SatLayout::Blocked => {
+                        let o = gpu.offset;
+                        build_blocked(&floats, (w, h), sat.rows_per_band, o, |v| v - o)
+                    }
+                };
+                assert!(gpu == cpu, "{what}");
             }
             SatPrecision::F64 => {
-                let sat = build(ctx, &float_src, precision, band_rows);
-                assert!(
-                    sat.read::<f64>().expect("read") == build_f64(&floats, w, h, 0.0),
-                    "{what}"
-                );
+                let sat = build_in(ctx, &float_src, precision, band_rows, layout);
+                let cpu = match layout {
+                    SatLayout::Serial => build_f64(&floats, w, h, 0.0),
+                    SatLayout::Blocked => {
+                        build_blocked(&floats, (w, h), sat.rows_per_band, 0.0, |v| v as f64)
+                    }
+                };
+                assert!(sat.read::<f64>().expect("read") == cpu, "{what}");
             }
         }
     }
@@ -149,7 +194,8 @@ fn u32_table_is_bit_equal_at_4096() {
 #[test]
 fn odd_sizes_match_cpu_in_every_precision() {
     let ctx = common::context();
-    for (w, h) in [(1, 1), (1, 1000), (1000, 1), (37, 1029), (515, 515)] {
+    // 2100 wide: two whole row tiles of the blocked layout and a partial third.
+    for (w, h) in [(1, 1), (1, 1000), (1000, 1), (37, 1029), (515, 515), (2100, 37)] {
         every_precision_matches_cpu(
             &ctx,
             (w, h),

@@ -1,11 +1,12 @@
-//! CPU twin of the summed-area tables: `glsl/kernels/sat_{rows,cols,row_sums,mean}` (build) and
-//! `glsl/include/sat.glsl` (queries).
+//! CPU twin of the summed-area tables: `glsl/kernels/sat_{rows,cols,row_sums,mean}` and their
+//! `_blocked` layout (build) and `glsl/include/sat.glsl` (queries).
 //!
 //! The table is the inclusive prefix S(x, y) = Σ I(i, j) over i ≤ x, j ≤ y, row-major, built as
-//! the GPU builds it: each row summed left to right, then each column top to bottom. The order
-//! of additions is the same, so float tables are bit-equal to the GPU's given the same centring
-//! offset, and integer tables are bit-equal always (wrap-around sums are exact mod 2^32/2^64
-//! whatever the order).
+//! the GPU builds it: in the serial layout ([`build_f32`] and friends) each row summed left to
+//! right, then each column top to bottom; in the blocked layout ([`build_blocked`]) rows in
+//! tiles scanned by rakers and columns in chunks. The order of additions is the GPU's in each, so
+//! float tables are bit-equal to the GPU's given the same centring offset, and integer tables
+//! are bit-equal always (wrap-around sums are exact mod 2^32/2^64 whatever the order).
 //!
 //! Queries follow the book's four-corner rule with errata 5 applied: the inclusive rectangle
 //! [x0, x1] × [y0, y1] is F(x1+1, y1+1) − F(x0, y1+1) − F(x1+1, y0) + F(x0, y0) with the
@@ -172,6 +173,113 @@ pub fn build_f32(source: &[f32], width: u32, height: u32, offset: f32) -> SatTab
 /// An f64 table of f32 data, `offset` subtracted from each texel first (0: plain).
 pub fn build_f64(source: &[f32], width: u32, height: u32, offset: f32) -> SatTable<f64> {
     build(source, width, height, offset, |v, o| v as f64 - o as f64)
+}
+
+/// Texels per row tile of the blocked layout (`sat_rows_blocked.glsl`: 256 invocations of 4).
+const TILE_INVOCATIONS: usize = 256;
+/// Rakers of a tile's 256 invocation totals, 16 consecutive totals each.
+const RAKERS: usize = 16;
+/// Rows per column chunk (`BLOCKED_CHUNK_ROWS` in `src/kernels/sat.rs`).
+const CHUNK_ROWS: usize = 32;
+
+/// A table built in the blocked layout's order of additions (`sat_rows_blocked.glsl`,
+/// `sat_cols_blocked.glsl`), from the texels as `load` converts them (e.g. `|v| v - offset` for
+/// a float table, or [`fixed_point`]): per row, tiles of 1024 texels, each invocation's 4 texels
+/// summed in turn, the 256 invocation totals scanned by 16 rakers of 16 and the rakers' totals
+/// by one, then carry + (raker prefix + invocation prefix) + texel prefix; per band of
+/// `band_rows` rows (bands restart the chunks), each column's chunks of 32 rows summed, their
+/// sums scanned from the band above's column totals, and each chunk walked again from its
+/// prefix. `offset` is recorded in the table (0 for a plain one).
+pub fn build_blocked<T: SatValue, S: Copy>(
+    source: &[S],
+    (width, height): (u32, u32),
+    band_rows: u32,
+    offset: f32,
+    load: impl Fn(S) -> T,
+) -> SatTable<T> {
+    let (w, h) = (width as usize, height as usize);
+    assert_eq!(source.len(), w * h, "source is not {width}x{height}");
+    let mut data = vec![T::ZERO; w * h];
+    let per_raker = TILE_INVOCATIONS / RAKERS;
+    for y in 0..h {
+        let texel = |x: usize| {
+            if x < w {
+                load(source[y * w + x])
+            } else {
+                T::ZERO
+            }
+        };
+        let mut carry = T::ZERO;
+        for x0 in (0..w).step_by(4 * TILE_INVOCATIONS) {
+            let mut prefixes = [[T::ZERO; 4]; TILE_INVOCATIONS];
+            let mut totals = [T::ZERO; TILE_INVOCATIONS];
+            for (i, l) in prefixes.iter_mut().enumerate() {
+                let x = x0 + 4 * i;
+                l[0] = texel(x);
+                for j in 1..4 {
+                    l[j] = l[j - 1].add(texel(x + j));
+                }
+                totals[i] = l[3];
+            }
+            let mut rakes = [T::ZERO; RAKERS];
+            for (k, rake) in rakes.iter_mut().enumerate() {
+                let mut acc = T::ZERO;
+                for t in &mut totals[k * per_raker..(k + 1) * per_raker] {
+                    let v = *t;
+                    *t = acc;
+                    acc = acc.add(v);
+                }
+                *rake = acc;
+            }
+            let mut tile_total = T::ZERO;
+            for rake in &mut rakes {
+                let v = *rake;
+                *rake = tile_total;
+                tile_total = tile_total.add(v);
+            }
+            for (i, l) in prefixes.iter().enumerate() {
+                let before = carry.add(rakes[i / per_raker].add(totals[i]));
+                for (j, &lj) in l.iter().enumerate() {
+                    if let Some(out) = data[y * w..(y + 1) * w].get_mut(x0 + 4 * i + j) {
+                        *out = before.add(lj);
+                    }
+                }
+            }
+            carry = carry.add(tile_total);
+        }
+    }
+    let band_rows = (band_rows.max(1) as usize).min(h.max(1));
+    let mut carry = vec![T::ZERO; w];
+    for row0 in (0..h).step_by(band_rows) {
+        let rows = band_rows.min(h - row0);
+        let chunks: Vec<(usize, usize)> = (0..rows)
+            .step_by(CHUNK_ROWS)
+            .map(|r| (row0 + r, row0 + (r + CHUNK_ROWS).min(rows)))
+            .collect();
+        for (x, column_carry) in carry.iter_mut().enumerate() {
+            let sums: Vec<T> = chunks
+                .iter()
+                .map(|&(r0, r1)| (r0..r1).fold(T::ZERO, |acc, r| acc.add(data[r * w + x])))
+                .collect();
+            let mut acc = if row0 == 0 { T::ZERO } else { *column_carry };
+            for (&(r0, r1), &sum) in chunks.iter().zip(&sums) {
+                let mut run = acc;
+                for r in r0..r1 {
+                    run = run.add(data[r * w + x]);
+                    data[r * w + x] = run;
+                }
+                acc = acc.add(sum);
+            }
+            *column_carry = acc;
+        }
+    }
+    SatTable {
+        width,
+        height,
+        data,
+        offset,
+        scale: 1.0,
+    }
 }
 
 /// The centring offset as `sat_row_sums.comp` and `sat_mean.comp` compute it: f32 row sums left
@@ -380,6 +488,32 @@ mod tests {
         let src = vec![u32::MAX / 16; (w * h) as usize];
         let t = build_u32(&src, w, h);
         assert_eq!(t.rect_sum([40, 40], [42, 44]), 15 * (u32::MAX / 16));
+    }
+
+    #[test]
+    fn blocked_order_is_exact_for_integers_and_its_own_for_floats() {
+        // Two row tiles and a partial third, chunks across bands of 70 rows.
+        let (w, h) = (2100u32, 150u32);
+        let ints: Vec<u32> = (0..w * h).map(|i| i.wrapping_mul(2654435761u32)).collect();
+        let serial = build_u32(&ints, w, h);
+        assert_eq!(build_blocked(&ints, (w, h), 70, 0.0, |v| v), serial);
+        assert_eq!(build_blocked(&ints, (w, h), u32::MAX, 0.0, |v| v), serial);
+        // Floats: the same sums up to rounding, but not the same bits (so the GPU tests can tell
+        // the two orders apart).
+        let floats: Vec<f32> = ints
+            .iter()
+            .map(|&v| (v >> 8) as f32 / 16_777_216.0)
+            .collect();
+        let serial = build_f32(&floats, w, h, 0.0);
+        let blocked = build_blocked(&floats, (w, h), 70, 0.0, |v| v);
+        assert_ne!(blocked.data, serial.data);
+        for (a, b) in blocked.data.iter().zip(&serial.data) {
+            assert!((a - b).abs() <= 1e-5 * b.abs().max(1.0), "{a} vs {b}");
+        }
+        // The band split changes the column chunks' carries, not the integer result.
+        let exact: Vec<f64> = floats.iter().map(|&v| v as f64).collect();
+        let blocked = build_blocked(&exact, (w, h), 70, 0.0, |v| v);
+        assert_eq!(blocked.data, build_f64(&floats, w, h, 0.0).data);
     }
 
     #[test]

@@ -12,6 +12,7 @@ pub mod reduce;
 pub mod roofline;
 pub mod sat;
 mod sat_bench;
+mod sat_precision;
 pub mod scan;
 mod scan_bench;
 pub mod sort;

@@ -6,15 +6,22 @@
 //! One binding may hold at most `maxStorageBufferRange` bytes (128 MiB on lavapipe, less than an
 //! 8192² table of u32), so the table is split into *bands* of whole rows, each its own buffer.
 //!
-//! **Build.** Two passes per band, both serial along one axis with one invocation per row or
-//! column: rows left to right (`sat_rows_*`), then columns top to bottom (`sat_cols_*`),
-//! continuing each column from the band above through a carry row. It reads the source once and
-//! each entry three times and does no redundant work (the book's recursive doubling, errata 4
-//! applied, reads every entry 2·log2 n times in as many dispatches). Integer tables are exact;
-//! float tables are deterministic, the additions happening in a fixed order — the CPU twin's,
-//! so even f32 tables are bit-equal to it. Serial rows read with a stride, which costs on
-//! discrete GPUs; on lavapipe 8 neighbouring rows share their cache lines, and the column pass
-//! (contiguous) is the slower one.
+//! **Build.** Two passes per band, in one of two layouts ([`SatLayout`], the device's best by
+//! default). *Serial* (CPU-type devices): one invocation per row, left to right (`sat_rows_*`),
+//! then one per column, top to bottom (`sat_cols_*`), continuing each column from the band above
+//! through a carry row; it reads the source once and each entry three times, with no barrier.
+//! *Blocked* (GPUs): a workgroup of [`BLOCKED_GROUP`] per row scanning tiles of 1024 texels with a
+//! raking workgroup scan (`sat_rows_blocked_*`), then the columns in chunks of
+//! [`BLOCKED_CHUNK_ROWS`] rows — chunk sums, a scan of each column's chunk sums from the carry,
+//! a second walk of each chunk (`sat_cols_blocked_*`): one entry read more, but a 1024² table
+//! keeps 1024 workgroups and 32 768 column invocations busy instead of 16 workgroups. Both are
+//! work-efficient (the book's recursive doubling, errata 4 applied, reads every entry 2·log2 n
+//! times in as many dispatches). Integer tables are exact in either; float tables are
+//! deterministic, each layout adding in a fixed order that its CPU twin repeats, so even f32
+//! tables are bit-equal to it. On lavapipe the blocked layout is 2–3× slower (its barriers turn
+//! each workgroup into coroutines), so the serial one is its best; serial rows read with a
+//! stride, which a discrete GPU pays for and lavapipe does not (8 neighbouring rows share their
+//! cache lines).
 //!
 //! **Precision: which variant when.** Max |error| of 5×5 and 33×33 box averages over the whole
 //! image (depth-like input in [0, 1] with edges; moment-like = depth² is similar), measured on
@@ -58,137 +65,14 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::cpu::sat::{SatTable, SatValue};
 use crate::error::{Error, Result};
-use crate::gpu::{Binding, Buffer, Context, DescriptorSet, DeviceInfo, Image, ImageDesc, Pipeline};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline};
 use crate::gpu::{Recorder, Sampler};
 
 pub use super::sat_bench::{bench_rows, sat_precision_rows, SatPrecisionRow};
+pub use super::sat_precision::{SatLayout, SatPrecision};
 
 /// Bands the query include (`glsl/include/sat.glsl`) binds.
 pub const MAX_BANDS: usize = 8;
-
-/// The element type of a summed-area table.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum SatPrecision {
-    /// u32, wrap-around; from an R32_UINT source.
-    U32,
-    /// u64, wrap-around; from an R32_UINT source. Needs `shaderInt64`.
-    U64,
-    /// u32, wrap-around, of a float source (R32_SFLOAT or D32_SFLOAT) in fixed point with this
-    /// many fractional bits: each texel becomes v · 2^bits rounded half to even, clamped to
-    /// [0, 2^32).
-    U32Fixed(u32),
-    /// u64 of a float source in fixed point with this many fractional bits. Needs `shaderInt64`.
-    U64Fixed(u32),
-    /// f32; from an R32_SFLOAT or D32_SFLOAT source.
-    F32,
-    /// f32 with the image mean subtracted before summing; from a float source.
-    F32Centred,
-    /// f64; from a float source. Needs `shaderFloat64`.
-    F64,
-}
-
-impl SatPrecision {
-    /// Every variant (fixed point with 16 and 24 fractional bits).
-    pub const ALL: [SatPrecision; 7] = [
-        Self::U32,
-        Self::U64,
-        Self::U32Fixed(16),
-        Self::U64Fixed(24),
-        Self::F32,
-        Self::F32Centred,
-        Self::F64,
-    ];
-
-    /// Name for tables and bench rows, e.g. `u32`, `u32-fixed16`, `f32-centred`.
-    pub fn name(self) -> String {
-        match self {
-            Self::U32 => "u32".into(),
-            Self::U64 => "u64".into(),
-            Self::U32Fixed(bits) => format!("u32-fixed{bits}"),
-            Self::U64Fixed(bits) => format!("u64-fixed{bits}"),
-            Self::F32 => "f32".into(),
-            Self::F32Centred => "f32-centred".into(),
-            Self::F64 => "f64".into(),
-        }
-    }
-
-    /// Bytes per entry.
-    pub fn element_size(self) -> u64 {
-        match self {
-            Self::U32 | Self::U32Fixed(_) | Self::F32 | Self::F32Centred => 4,
-            Self::U64 | Self::U64Fixed(_) | Self::F64 => 8,
-        }
-    }
-
-    /// Whether entries are wrap-around integers (read back as u32 or u64).
-    pub fn integer(self) -> bool {
-        !matches!(self, Self::F32 | Self::F32Centred | Self::F64)
-    }
-
-    /// Whether the source is an R32_UINT image (else R32_SFLOAT or D32_SFLOAT).
-    pub fn uint_source(self) -> bool {
-        matches!(self, Self::U32 | Self::U64)
-    }
-
-    /// The fixed-point scale 2^bits the source is multiplied by (1 unless fixed point): table
-    /// sums divided by it are in the source's units.
-    pub fn scale(self) -> f64 {
-        match self {
-            Self::U32Fixed(bits) | Self::U64Fixed(bits) => (bits as f64).exp2(),
-            _ => 1.0,
-        }
-    }
-
-    /// Whether the device can build it.
-    pub fn supported(self, info: &DeviceInfo) -> bool {
-        match self {
-            Self::U64 | Self::U64Fixed(_) => info.int64,
-            Self::F64 => info.float64,
-            _ => true,
-        }
-    }
-
-    /// Whether the device can run [`Sat::query`] on it (fractional sums of 64-bit tables are
-    /// computed in double).
-    pub fn query_supported(self, info: &DeviceInfo) -> bool {
-        match self {
-            Self::U64 | Self::U64Fixed(_) => info.int64 && info.float64,
-            _ => self.supported(info),
-        }
-    }
-
-    /// (row pass, column and query passes) shader suffixes.
-    fn shader_suffixes(self) -> (&'static str, &'static str) {
-        match self {
-            Self::U32 => ("u32", "u32"),
-            Self::U64 => ("u64", "u64"),
-            Self::U32Fixed(_) => ("u32_fixed", "u32"),
-            Self::U64Fixed(_) => ("u64_fixed", "u64"),
-            Self::F32 | Self::F32Centred => ("f32", "f32"),
-            Self::F64 => ("f64", "f64"),
-        }
-    }
-
-    fn require(self, ctx: &Context, query: bool) -> Result<()> {
-        let ok = if query {
-            self.query_supported(ctx.info())
-        } else {
-            self.supported(ctx.info())
-        };
-        let what = format!(
-            "{} summed-area tables (shaderInt64/shaderFloat64)",
-            self.name()
-        );
-        ctx.require(ok, &what)?;
-        match self {
-            Self::U32Fixed(bits) | Self::U64Fixed(bits) if bits > 31 => Err(Error::Parameter {
-                technique: "sat".into(),
-                message: format!("{bits} fractional bits (at most 31)"),
-            }),
-            _ => Ok(()),
-        }
-    }
-}
 
 /// `sat_rows.glsl` push constants.
 #[repr(C)]
@@ -217,6 +101,30 @@ pub struct SatColsPush {
     /// 1 for the first band (columns start from 0, not the carry).
     pub first: i32,
 }
+
+/// `sat_cols_blocked.glsl` push constants.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct SatColsBlockedPush {
+    /// Image width and height.
+    pub size: [i32; 2],
+    /// Rows in the band.
+    pub rows: i32,
+    /// 1 for the first band (columns start from 0, not the carry).
+    pub first: i32,
+    /// 0: chunk sums; 1: their exclusive prefixes per column, from the carry; 2: the table.
+    pub phase: i32,
+    /// Rows per chunk ([`BLOCKED_CHUNK_ROWS`]).
+    pub chunk_rows: i32,
+    /// Padding to the block's size.
+    pub pad: [i32; 2],
+}
+
+/// Invocations per row workgroup of [`SatLayout::Blocked`] (`SAT_GROUP`); each sums 4 texels
+/// of a tile.
+pub const BLOCKED_GROUP: u32 = 256;
+/// Rows per column chunk of [`SatLayout::Blocked`] (pushed to `sat_cols_blocked.glsl`).
+pub const BLOCKED_CHUNK_ROWS: u32 = 32;
 
 /// `sat_row_sums.comp` and `sat_mean.comp` push constants.
 #[repr(C)]
@@ -284,10 +192,14 @@ pub struct Sat<'a> {
     pub precision: SatPrecision,
     /// Rows per band (the last band may hold fewer).
     pub rows_per_band: u32,
+    /// How the build shares the work among invocations.
+    pub layout: SatLayout,
     bands: Vec<Buffer>,
     offset: Buffer,
-    // The column sets use it: it must live as long as they do.
+    // The column sets use them: they must live as long as they do. Chunks: the blocked
+    // layout's chunk sums and prefixes (one row per chunk of the tallest band).
     _carry: Buffer,
+    _chunks: Option<Buffer>,
     rows: Pipeline,
     cols: Pipeline,
     row_sets: Vec<DescriptorSet>,
@@ -314,6 +226,24 @@ impl<'a> Sat<'a> {
         source: &'a Image,
         precision: SatPrecision,
         band_rows: u32,
+    ) -> Result<Sat<'a>> {
+        Self::with_layout(
+            ctx,
+            source,
+            precision,
+            band_rows,
+            SatLayout::best(ctx.info()),
+        )
+    }
+
+    /// [`Sat::with_band_rows`] in a given layout instead of the device's best (tests and the
+    /// bench build both).
+    pub fn with_layout(
+        ctx: &Context,
+        source: &'a Image,
+        precision: SatPrecision,
+        band_rows: u32,
+        layout: SatLayout,
     ) -> Result<Sat<'a>> {
         precision.require(ctx, false)?;
         let (width, height) = (source.desc.width, source.desc.height);
@@ -352,9 +282,18 @@ impl<'a> Sat<'a> {
             .collect::<Result<Vec<_>>>()?;
         let offset = Buffer::storage(ctx, "sat offset", 4)?;
         let carry = Buffer::storage(ctx, "sat carry", width as u64 * size)?;
+        let chunks = match layout {
+            SatLayout::Serial => None,
+            SatLayout::Blocked => {
+                let count = rows_per_band.div_ceil(BLOCKED_CHUNK_ROWS) as u64;
+                let bytes = count * width as u64 * size;
+                Some(Buffer::storage(ctx, "sat chunks", bytes)?)
+            }
+        };
         let (row_suffix, suffix) = precision.shader_suffixes();
-        let rows = Pipeline::compute(ctx, &format!("kernels/sat_rows_{row_suffix}.comp"))?;
-        let cols = Pipeline::compute(ctx, &format!("kernels/sat_cols_{suffix}.comp"))?;
+        let (row_stem, col_stem) = layout.shader_stems();
+        let rows = Pipeline::compute(ctx, &format!("kernels/{row_stem}_{row_suffix}.comp"))?;
+        let cols = Pipeline::compute(ctx, &format!("kernels/{col_stem}_{suffix}.comp"))?;
         let sampler = Sampler::nearest_border_white(ctx, "sat source")?;
         let row_sets = bands
             .iter()
@@ -369,11 +308,9 @@ impl<'a> Sat<'a> {
         let col_sets = bands
             .iter()
             .map(|band| {
-                DescriptorSet::new(
-                    ctx,
-                    &cols,
-                    &[Binding::Buffer(band), Binding::Buffer(&carry)],
-                )
+                let mut b = vec![Binding::Buffer(band), Binding::Buffer(&carry)];
+                b.extend(chunks.as_ref().map(Binding::Buffer));
+                DescriptorSet::new(ctx, &cols, &b)
             })
             .collect::<Result<Vec<_>>>()?;
         let mean = if precision == SatPrecision::F32Centred {
@@ -400,9 +337,11 @@ impl<'a> Sat<'a> {
             height,
             precision,
             rows_per_band,
+            layout,
             bands,
             offset,
             _carry: carry,
+            _chunks: chunks,
             rows,
             cols,
             row_sets,
@@ -431,15 +370,38 @@ impl<'a> Sat<'a> {
                 scale: self.precision.scale() as f32,
                 pad: 0,
             };
-            rec.dispatch(&self.rows, set, &push, [rows, 1, 1])?;
+            let threads = match self.layout {
+                SatLayout::Serial => rows,
+                SatLayout::Blocked => rows * BLOCKED_GROUP,
+            };
+            rec.dispatch(&self.rows, set, &push, [threads, 1, 1])?;
         }
         for (k, set) in self.col_sets.iter().enumerate() {
-            let push = SatColsPush {
-                size,
-                rows: self.band_rows(k).1 as i32,
-                first: (k == 0) as i32,
-            };
-            rec.dispatch(&self.cols, set, &push, [self.width, 1, 1])?;
+            let rows = self.band_rows(k).1;
+            let first = (k == 0) as i32;
+            if self.layout == SatLayout::Serial {
+                let push = SatColsPush {
+                    size,
+                    rows: rows as i32,
+                    first,
+                };
+                rec.dispatch(&self.cols, set, &push, [self.width, 1, 1])?;
+                continue;
+            }
+            let chunks = rows.div_ceil(BLOCKED_CHUNK_ROWS);
+            for phase in 0..3 {
+                let push = SatColsBlockedPush {
+                    size,
+                    rows: rows as i32,
+                    first,
+                    phase,
+                    chunk_rows: BLOCKED_CHUNK_ROWS as i32,
+                    pad: [0; 2],
+                };
+                // Phase 1 walks the chunks of a column in one invocation.
+                let threads = [self.width, if phase == 1 { 1 } else { chunks }, 1];
+                rec.dispatch(&self.cols, set, &push, threads)?;
+            }
         }
         Ok(())
     }
@@ -472,11 +434,16 @@ impl<'a> Sat<'a> {
     }
 
     /// Bytes the build reads and writes at least: the source once (twice when centred: the
-    /// mean), each entry written by the row pass, then read and written by the column pass.
+    /// mean), each entry written by the row pass, then read and written by the column pass
+    /// (read twice in the blocked layout: once for the chunk sums).
     pub fn traffic(&self) -> u64 {
         let texels = self.width as u64 * self.height as u64;
         let reads = if self.mean.is_some() { 8 } else { 4 };
-        texels * (reads + 3 * self.precision.element_size())
+        let entry_passes = match self.layout {
+            SatLayout::Serial => 3,
+            SatLayout::Blocked => 4,
+        };
+        texels * (reads + entry_passes * self.precision.element_size())
     }
 
     fn check_type<T: SatValue>(&self) -> Result<()> {
@@ -631,6 +598,17 @@ mod tests {
                 push_size(&format!("kernels/sat_query_{t}.comp")),
                 size_of::<SatQueryPush>()
             );
+        }
+        assert_eq!(offset_of!(SatColsBlockedPush, phase), 16);
+        for t in ["u32", "u64", "u32_fixed", "u64_fixed", "f32", "f64"] {
+            let name = format!("kernels/sat_rows_blocked_{t}.comp");
+            assert_eq!(push_size(&name), size_of::<SatRowsPush>());
+            let local = shader_interface(&name).expect("reflect").1.local_size;
+            assert_eq!(local, [BLOCKED_GROUP, 1, 1], "{name}");
+        }
+        for t in ["u32", "u64", "f32", "f64"] {
+            let name = format!("kernels/sat_cols_blocked_{t}.comp");
+            assert_eq!(push_size(&name), size_of::<SatColsBlockedPush>());
         }
         assert_eq!(
             push_size("kernels/sat_row_sums.comp"),

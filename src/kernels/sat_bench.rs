@@ -11,10 +11,10 @@ use ash::vk;
 
 use super::minmax::MinMaxPyramid;
 use super::nbuffer::NBuffer;
-use super::sat::{source_image, Sat, SatPrecision};
+use super::sat::{source_image, Sat, SatLayout, SatPrecision};
 use super::KernelBenchRow;
+use crate::cpu::sat::{build_blocked, build_u64_fixed, SatTable, SatValue};
 use crate::cpu::sat::{build_f32, build_f64, build_u32, build_u32_fixed, build_u64};
-use crate::cpu::sat::{build_u64_fixed, SatTable, SatValue};
 use crate::error::Result;
 use crate::gpu::{Context, Image, Recorder, Timestamps};
 
@@ -152,7 +152,8 @@ fn same<T: SatValue>(sat: &Sat<'_>, cpu: SatTable<T>) -> Result<bool> {
 }
 
 /// Bench rows of every filtering structure: summed-area tables in each precision the device
-/// has, the N-buffer (levels capped so one fits in ~768 MiB: `nbuffer-minmax-L<levels>`) and
+/// has (`sat-<precision>` in the device's best layout, `sat-<precision>-<layout>` in the other),
+/// the N-buffer (levels capped so one fits in ~768 MiB: `nbuffer-minmax-L<levels>`) and
 /// the min/max pyramid, at 1024² and 4096² (`quick`) or also 8192².
 pub fn bench_rows(ctx: &Context, quick: bool) -> Result<Vec<KernelBenchRow>> {
     let sizes: &[u32] = if quick {
@@ -183,25 +184,45 @@ pub fn bench_rows(ctx: &Context, quick: bool) -> Result<Vec<KernelBenchRow>> {
             } else {
                 &float_src
             };
-            let sat = Sat::new(ctx, source, precision)?;
-            let name = format!("sat-{}", precision.name());
-            let check = || match precision {
-                SatPrecision::U32 => same(&sat, build_u32(&ints, size, size)),
-                SatPrecision::U64 => same(&sat, build_u64(&ints, size, size)),
-                SatPrecision::U32Fixed(bits) => {
-                    same(&sat, build_u32_fixed(&depth, size, size, bits))
+            let best = SatLayout::best(ctx.info());
+            for layout in [best, best.other()] {
+                let sat = Sat::with_layout(ctx, source, precision, u32::MAX, layout)?;
+                let mut name = format!("sat-{}", precision.name());
+                if layout != best {
+                    name = format!("{name}-{}", layout.name());
                 }
-                SatPrecision::U64Fixed(bits) => {
-                    same(&sat, build_u64_fixed(&depth, size, size, bits))
-                }
-                SatPrecision::F32 | SatPrecision::F32Centred => {
-                    let gpu = sat.read::<f32>()?;
-                    Ok(gpu == build_f32(&depth, size, size, gpu.offset))
-                }
-                SatPrecision::F64 => same(&sat, build_f64(&depth, size, size, 0.0)),
-            };
-            let timed = time(ctx, &name, runs, |rec| sat.record(rec), check)?;
-            rows.push(row(&name, size, timed, sat.traffic()));
+                let floats = |offset: f32| match layout {
+                    SatLayout::Serial => build_f32(&depth, size, size, offset),
+                    SatLayout::Blocked => {
+                        let band = sat.rows_per_band;
+                        build_blocked(&depth, (size, size), band, offset, |v| v - offset)
+                    }
+                };
+                let doubles = || match layout {
+                    SatLayout::Serial => build_f64(&depth, size, size, 0.0),
+                    SatLayout::Blocked => {
+                        let band = sat.rows_per_band;
+                        build_blocked(&depth, (size, size), band, 0.0, |v| v as f64)
+                    }
+                };
+                let check = || match precision {
+                    SatPrecision::U32 => same(&sat, build_u32(&ints, size, size)),
+                    SatPrecision::U64 => same(&sat, build_u64(&ints, size, size)),
+                    SatPrecision::U32Fixed(bits) => {
+                        same(&sat, build_u32_fixed(&depth, size, size, bits))
+                    }
+                    SatPrecision::U64Fixed(bits) => {
+                        same(&sat, build_u64_fixed(&depth, size, size, bits))
+                    }
+                    SatPrecision::F32 | SatPrecision::F32Centred => {
+                        let gpu = sat.read::<f32>()?;
+                        Ok(gpu == floats(gpu.offset))
+                    }
+                    SatPrecision::F64 => same(&sat, doubles()),
+                };
+                let timed = time(ctx, &name, runs, |rec| sat.record(rec), check)?;
+                rows.push(row(&name, size, timed, sat.traffic()));
+            }
         }
         // One N-buffer level of 8 bytes per texel per level; keep the levels within ~768 MiB.
         let budget = (768u64 << 20) / (size as u64 * size as u64 * 8);

@@ -1,0 +1,6 @@
+#version 460
+// Summed-area table row pass of the blocked layout, float entries (see sat_rows_blocked.glsl).
+// Built by src/kernels/sat.rs.
+#extension GL_GOOGLE_include_directive : require
+#define SAT_T float
+#include "sat_rows_blocked.glsl"

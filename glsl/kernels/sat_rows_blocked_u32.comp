@@ -1,0 +1,7 @@
+#version 460
+// Summed-area table row pass of the blocked layout, uint entries (see sat_rows_blocked.glsl).
+// Built by src/kernels/sat.rs.
+#extension GL_GOOGLE_include_directive : require
+#define SAT_T uint
+#define SAT_SRC_UINT
+#include "sat_rows_blocked.glsl"

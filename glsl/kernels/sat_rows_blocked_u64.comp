@@ -1,0 +1,8 @@
+#version 460
+// Summed-area table row pass of the blocked layout, uint64_t entries (see sat_rows_blocked.glsl).
+// Built by src/kernels/sat.rs.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#define SAT_T uint64_t
+#define SAT_SRC_UINT
+#include "sat_rows_blocked.glsl"

@@ -1,0 +1,43 @@
+// Summed-area tables: the row passes' source image, band, push block and texel conversion,
+// shared by the serial (sat_rows.glsl) and blocked (sat_rows_blocked.glsl) layouts. Defines:
+// SAT_T (stored type); SAT_SRC_UINT (a uint source image) or SAT_FIXED (a float source, R32F or
+// D32, rounded to fixed point: v * scale rounded half to even, clamped to [0, 2^32)); else a
+// float source from which the centring offset is subtracted before summing.
+
+#ifdef SAT_SRC_UINT
+layout(set = 0, binding = 0) uniform usampler2D source;
+#else
+layout(set = 0, binding = 0) uniform sampler2D source;
+#endif
+layout(set = 0, binding = 1) writeonly buffer Band { SAT_T band[]; };
+#if !defined(SAT_SRC_UINT) && !defined(SAT_FIXED)
+#define SAT_FLOAT
+// The centring offset (0 for a plain table), written by sat_mean.comp or filled by the host.
+layout(set = 0, binding = 2) readonly buffer Offset { float offset; };
+#endif
+
+layout(push_constant) uniform Push {
+    ivec2 size;
+    // First image row of this band, and the rows it holds.
+    int row0;
+    int rows;
+    // SAT_FIXED: 2^bits.
+    float scale;
+    int pad;
+} pc;
+
+// Texel (x, y) as the table sums it.
+SAT_T sat_texel(int x, int y) {
+#if defined(SAT_SRC_UINT)
+    return SAT_T(texelFetch(source, ivec2(x, y), 0).r);
+#elif defined(SAT_FIXED)
+    // The product is exact (scale is a power of two), so rounding it half-to-even is
+    // deterministic (v * scale + 0.5 would round twice). 4294967040: the largest float below
+    // 2^32.
+    float v = roundEven(texelFetch(source, ivec2(x, y), 0).r * pc.scale);
+    return SAT_T(uint(clamp(v, 0.0, 4294967040.0)));
+#else
+    precise SAT_T v = SAT_T(texelFetch(source, ivec2(x, y), 0).r) - SAT_T(offset);
+    return v;
+#endif
+}

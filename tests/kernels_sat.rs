@@ -9,7 +9,7 @@ use penumbra::cpu::sat::{brute_box_sum, build_f32, build_f64, build_u32, build_u
 use penumbra::cpu::sat::{build_blocked, build_u64, build_u64_fixed, fixed_point, SatTable};
 use penumbra::gpu::{Context, Image};
 use penumbra::kernels::minmax::MinMaxPyramid;
-use penumbra::kernels::nbuffer::NBuffer;
+use penumbra::kernels::nbuffer::{NBuffer, NBufferLayout};
 use penumbra::kernels::sat::{source_image, Sat, SatLayout, SatPrecision, SatRect};
 
 /// splitmix64.
@@ -195,7 +195,14 @@ fn u32_table_is_bit_equal_at_4096() {
 fn odd_sizes_match_cpu_in_every_precision() {
     let ctx = common::context();
     // 2100 wide: two whole row tiles of the blocked layout and a partial third.
-    for (w, h) in [(1, 1), (1, 1000), (1000, 1), (37, 1029), (515, 515), (2100, 37)] {
+    for (w, h) in [
+        (1, 1),
+        (1, 1000),
+        (1000, 1),
+        (37, 1029),
+        (515, 515),
+        (2100, 37),
+    ] {
         every_precision_matches_cpu(
             &ctx,
             (w, h),
@@ -466,20 +473,25 @@ fn random_source(
 fn nbuffer_levels_and_queries_match_brute_force() {
     let ctx = common::context();
     let (w, h) = (300, 173);
-    for (format, max_level) in [
-        (vk::Format::R32_SFLOAT, None),
-        (vk::Format::D32_SFLOAT, None),
-        (vk::Format::R32_SFLOAT, Some(2)),
+    // Both layouts; the tiled one with fewer levels than a tile builds (2) and tiles cut by the
+    // edges (300 and 173 are not multiples of 16).
+    for (format, max_level, layout) in [
+        (vk::Format::R32_SFLOAT, None, NBufferLayout::Walk),
+        (vk::Format::D32_SFLOAT, None, NBufferLayout::Walk),
+        (vk::Format::R32_SFLOAT, Some(2), NBufferLayout::Walk),
+        (vk::Format::R32_SFLOAT, None, NBufferLayout::Tiled),
+        (vk::Format::D32_SFLOAT, Some(4), NBufferLayout::Tiled),
+        (vk::Format::R32_SFLOAT, Some(2), NBufferLayout::Tiled),
     ] {
         let (data, source) = random_source(&ctx, format, w, h, 21);
-        let nb = NBuffer::new(&ctx, &source, max_level).expect("nbuffer");
+        let nb = NBuffer::with_layout(&ctx, &source, max_level, layout).expect("nbuffer");
         ctx.submit(None, |rec| nb.record(rec)).expect("build");
         assert_eq!(nb.max_level, max_level.unwrap_or(full_levels(w, h) - 1));
         let cpu = penumbra::cpu::nbuffer::build(&data, w, h, nb.max_level);
         for l in 1..=nb.max_level {
             assert!(
                 nb.read_level(l).expect("read") == cpu.levels[l as usize],
-                "{format:?} level {l}"
+                "{format:?} {layout:?} level {l}"
             );
         }
         let mut rng = Rng(5);
@@ -513,7 +525,7 @@ fn nbuffer_levels_and_queries_match_brute_force() {
     }
     // One texel wide: no level above the source, queries read it alone.
     let (data, source) = random_source(&ctx, vk::Format::R32_SFLOAT, 1, 37, 2);
-    let nb = NBuffer::new(&ctx, &source, None).expect("nbuffer");
+    let nb = NBuffer::with_layout(&ctx, &source, None, NBufferLayout::Tiled).expect("nbuffer");
     assert_eq!(nb.max_level, 0);
     ctx.submit(None, |rec| nb.record(rec)).expect("build");
     let squares = [[0, 0, 1], [0, 5, 4], [-3, 30, 10]];

@@ -9,7 +9,12 @@
 //! level of a 8192² map (512 MiB) exceeds one buffer binding. Level l + 1 combines four level-l
 //! windows d = 2^l apart (one dispatch per level, reading the level below: ping-pong); each
 //! invocation walks a column down a chain of rows d apart, so every horizontal pair it reads
-//! serves two outputs (`glsl/kernels/nbuffer_build.glsl`).
+//! serves two outputs (`glsl/kernels/nbuffer_build.glsl`). In the [`NBufferLayout::Tiled`]
+//! layout (GPUs) the first four levels come from one dispatch instead of four: each workgroup
+//! builds them for a 16² tile in shared memory from one load of the source (31² texels,
+//! `glsl/kernels/nbuffer_tile.comp`); on lavapipe, where shared memory and barriers cost what
+//! they save, the walk alone is the best layout. Min and max are exact: both layouts give the
+//! same bits.
 //!
 //! Memory is L × w × h × 8 bytes — 13 levels of a 4096² map are 1.6 GiB — so
 //! [`NBuffer::new`] takes the highest level wanted: queries on larger squares stay exact, they
@@ -39,6 +44,62 @@ pub struct NBufferBuildPush {
     pub step: i32,
     /// Padding to the block's size.
     pub pad: i32,
+}
+
+/// Levels `nbuffer_tile.comp` builds in one dispatch (its `TILE_LEVELS`), and its tile side.
+pub const TILE_LEVELS: u32 = 4;
+const TILE: u32 = 16;
+
+/// `nbuffer_tile.comp` push constants.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct NBufferTilePush {
+    /// Image width and height.
+    pub size: [i32; 2],
+    /// Levels to build, 1 ..= [`TILE_LEVELS`].
+    pub levels: i32,
+    /// Padding to the block's size.
+    pub pad: i32,
+}
+
+/// How an N-buffer's levels are built. Both give the same levels bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NBufferLayout {
+    /// One dispatch per level, each invocation walking a column (no shared memory, no
+    /// barrier): for devices that run a workgroup on one CPU thread.
+    Walk,
+    /// Levels 1 ..= [`TILE_LEVELS`] in one dispatch from shared-memory tiles, the rest walked:
+    /// for GPUs.
+    Tiled,
+}
+
+impl NBufferLayout {
+    /// [`NBufferLayout::Walk`] on a device that runs workgroups on CPU threads
+    /// ([`crate::gpu::DeviceInfo::runs_workgroups_on_cpu_threads`]), else
+    /// [`NBufferLayout::Tiled`].
+    pub fn best(ctx: &Context) -> NBufferLayout {
+        if ctx.info().runs_workgroups_on_cpu_threads() {
+            NBufferLayout::Walk
+        } else {
+            NBufferLayout::Tiled
+        }
+    }
+
+    /// `walk` or `tiled` (bench row names).
+    pub fn name(self) -> &'static str {
+        match self {
+            NBufferLayout::Walk => "walk",
+            NBufferLayout::Tiled => "tiled",
+        }
+    }
+
+    /// The other layout.
+    pub fn other(self) -> NBufferLayout {
+        match self {
+            NBufferLayout::Walk => NBufferLayout::Tiled,
+            NBufferLayout::Tiled => NBufferLayout::Walk,
+        }
+    }
 }
 
 /// `nbuffer_query.comp` push constants.
@@ -160,10 +221,14 @@ pub struct NBuffer<'a> {
     pub height: u32,
     /// The highest level built (0: the source only).
     pub max_level: u32,
+    /// How the levels are built.
+    pub layout: NBufferLayout,
     levels: Vec<(Image, Image)>,
     first: Pipeline,
     next: Pipeline,
     sets: Vec<DescriptorSet>,
+    // Tiled layout: the first levels' pass.
+    tile: Option<(Pipeline, DescriptorSet)>,
     sampler: Sampler,
     source: &'a Image,
 }
@@ -172,6 +237,17 @@ impl<'a> NBuffer<'a> {
     /// Creates levels 1 ..= `max_level` (`None`: every level a query can use, 1 + floor(log2 of
     /// the shorter side)) for `source`, a sampled R32F or D32 image.
     pub fn new(ctx: &Context, source: &'a Image, max_level: Option<u32>) -> Result<NBuffer<'a>> {
+        Self::with_layout(ctx, source, max_level, NBufferLayout::best(ctx))
+    }
+
+    /// [`NBuffer::new`] in a given layout instead of the device's best (tests and the bench build
+    /// both).
+    pub fn with_layout(
+        ctx: &Context,
+        source: &'a Image,
+        max_level: Option<u32>,
+        layout: NBufferLayout,
+    ) -> Result<NBuffer<'a>> {
         check_source(ctx, source, "an N-buffer")?;
         let (width, height) = (source.desc.width, source.desc.height);
         let useful = full_levels(width, height) - 1;
@@ -189,11 +265,26 @@ impl<'a> NBuffer<'a> {
         let next = Pipeline::compute(ctx, "kernels/nbuffer_next.comp")?;
         let sampler = Sampler::nearest_border_white(ctx, "nbuffer source")?;
         let sets = chain_sets(ctx, &first, &next, source, &sampler, &levels)?;
+        let tile = match (layout, levels.last()) {
+            (NBufferLayout::Tiled, Some(top)) => {
+                let pipeline = Pipeline::compute(ctx, "kernels/nbuffer_tile.comp")?;
+                // Levels past the highest built repeat it (the shader does not write them).
+                let level = |l: usize| levels.get(l).unwrap_or(top);
+                let mut bindings = vec![Binding::Sampled(source, &sampler)];
+                bindings.extend((0..TILE_LEVELS as usize).map(|l| Binding::Image(&level(l).0)));
+                bindings.extend((0..TILE_LEVELS as usize).map(|l| Binding::Image(&level(l).1)));
+                let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
+                Some((pipeline, set))
+            }
+            _ => None,
+        };
         Ok(NBuffer {
             ctx: ctx.clone(),
             width,
             height,
             max_level,
+            layout,
+            tile,
             levels,
             first,
             next,
@@ -205,7 +296,22 @@ impl<'a> NBuffer<'a> {
 
     /// Records the build: one dispatch per level (no pass of its own).
     pub fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
-        for (l, set) in self.sets.iter().enumerate() {
+        let mut tiled = 0;
+        if let Some((pipeline, set)) = &self.tile {
+            tiled = self.max_level.min(TILE_LEVELS);
+            let push = NBufferTilePush {
+                size: [self.width as i32, self.height as i32],
+                levels: tiled as i32,
+                pad: 0,
+            };
+            let threads = [
+                self.width.next_multiple_of(TILE),
+                self.height.next_multiple_of(TILE),
+                1,
+            ];
+            rec.dispatch(pipeline, set, &push, threads)?;
+        }
+        for (l, set) in self.sets.iter().enumerate().skip(tiled as usize) {
             // Level l + 1 reads level l's windows, 2^l apart.
             let push = NBufferBuildPush {
                 size: [self.width as i32, self.height as i32],
@@ -241,11 +347,23 @@ impl<'a> NBuffer<'a> {
     }
 
     /// Bytes the build reads and writes at least: level 1 reads the source (4 B/texel), later
-    /// levels the level below (8 B); each writes 8 B per texel.
+    /// levels the level below (8 B) — but the tiled levels read only the source, once; each
+    /// level writes 8 B per texel.
     pub fn traffic(&self) -> u64 {
         let texels = self.width as u64 * self.height as u64;
-        (0..self.max_level as u64)
-            .map(|l| texels * if l == 0 { 12 } else { 16 })
+        let tiled = self
+            .tile
+            .as_ref()
+            .map_or(0, |_| self.max_level.min(TILE_LEVELS));
+        (0..self.max_level)
+            .map(|l| {
+                let read = match l {
+                    0 => 4,
+                    _ if l < tiled => 0,
+                    _ => 8,
+                };
+                texels * (read + 8)
+            })
             .sum()
     }
 
@@ -309,9 +427,14 @@ mod tests {
             ("kernels/nbuffer_first.comp", size_of::<NBufferBuildPush>()),
             ("kernels/nbuffer_next.comp", size_of::<NBufferBuildPush>()),
             ("kernels/nbuffer_query.comp", size_of::<NBufferQueryPush>()),
+            ("kernels/nbuffer_tile.comp", size_of::<NBufferTilePush>()),
         ] {
             let (_, i) = shader_interface(name).expect("reflect");
             assert_eq!(i.push_constant_size as usize, size, "{name}");
         }
+        let (_, tile) = shader_interface("kernels/nbuffer_tile.comp").expect("reflect");
+        assert_eq!(tile.local_size, [TILE, TILE, 1]);
+        // The source and a (min, max) pair per tiled level.
+        assert_eq!(tile.bindings.len(), 1 + 2 * TILE_LEVELS as usize);
     }
 }

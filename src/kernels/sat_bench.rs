@@ -10,7 +10,7 @@
 use ash::vk;
 
 use super::minmax::MinMaxPyramid;
-use super::nbuffer::NBuffer;
+use super::nbuffer::{NBuffer, NBufferLayout};
 use super::sat::{source_image, Sat, SatLayout, SatPrecision};
 use super::KernelBenchRow;
 use crate::cpu::sat::{build_blocked, build_u64_fixed, SatTable, SatValue};
@@ -153,7 +153,8 @@ fn same<T: SatValue>(sat: &Sat<'_>, cpu: SatTable<T>) -> Result<bool> {
 
 /// Bench rows of every filtering structure: summed-area tables in each precision the device
 /// has (`sat-<precision>` in the device's best layout, `sat-<precision>-<layout>` in the other),
-/// the N-buffer (levels capped so one fits in ~768 MiB: `nbuffer-minmax-L<levels>`) and
+/// the N-buffer (levels capped so one fits in ~768 MiB: `nbuffer-minmax-L<levels>`, and
+/// `-<layout>` in the layout that is not the device's best) and
 /// the min/max pyramid, at 1024² and 4096² (`quick`) or also 8192².
 pub fn bench_rows(ctx: &Context, quick: bool) -> Result<Vec<KernelBenchRow>> {
     let sizes: &[u32] = if quick {
@@ -226,24 +227,25 @@ pub fn bench_rows(ctx: &Context, quick: bool) -> Result<Vec<KernelBenchRow>> {
         }
         // One N-buffer level of 8 bytes per texel per level; keep the levels within ~768 MiB.
         let budget = (768u64 << 20) / (size as u64 * size as u64 * 8);
-        let nb = NBuffer::new(ctx, &float_src, Some(budget as u32))?;
-        let check = || {
-            let cpu = crate::cpu::nbuffer::build(&depth, size, size, nb.max_level);
-            for l in 1..=nb.max_level {
-                if nb.read_level(l)? != cpu.levels[l as usize] {
-                    return Ok(false);
+        let best = NBufferLayout::best(ctx);
+        for layout in [best, best.other()] {
+            let nb = NBuffer::with_layout(ctx, &float_src, Some(budget as u32), layout)?;
+            let check = || {
+                let cpu = crate::cpu::nbuffer::build(&depth, size, size, nb.max_level);
+                for l in 1..=nb.max_level {
+                    if nb.read_level(l)? != cpu.levels[l as usize] {
+                        return Ok(false);
+                    }
                 }
+                Ok(true)
+            };
+            let timed = time(ctx, "nbuffer", runs, |rec| nb.record(rec), check)?;
+            let mut name = format!("nbuffer-minmax-L{}", nb.max_level);
+            if layout != best {
+                name = format!("{name}-{}", layout.name());
             }
-            Ok(true)
-        };
-        let timed = time(ctx, "nbuffer", runs, |rec| nb.record(rec), check)?;
-        rows.push(row(
-            &format!("nbuffer-minmax-L{}", nb.max_level),
-            size,
-            timed,
-            nb.traffic(),
-        ));
-        drop(nb);
+            rows.push(row(&name, size, timed, nb.traffic()));
+        }
         let pyramid = MinMaxPyramid::new(ctx, &float_src)?;
         let check = || {
             let cpu = crate::cpu::minmax::build(&depth, size, size);

@@ -1,12 +1,19 @@
-// Summed-area table, pass 2 of 2: the inclusive prefix sum down each column of one band of row
-// prefixes, one invocation per column, top to bottom; neighbouring invocations touch neighbouring
-// addresses. Bands are processed in order: `carry` holds the last row of the band above (the
-// column totals so far), so the table may span several buffers. Define SAT_T.
+// Summed-area table, pass 2 of 2 (serial layout): the inclusive prefix sum down each column of
+// one band of row prefixes, top to bottom; neighbouring invocations touch neighbouring
+// addresses. When the width is a multiple of 4 each invocation takes 4 neighbouring columns,
+// loading and storing them as one SAT_T4 (on lavapipe a buffer access inside a loop is a scalar
+// loop over the SIMD lanes, so one access for four entries is what counts); else one column.
+// Bands are processed in order: `carry` holds the last row of the band above (the column totals
+// so far), so the table may span several buffers. Each column adds in the same order either way.
+// Define SAT_T and SAT_T4.
 
 layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 0) buffer Band { SAT_T band[]; };
 layout(set = 0, binding = 1) buffer Carry { SAT_T carry[]; };
+// The same two buffers four entries at a time (bound twice by the host).
+layout(set = 0, binding = 2) buffer Band4 { SAT_T4 band4[]; };
+layout(set = 0, binding = 3) buffer Carry4 { SAT_T4 carry4[]; };
 
 layout(push_constant) uniform Push {
     ivec2 size;
@@ -17,11 +24,25 @@ layout(push_constant) uniform Push {
 
 void main() {
     int x = int(gl_GlobalInvocationID.x);
+    if (pc.size.x % 4 == 0) {
+        uint w4 = uint(pc.size.x / 4);
+        if (x >= int(w4)) {
+            return;
+        }
+        precise SAT_T4 acc = pc.first != 0 ? SAT_T4(0) : carry4[x];
+        for (int r = 0; r < pc.rows; ++r) {
+            uint i = uint(r) * w4 + uint(x);
+            acc += band4[i];
+            band4[i] = acc;
+        }
+        carry4[x] = acc;
+        return;
+    }
     if (x >= pc.size.x) {
         return;
     }
     uint w = uint(pc.size.x);
-    SAT_T acc = pc.first != 0 ? SAT_T(0) : carry[x];
+    precise SAT_T acc = pc.first != 0 ? SAT_T(0) : carry[x];
     for (int r = 0; r < pc.rows; ++r) {
         uint i = uint(r) * w + uint(x);
         acc += band[i];

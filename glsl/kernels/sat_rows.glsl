@@ -15,6 +15,18 @@ void main() {
     int y = pc.row0 + r;
     uint base = uint(r) * uint(pc.size.x);
     precise SAT_T acc = SAT_T(0);
+    if (pc.size.x % 4 == 0) {
+        // Four prefixes a store (see sat_cols.glsl: one buffer access for four entries).
+        uint base4 = base / 4u;
+        for (int x = 0; x < pc.size.x; x += 4) {
+            precise SAT_T a0 = acc + sat_texel(x, y);
+            precise SAT_T a1 = a0 + sat_texel(x + 1, y);
+            precise SAT_T a2 = a1 + sat_texel(x + 2, y);
+            acc = a2 + sat_texel(x + 3, y);
+            band4[base4 + uint(x / 4)] = SAT_T4(a0, a1, a2, acc);
+        }
+        return;
+    }
     for (int x = 0; x < pc.size.x; ++x) {
         acc += sat_texel(x, y);
         band[base + uint(x)] = acc;

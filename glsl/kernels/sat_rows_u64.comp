@@ -3,5 +3,6 @@
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #define SAT_T uint64_t
+#define SAT_T4 u64vec4
 #define SAT_SRC_UINT
 #include "sat_rows.glsl"

@@ -10,6 +10,10 @@ layout(set = 0, binding = 0) uniform usampler2D source;
 layout(set = 0, binding = 0) uniform sampler2D source;
 #endif
 layout(set = 0, binding = 1) writeonly buffer Band { SAT_T band[]; };
+#ifdef SAT_T4
+// The same band four entries at a time (bound twice by the host).
+layout(set = 0, binding = 3) writeonly buffer Band4 { SAT_T4 band4[]; };
+#endif
 #if !defined(SAT_SRC_UINT) && !defined(SAT_FIXED)
 #define SAT_FLOAT
 // The centring offset (0 for a plain table), written by sat_mean.comp or filled by the host.

@@ -107,6 +107,9 @@ impl Compact {
                 Binding::Buffer(scan.block_offsets()),
                 Binding::Buffer(indices),
                 Binding::Buffer(count),
+                // Whole quads of flags and offsets, four at a time.
+                Binding::Buffer(flags),
+                Binding::Buffer(&local),
             ],
         )?;
         Ok(CompactBinding {
@@ -123,8 +126,8 @@ impl Compact {
         self.scan
             .record_blocks(rec, &binding.scan, ScanKind::Exclusive, true, false)?;
         let push = CompactPush { n: binding.len };
-        // With no flags one invocation still runs, to write a count of 0.
-        let threads = binding.len.max(1);
+        // Four elements an invocation; with no flags one still runs, to write a count of 0.
+        let threads = binding.len.div_ceil(4).max(1);
         rec.dispatch(&self.scatter, &binding.scatter_set, &push, [threads, 1, 1])
     }
 

@@ -11,6 +11,12 @@
 //! scan followed by a scatter. Stable by construction: offsets increase with the index.
 //! Traffic ≈ 5 × 4 bytes per element plus 4 per kept element.
 //!
+//! With the serial scan ([`ScanVariant::Serial`], devices that run a workgroup on one CPU
+//! thread) compaction keeps no per-element offsets at all (`compact_serial.comp`): one
+//! invocation per block counts its kept flags, the block counts are scanned, and the same
+//! invocation walks its block again writing the kept indices in order — the flags read twice,
+//! nothing else per element (≈ 2 × 4 bytes per element plus 4 per kept element).
+//!
 //! Use: [`Compact::new`] once, [`Compact::bind`] to the flags and the output buffers, then
 //! [`Compact::record`] as often as needed; [`Compact::run`] is the upload/run/readback
 //! convenience. The scan variant follows [`ScanVariant::best`] unless forced.
@@ -31,14 +37,26 @@ pub struct CompactPush {
     pub n: u32,
 }
 
+/// Push constants of `kernels/compact_serial.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct CompactSerialPush {
+    /// Elements in the flag buffer.
+    pub n: u32,
+    /// 0: count each block's kept flags; 1: write the kept indices.
+    pub phase: u32,
+}
+
 /// A [`Compact`] bound to flags and outputs, with the scan's scratch. The bound buffers must
 /// stay alive while recordings that use the binding execute.
 pub struct CompactBinding {
     len: u32,
     scan: ScanBinding,
     scatter_set: DescriptorSet,
-    /// Block-local exclusive offsets of the kept elements.
+    /// Block-local exclusive offsets of the kept elements (serial: the blocks' kept counts).
     _local: Buffer,
+    /// Serial: the scanned block counts.
+    _offsets: Option<Buffer>,
 }
 
 impl CompactBinding {
@@ -55,6 +73,11 @@ impl CompactBinding {
     /// Bytes read and written by [`Compact::record`] when `kept` elements are kept.
     pub fn traffic_bytes(&self, kept: u64) -> u64 {
         let blocks = (self.len as u64).div_ceil(SCAN_BLOCK as u64);
+        if self._offsets.is_some() {
+            // Serial: read the flags twice, a count and an offset per block (scanned), write the
+            // kept indices and the count.
+            return 8 * self.len as u64 + self.scan.traffic_bytes(true) + 8 * blocks + 4 * kept + 4;
+        }
         // Scan without level-0 propagation, then the scatter: read flags and local offsets,
         // one block offset per block, write the kept indices and the count.
         self.scan.traffic_bytes(false) + 8 * self.len as u64 + 4 * blocks + 4 * kept + 4
@@ -66,6 +89,8 @@ pub struct Compact {
     ctx: Context,
     scan: Scan,
     scatter: Pipeline,
+    /// With the serial scan: the block-walking kernel (`compact_serial.comp`).
+    serial: Option<Pipeline>,
 }
 
 impl Compact {
@@ -76,10 +101,15 @@ impl Compact {
 
     /// Pipelines with the given scan variant.
     pub fn with_variant(ctx: &Context, variant: ScanVariant) -> Result<Compact> {
+        let serial = match variant {
+            ScanVariant::Serial => Some(Pipeline::compute(ctx, "kernels/compact_serial.comp")?),
+            _ => None,
+        };
         Ok(Compact {
             ctx: ctx.clone(),
             scan: Scan::with_variant(ctx, variant)?,
             scatter: Pipeline::compute(ctx, "kernels/compact_scatter.comp")?,
+            serial,
         })
     }
 
@@ -96,6 +126,32 @@ impl Compact {
         check_buffer("compact", flags, 4 * len as u64)?;
         check_buffer("compact", indices, 4 * len as u64)?;
         check_buffer("compact", count, 4)?;
+        if let Some(serial) = &self.serial {
+            let blocks = len.div_ceil(SCAN_BLOCK).max(1);
+            let counts = Buffer::storage(&self.ctx, "compact block counts", 4 * blocks as u64)?;
+            let offsets = Buffer::storage(&self.ctx, "compact block offsets", 4 * blocks as u64)?;
+            let scan = self.scan.bind(&counts, &offsets, blocks)?;
+            let set = DescriptorSet::new(
+                &self.ctx,
+                serial,
+                &[
+                    Binding::Buffer(flags),
+                    Binding::Buffer(&counts),
+                    Binding::Buffer(&offsets),
+                    Binding::Buffer(indices),
+                    Binding::Buffer(count),
+                    // The flags again, four at a time.
+                    Binding::Buffer(flags),
+                ],
+            )?;
+            return Ok(CompactBinding {
+                len,
+                scan,
+                scatter_set: set,
+                _local: counts,
+                _offsets: Some(offsets),
+            });
+        }
         let local = Buffer::storage(&self.ctx, "compact local offsets", 4 * len as u64)?;
         let scan = self.scan.bind(flags, &local, len)?;
         let scatter_set = DescriptorSet::new(
@@ -117,12 +173,26 @@ impl Compact {
             scan,
             scatter_set,
             _local: local,
+            _offsets: None,
         })
     }
 
     /// Records the compaction: afterwards `indices[0..count]` are the kept indices, ascending.
     /// Entries past the count are left as they were.
     pub fn record(&self, rec: &mut Recorder<'_>, binding: &CompactBinding) -> Result<()> {
+        if let Some(serial) = &self.serial {
+            let blocks = binding.len.div_ceil(SCAN_BLOCK).max(1);
+            let set = &binding.scatter_set;
+            let push = |phase| CompactSerialPush {
+                n: binding.len,
+                phase,
+            };
+            rec.dispatch(serial, set, &push(0), [blocks, 1, 1])?;
+            if binding.len > 0 {
+                self.scan.record(rec, &binding.scan, ScanKind::Exclusive)?;
+            }
+            return rec.dispatch(serial, set, &push(1), [blocks, 1, 1]);
+        }
         self.scan
             .record_blocks(rec, &binding.scan, ScanKind::Exclusive, true, false)?;
         let push = CompactPush { n: binding.len };
@@ -166,6 +236,13 @@ mod tests {
         assert_eq!(
             declared.push_constant_size as usize,
             size_of::<CompactPush>()
+        );
+        let serial = shader_interface("kernels/compact_serial.comp")
+            .expect("embedded shader")
+            .1;
+        assert_eq!(
+            serial.push_constant_size as usize,
+            size_of::<CompactSerialPush>()
         );
     }
 }

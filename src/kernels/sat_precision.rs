@@ -86,8 +86,8 @@ impl SatPrecision {
         }
     }
 
-    /// Whether the device can run [`Sat::query`] on it (fractional sums of 64-bit tables are
-    /// computed in double).
+    /// Whether the device can run [`Sat::query`](crate::kernels::sat::Sat::query) on it
+    /// (fractional sums of 64-bit tables are computed in double).
     pub fn query_supported(self, info: &DeviceInfo) -> bool {
         match self {
             Self::U64 | Self::U64Fixed(_) => info.int64 && info.float64,
@@ -128,10 +128,11 @@ impl SatPrecision {
     }
 }
 
-/// How a table's build shares its rows and columns among invocations. Both give the same table,
-/// bit for bit in every precision against their CPU twins ([`crate::cpu::sat::build`] and
-/// [`crate::cpu::sat::build_blocked`]); integer and fixed-point tables (exact) are the same in
-/// both, float tables differ only in the order of their additions.
+/// How a table's build shares its rows and columns among invocations. Each matches its CPU twin
+/// bit for bit in every precision ([`crate::cpu::sat::build_f32`] and friends for the serial
+/// layout, [`crate::cpu::sat::build_blocked`] for the blocked one); integer and fixed-point
+/// tables (exact) are the same in both, float tables differ only in the order of their
+/// additions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SatLayout {
     /// One invocation per row, left to right, then one per column, top to bottom: no shared

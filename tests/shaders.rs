@@ -588,12 +588,20 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             twin!(compact::CompactPush { n }),
         ),
         (
+            vec!["kernels/compact_serial.comp"],
+            twin!(compact::CompactSerialPush { n, phase }),
+        ),
+        (
             vec!["kernels/minmax_first.comp", "kernels/minmax_next.comp"],
             twin!(minmax::MinMaxPush { src_size, dst_size }),
         ),
         (
             vec!["kernels/nbuffer_first.comp", "kernels/nbuffer_next.comp"],
             twin!(nbuffer::NBufferBuildPush { size, step, pad }),
+        ),
+        (
+            vec!["kernels/nbuffer_tile.comp"],
+            twin!(nbuffer::NBufferTilePush { size, levels, pad }),
         ),
         (
             vec!["kernels/nbuffer_query.comp"],
@@ -634,6 +642,12 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "kernels/sat_rows_u64.comp",
                 "kernels/sat_rows_u32_fixed.comp",
                 "kernels/sat_rows_u64_fixed.comp",
+                "kernels/sat_rows_blocked_f32.comp",
+                "kernels/sat_rows_blocked_f64.comp",
+                "kernels/sat_rows_blocked_u32.comp",
+                "kernels/sat_rows_blocked_u64.comp",
+                "kernels/sat_rows_blocked_u32_fixed.comp",
+                "kernels/sat_rows_blocked_u64_fixed.comp",
             ],
             twin!(sat::SatRowsPush {
                 size,
@@ -651,6 +665,22 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "kernels/sat_cols_u64.comp",
             ],
             twin!(sat::SatColsPush { size, rows, first }),
+        ),
+        (
+            vec![
+                "kernels/sat_cols_blocked_f32.comp",
+                "kernels/sat_cols_blocked_f64.comp",
+                "kernels/sat_cols_blocked_u32.comp",
+                "kernels/sat_cols_blocked_u64.comp",
+            ],
+            twin!(sat::SatColsBlockedPush {
+                size,
+                rows,
+                first,
+                phase,
+                chunk_rows,
+                pad
+            }),
         ),
         (
             vec![

@@ -23,8 +23,7 @@ layout(push_constant) uniform Push {
     int phase;
     // Rows per chunk (the host sized the chunk buffer for them).
     int chunk_rows;
-    int pad1;
-    int pad2;
+    int pad[2];
 } pc;
 
 void main() {

@@ -710,7 +710,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 n,
                 inclusive,
                 flags,
-                pad
+                mode
             }),
         ),
         (

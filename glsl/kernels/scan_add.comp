@@ -19,7 +19,7 @@ layout(push_constant) uniform Push {
     uint n;
     uint inclusive;
     uint flags;
-    uint pad;
+    uint mode;       // the serial block pass only (scan_block_serial.comp)
 } pc;
 
 void main() {

@@ -29,7 +29,7 @@ layout(push_constant) uniform Push {
     uint n;          // elements in src/dst
     uint inclusive;  // 1: dst[i] includes src[i]
     uint flags;      // 1: scan (src[i] != 0 ? 1 : 0) instead of src[i] (stream compaction)
-    uint pad;
+    uint mode;       // the serial block pass only (scan_block_serial.comp)
 } pc;
 
 void main() {

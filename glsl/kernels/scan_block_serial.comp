@@ -7,6 +7,9 @@
 // a barrier makes the shader a set of coroutines. Full blocks move four elements a load and a
 // store; the last, partial block one at a time, so nothing past `n` is touched. src and dst may
 // be the same buffer: each element is read before it is written, by the same invocation.
+// `mode` (src/kernels/scan.rs fuses a multi-block scan with it): 0 as above; 1 only the block's
+// total; 2 the block's scan from its offset, block_sums[block] (the totals of mode 1, scanned
+// exclusively: 0 for block 0), so no add pass has to read and write the output again.
 // CPU twin: src/cpu/scan.rs (`scan_block`).
 
 #define BLOCK 1024
@@ -15,7 +18,7 @@ layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 0) readonly buffer Src { uint src[]; };
 layout(set = 0, binding = 1) writeonly buffer Dst { uint dst[]; };
-layout(set = 0, binding = 2) writeonly buffer BlockSums { uint block_sums[]; };
+layout(set = 0, binding = 2) buffer BlockSums { uint block_sums[]; };
 // src and dst again, four elements an access.
 layout(set = 0, binding = 3) readonly buffer Src4 { uvec4 src4[]; };
 layout(set = 0, binding = 4) writeonly buffer Dst4 { uvec4 dst4[]; };
@@ -24,7 +27,7 @@ layout(push_constant) uniform Push {
     uint n;          // elements in src/dst
     uint inclusive;  // 1: dst[i] includes src[i]
     uint flags;      // 1: scan (src[i] != 0 ? 1 : 0) instead of src[i] (stream compaction)
-    uint pad;
+    uint mode;       // 0: scan and total; 1: total only; 2: scan from the block's offset
 } pc;
 
 void main() {
@@ -34,7 +37,7 @@ void main() {
         return;
     }
     uint last = min(first + BLOCK, pc.n);
-    uint running = 0;
+    uint running = pc.mode == 2 && block > 0 ? block_sums[block] : 0u;
     if (last - first == BLOCK) {
         for (uint j = first / 4; j < last / 4; ++j) {
             uvec4 v = src4[j];
@@ -43,8 +46,9 @@ void main() {
             }
             // Inclusive sums within the four, then the running total before them.
             uvec4 s = uvec4(v.x, v.x + v.y, v.x + v.y + v.z, v.x + v.y + v.z + v.w);
-            uvec4 out4 = running + (pc.inclusive != 0 ? s : s - v);
-            dst4[j] = out4;
+            if (pc.mode != 1) {
+                dst4[j] = running + (pc.inclusive != 0 ? s : s - v);
+            }
             running += s.w;
         }
     } else {
@@ -55,8 +59,12 @@ void main() {
             }
             uint before = running;
             running += v;
-            dst[i] = pc.inclusive != 0 ? running : before;
+            if (pc.mode != 1) {
+                dst[i] = pc.inclusive != 0 ? running : before;
+            }
         }
     }
-    block_sums[block] = running;
+    if (pc.mode != 2) {
+        block_sums[block] = running;
+    }
 }

@@ -58,8 +58,9 @@ pub struct ScanPush {
     pub inclusive: u32,
     /// 1: scan `src != 0 ? 1 : 0` (stream compaction's flags).
     pub flags: u32,
-    /// Padding to the declared block size.
-    pub pad: u32,
+    /// `scan_block_serial.comp` only: 0 scan and total, 1 total only, 2 scan from the block's
+    /// scanned total (the fused serial scan, [`Scan::record`]); 0 elsewhere.
+    pub mode: u32,
 }
 
 /// Whether element `i` of the result includes input element `i`.
@@ -183,6 +184,8 @@ pub struct ScanBinding {
     levels: Vec<Level>,
     /// `sums[k]`: the totals of level k's blocks, scanned in place as level k + 1.
     sums: Vec<Buffer>,
+    /// Serial variant: a complete scan of several blocks is fused ([`Scan::record_blocks`]).
+    serial: bool,
 }
 
 impl ScanBinding {
@@ -205,7 +208,13 @@ impl ScanBinding {
     /// Bytes read and written by [`Scan::record`] with propagation (`propagate`) or without.
     pub fn traffic_bytes(&self, propagate: bool) -> u64 {
         let mut bytes = 0u64;
+        let fused = self.serial && propagate && self.levels.len() > 1;
         for (k, l) in self.levels.iter().enumerate() {
+            if fused && k == 0 {
+                // Read for the totals, then read and write once more from the offsets.
+                bytes += 12 * l.len as u64 + 4 * l.blocks as u64;
+                continue;
+            }
             // scan_block: read and write every element, write one total per block.
             bytes += 8 * l.len as u64 + 4 * l.blocks as u64;
             if l.add_set.is_some() && (propagate || k > 0) {
@@ -304,7 +313,12 @@ impl Scan {
                 add_set,
             });
         }
-        Ok(ScanBinding { len, levels, sums })
+        Ok(ScanBinding {
+            len,
+            levels,
+            sums,
+            serial: self.variant == ScanVariant::Serial,
+        })
     }
 
     /// Records the scan of `binding`'s input into its output.
@@ -331,13 +345,17 @@ impl Scan {
         if binding.len == 0 {
             return Ok(());
         }
+        // Serial, several blocks, complete: level 0's totals first (mode 1), the levels above as
+        // usual, then level 0 scanned again from its blocks' offsets (mode 2) — 3 reads and
+        // writes of every element instead of 4, and no add pass over the output.
+        let fused = self.variant == ScanVariant::Serial && propagate && binding.levels.len() > 1;
         for (k, l) in binding.levels.iter().enumerate() {
             let push = ScanPush {
                 n: l.len,
                 // Block totals are always scanned exclusively: a block's offset excludes itself.
                 inclusive: u32::from(k == 0 && kind == ScanKind::Inclusive),
                 flags: u32::from(k == 0 && flags),
-                pad: 0,
+                mode: u32::from(fused && k == 0),
             };
             // One workgroup per block, whatever its declared size; serially one invocation.
             let threads = match self.variant {
@@ -349,7 +367,7 @@ impl Scan {
         // Top level first: level k's offsets are complete once level k + 1 has been propagated.
         for (k, l) in binding.levels.iter().enumerate().rev() {
             if let Some(set) = &l.add_set {
-                if k == 0 && !propagate {
+                if k == 0 && (!propagate || fused) {
                     continue;
                 }
                 let push = ScanPush {
@@ -359,6 +377,16 @@ impl Scan {
                 let threads = l.blocks * self.add.local_size[0];
                 rec.dispatch(&self.add, set, &push, [threads, 1, 1])?;
             }
+        }
+        if fused {
+            let l = &binding.levels[0];
+            let push = ScanPush {
+                n: l.len,
+                inclusive: u32::from(kind == ScanKind::Inclusive),
+                flags: u32::from(flags),
+                mode: 2,
+            };
+            rec.dispatch(&self.block, &l.block_set, &push, [l.blocks, 1, 1])?;
         }
         Ok(())
     }
@@ -391,7 +419,7 @@ mod tests {
         assert_eq!(offset_of!(ScanPush, n), 0);
         assert_eq!(offset_of!(ScanPush, inclusive), 4);
         assert_eq!(offset_of!(ScanPush, flags), 8);
-        assert_eq!(offset_of!(ScanPush, pad), 12);
+        assert_eq!(offset_of!(ScanPush, mode), 12);
         for shader in [
             "kernels/scan_block_subgroup.comp",
             "kernels/scan_block_shared.comp",

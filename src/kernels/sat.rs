@@ -21,7 +21,7 @@
 //! work-efficient (the book's recursive doubling, errata 4 applied, reads every entry 2·log2 n
 //! times in as many dispatches). Integer tables are exact in either; float tables are
 //! deterministic, each layout adding in a fixed order that its CPU twin repeats, so even f32
-//! tables are bit-equal to it. On lavapipe the blocked layout is 2–3× slower (its barriers turn
+//! tables are bit-equal to it. On lavapipe the blocked layout is 2–5× slower (its barriers turn
 //! each workgroup into coroutines), so the serial one is its best; serial rows read with a
 //! stride, which a discrete GPU pays for and lavapipe does not (8 neighbouring rows share their
 //! cache lines).

@@ -4,8 +4,10 @@
 //! [`SCAN_BLOCK`] = 1024 elements and writes each block's total; the totals are scanned the same
 //! way, recursively, until one block remains (1M elements: 1024 totals, then 1); then
 //! `scan_add` adds each block's scanned total back, top level first. Traffic ≈ 4 × 4 bytes per
-//! element; a reduce-then-scan would read once less, but this shape also gives compaction the
-//! block-local offsets it scatters with, without a separate propagation pass. A block is 64
+//! element; this shape also gives compaction the block-local offsets it scatters with, without
+//! a separate propagation pass. The serial variant instead reduces then scans (its block pass
+//! takes totals only, then scans each block again from its offset: ≈ 3 × 4 bytes, no
+//! `scan_add` over the output; [`Scan::record`]). A block is 64
 //! invocations × 16 consecutive items loaded directly: on lavapipe this measured 3–8× faster
 //! than 256 × 4 staged through shared memory, because every barrier switches all SIMD rows of a
 //! workgroup (see `glsl/kernels/scan_block.glsl`).

@@ -85,6 +85,14 @@ void main() {
             bool cut = i1 > i0 + MAX_SPAN - 1;
             i1 = min(i1, i0 + MAX_SPAN - 1);
             float slope = u.y / u.x;
+            // The level's page grid, looked up once a page rather than once a texel: a column
+            // crosses a page boundary at most every `page_size` rows, so the table entry and the
+            // slot's atlas origin are fetched when j enters a new page (same reads, same sums in
+            // the same order as `test_texel` per texel).
+            int size = int(pc.virtual_size >> level);
+            int ps = int(pc.page_size);
+            int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
+            uint base = level_offset(pc.levels, level);
             vec2 sum = vec2(0.0);
             uint texels = 0u;
             for (int i = i0; i <= i1; ++i) {
@@ -101,13 +109,39 @@ void main() {
                 int j1 = int(ceil(y_hi)) - 1;
                 cut = cut || j1 > j0 + MAX_SPAN - 1;
                 j1 = min(j1, j0 + MAX_SPAN - 1);
+                bool column_inside = i >= 0 && i < size;
+                int px = column_inside ? i / ps : 0;
+                // First row past the current page, the current page's slot + 1 (0: not
+                // resident) and the atlas texel of the page's texel (0, 0) shifted to level
+                // coordinates; row 0 always starts a new page.
+                int page_end = 0;
+                uint slot = 0u;
+                ivec2 origin = ivec2(0);
                 for (int j = j0; j <= j1; ++j) {
                     float wy = min(float(j + 1), y_hi) - max(float(j), y_lo);
                     if (wy <= 0.0) {
                         continue;
                     }
                     float w = wx * wy;
-                    sum += vec2(w * test_texel(ivec2(i, j), level, rc), w);
+                    float lit = 1.0;
+                    if (column_inside && j >= 0 && j < size) {
+                        if (j >= page_end) {
+                            int py = j / ps;
+                            page_end = (py + 1) * ps;
+                            slot = table[base + uint(py * n_side + px)];
+                            if (slot != 0u) {
+                                uint s0 = slot - 1u;
+                                origin = ivec2(int(s0 % pc.atlas_cols) - px,
+                                               int(s0 / pc.atlas_cols) - py) * ps;
+                            }
+                        }
+                        if (slot != 0u) {
+                            vec2 tc = (vec2(i, j) + 0.5) * s;
+                            float zt = rc.z + dot(rc.dz, tc - rc.c);
+                            lit = zt <= texelFetch(atlas, origin + ivec2(i, j), 0).r ? 1.0 : 0.0;
+                        }
+                    }
+                    sum += vec2(w * lit, w);
                     texels += 1u;
                 }
             }

@@ -203,12 +203,17 @@ pub struct PagesPush {
     pub triangles: u32,
     /// Bin entries the bin buffer holds.
     pub capacity: u32,
-    /// `bin.comp`: 0 counts, 1 scatters.
+    /// `bin.comp`: 0 counts, 1 scatters; `page_raster.comp`: the `raster_split` (triangles whose
+    /// box holds more texels go to the rasterizer).
     pub mode: u32,
     /// 0: the requests' round; 1: the refinement round.
     pub round: u32,
-    /// Padding to the block's declared size.
-    pub pad: [u32; 3],
+    /// Level 0's constant depth bias (units of the depth format's resolution); doubles per level.
+    pub bias_constant: f32,
+    /// Slope-scaled depth bias.
+    pub bias_slope: f32,
+    /// Level 0's bias clamp (0: none); doubles per level.
+    pub bias_clamp: f32,
 }
 
 /// `glsl/rmsm/rmsm.glsl` (mark and lookup).

@@ -429,6 +429,8 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "pages/bin.comp",
                 "pages/draws.comp",
                 "pages/page_depth.vert",
+                "pages/page_depth_listed.vert",
+                "pages/page_raster.comp",
             ],
             twin!(PagesPush {
                 light_view_proj,
@@ -441,7 +443,9 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 capacity,
                 mode,
                 round,
-                pad
+                bias_constant,
+                bias_slope,
+                bias_clamp
             }),
         ),
         (

@@ -18,6 +18,10 @@ layout(set = 0, binding = 4) readonly buffer Levels { LevelInfo level_info[]; };
 // VkDrawIndirectCommand per level: vertexCount, instanceCount, firstVertex, firstInstance.
 layout(set = 0, binding = 5) writeonly buffer Draws { uvec4 draws[]; };
 layout(set = 0, binding = 6) buffer Counters { uint counters[]; };
+// Per round (12 words): the compute page raster's dispatch (workgroups of 64, 1, 1), the
+// round's first bin entry and the end of the entries that fit (page_raster.comp), then at word 8
+// the indirect draw of the entries it lists for the graphics pipeline, empty until it does.
+layout(set = 0, binding = 7) writeonly buffer RasterArgs { uint raster_args[]; };
 
 uint bin_end(uint slot) {
     return bin_offset[slot] + bin_count[slot];
@@ -35,6 +39,24 @@ void main() {
         } else if (bin_count[i] > 0u) {
             atomicAdd(counters[C_RENDERED], 1u);
         }
+    }
+    if (i == 0u) {
+        uint start = 0u;
+        uint end = 0u;
+        if (end_slot > first_slot) {
+            start = bin_offset[first_slot];
+            end = max(start, min(bin_end(end_slot - 1u), pc.capacity));
+        }
+        uint base = pc.round * 12u;
+        raster_args[base] = (end - start + 63u) / 64u;
+        raster_args[base + 1u] = 1u;
+        raster_args[base + 2u] = 1u;
+        raster_args[base + 3u] = start;
+        raster_args[base + 4u] = end;
+        raster_args[base + 8u] = 0u;
+        raster_args[base + 9u] = 1u;
+        raster_args[base + 10u] = 0u;
+        raster_args[base + 11u] = 0u;
     }
     if (i < pc.levels) {
         LevelInfo info = level_info[pc.round * pc.levels + i];

@@ -11,14 +11,17 @@ layout(push_constant) uniform Push {
     uint triangles;
     // Bin entries that fit in the bin buffer.
     uint capacity;
-    // bin.comp: 0 counts, 1 scatters.
+    // bin.comp: 0 counts, 1 scatters; page_raster.comp: boxes of more texels go to the rasterizer.
     uint mode;
     // 0: the requests' round; 1: the refinement round, which allocates after round 0's slots,
     // bins and draws only its own pages, and keeps its level bookkeeping and draws apart.
     uint round;
-    uint pad0;
-    uint pad1;
-    uint pad2;
+    // Depth bias of level 0 (constant in units of the depth format's resolution, slope, clamp);
+    // the constant and the clamp double per level, as the graphics path's per-level bias does
+    // (page_raster.comp applies it itself).
+    float bias_constant;
+    float bias_slope;
+    float bias_clamp;
 } pc;
 
 // Per-level bookkeeping written by allocate.comp with atomicMax only, so one fill with 0 resets

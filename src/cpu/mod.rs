@@ -20,6 +20,7 @@ pub mod izb;
 pub mod light_clip;
 pub mod minmax;
 pub mod nbuffer;
+pub mod page_raster;
 pub mod pages;
 pub mod pcf;
 pub mod pcf_coverage;

@@ -462,6 +462,37 @@ impl Recorder<'_> {
         self.use_buffer(dst, Access::HostRead);
     }
 
+    /// Copies the whole of `src`, tightly packed row by row, into `dst` (at least as long), after
+    /// the barriers both need.
+    pub fn copy_image_to_buffer(&mut self, src: &Image, dst: &Buffer) {
+        self.use_buffer(dst, Access::TransferWrite);
+        self.copy_image_into(src, dst.raw);
+    }
+
+    /// Copies `src`, tightly packed texels row by row, over the whole of `dst` (its old contents
+    /// are discarded), after the barriers both need.
+    pub fn copy_buffer_to_image(&mut self, src: &Buffer, dst: &Image) {
+        self.use_buffer(src, Access::TransferRead);
+        self.discard(dst);
+        self.use_image(dst, Access::TransferWrite);
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(dst.subresource_layers())
+            .image_extent(vk::Extent3D {
+                width: dst.desc.width,
+                height: dst.desc.height,
+                depth: 1,
+            });
+        unsafe {
+            self.ctx.device().cmd_copy_buffer_to_image(
+                self.cmd,
+                src.raw,
+                dst.raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            )
+        };
+    }
+
     /// Fills a buffer with a repeated `u32`.
     pub fn fill(&mut self, buffer: &Buffer, value: u32) {
         self.use_buffer(buffer, Access::TransferWrite);

@@ -68,6 +68,52 @@ pub const PAGE_COUNTER_NAMES: [&str; 9] = [
     "refine_overflow_pages",
 ];
 
+/// How the pages' casters are drawn into the atlas.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PageRaster {
+    /// One indirect draw per level through the graphics pipeline, clipped to each slot with
+    /// `gl_ClipDistance` (`glsl/pages/page_depth.vert`): the hardware rasterizer's rules.
+    Graphics,
+    /// One compute invocation per bin entry (`glsl/pages/page_raster.comp`): texel centres
+    /// covered with a top-left rule, the plane's depth plus the same per-level bias, `atomicMin`
+    /// into a buffer copied into the atlas. Where the graphics pipeline's triangle setup runs on
+    /// one CPU thread (lavapipe: ~0.4 µs a triangle) this uses every thread, and most page
+    /// triangles cover a few texel centres or none.
+    Compute,
+}
+
+impl PageRaster {
+    /// Compute where the device runs workgroups on CPU threads, graphics otherwise.
+    pub fn best(ctx: &Context) -> PageRaster {
+        if ctx.info().runs_workgroups_on_cpu_threads() {
+            PageRaster::Compute
+        } else {
+            PageRaster::Graphics
+        }
+    }
+
+    /// `page_raster` knob value: 0 picks [`PageRaster::best`] (graphics when the compute
+    /// raster's depth buffer of `atlas_bytes` would not fit one storage-buffer binding), 1
+    /// graphics, 2 compute (which [`PagesDesc`]'s checks refuse when it does not fit).
+    pub fn from_knob(ctx: &Context, value: u32, atlas_bytes: u64) -> PageRaster {
+        let fits = atlas_bytes <= u64::from(ctx.info().max_storage_buffer_range);
+        match value {
+            1 => PageRaster::Graphics,
+            2 => PageRaster::Compute,
+            _ if fits => PageRaster::best(ctx),
+            _ => PageRaster::Graphics,
+        }
+    }
+
+    /// Its name in knobs and counters.
+    pub fn name(self) -> &'static str {
+        match self {
+            PageRaster::Graphics => "graphics",
+            PageRaster::Compute => "compute",
+        }
+    }
+}
+
 /// What a virtual map is made of.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PagesDesc {
@@ -82,6 +128,12 @@ pub struct PagesDesc {
     pub bin_factor: u32,
     /// Depth bias of level 0 (constant and clamp double per level).
     pub bias: DepthBias,
+    /// How the casters are drawn.
+    pub raster: PageRaster,
+    /// [`PageRaster::Compute`]: triangles whose texel box in a page holds more texels than this
+    /// are left to the rasterizer (one invocation looping over a large box holds its SIMD group
+    /// as long); `page_size²` or more rasterizes every triangle in compute.
+    pub raster_split: u32,
 }
 
 impl PagesDesc {
@@ -114,6 +166,12 @@ impl PagesDesc {
         let cols = self.atlas_cols();
         let rows = self.pool_pages.div_ceil(cols);
         (cols * self.page_size, rows * self.page_size)
+    }
+
+    /// Bytes of one `f32` per atlas texel: the compute raster's depth buffer.
+    pub fn atlas_bytes(&self) -> u64 {
+        let (w, h) = self.atlas_size();
+        4 * u64::from(w) * u64::from(h)
     }
 
     fn check(&self, ctx: &Context, technique: &str) -> Result<()> {
@@ -158,6 +216,18 @@ impl PagesDesc {
                 ),
             });
         }
+        let range = ctx.info().max_storage_buffer_range;
+        if self.raster == PageRaster::Compute && self.atlas_bytes() > u64::from(range) {
+            return Err(Error::Unsupported {
+                device: ctx.info().name.clone(),
+                feature: format!(
+                    "page_raster = compute with a {w}x{h} atlas ({} bytes of depth in one \
+                     storage buffer; maxStorageBufferRange is {range})",
+                    self.atlas_bytes()
+                ),
+            });
+        }
+        // Both rasters draw through page_depth.glsl (compute leaves its large triangles to it).
         ctx.require(ctx.info().clip_distance, "shaderClipDistance")
     }
 }
@@ -200,9 +270,31 @@ pub struct VirtualPages<'a> {
     allocate: (Pipeline, DescriptorSet),
     bin: (Pipeline, DescriptorSet),
     draw_args: (Pipeline, DescriptorSet),
-    render: (Pipeline, DescriptorSet),
+    // The compute raster's dispatch and entry range per round (written by draws.comp).
+    raster_args: Buffer,
+    render: PageDrawer,
     // Each frame culls and draws this geometry (bound in the bin and render sets).
     _geometry: &'a SceneGeometry,
+}
+
+/// What draws the binned casters into the atlas ([`PageRaster`]).
+enum PageDrawer {
+    Graphics(Pipeline, DescriptorSet),
+    Compute(Box<ComputeDrawer>),
+}
+
+/// [`PageRaster::Compute`]'s resources.
+struct ComputeDrawer {
+    pipeline: Pipeline,
+    set: DescriptorSet,
+    /// The atlas's depths as float bits, `atomicMin`-combined, copied into the atlas.
+    depth_bits: Buffer,
+    /// The rasterizer's draw of the entries whose boxes hold more than `raster_split` texels,
+    /// which the compute pass lists (`glsl/pages/page_depth_listed.vert`).
+    listed: Pipeline,
+    listed_set: DescriptorSet,
+    // The listed entries' indices (bound in both sets).
+    _large_list: Buffer,
 }
 
 impl<'a> VirtualPages<'a> {
@@ -253,6 +345,13 @@ impl<'a> VirtualPages<'a> {
             MemoryLocation::GpuOnly,
         )?;
         let counters = storage("page counters", 4 * PAGE_COUNTER_NAMES.len() as u64)?;
+        let raster_args = Buffer::new(
+            ctx,
+            "page raster args",
+            2 * 48,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::INDIRECT_BUFFER,
+            MemoryLocation::GpuOnly,
+        )?;
         let (w, h) = desc.atlas_size();
         let atlas = Image::new(
             ctx,
@@ -263,7 +362,8 @@ impl<'a> VirtualPages<'a> {
                 h,
                 vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
                     | vk::ImageUsageFlags::SAMPLED
-                    | vk::ImageUsageFlags::TRANSFER_SRC,
+                    | vk::ImageUsageFlags::TRANSFER_SRC
+                    | vk::ImageUsageFlags::TRANSFER_DST,
             ),
         )?;
         let sampler = Sampler::nearest_border_white(ctx, "page atlas sampler")?;
@@ -329,31 +429,78 @@ impl<'a> VirtualPages<'a> {
                 Binding::Buffer(&level_info),
                 Binding::Buffer(&draws),
                 Binding::Buffer(&counters),
+                Binding::Buffer(&raster_args),
             ],
         )?;
-        let render_pipeline = Pipeline::graphics(
-            ctx,
-            &GraphicsDesc {
-                vertex: "pages/page_depth.vert",
-                fragment: None,
-                color_formats: &[],
-                depth_format: SHADOW_MAP_FORMAT,
-                depth_bias: true,
-                vertex_input: false,
-                cull_mode: vk::CullModeFlags::NONE,
-                depth_compare: vk::CompareOp::LESS_OR_EQUAL,
-            },
-        )?;
-        let render_set = DescriptorSet::new(
-            ctx,
-            &render_pipeline,
-            &[
-                Binding::Buffer(&geometry.vertices),
-                Binding::Buffer(&geometry.indices),
-                Binding::Buffer(&slot_info),
-                Binding::Buffer(&bins),
-            ],
-        )?;
+        let page_graphics = GraphicsDesc {
+            vertex: "pages/page_depth.vert",
+            fragment: None,
+            color_formats: &[],
+            depth_format: SHADOW_MAP_FORMAT,
+            depth_bias: true,
+            vertex_input: false,
+            cull_mode: vk::CullModeFlags::NONE,
+            depth_compare: vk::CompareOp::LESS_OR_EQUAL,
+        };
+        let render = match desc.raster {
+            PageRaster::Graphics => {
+                let pipeline = Pipeline::graphics(ctx, &page_graphics)?;
+                let set = DescriptorSet::new(
+                    ctx,
+                    &pipeline,
+                    &[
+                        Binding::Buffer(&geometry.vertices),
+                        Binding::Buffer(&geometry.indices),
+                        Binding::Buffer(&slot_info),
+                        Binding::Buffer(&bins),
+                    ],
+                )?;
+                PageDrawer::Graphics(pipeline, set)
+            }
+            PageRaster::Compute => {
+                let depth_bits = storage("page atlas depth bits", 4 * u64::from(w) * u64::from(h))?;
+                let large_list = storage("page raster large list", 4 * u64::from(capacity))?;
+                let (pipeline, set) = with_set(
+                    "pages/page_raster.comp",
+                    &[
+                        Binding::Buffer(&geometry.vertices),
+                        Binding::Buffer(&geometry.indices),
+                        Binding::Buffer(&slot_info),
+                        Binding::Buffer(&bins),
+                        Binding::Buffer(&depth_bits),
+                        Binding::Buffer(&raster_args),
+                        Binding::Buffer(&large_list),
+                    ],
+                )?;
+                let listed = Pipeline::graphics(
+                    ctx,
+                    &GraphicsDesc {
+                        vertex: "pages/page_depth_listed.vert",
+                        depth_bias: false,
+                        ..page_graphics
+                    },
+                )?;
+                let listed_set = DescriptorSet::new(
+                    ctx,
+                    &listed,
+                    &[
+                        Binding::Buffer(&geometry.vertices),
+                        Binding::Buffer(&geometry.indices),
+                        Binding::Buffer(&slot_info),
+                        Binding::Buffer(&bins),
+                        Binding::Buffer(&large_list),
+                    ],
+                )?;
+                PageDrawer::Compute(Box::new(ComputeDrawer {
+                    pipeline,
+                    set,
+                    depth_bits,
+                    listed,
+                    listed_set,
+                    _large_list: large_list,
+                }))
+            }
+        };
         let push = PagesPush {
             light_view_proj: light_view.view_proj,
             virtual_size: desc.virtual_size,
@@ -365,7 +512,9 @@ impl<'a> VirtualPages<'a> {
             capacity,
             mode: 0,
             round: 0,
-            pad: [0; 3],
+            bias_constant: desc.bias.constant,
+            bias_slope: desc.bias.slope,
+            bias_clamp: desc.bias.clamp,
         };
         Ok(VirtualPages {
             ctx: ctx.clone(),
@@ -397,7 +546,8 @@ impl<'a> VirtualPages<'a> {
             allocate,
             bin,
             draw_args,
-            render: (render_pipeline, render_set),
+            raster_args,
+            render,
             _geometry: geometry,
         })
     }
@@ -490,7 +640,48 @@ impl<'a> VirtualPages<'a> {
 
     /// Draws `push.round`'s pages into the atlas, clearing it first (round 0) or keeping it.
     fn record_draws(&self, rec: &mut Recorder<'_>, push: &PagesPush, clear: bool) -> Result<()> {
-        let (pipeline, set) = &self.render;
+        let (pipeline, set) = match &self.render {
+            PageDrawer::Graphics(pipeline, set) => (pipeline, set),
+            PageDrawer::Compute(drawer) => {
+                let ComputeDrawer {
+                    pipeline,
+                    set,
+                    depth_bits,
+                    listed,
+                    listed_set,
+                    ..
+                } = drawer.as_ref();
+                if clear {
+                    rec.fill(depth_bits, crate::kernels::raster::EMPTY_DEPTH_BITS);
+                } else {
+                    // The atlas holds the earlier round's listed triangles too, which the copy
+                    // below would otherwise overwrite.
+                    rec.copy_image_to_buffer(&self.atlas, depth_bits);
+                }
+                // The round's 12 words of `raster_args`: dispatch and entry range, then (word 8)
+                // the listed entries' draw.
+                let offset = 48 * u64::from(push.round);
+                let split = PagesPush {
+                    mode: self.desc.raster_split,
+                    ..*push
+                };
+                rec.dispatch_indirect(pipeline, set, &split, &self.raster_args, offset)?;
+                rec.copy_buffer_to_image(depth_bits, &self.atlas);
+                rec.use_set(listed_set);
+                rec.use_buffer(&self.raster_args, Access::IndirectRead);
+                rec.continue_rendering(&self.atlas);
+                let result = rec.draw_indirect(
+                    listed,
+                    listed_set,
+                    push,
+                    &self.raster_args,
+                    offset + 32,
+                    None,
+                );
+                rec.end_rendering();
+                return result;
+            }
+        };
         rec.use_set(set);
         rec.use_buffer(&self.draws, Access::IndirectRead);
         if clear {

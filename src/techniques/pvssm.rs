@@ -64,9 +64,9 @@ pub const COUNTER_NAMES: [&str; 12] = [
     "skipped_lit",
 ];
 
-const PAGE_KNOBS: [Knob; 4] = virtual_map::page_knobs(16384.0);
+const PAGE_KNOBS: [Knob; 6] = virtual_map::page_knobs(16384.0);
 
-const KNOBS: [Knob; 19] = [
+const KNOBS: [Knob; 21] = [
     Knob::int(
         "lowres_size",
         "conservative low-resolution map for the blocker search, texels per side",
@@ -156,6 +156,8 @@ const KNOBS: [Knob; 19] = [
     .real(),
     virtual_map::tangent_plane_knob(1.0),
     PAGE_KNOBS[3],
+    PAGE_KNOBS[4],
+    PAGE_KNOBS[5],
     super::SHADOW_MAP_KNOBS[1],
     super::SHADOW_MAP_KNOBS[2],
     super::SHADOW_MAP_KNOBS[3],

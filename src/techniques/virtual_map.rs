@@ -7,11 +7,12 @@ use glam::Vec4;
 use super::{Knob, Params, TechniqueSetup};
 use crate::error::Result;
 use crate::gpu::{Buffer, Context};
-use crate::passes::pages::PagesDesc;
+use crate::passes::pages::{PageRaster, PagesDesc};
 use crate::passes::DepthBias;
 
-/// `virtual_size` (with the technique's default), `page_size`, `pool_pages` and `bin_factor`.
-pub const fn page_knobs(virtual_size: f64) -> [Knob; 4] {
+/// `virtual_size` (with the technique's default), `page_size`, `pool_pages`, `bin_factor`,
+/// `page_raster` and `raster_split`.
+pub const fn page_knobs(virtual_size: f64) -> [Knob; 6] {
     [
         Knob::int(
             "virtual_size",
@@ -42,6 +43,24 @@ pub const fn page_knobs(virtual_size: f64) -> [Knob; 4] {
             1.0,
             1024.0,
         ),
+        Knob::int(
+            "page_raster",
+            "how pages are drawn: auto (compute where workgroups run on CPU threads, else \
+             graphics), graphics (the rasterizer, clipped per slot), compute (one invocation a \
+             bin entry)",
+            0.0,
+            0.0,
+            2.0,
+        )
+        .named(&["auto", "graphics", "compute"]),
+        Knob::int(
+            "raster_split",
+            "page_raster = compute: triangles covering a box of more texels of a page go to the \
+             rasterizer (page_size² or more: none)",
+            64.0,
+            0.0,
+            1_048_576.0,
+        ),
     ]
 }
 
@@ -59,7 +78,7 @@ pub const fn tangent_plane_knob(default: f64) -> Knob {
 /// The pages [`page_knobs`] and the shadow-map bias knobs describe; fails where the device
 /// cannot clamp the bias asked for.
 pub fn pages_desc(ctx: &Context, params: &Params) -> Result<PagesDesc> {
-    let desc = PagesDesc {
+    let mut desc = PagesDesc {
         virtual_size: params.u32("virtual_size")?,
         page_size: params.u32("page_size")?,
         pool_pages: params.u32("pool_pages")?,
@@ -69,7 +88,10 @@ pub fn pages_desc(ctx: &Context, params: &Params) -> Result<PagesDesc> {
             slope: params.f32("bias_slope")?,
             clamp: params.f32("bias_clamp")?,
         },
+        raster: PageRaster::Graphics,
+        raster_split: params.u32("raster_split")?,
     };
+    desc.raster = PageRaster::from_knob(ctx, params.u32("page_raster")?, desc.atlas_bytes());
     if desc.bias.clamp != 0.0 {
         ctx.require(
             ctx.info().depth_bias_clamp,

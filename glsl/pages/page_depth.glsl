@@ -1,0 +1,93 @@
+// The body of page_depth.vert and page_depth_listed.vert. Renders the binned casters of every resident page of one level into the atlas: vertex
+// 3k + j is corner j of bin entry k = (triangle, slot). The page's part of the light frustum is
+// zoomed onto the slot's square of the atlas by a scale and offset in clip space (depth is left
+// as the full light view's, so a page's depths equal a full map's), and four clip distances cut
+// the triangle at the square's edges so it never spills into a neighbouring slot.
+//
+// With LISTED defined, vertex 3k + j is corner j of the bin entry large_list[k] (the entries the
+// compute page raster left to the rasterizer, page_raster.comp) drawn in one draw for every
+// level, so the per-level depth bias is not the pipeline's: each vertex computes its triangle's
+// (the same formula as page_raster.comp and vkCmdSetDepthBias: slope by the plane's largest
+// gradient in the level's texels, the constant in units of 2^(e - 23) of the largest vertex depth,
+// clamped) and adds it to its depth.
+#include "pages.glsl"
+#include "pages_push.glsl"
+
+layout(set = 0, binding = 0) readonly buffer Vertices { float vertices[]; };
+layout(set = 0, binding = 1) readonly buffer Indices { uint indices[]; };
+layout(set = 0, binding = 2) readonly buffer Slots { uvec4 slot_info[]; };
+layout(set = 0, binding = 3) readonly buffer Entries { uvec2 entries[]; };
+
+#ifdef LISTED
+layout(set = 0, binding = 4) readonly buffer LargeList { uint large_list[]; };
+#endif
+
+out float gl_ClipDistance[4];
+
+vec4 clip_vertex(uint i) {
+    uint v = indices[i];
+    vec3 p = vec3(vertices[3u * v], vertices[3u * v + 1u], vertices[3u * v + 2u]);
+    return pc.light_view_proj * vec4(p, 1.0);
+}
+
+#ifdef LISTED
+// The depth bias of triangle `tri` at `level` (0 when a corner is at w <= 0).
+float triangle_bias(uint tri, uint level) {
+    vec4 v0 = clip_vertex(3u * tri), v1 = clip_vertex(3u * tri + 1u);
+    vec4 v2 = clip_vertex(3u * tri + 2u);
+    if (!(v0.w > 0.0 && v1.w > 0.0 && v2.w > 0.0)) {
+        return 0.0;
+    }
+    float size = float(pc.virtual_size >> level);
+    vec3 a = vec3((v0.xy / v0.w * 0.5 + 0.5) * size, v0.z / v0.w);
+    vec3 b = vec3((v1.xy / v1.w * 0.5 + 0.5) * size, v1.z / v1.w);
+    vec3 c = vec3((v2.xy / v2.w * 0.5 + 0.5) * size, v2.z / v2.w);
+    float area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (!(area != 0.0)) {
+        return 0.0;
+    }
+    float dzdx = ((b.z - a.z) * (c.y - a.y) - (c.z - a.z) * (b.y - a.y)) / area;
+    float dzdy = ((c.z - a.z) * (b.x - a.x) - (b.z - a.z) * (c.x - a.x)) / area;
+    float scale = float(1u << level);
+    int e;
+    frexp(max(max(a.z, max(b.z, c.z)), 1e-30), e);
+    float r = exp2(float(e - 1 - 23));
+    float bias = max(abs(dzdx), abs(dzdy)) * pc.bias_slope + r * pc.bias_constant * scale;
+    float clamp_value = pc.bias_clamp * scale;
+    if (clamp_value > 0.0) {
+        bias = min(bias, clamp_value);
+    } else if (clamp_value < 0.0) {
+        bias = max(bias, clamp_value);
+    }
+    return bias;
+}
+#endif
+
+void main() {
+#ifdef LISTED
+    uvec2 entry = entries[large_list[gl_VertexIndex / 3]];
+#else
+    uvec2 entry = entries[gl_VertexIndex / 3];
+#endif
+    vec4 clip = clip_vertex(3u * entry.x + uint(gl_VertexIndex % 3));
+
+    uvec4 info = slot_info[entry.y];
+    uint level = info.x;
+#ifdef LISTED
+    clip.z += triangle_bias(entry.x, level) * clip.w;
+#endif
+    // The page's NDC rectangle in the virtual map, and the slot's in the atlas.
+    float page_ndc = 2.0 * float(pc.page_size << level) / float(pc.virtual_size);
+    vec2 page_lo = vec2(info.yz) * page_ndc - 1.0;
+    uint rows = (pc.pool_pages + pc.atlas_cols - 1u) / pc.atlas_cols;
+    vec2 slot_ndc = 2.0 / vec2(pc.atlas_cols, rows);
+    vec2 slot_lo = vec2(entry.y % pc.atlas_cols, entry.y / pc.atlas_cols) * slot_ndc - 1.0;
+    vec2 scale = slot_ndc / page_ndc;
+    vec2 xy = clip.xy * scale + clip.w * (slot_lo - page_lo * scale);
+    gl_Position = vec4(xy, clip.zw);
+    vec2 slot_hi = slot_lo + slot_ndc;
+    gl_ClipDistance[0] = xy.x - slot_lo.x * clip.w;
+    gl_ClipDistance[1] = slot_hi.x * clip.w - xy.x;
+    gl_ClipDistance[2] = xy.y - slot_lo.y * clip.w;
+    gl_ClipDistance[3] = slot_hi.y * clip.w - xy.y;
+}

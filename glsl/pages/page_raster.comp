@@ -1,0 +1,250 @@
+#version 460
+// Page rendering in compute (`page_raster = compute`, src/passes/pages.rs): one invocation per
+// bin entry (triangle, slot) rasterizes the triangle into its slot's page with the graphics
+// path's rules as far as they matter to a shadow test — a texel is covered when its centre lies
+// inside the projected triangle (edges owned by a top-left rule), its depth is the triangle's
+// plane at the centre plus the per-level depth bias (slope-scaled by the plane's largest
+// gradient in the level's texels, the constant in units of 2^(e - 23) for the largest vertex
+// depth, clamped like vkCmdSetDepthBias), clamped to [0, 1]; the near plane clips the triangle
+// (z >= 0, as Vulkan's clip volume), the far plane discards texels past depth 1. Texels combine
+// with atomicMin on the float bits (non-negative, so they order as unsigned integers) in a
+// buffer laid out as the atlas, which pages.rs then copies into the depth atlas.
+//
+// Everything is computed in the level's texel coordinates (shadow_coord's, divided by 2^level),
+// never relative to the page, so a texel gets the same coverage and depth in whichever page of
+// its level it is drawn: splitting a level into pages changes nothing. Why: on a device that
+// runs graphics on CPU threads (lavapipe) the triangle setup of a draw is one thread's work and
+// costs ~0.4 us a triangle, while most page triangles cover a few texel centres or none.
+// CPU twin: src/cpu/page_raster.rs.
+#extension GL_GOOGLE_include_directive : require
+#include "pages.glsl"
+#include "pages_push.glsl"
+
+layout(local_size_x = 64) in;
+
+layout(set = 0, binding = 0) readonly buffer Vertices { float vertices[]; };
+layout(set = 0, binding = 1) readonly buffer Indices { uint indices[]; };
+layout(set = 0, binding = 2) readonly buffer Slots { uvec4 slot_info[]; };
+layout(set = 0, binding = 3) readonly buffer Entries { uvec2 entries[]; };
+layout(set = 0, binding = 4) buffer Atlas { uint atlas_bits[]; };
+// Per round (12 words): the dispatch's workgroups (x, 1, 1), then the round's first bin entry
+// and the end of its entries (draws.comp).
+// Words 8..11: the indirect draw of the listed entries (vertexCount = 3 per entry).
+layout(set = 0, binding = 5) buffer RasterArgs { uint raster_args[]; };
+// The entries left to the graphics pipeline (page_depth_listed.vert): bin entry indices.
+layout(set = 0, binding = 6) writeonly buffer LargeList { uint large_list[]; };
+
+vec4 clip_vertex(uint i) {
+    uint v = indices[i];
+    vec3 p = vec3(vertices[3u * v], vertices[3u * v + 1u], vertices[3u * v + 2u]);
+    return pc.light_view_proj * vec4(p, 1.0);
+}
+
+// Edge a -> b's function at p: positive on the inside of a counter-clockwise triangle.
+float edge(vec2 a, vec2 b, vec2 p) {
+    return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
+}
+
+// Edge a -> b's function evaluated from its lexicographically smaller end, so the two triangles
+// sharing an edge (which run it in opposite directions) get exactly opposite values and the
+// top-left rule below gives each centre on it to exactly one of them.
+float shared_edge(vec2 a, vec2 b, vec2 p) {
+    bool a_first = a.x < b.x || (a.x == b.x && a.y < b.y);
+    return a_first ? edge(a, b, p) : -edge(b, a, p);
+}
+
+// Whether a texel centre at edge value e is inside: strictly, or on a top-left edge (one owner
+// for an edge two triangles share).
+bool inside_edge(float e, vec2 a, vec2 b) {
+    vec2 d = b - a;
+    return e > 0.0 || (e == 0.0 && (d.y < 0.0 || (d.y == 0.0 && d.x > 0.0)));
+}
+
+// A triangle set up for one page: corners in level texels (counter-clockwise), its plane,
+// bias, and the page's texels its box may cover (i0..i1, empty when i0 > i1).
+struct Tri {
+    vec2 a;
+    vec2 b;
+    vec2 c;
+    float za;
+    float dzdx;
+    float dzdy;
+    float bias;
+    ivec2 i0;
+    ivec2 i1;
+};
+
+// Sets up the triangle of level-texel positions s (xy) and NDC depths (z) for the page whose
+// level texels are lo..hi (inclusive); a degenerate one gets an empty box.
+Tri setup(vec3 s0, vec3 s1, vec3 s2, ivec2 lo, ivec2 hi, uint level) {
+    Tri t;
+    t.a = s0.xy;
+    t.b = s1.xy;
+    t.c = s2.xy;
+    t.za = s0.z;
+    float zb = s1.z, zc = s2.z;
+    t.i0 = ivec2(1);
+    t.i1 = ivec2(0);
+    t.dzdx = 0.0;
+    t.dzdy = 0.0;
+    t.bias = 0.0;
+    float area = edge(t.a, t.b, t.c);
+    if (!(area != 0.0)) {
+        return t;
+    }
+    if (area < 0.0) {
+        vec2 swap = t.b;
+        t.b = t.c;
+        t.c = swap;
+        float swap_z = zb;
+        zb = zc;
+        zc = swap_z;
+        area = -area;
+    }
+    // The plane's gradients in level texels, and the bias they give.
+    t.dzdx = ((zb - t.za) * (t.c.y - t.a.y) - (zc - t.za) * (t.b.y - t.a.y)) / area;
+    t.dzdy = ((zc - t.za) * (t.b.x - t.a.x) - (zb - t.za) * (t.c.x - t.a.x)) / area;
+    float scale = float(1u << level);
+    float z_max = max(t.za, max(zb, zc));
+    int e;
+    frexp(max(z_max, 1e-30), e);
+    float r = exp2(float(e - 1 - 23));
+    float bias = max(abs(t.dzdx), abs(t.dzdy)) * pc.bias_slope + r * pc.bias_constant * scale;
+    float clamp_value = pc.bias_clamp * scale;
+    if (clamp_value > 0.0) {
+        bias = min(bias, clamp_value);
+    } else if (clamp_value < 0.0) {
+        bias = max(bias, clamp_value);
+    }
+    t.bias = bias;
+    vec2 tmin = min(t.a, min(t.b, t.c));
+    vec2 tmax = max(t.a, max(t.b, t.c));
+    // Texels whose centres (i + 0.5) may lie in the box.
+    t.i0 = max(lo, ivec2(ceil(tmin - 0.5)));
+    t.i1 = min(hi, ivec2(floor(tmax - 0.5)));
+    return t;
+}
+
+// Texels in the triangle's box (0 when empty).
+int box_texels(Tri t) {
+    ivec2 n = max(t.i1 - t.i0 + 1, ivec2(0));
+    return n.x * n.y;
+}
+
+// Tests level texel (i, j) against the triangle and keeps the nearer depth at atlas texel
+// origin + (i, j) - lo.
+void cover(Tri t, int i, int j, ivec2 lo, ivec2 origin, uint atlas_width) {
+    vec2 p = vec2(float(i) + 0.5, float(j) + 0.5);
+    float e0 = shared_edge(t.b, t.c, p);
+    float e1 = shared_edge(t.c, t.a, p);
+    float e2 = shared_edge(t.a, t.b, p);
+    if (!inside_edge(e0, t.b, t.c) || !inside_edge(e1, t.c, t.a) || !inside_edge(e2, t.a, t.b)) {
+        return;
+    }
+    float z = t.za + t.dzdx * (p.x - t.a.x) + t.dzdy * (p.y - t.a.y);
+    if (z > 1.0) {
+        return;
+    }
+    z = clamp(z + t.bias, 0.0, 1.0);
+    ivec2 at = origin + ivec2(i, j) - lo;
+    atomicMin(atlas_bits[uint(at.y) * atlas_width + uint(at.x)], floatBitsToUint(z));
+}
+
+// Level texel position (xy) and NDC depth (z) of a clip-space vertex with w > 0.
+vec3 level_position(vec4 v, float level_size) {
+    vec3 ndc = v.xyz / v.w;
+    return vec3((ndc.xy * 0.5 + 0.5) * level_size, ndc.z);
+}
+
+// Bin entry k set up: its page (level texels lo..hi, atlas texel `origin` for lo) and its
+// one or two triangles after the near clip (count 0 when nothing is left).
+struct Entry {
+    ivec2 lo;
+    ivec2 origin;
+    int count;
+    Tri t0;
+    Tri t1;
+};
+
+Entry load_entry(uint k) {
+    uvec2 bin = entries[k];
+    uvec4 info = slot_info[bin.y];
+    uint level = info.x;
+    int ps = int(pc.page_size);
+    Entry en;
+    en.lo = ivec2(info.yz) * ps;
+    ivec2 hi = en.lo + ps - 1;
+    en.origin = ivec2(int(bin.y % pc.atlas_cols), int(bin.y / pc.atlas_cols)) * ps;
+    en.count = 0;
+    float level_size = float(pc.virtual_size >> level);
+
+    vec4 v[3] = vec4[3](clip_vertex(3u * bin.x), clip_vertex(3u * bin.x + 1u),
+                        clip_vertex(3u * bin.x + 2u));
+    // Clip against the near plane z = 0 (Sutherland-Hodgman): 0, 3 or 4 vertices, drawn as a
+    // fan. In front of it w > 0 for the light's projections, so the divisions are safe; a
+    // vertex at w <= 0 that survives (no projection penumbra builds has one) drops the polygon.
+    vec4 poly[4];
+    int n = 0;
+    for (int m = 0; m < 3; ++m) {
+        vec4 p = v[m];
+        vec4 q = v[(m + 1) % 3];
+        if (p.z >= 0.0) {
+            poly[n++] = p;
+        }
+        if ((p.z >= 0.0) != (q.z >= 0.0)) {
+            float t = p.z / (p.z - q.z);
+            poly[n++] = mix(p, q, t);
+        }
+    }
+    bool front = n >= 3;
+    for (int m = 0; m < n; ++m) {
+        front = front && poly[m].w > 0.0;
+    }
+    if (!front) {
+        return en;
+    }
+    vec3 s0 = level_position(poly[0], level_size);
+    vec3 s2 = level_position(poly[2], level_size);
+    en.t0 = setup(s0, level_position(poly[1], level_size), s2, en.lo, hi, level);
+    en.count = 1;
+    if (n == 4) {
+        en.t1 = setup(s0, s2, level_position(poly[3], level_size), en.lo, hi, level);
+        en.count = 2;
+    }
+    return en;
+}
+
+// Entries whose boxes hold more texels than pc.mode (`raster_split`, 64 by default) are listed
+// for the graphics pipeline instead: one invocation looping over a large box holds its whole
+// SIMD group for as long (a triangle over a page is 4096 texels), where the rasterizer walks it
+// in blocks.
+
+void cover_box(Tri t, ivec2 lo, ivec2 origin, uint atlas_width) {
+    for (int j = t.i0.y; j <= t.i1.y; ++j) {
+        for (int i = t.i0.x; i <= t.i1.x; ++i) {
+            cover(t, i, j, lo, origin, atlas_width);
+        }
+    }
+}
+
+void main() {
+    uint base = pc.round * 12u;
+    uint k = raster_args[base + 3u] + gl_GlobalInvocationID.x;
+    if (k >= raster_args[base + 4u]) {
+        return;
+    }
+    Entry en = load_entry(k);
+    if (en.count == 0) {
+        return;
+    }
+    int texels = box_texels(en.t0) + (en.count == 2 ? box_texels(en.t1) : 0);
+    if (uint(texels) > pc.mode) {
+        large_list[atomicAdd(raster_args[base + 8u], 3u) / 3u] = k;
+        return;
+    }
+    uint atlas_width = pc.atlas_cols * pc.page_size;
+    cover_box(en.t0, en.lo, en.origin, atlas_width);
+    if (en.count == 2) {
+        cover_box(en.t1, en.lo, en.origin, atlas_width);
+    }
+}

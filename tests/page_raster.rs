@@ -1,0 +1,203 @@
+//! The compute page raster (`page_raster = compute`) under validation: its pages against its
+//! CPU twin (every triangle in compute), against the rasterizer's pages (`page_raster =
+//! graphics`), and the techniques' visibility with either, for both rounds of pages (rmsm's
+//! refinement draws a second round into the same atlas).
+
+mod common;
+
+use std::collections::BTreeMap;
+
+use penumbra::cpu::page_raster::{rasterize_pages, PageRasterDesc};
+use penumbra::cpu::pages::atlas_columns;
+use penumbra::gpu::f32s;
+use penumbra::{Engine, Frame, PreparedScene};
+
+/// Atlas, bins and slots of one frame of `technique`.
+struct Pages {
+    frame: Frame,
+    atlas: Vec<f32>,
+    atlas_size: (u32, u32),
+    bins: Vec<(u32, u32)>,
+    slots: Vec<[u32; 4]>,
+}
+
+fn render(
+    engine: &Engine,
+    prepared: &PreparedScene,
+    technique: &str,
+    set: &[(&str, &str)],
+) -> Pages {
+    let ctx = engine.context().clone();
+    let mut knobs: BTreeMap<String, String> = common::knobs(set);
+    for (k, v) in common::KERNEL_ONLY {
+        knobs.insert(k.into(), v.into());
+    }
+    let (mut atlas, mut atlas_size, mut bins, mut slots) = (vec![], (0, 0), vec![], vec![]);
+    let frame = engine
+        .render_inspect(prepared, technique, &knobs, 1, |t| {
+            let pages = t.virtual_pages().expect("pages");
+            atlas = f32s(&ctx.read_image(&pages.atlas)?);
+            let e = pages.atlas.extent();
+            atlas_size = (e.width, e.height);
+            bins = pages.read_bins()?;
+            slots = pages.read_slots()?;
+            Ok(())
+        })
+        .expect("render");
+    assert_eq!(frame.stats.nan_count, 0);
+    Pages {
+        frame,
+        atlas,
+        atlas_size,
+        bins,
+        slots,
+    }
+}
+
+/// Texels whose depths differ by more than `tol` (either side covered alone counts).
+fn differing(a: &[f32], b: &[f32], tol: f32) -> usize {
+    a.iter()
+        .zip(b)
+        .filter(|(x, y)| (*x - *y).abs() > tol)
+        .count()
+}
+
+#[test]
+fn compute_pages_match_their_twin() {
+    let engine = common::engine();
+    let prepared = engine
+        .prepare(&common::small("scenes/teapot-rect.toml"))
+        .expect("prepare");
+    let (virtual_size, page, pool) = (4096u32, 64u32, 256u32);
+    let bias = [1.5f32, 2.0, 0.0];
+    let gpu = render(
+        &engine,
+        &prepared,
+        "pvssm",
+        &[
+            ("virtual_size", "4096"),
+            ("page_size", "64"),
+            ("pool_pages", "256"),
+            ("bias_constant", "1.5"),
+            ("bias_slope", "2"),
+            ("page_raster", "compute"),
+            // Every triangle in compute: the twin does not model the rasterizer.
+            ("raster_split", "1048576"),
+        ],
+    );
+    assert!(gpu.bins.len() > 1000, "{} bins", gpu.bins.len());
+    let desc = PageRasterDesc {
+        virtual_size,
+        page_size: page,
+        atlas_cols: atlas_columns(pool),
+        atlas_size: gpu.atlas_size,
+        bias,
+    };
+    let vertices: Vec<f32> = prepared
+        .positions
+        .iter()
+        .flat_map(|p| p.to_array())
+        .collect();
+    let twin = rasterize_pages(
+        &desc,
+        prepared.light_view.view_proj,
+        &vertices,
+        &prepared.indices,
+        &gpu.bins,
+        &gpu.slots,
+    );
+    let covered = twin.iter().filter(|&&z| z < 1.0).count();
+    // Depths within rounding; a texel centre within rounding of an edge may be covered on one
+    // side only: at most 0.1 % of the covered texels.
+    let off = differing(&gpu.atlas, &twin, 2e-6);
+    eprintln!(
+        "{off} of {covered} covered texels differ from the twin ({} bins)",
+        gpu.bins.len()
+    );
+    if off * 1000 > covered {
+        let (w, h) = gpu.atlas_size;
+        let dir = common::write_diff("page-raster-vs-twin", w, h, &twin, &gpu.atlas);
+        panic!(
+            "{off} texels differ (of {covered}); images in {}",
+            dir.display()
+        );
+    }
+    common::assert_clean(&engine.context().validation());
+}
+
+#[test]
+fn compute_pages_match_the_rasterizer() {
+    let engine = common::engine();
+    for (scene, technique) in [
+        ("scenes/bunny-rect.toml", "pvssm"),
+        ("scenes/teapot-rect.toml", "pvssm"),
+        // Two rounds of pages (refinement at shadow edges) into one atlas.
+        ("scenes/spot-point.toml", "rmsm"),
+    ] {
+        let prepared = engine.prepare(&common::small(scene)).expect("prepare");
+        let base = [("bias_constant", "1.5"), ("bias_slope", "2")];
+        let with = |raster: &'static str, split: &'static str| {
+            let mut set = base.to_vec();
+            set.extend([("page_raster", raster), ("raster_split", split)]);
+            render(&engine, &prepared, technique, &set)
+        };
+        let graphics = with("graphics", "64");
+        for split in ["64", "1048576"] {
+            let compute = with("compute", split);
+            // The same pages in the same slots with the same casters.
+            assert_eq!(compute.slots, graphics.slots, "{scene}");
+            assert_eq!(compute.bins.len(), graphics.bins.len(), "{scene}");
+            let covered = graphics.atlas.iter().filter(|&&z| z < 1.0).count();
+            // The rasterizer snaps vertices to 1/256 texel: depths move by up to that times
+            // the slope, and centres that near an edge may fall on either side.
+            let off = differing(&graphics.atlas, &compute.atlas, 1e-4);
+            let v_diff: f64 = graphics
+                .frame
+                .visibility
+                .iter()
+                .zip(&compute.frame.visibility)
+                .map(|(a, b)| f64::from((a - b).abs()))
+                .sum::<f64>()
+                / graphics.frame.visibility.len() as f64;
+            eprintln!(
+                "{scene} {technique} split {split}: {off} of {covered} covered texels differ, \
+                 mean |dV| {v_diff:.2e}"
+            );
+            assert!(
+                off * 100 <= covered,
+                "{scene} split {split}: {off} of {covered} texels differ"
+            );
+            assert!(v_diff < 2e-3, "{scene} split {split}: mean |dV| {v_diff}");
+        }
+    }
+    common::assert_clean(&engine.context().validation());
+}
+
+#[test]
+fn an_atlas_past_one_storage_buffer_is_refused_for_compute_and_drawn_by_auto() {
+    let engine = common::engine();
+    let prepared = engine
+        .prepare(&common::small("scenes/spot-point.toml"))
+        .expect("prepare");
+    let range = u64::from(engine.context().info().max_storage_buffer_range);
+    // 128² pages: enough of them to pass the device's storage-buffer range.
+    let pool = (range / (4 * 128 * 128) + 64).to_string();
+    let mut knobs = common::knobs(&[
+        ("page_size", "128"),
+        ("pool_pages", pool.as_str()),
+        ("page_raster", "compute"),
+    ]);
+    match engine.renderer(&prepared, "rmsm", &knobs) {
+        Err(penumbra::Error::Unsupported { feature, .. }) => {
+            assert!(feature.contains("page_raster = compute"), "{feature}")
+        }
+        Err(e) => panic!("unexpected error {e}"),
+        Ok(_) => panic!("a compute raster past maxStorageBufferRange was accepted"),
+    }
+    knobs.insert("page_raster".into(), "auto".into());
+    if let Err(e) = engine.renderer(&prepared, "rmsm", &knobs) {
+        // Auto draws it with the rasterizer: only the atlas image's size may refuse it.
+        assert!(e.to_string().contains("atlas"), "{e}");
+    }
+    common::assert_clean(&engine.context().validation());
+}

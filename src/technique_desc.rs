@@ -230,6 +230,15 @@ knob_choices! {
         /// The static (cubic) metric.
         Static => "static",
     }
+    /// `page_raster` of `rmsm` and `pvssm`: what draws the pages' casters.
+    PageRasterChoice for "page_raster" {
+        /// Compute where workgroups run on CPU threads, the rasterizer otherwise.
+        Auto => "auto",
+        /// The rasterizer, clipped to each page's slot.
+        Graphics => "graphics",
+        /// One compute invocation per binned triangle (large ones left to the rasterizer).
+        Compute => "compute",
+    }
     /// `partition` of `cascades`: where the depth range is split.
     Partition for "partition" {
         /// The practical split (with `lambda`).
@@ -332,6 +341,7 @@ mod tests {
             names::<NBufferSkip>(),
             names::<PvssmSkip>(),
             names::<RhoMode>(),
+            names::<PageRasterChoice>(),
             names::<Partition>(),
             names::<Combine>(),
         ]

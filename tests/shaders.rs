@@ -426,6 +426,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
         (
             vec![
                 "pages/allocate.comp",
+                "pages/ancestors.comp",
                 "pages/bin.comp",
                 "pages/draws.comp",
                 "pages/page_depth.vert",

@@ -130,6 +130,10 @@ pub struct PagesDesc {
     pub bias: DepthBias,
     /// How the casters are drawn.
     pub raster: PageRaster,
+    /// Mark every marked page's coarser ancestors only when the marks overflow the pool
+    /// (`glsl/pages/ancestors.comp`, between two compactions); a technique that marks them
+    /// itself (rmsm) leaves this off.
+    pub ancestors_on_overflow: bool,
     /// [`PageRaster::Compute`]: triangles whose texel box in a page holds more texels than this
     /// are left to the rasterizer (one invocation looping over a large box holds its SIMD group
     /// as long); `page_size²` or more rasterizes every triangle in compute.
@@ -268,6 +272,8 @@ pub struct VirtualPages<'a> {
     scan: Scan,
     scan_binding: ScanBinding,
     allocate: (Pipeline, DescriptorSet),
+    // [`PagesDesc::ancestors_on_overflow`]'s marking pass.
+    ancestors: Option<(Pipeline, DescriptorSet)>,
     bin: (Pipeline, DescriptorSet),
     draw_args: (Pipeline, DescriptorSet),
     // The compute raster's dispatch and entry range per round (written by draws.comp).
@@ -405,6 +411,18 @@ impl<'a> VirtualPages<'a> {
                 Binding::Buffer(&counters),
             ],
         )?;
+        let ancestors = if desc.ancestors_on_overflow {
+            Some(with_set(
+                "pages/ancestors.comp",
+                &[
+                    Binding::Buffer(&table),
+                    Binding::Buffer(&list),
+                    Binding::Buffer(&count),
+                ],
+            )?)
+        } else {
+            None
+        };
         let bin = with_set(
             "pages/bin.comp",
             &[
@@ -544,6 +562,7 @@ impl<'a> VirtualPages<'a> {
             scan,
             scan_binding,
             allocate,
+            ancestors,
             bin,
             draw_args,
             raster_args,
@@ -575,7 +594,12 @@ impl<'a> VirtualPages<'a> {
         let name = self.name;
         let entries = self.desc.entries() as u32;
         rec.pass(&format!("{name}-compact"), |rec| {
-            self.compact.record(rec, &self.compact_binding)
+            self.compact.record(rec, &self.compact_binding)?;
+            if let Some((pipeline, set)) = &self.ancestors {
+                rec.dispatch(pipeline, set, &self.push, [entries, 1, 1])?;
+                self.compact.record(rec, &self.compact_binding)?;
+            }
+            Ok(())
         })?;
         rec.pass(&format!("{name}-allocate"), |rec| {
             rec.fill(&self.counters, 0);

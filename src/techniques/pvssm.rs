@@ -17,7 +17,7 @@
 //!    kernel s_α and the pixel footprint φ' through the receiver's tangent plane, convolved as
 //!    Gaussians and factored back into a sheared box h (Cholesky); the perceptual metric ρ(n)
 //!    and the texel size it asks for (Eqs. 4–5); and the requests: every page of the predicted
-//!    level under h's box, with its ancestors.
+//!    level under h's box (with its ancestors, when asked for or when the pool overflows).
 //! 3. The virtual map's pages ([`crate::passes::pages`], `pvssm-compact|allocate|cull|render`)
 //!    in place of the paper's SMTG, CPU KD-tree and tiles: the same prediction decides the
 //!    resolution, without a readback, and a page is a tile of fixed size at a power-of-two
@@ -32,8 +32,10 @@
 //! `rho_scale` (the quality/speed dial: texels across a kernel ×), `antialias`, `max_search`,
 //! `search_cells` (the search's cost bound: cells per side of the min-pyramid level it reads),
 //! `refine_search`, `ancestors` (render each requested page's coarser ancestors too, so a pool
-//! overflow falls back one level at a time; 0 falls back to the root page and renders 40 % fewer
-//! triangles on `grid:800000@rect`), `fixed_level` (-1: predicted; k: one whole map at level k
+//! overflow falls back one level at a time: 1 always, 2 — the default — only when the requests
+//! overflow the pool (without an overflow no lookup falls back, and the ancestors are a fifth of
+//! the frame on `grid:800000@rect`), 0 never (an overflow falls back to the first coarser resident
+//! level, the root at worst)), `fixed_level` (-1: predicted; k: one whole map at level k
 //! for every kernel — level 0 of a 4096 virtual map is the paper's Table 2 baseline), `search_bias`, `tangent_plane`, `bin_factor`, and the depth bias of a level-0 page.
 //! CPU twin: [`crate::cpu::pvssm`] (kernel math and filter), [`crate::cpu::pages`] (pages).
 
@@ -124,10 +126,11 @@ const KNOBS: [Knob; 21] = [
     ),
     Knob::int(
         "ancestors",
-        "1: also render every requested page's coarser ancestors (fallback one level at a time)",
-        1.0,
+        "render requested pages' coarser ancestors too, so a pool overflow falls back one level at \
+         a time: 0 never, 1 always, 2 only when the requests overflow the pool",
+        2.0,
         0.0,
-        1.0,
+        2.0,
     ),
     Knob::int(
         "skip",
@@ -204,7 +207,9 @@ impl<'a> Pvssm<'a> {
     pub fn new(setup: &TechniqueSetup<'a>, params: &Params) -> Result<Self> {
         let ctx = setup.ctx;
         let lowres_size = params.u32("lowres_size")?;
-        let desc = virtual_map::pages_desc(ctx, params)?;
+        let mut desc = virtual_map::pages_desc(ctx, params)?;
+        let ancestors = params.u32("ancestors")?;
+        desc.ancestors_on_overflow = ancestors == 2;
         let view = setup.light_view;
         let virtual_size = desc.virtual_size;
         let light = soft_light(setup.light, view, virtual_size)?;
@@ -214,7 +219,8 @@ impl<'a> Pvssm<'a> {
             // `ancestors` on), or lookups would fall back and the "fixed map" would not be one.
             let level = (fixed_level as u32).min(desc.levels() - 1);
             let side = |l: u32| u64::from(desc.virtual_size / (desc.page_size << l));
-            let coarser: u64 = if params.u32("ancestors")? == 1 {
+            // With `ancestors = 2` the requests (the level and the root) fit, so none are added.
+            let coarser: u64 = if ancestors == 1 {
                 (level + 1..desc.levels()).map(|l| side(l) * side(l)).sum()
             } else {
                 u64::from(level + 1 < desc.levels())
@@ -317,7 +323,7 @@ impl<'a> Pvssm<'a> {
             options |= 2;
         }
         options |= params.u32("refine_search")? << 16;
-        if params.u32("ancestors")? == 1 {
+        if ancestors == 1 {
             options |= 4;
         }
         if params.u32("skip")? == 1 {

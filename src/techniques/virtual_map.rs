@@ -88,6 +88,7 @@ pub fn pages_desc(ctx: &Context, params: &Params) -> Result<PagesDesc> {
             slope: params.f32("bias_slope")?,
             clamp: params.f32("bias_clamp")?,
         },
+        ancestors_on_overflow: false,
         raster: PageRaster::Graphics,
         raster_split: params.u32("raster_split")?,
     };

@@ -26,7 +26,16 @@
 //!    the page's part of the light frustum onto its slot and clips it to the slot with
 //!    `gl_ClipDistance`. Depth is the full light view's, so a level-0 page holds exactly the
 //!    depths of a full map of `virtual_size`²; the constant bias (and clamp) double per level,
-//!    the slope-scaled bias grows with the texel by itself.
+//!    the slope-scaled bias grows with the texel by itself. With [`PageRaster::Compute`] (the
+//!    choice where workgroups run on CPU threads) one compute invocation per bin entry
+//!    rasterizes its triangle instead, in the level's texel coordinates, `atomicMin` into a
+//!    buffer copied into the atlas, and only the triangles over boxes of more than
+//!    `raster_split` texels go through the rasterizer, in one listed draw.
+//!
+//! With [`PagesDesc::ancestors_on_overflow`] the marked pages' coarser ancestors are marked
+//! after the first compaction only if the marks overflow the pool, and the table is compacted
+//! again (`glsl/pages/ancestors.comp`): without an overflow no lookup falls back, so they would
+//! be drawn for nothing.
 //!
 //! A second round ([`VirtualPages::record_refine`], `<name>-refine`) runs the same steps on the
 //! pages a technique marks in [`VirtualPages::refine_flags`] after looking at round 0's pages

@@ -13,8 +13,8 @@
 // Everything is computed in the level's texel coordinates (shadow_coord's, divided by 2^level),
 // never relative to the page, so a texel gets the same coverage and depth in whichever page of
 // its level it is drawn: splitting a level into pages changes nothing. Why: on a device that
-// runs graphics on CPU threads (lavapipe) the triangle setup of a draw is one thread's work and
-// costs ~0.4 us a triangle, while most page triangles cover a few texel centres or none.
+// runs graphics on CPU threads (lavapipe) a drawn triangle costs ~0.4 us (measured) whatever it
+// covers, while most page triangles cover a few texel centres or none.
 // CPU twin: src/cpu/page_raster.rs.
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"

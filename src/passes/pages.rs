@@ -85,9 +85,9 @@ pub enum PageRaster {
     Graphics,
     /// One compute invocation per bin entry (`glsl/pages/page_raster.comp`): texel centres
     /// covered with a top-left rule, the plane's depth plus the same per-level bias, `atomicMin`
-    /// into a buffer copied into the atlas. Where the graphics pipeline's triangle setup runs on
-    /// one CPU thread (lavapipe: ~0.4 µs a triangle) this uses every thread, and most page
-    /// triangles cover a few texel centres or none.
+    /// into a buffer copied into the atlas. Where the draw path costs per triangle whatever it
+    /// covers (lavapipe: ~0.4 µs a triangle, measured) this pays off, since most page triangles
+    /// cover a few texel centres or none.
     Compute,
 }
 

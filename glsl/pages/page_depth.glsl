@@ -12,6 +12,7 @@
 // clamped) and adds it to its depth.
 #include "pages.glsl"
 #include "pages_push.glsl"
+#include "page_bias.glsl"
 
 layout(set = 0, binding = 0) readonly buffer Vertices { float vertices[]; };
 layout(set = 0, binding = 1) readonly buffer Indices { uint indices[]; };
@@ -48,18 +49,7 @@ float triangle_bias(uint tri, uint level) {
     }
     float dzdx = ((b.z - a.z) * (c.y - a.y) - (c.z - a.z) * (b.y - a.y)) / area;
     float dzdy = ((c.z - a.z) * (b.x - a.x) - (b.z - a.z) * (c.x - a.x)) / area;
-    float scale = float(1u << level);
-    int e;
-    frexp(max(max(a.z, max(b.z, c.z)), 1e-30), e);
-    float r = exp2(float(e - 1 - 23));
-    float bias = max(abs(dzdx), abs(dzdy)) * pc.bias_slope + r * pc.bias_constant * scale;
-    float clamp_value = pc.bias_clamp * scale;
-    if (clamp_value > 0.0) {
-        bias = min(bias, clamp_value);
-    } else if (clamp_value < 0.0) {
-        bias = max(bias, clamp_value);
-    }
-    return bias;
+    return page_depth_bias(dzdx, dzdy, max(a.z, max(b.z, c.z)), level);
 }
 #endif
 

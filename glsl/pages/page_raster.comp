@@ -19,6 +19,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
 #include "pages_push.glsl"
+#include "page_bias.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -104,19 +105,7 @@ Tri setup(vec3 s0, vec3 s1, vec3 s2, ivec2 lo, ivec2 hi, uint level) {
     // The plane's gradients in level texels, and the bias they give.
     t.dzdx = ((zb - t.za) * (t.c.y - t.a.y) - (zc - t.za) * (t.b.y - t.a.y)) / area;
     t.dzdy = ((zc - t.za) * (t.b.x - t.a.x) - (zb - t.za) * (t.c.x - t.a.x)) / area;
-    float scale = float(1u << level);
-    float z_max = max(t.za, max(zb, zc));
-    int e;
-    frexp(max(z_max, 1e-30), e);
-    float r = exp2(float(e - 1 - 23));
-    float bias = max(abs(t.dzdx), abs(t.dzdy)) * pc.bias_slope + r * pc.bias_constant * scale;
-    float clamp_value = pc.bias_clamp * scale;
-    if (clamp_value > 0.0) {
-        bias = min(bias, clamp_value);
-    } else if (clamp_value < 0.0) {
-        bias = max(bias, clamp_value);
-    }
-    t.bias = bias;
+    t.bias = page_depth_bias(t.dzdx, t.dzdy, max(t.za, max(zb, zc)), level);
     vec2 tmin = min(t.a, min(t.b, t.c));
     vec2 tmax = max(t.a, max(t.b, t.c));
     // Texels whose centres (i + 0.5) may lie in the box.

@@ -384,25 +384,7 @@ impl Recorder<'_> {
     /// Copies tightly packed texels into `dst`.
     pub fn upload_image(&mut self, dst: &Image, data: &[u8]) -> Result<()> {
         let staging = self.staging(&dst.name, data)?;
-        self.use_buffer(&staging, Access::TransferRead);
-        self.discard(dst);
-        self.use_image(dst, Access::TransferWrite);
-        let region = vk::BufferImageCopy::default()
-            .image_subresource(dst.subresource_layers())
-            .image_extent(vk::Extent3D {
-                width: dst.desc.width,
-                height: dst.desc.height,
-                depth: 1,
-            });
-        unsafe {
-            self.ctx.device().cmd_copy_buffer_to_image(
-                self.cmd,
-                staging.raw,
-                dst.raw,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &[region],
-            )
-        };
+        self.copy_buffer_to_image(&staging, dst);
         self.keep_alive.push(staging);
         Ok(())
     }

@@ -113,14 +113,6 @@ impl PageRaster {
             _ => PageRaster::Graphics,
         }
     }
-
-    /// Its name in knobs and counters.
-    pub fn name(self) -> &'static str {
-        match self {
-            PageRaster::Graphics => "graphics",
-            PageRaster::Compute => "compute",
-        }
-    }
 }
 
 /// What a virtual map is made of.
@@ -485,7 +477,7 @@ impl<'a> VirtualPages<'a> {
                 PageDrawer::Graphics(pipeline, set)
             }
             PageRaster::Compute => {
-                let depth_bits = storage("page atlas depth bits", 4 * u64::from(w) * u64::from(h))?;
+                let depth_bits = storage("page atlas depth bits", desc.atlas_bytes())?;
                 let large_list = storage("page raster large list", 4 * u64::from(capacity))?;
                 let (pipeline, set) = with_set(
                     "pages/page_raster.comp",

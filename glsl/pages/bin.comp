@@ -2,9 +2,17 @@
 // Caster culling: bins each triangle into the resident pages it touches, so a page draws only its
 // own casters. One invocation per triangle walks, level by level, the resident pages under its
 // bounding box (clamped to the level's resident rectangle) and tests the triangle against each
-// page's rectangle exactly (separating axes). Mode 0 counts per slot; after an exclusive scan of
-// the counts, mode 1 writes (triangle, slot) pairs at the slot's offset. Both modes run the same
-// test, so they agree; pages invalidated in between (bins past the buffer's capacity) are skipped.
+// page's rectangle exactly (separating axes). Two ways to bin, by what draws the pages:
+// - for the rasterizer (one draw per level, so a level's bins must be contiguous): mode 0
+//   counts per slot; after an exclusive scan of the counts, mode 1 writes (triangle, slot) pairs
+//   at the slot's offset. Both modes run the same test, so they agree;
+// - for the compute page raster (mode 2, which takes the entries in any order): one walk, the
+//   pairs appended — the root's (slot 0: at most every triangle once) to entries [0, triangles),
+//   the others' after them — at one atomic per workgroup and region. Why: walking every triangle
+//   twice, with an atomic per pair each time, was the pass's cost (800k triangles: ~80 ms a walk
+//   on lavapipe). A pair past the buffer's capacity flags its slot incomplete (bin_cursor[slot]),
+//   and draws.comp takes such pages out of the table, as it does the pages whose scanned bins
+//   run past the capacity in the other way.
 // CPU twin: triangle_overlaps_page() in src/cpu/rmsm.rs.
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
@@ -18,11 +26,28 @@ layout(set = 0, binding = 2) readonly buffer Table { uint table[]; };
 layout(set = 0, binding = 3) readonly buffer Levels { LevelInfo level_info[]; };
 layout(set = 0, binding = 4) buffer BinCount { uint bin_count[]; };
 layout(set = 0, binding = 5) readonly buffer BinOffset { uint bin_offset[]; };
+// Per slot: mode 1's write cursor; mode 2's incomplete flag, then the append cursors (APPEND_*).
 layout(set = 0, binding = 6) buffer BinCursor { uint bin_cursor[]; };
 layout(set = 0, binding = 7) writeonly buffer Entries { uvec2 entries[]; };
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
 
 shared uint group_binned;
+// Mode 2: the workgroup's root pairs, its other pairs per level (then where each level's start
+// in the workgroup's share) and those past HITS of a triangle, and where its shares start.
+shared uint group_level[MAX_PAGE_LEVELS];
+shared uint group_spill;
+shared uint group_rest;
+shared uint group_root_base;
+shared uint group_rest_base;
+
+// What a walk in mode 2 found: the root (round 0's slot 0) or not, and the other pairs, the
+// first HITS of them kept as slot | level << 24 (a triangle with more walks again to write the
+// rest).
+const uint HITS = 16u;
+const uint LEVEL_SHIFT = 24u;
+bool hit_root = false;
+uint rest_hits = 0u;
+uint hits[HITS];
 
 vec4 clip_vertex(uint i) {
     uint v = indices[i];
@@ -72,84 +97,194 @@ bool overlaps_clip(vec4 a, vec4 b, vec4 c, vec2 lo, vec2 hi) {
     return !(out_left || out_right || out_low || out_high);
 }
 
+// A triangle projected into the virtual map's texels (or not, when a corner is behind the light).
+struct Projected {
+    vec4 a;
+    vec4 b;
+    vec4 c;
+    vec2 p0;
+    vec2 p1;
+    vec2 p2;
+    float area;
+    bool projected;
+    bool culled;
+};
+
+Projected project(uint tri) {
+    Projected t;
+    t.a = clip_vertex(3u * tri);
+    t.b = clip_vertex(3u * tri + 1u);
+    t.c = clip_vertex(3u * tri + 2u);
+    bool near_clipped = t.a.z < 0.0 && t.b.z < 0.0 && t.c.z < 0.0;
+    bool far_clipped = t.a.z > t.a.w && t.b.z > t.b.w && t.c.z > t.c.w;
+    t.projected = t.a.w > 0.0 && t.b.w > 0.0 && t.c.w > 0.0;
+    float v = float(pc.virtual_size);
+    t.p0 = vec2(0.0);
+    t.p1 = vec2(0.0);
+    t.p2 = vec2(0.0);
+    t.area = 0.0;
+    if (t.projected) {
+        t.p0 = (t.a.xy / t.a.w * 0.5 + 0.5) * v;
+        t.p1 = (t.b.xy / t.b.w * 0.5 + 0.5) * v;
+        t.p2 = (t.c.xy / t.c.w * 0.5 + 0.5) * v;
+        t.area = (t.p1.x - t.p0.x) * (t.p2.y - t.p0.y) - (t.p1.y - t.p0.y) * (t.p2.x - t.p0.x);
+    }
+    t.culled = near_clipped || far_clipped || (t.projected && t.area == 0.0);
+    return t;
+}
+
+// What a walk does with each page the triangle overlaps.
+const uint WALK_COUNT = 0u;    // mode 0: count the slot's bin
+const uint WALK_SCATTER = 1u;  // mode 1: write the pair at the slot's offset
+const uint WALK_RECORD = 2u;   // mode 2: keep the slot in hits[]
+const uint WALK_APPEND = 3u;   // mode 2: write the pairs past the first HITS from `next` on
+
+// Writes mode 2's pair (tri, slot) at `pos` of the non-root entries, or flags the slot
+// incomplete when that is past the capacity.
+void append(uint tri, uint slot, uint pos) {
+    if (pos < pc.capacity) {
+        entries[pos] = uvec2(tri, slot);
+        bin_count[slot] = 1u;
+    } else {
+        bin_cursor[slot] = 1u;
+    }
+}
+
+// Walks the resident pages of this round under the triangle: returns how many it overlaps.
+uint walk(uint tri, Projected t, uint what, uint next) {
+    uint binned = 0u;
+    float v = float(pc.virtual_size);
+    // Round 1 bins only its own pages: round 0's bins are in place.
+    uint first_slot = ROUND_FIRST_SLOT(pc.round);
+    for (uint level = 0u; level < pc.levels && !t.culled; ++level) {
+        LevelInfo info = level_info[pc.round * pc.levels + level];
+        if (info.end_slot == 0u) {
+            continue;
+        }
+        float texels = float(pc.page_size << level);
+        float eps = float(1u << level) / 64.0;
+        // Resident rectangle of the level, narrowed to the triangle's bounding box.
+        ivec2 lo = ivec2(~info.min_x_not, ~info.min_y_not);
+        ivec2 hi = ivec2(info.max_x, info.max_y);
+        if (t.projected) {
+            vec2 tmin = min(t.p0, min(t.p1, t.p2)) - eps;
+            vec2 tmax = max(t.p0, max(t.p1, t.p2)) + eps;
+            lo = max(lo, ivec2(floor(tmin / texels)));
+            hi = min(hi, ivec2(floor(tmax / texels)));
+        }
+        for (int py = lo.y; py <= hi.y; ++py) {
+            for (int px = lo.x; px <= hi.x; ++px) {
+                uvec2 page = uvec2(px, py);
+                uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page);
+                uint s = table[e];
+                if (s == 0u || s - 1u < first_slot) {
+                    continue;
+                }
+                vec2 rlo = vec2(page) * texels;
+                vec2 rhi = rlo + texels;
+                bool hit;
+                if (t.projected) {
+                    hit = overlaps(t.p0, t.p1, t.p2, t.area, rlo - eps, rhi + eps);
+                } else {
+                    hit = overlaps_clip(t.a, t.b, t.c, rlo / v * 2.0 - 1.0, rhi / v * 2.0 - 1.0);
+                }
+                if (!hit) {
+                    continue;
+                }
+                uint slot = s - 1u;
+                if (what == WALK_COUNT) {
+                    atomicAdd(bin_count[slot], 1u);
+                } else if (what == WALK_SCATTER) {
+                    uint pos = bin_offset[slot] + atomicAdd(bin_cursor[slot], 1u);
+                    if (pos < pc.capacity) {
+                        entries[pos] = uvec2(tri, slot);
+                    }
+                } else if (what == WALK_RECORD) {
+                    if (slot == 0u) {
+                        hit_root = true;
+                    } else {
+                        if (rest_hits < HITS) {
+                            hits[rest_hits] = slot | level << LEVEL_SHIFT;
+                        }
+                        rest_hits += 1u;
+                    }
+                } else if (slot != 0u) {
+                    if (rest_hits >= HITS) {
+                        append(tri, slot, next);
+                        next += 1u;
+                    }
+                    rest_hits += 1u;
+                }
+                binned += 1u;
+            }
+        }
+    }
+    return binned;
+}
+
 void main() {
     if (gl_LocalInvocationIndex == 0u) {
         group_binned = 0u;
+        group_rest = 0u;
+        group_spill = 0u;
+    }
+    if (gl_LocalInvocationIndex < MAX_PAGE_LEVELS) {
+        group_level[gl_LocalInvocationIndex] = 0u;
     }
     barrier();
 
     uint tri = gl_GlobalInvocationID.x;
-    if (tri < pc.triangles) {
-        vec4 a = clip_vertex(3u * tri);
-        vec4 b = clip_vertex(3u * tri + 1u);
-        vec4 c = clip_vertex(3u * tri + 2u);
-        bool near_clipped = a.z < 0.0 && b.z < 0.0 && c.z < 0.0;
-        bool far_clipped = a.z > a.w && b.z > b.w && c.z > c.w;
-        bool projected = a.w > 0.0 && b.w > 0.0 && c.w > 0.0;
-        float v = float(pc.virtual_size);
-        vec2 pa = vec2(0.0), pb = vec2(0.0), pc2 = vec2(0.0);
-        float area = 0.0;
-        if (projected) {
-            pa = (a.xy / a.w * 0.5 + 0.5) * v;
-            pb = (b.xy / b.w * 0.5 + 0.5) * v;
-            pc2 = (c.xy / c.w * 0.5 + 0.5) * v;
-            area = (pb.x - pa.x) * (pc2.y - pa.y) - (pb.y - pa.y) * (pc2.x - pa.x);
+    bool live = tri < pc.triangles;
+    Projected t;
+    uint binned = 0u;
+    if (live) {
+        t = project(tri);
+        binned = walk(tri, t, pc.mode == 2u ? WALK_RECORD : pc.mode, 0u);
+    }
+    if (pc.mode == 2u) {
+        // The workgroup's share of each region: the root's pairs, then the others level by
+        // level (a SIMD group of the compute raster then takes neighbouring triangles at one
+        // level, mostly into one page: alike boxes, nearby texels), then those past HITS.
+        uint kept = min(rest_hits, HITS);
+        uint root_at = hit_root ? atomicAdd(group_binned, 1u) : 0u;
+        uint at[HITS];
+        for (uint h = 0u; h < kept; ++h) {
+            at[h] = atomicAdd(group_level[hits[h] >> LEVEL_SHIFT], 1u);
         }
-        bool culled = near_clipped || far_clipped || (projected && area == 0.0);
-        uint binned = 0u;
-        // Round 1 bins only its own pages: round 0's bins are in place.
-        uint first_slot = ROUND_FIRST_SLOT(pc.round);
-        for (uint level = 0u; level < pc.levels && !culled; ++level) {
-            LevelInfo info = level_info[pc.round * pc.levels + level];
-            if (info.end_slot == 0u) {
-                continue;
+        uint spill_at = atomicAdd(group_spill, rest_hits - kept);
+        barrier();
+        if (gl_LocalInvocationIndex == 0u) {
+            uint sum = 0u;
+            for (uint l = 0u; l < MAX_PAGE_LEVELS; ++l) {
+                uint n = group_level[l];
+                group_level[l] = sum;
+                sum += n;
             }
-            float texels = float(pc.page_size << level);
-            float eps = float(1u << level) / 64.0;
-            // Resident rectangle of the level, narrowed to the triangle's bounding box.
-            ivec2 lo = ivec2(~info.min_x_not, ~info.min_y_not);
-            ivec2 hi = ivec2(info.max_x, info.max_y);
-            if (projected) {
-                vec2 tmin = min(pa, min(pb, pc2)) - eps;
-                vec2 tmax = max(pa, max(pb, pc2)) + eps;
-                lo = max(lo, ivec2(floor(tmin / texels)));
-                hi = min(hi, ivec2(floor(tmax / texels)));
-            }
-            for (int py = lo.y; py <= hi.y; ++py) {
-                for (int px = lo.x; px <= hi.x; ++px) {
-                    uvec2 page = uvec2(px, py);
-                    uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page);
-                    uint s = table[e];
-                    if (s == 0u || s - 1u < first_slot) {
-                        continue;
-                    }
-                    vec2 rlo = vec2(page) * texels;
-                    vec2 rhi = rlo + texels;
-                    bool hit;
-                    if (projected) {
-                        hit = overlaps(pa, pb, pc2, area, rlo - eps, rhi + eps);
-                    } else {
-                        hit = overlaps_clip(a, b, c, rlo / v * 2.0 - 1.0, rhi / v * 2.0 - 1.0);
-                    }
-                    if (!hit) {
-                        continue;
-                    }
-                    uint slot = s - 1u;
-                    binned += 1u;
-                    if (pc.mode == 0u) {
-                        atomicAdd(bin_count[slot], 1u);
-                    } else {
-                        uint pos = bin_offset[slot] + atomicAdd(bin_cursor[slot], 1u);
-                        if (pos < pc.capacity) {
-                            entries[pos] = uvec2(tri, slot);
-                        }
-                    }
-                }
-            }
+            group_rest = sum + group_spill;
+            uint base = pc.pool_pages;
+            group_root_base = atomicAdd(bin_cursor[base + APPEND_ROOT], group_binned);
+            group_rest_base = pc.triangles
+                + atomicAdd(bin_cursor[base + APPEND_REST], group_rest);
         }
-        if (pc.mode == 0u && binned > 0u) {
-            atomicAdd(group_binned, binned);
+        barrier();
+        if (hit_root) {
+            entries[group_root_base + root_at] = uvec2(tri, 0u);
+            bin_count[0] = 1u;
         }
+        for (uint h = 0u; h < kept; ++h) {
+            uint level = hits[h] >> LEVEL_SHIFT;
+            uint pos = group_rest_base + group_level[level] + at[h];
+            append(tri, hits[h] & ((1u << LEVEL_SHIFT) - 1u), pos);
+        }
+        if (rest_hits > HITS) {
+            rest_hits = 0u;
+            walk(tri, t, WALK_APPEND, group_rest_base + group_rest - group_spill + spill_at);
+        }
+        if (gl_LocalInvocationIndex == 0u) {
+            group_binned += group_rest;
+        }
+    } else if (binned > 0u) {
+        atomicAdd(group_binned, binned);
     }
 
     barrier();

@@ -3,7 +3,9 @@
 // allocated coarse first), and the slots whose bins run past the bin buffer's capacity are taken
 // out of the page table, so their lookups fall back to a coarser page instead of reading a page
 // with missing casters. Offsets grow with the slot, so the slots that fit are a prefix: the root
-// (slot 0, at most every triangle once, and the capacity holds that) always fits.
+// (slot 0, at most every triangle once, and the capacity holds that) always fits. After bin.comp's
+// mode 2 (pc.mode = 2: appended, unordered) the slots out are those it flagged incomplete, the
+// root's pairs have their own region, and only the compute raster's arguments are written.
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
 #include "pages_push.glsl"
@@ -19,9 +21,13 @@ layout(set = 0, binding = 4) readonly buffer Levels { LevelInfo level_info[]; };
 layout(set = 0, binding = 5) writeonly buffer Draws { uvec4 draws[]; };
 layout(set = 0, binding = 6) buffer Counters { uint counters[]; };
 // Per round (12 words): the compute page raster's dispatch (workgroups of 64, 1, 1), the
-// round's first bin entry and the end of the entries that fit (page_raster.comp), then at word 8
-// the indirect draw of the entries it lists for the graphics pipeline, empty until it does.
+// round's two ranges of bin entries that fit (page_raster.comp), then at word 8 the indirect
+// draw of the entries it lists for the graphics pipeline, empty until it does.
+// The compute raster takes two ranges of entries, words 3..4 and 5..6 (the root's region and
+// the others' in mode 2; one range and an empty one after a scan).
 layout(set = 0, binding = 7) writeonly buffer RasterArgs { uint raster_args[]; };
+// Mode 2: per slot 1 when a pair did not fit, then the append cursors (APPEND_*).
+layout(set = 0, binding = 8) buffer BinCursor { uint bin_cursor[]; };
 
 uint bin_end(uint slot) {
     return bin_offset[slot] + bin_count[slot];
@@ -32,8 +38,9 @@ void main() {
     // This round's slots: [first, end).
     uint first_slot = ROUND_FIRST_SLOT(pc.round);
     uint end_slot = first_slot + counters[(pc.round == 0u ? 0u : C_ROUND1) + C_ALLOCATED];
+    bool appended = pc.mode == 2u;
     if (i >= first_slot && i < end_slot) {
-        if (bin_end(i) > pc.capacity) {
+        if (appended ? bin_cursor[i] != 0u : bin_end(i) > pc.capacity) {
             table[slot_info[i].w] = 0u;
             atomicAdd(counters[C_BIN_OVERFLOW], 1u);
         } else if (bin_count[i] > 0u) {
@@ -43,16 +50,33 @@ void main() {
     if (i == 0u) {
         uint start = 0u;
         uint end = 0u;
-        if (end_slot > first_slot) {
+        uint rest_start = 0u;
+        uint rest_end = 0u;
+        if (appended) {
+            uint cursors = pc.pool_pages;
+            uint rest = bin_cursor[cursors + APPEND_REST];
+            uint rest_first = 0u;
+            if (pc.round == 0u) {
+                end = bin_cursor[cursors + APPEND_ROOT];
+                bin_cursor[cursors + APPEND_ROUND1] = rest;
+            } else {
+                rest_first = bin_cursor[cursors + APPEND_ROUND1];
+            }
+            uint room = pc.capacity - pc.triangles;
+            rest_start = pc.triangles + min(rest_first, room);
+            rest_end = pc.triangles + min(rest, room);
+        } else if (end_slot > first_slot) {
             start = bin_offset[first_slot];
             end = max(start, min(bin_end(end_slot - 1u), pc.capacity));
         }
         uint base = pc.round * 12u;
-        raster_args[base] = (end - start + 63u) / 64u;
+        raster_args[base] = (end - start + rest_end - rest_start + 63u) / 64u;
         raster_args[base + 1u] = 1u;
         raster_args[base + 2u] = 1u;
         raster_args[base + 3u] = start;
         raster_args[base + 4u] = end;
+        raster_args[base + 5u] = rest_start;
+        raster_args[base + 6u] = rest_end;
         raster_args[base + 8u] = 0u;
         raster_args[base + 9u] = 1u;
         raster_args[base + 10u] = 0u;
@@ -61,7 +85,7 @@ void main() {
     if (i < pc.levels) {
         LevelInfo info = level_info[pc.round * pc.levels + i];
         uvec4 draw = uvec4(0u, 1u, 0u, 0u);
-        if (info.end_slot > 0u) {
+        if (info.end_slot > 0u && !appended) {
             uint first = ~info.first_slot_not;
             uint last = info.end_slot - 1u;
             uint start = bin_offset[first];

@@ -28,8 +28,8 @@ layout(set = 0, binding = 1) readonly buffer Indices { uint indices[]; };
 layout(set = 0, binding = 2) readonly buffer Slots { uvec4 slot_info[]; };
 layout(set = 0, binding = 3) readonly buffer Entries { uvec2 entries[]; };
 layout(set = 0, binding = 4) buffer Atlas { uint atlas_bits[]; };
-// Per round (12 words): the dispatch's workgroups (x, 1, 1), then the round's first bin entry
-// and the end of its entries (draws.comp).
+// Per round (12 words): the dispatch's workgroups (x, 1, 1), then the round's two ranges of bin
+// entries, [word 3, word 4) and [word 5, word 6) (draws.comp).
 // Words 8..11: the indirect draw of the listed entries (vertexCount = 3 per entry).
 layout(set = 0, binding = 5) buffer RasterArgs { uint raster_args[]; };
 // The entries left to the graphics pipeline (page_depth_listed.vert): bin entry indices.
@@ -220,7 +220,10 @@ void main() {
     uint base = pc.round * 12u;
     uint k = raster_args[base + 3u] + gl_GlobalInvocationID.x;
     if (k >= raster_args[base + 4u]) {
-        return;
+        k = raster_args[base + 5u] + (k - raster_args[base + 4u]);
+        if (k >= raster_args[base + 6u]) {
+            return;
+        }
     }
     Entry en = load_entry(k);
     if (en.count == 0) {

@@ -11,7 +11,8 @@ layout(push_constant) uniform Push {
     uint triangles;
     // Bin entries that fit in the bin buffer.
     uint capacity;
-    // bin.comp: 0 counts, 1 scatters; page_raster.comp: boxes of more texels go to the rasterizer.
+    // bin.comp: 0 counts, 1 scatters, 2 appends; draws.comp: 2 after appending, else after the
+    // scan; page_raster.comp: boxes of more texels go to the rasterizer.
     uint mode;
     // 0: the requests' round; 1: the refinement round, which allocates after round 0's slots,
     // bins and draws only its own pages, and keeps its level bookkeeping and draws apart.
@@ -46,6 +47,12 @@ struct LevelInfo {
 #define C_RENDERED 4
 #define C_BIN_OVERFLOW 5
 #define C_ROUND1 6
+
+// Append mode's cursors (bin.comp mode 2), in bin_cursor after the pool's slots: root pairs
+// written, other pairs written (from entry `triangles` on), the latter when round 1 began.
+#define APPEND_ROOT 0u
+#define APPEND_REST 1u
+#define APPEND_ROUND1 2u
 
 // Slots of round 0 come first: round 1's start after them.
 #define ROUND_FIRST_SLOT(round) ((round) == 0u ? 0u : counters[C_ALLOCATED])

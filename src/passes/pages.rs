@@ -14,13 +14,15 @@
 //!    slot 0. A technique that marks each page's ancestors too (rmsm does) makes every fallback
 //!    one level at a time. Overflows are counted (`overflow_pages`), never dropped silently;
 //! 3. **cull** (`<name>-cull`): every triangle is tested against the resident pages under its
-//!    bounding box (an exact separating-axis test in the light's texel grid) and binned —
-//!    counted, scanned, scattered as (triangle, slot) pairs — then one indirect draw per level is
-//!    written from the bins. A page whose bins would run past the bin buffer's capacity
-//!    (`bin_factor` entries per triangle or per pool slot, whichever is more: a scene of a few
-//!    large triangles puts most of them in every page) is taken out of the page table, so lookups
-//!    fall back
-//!    instead of reading a page with missing casters (`bin_overflow_pages`);
+//!    bounding box (an exact separating-axis test in the light's texel grid) and binned as
+//!    (triangle, slot) pairs: for the rasterizer counted, scanned and scattered, then one
+//!    indirect draw per level written from the bins; for the compute raster, which takes the
+//!    pairs in any order, appended in one walk (the root's in a region of their own, the others
+//!    level by level within each workgroup's share), which halves the pass on an 800k-triangle
+//!    scene. A page whose bins would run past the bin buffer's capacity (`bin_factor` entries
+//!    per triangle or per pool slot, whichever is more: a scene of a few large triangles puts
+//!    most of them in every page) is taken out of the page table, so lookups fall back instead
+//!    of reading a page with missing casters (`bin_overflow_pages`); the root always fits;
 //! 4. **render** (`<name>-render`): the atlas is cleared and each level's bins are drawn with
 //!    one `vkCmdDrawIndirect`; the vertex shader pulls each triangle's corners by index, zooms
 //!    the page's part of the light frustum onto its slot and clips it to the slot with
@@ -340,7 +342,8 @@ impl<'a> VirtualPages<'a> {
         let level_info = storage("page levels", 2 * 32 * u64::from(levels))?;
         let bin_count = storage("page bin counts", 4 * u64::from(pool))?;
         let bin_offset = storage("page bin offsets", 4 * u64::from(pool))?;
-        let bin_cursor = storage("page bin cursors", 4 * u64::from(pool))?;
+        // Per slot, then the append cursors of bin.comp's mode 2 (APPEND_* in pages_push.glsl).
+        let bin_cursor = storage("page bin cursors", 4 * (u64::from(pool) + 4))?;
         let bins = storage("page bins", 8 * u64::from(capacity))?;
         let draws = Buffer::new(
             ctx,
@@ -449,6 +452,7 @@ impl<'a> VirtualPages<'a> {
                 Binding::Buffer(&draws),
                 Binding::Buffer(&counters),
                 Binding::Buffer(&raster_args),
+                Binding::Buffer(&bin_cursor),
             ],
         )?;
         let page_graphics = GraphicsDesc {
@@ -645,18 +649,31 @@ impl<'a> VirtualPages<'a> {
         self.record_bins(rec, &self.push)
     }
 
-    /// Counts, scans and scatters the bins of `push.round`'s pages and writes its draws.
+    /// Bins `push.round`'s pages and writes its draws: appended in one walk for the compute
+    /// raster (`glsl/pages/bin.comp` mode 2), counted, scanned and scattered for the rasterizer's
+    /// per-level draws.
     fn record_bins(&self, rec: &mut Recorder<'_>, push: &PagesPush) -> Result<()> {
         let triangles = self.push.triangles;
         let (pipeline, set) = &self.bin;
+        let (draw_pipeline, draw_set) = &self.draw_args;
+        let threads = self.desc.pool_pages.max(self.push.levels);
+        if self.appends() {
+            let append = PagesPush { mode: 2, ..*push };
+            rec.dispatch(pipeline, set, &append, [triangles, 1, 1])?;
+            return rec.dispatch(draw_pipeline, draw_set, &append, [threads, 1, 1]);
+        }
         rec.dispatch(pipeline, set, push, [triangles, 1, 1])?;
         self.scan
             .record(rec, &self.scan_binding, ScanKind::Exclusive)?;
-        let (draw_pipeline, draw_set) = &self.draw_args;
-        let threads = self.desc.pool_pages.max(self.push.levels);
         rec.dispatch(draw_pipeline, draw_set, push, [threads, 1, 1])?;
         let scatter = PagesPush { mode: 1, ..*push };
         rec.dispatch(pipeline, set, &scatter, [triangles, 1, 1])
+    }
+
+    /// Whether the bins are appended unordered (the compute raster takes them so) rather than
+    /// grouped by level for the rasterizer's draws.
+    fn appends(&self) -> bool {
+        matches!(self.render, PageDrawer::Compute(_))
     }
 
     fn record_render(&self, rec: &mut Recorder<'_>) -> Result<()> {
@@ -781,11 +798,29 @@ impl<'a> VirtualPages<'a> {
 
     /// The last frame's bins as (triangle, slot) pairs, slot by slot: for tests.
     pub fn read_bins(&self) -> Result<Vec<(u32, u32)>> {
+        let raw = crate::gpu::u32s(&self.ctx.read_buffer(&self.entries)?);
+        let pairs = |range: std::ops::Range<usize>| -> Vec<(u32, u32)> {
+            raw[2 * range.start..2 * range.end]
+                .chunks_exact(2)
+                .map(|p| (p[0], p[1]))
+                .collect()
+        };
+        if self.appends() {
+            // The root's region, then the others' from entry `triangles` on (bin.comp mode 2).
+            let cursors = crate::gpu::u32s(&self.ctx.read_buffer(&self.bin_cursor)?);
+            let pool = self.desc.pool_pages as usize;
+            let triangles = self.push.triangles as usize;
+            let room = self.push.capacity as usize - triangles;
+            let rest = (cursors[pool + 1] as usize).min(room);
+            let mut bins = pairs(0..cursors[pool] as usize);
+            bins.extend(pairs(triangles..triangles + rest));
+            bins.sort_unstable_by_key(|&(t, s)| (s, t));
+            return Ok(bins);
+        }
         let counts = crate::gpu::u32s(&self.ctx.read_buffer(&self.bin_count)?);
         let total: u64 = counts.iter().map(|&c| u64::from(c)).sum();
         let n = total.min(u64::from(self.push.capacity)) as usize;
-        let raw = crate::gpu::u32s(&self.ctx.read_buffer(&self.entries)?);
-        Ok(raw.chunks_exact(2).take(n).map(|p| (p[0], p[1])).collect())
+        Ok(pairs(0..n))
     }
 
     /// (level, page x, page y, entry) of each allocated slot (both rounds) after the last

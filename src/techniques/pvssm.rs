@@ -30,7 +30,8 @@
 //!
 //! Knobs: `lowres_size`, `virtual_size`, `page_size`, `pool_pages`, `rho` (`dynamic` | `static`),
 //! `rho_scale` (the quality/speed dial: texels across a kernel ×), `antialias`, `max_search`,
-//! `search_cells` (the search's cost bound: cells per side of the min-pyramid level it reads),
+//! `search_cells` (the search's cost bound: cells per side of the min-pyramid level it reads;
+//! with `refine_search` the first search, which only sizes the refined one, reads half as many),
 //! `refine_search`, `ancestors` (render each requested page's coarser ancestors too, so a pool
 //! overflow falls back one level at a time: 1 always, 2 — the default — only when the requests
 //! overflow the pool (without an overflow no lookup falls back, and the ancestors are a fifth of
@@ -112,7 +113,8 @@ const KNOBS: [Knob; 21] = [
     .real(),
     Knob::int(
         "search_cells",
-        "blocker-search cells per side: the min-pyramid level is chosen to span at most this",
+        "blocker-search cells per side: the min-pyramid level is chosen to span at most this \
+         (half as many for a first search that a refined one follows)",
         32.0,
         2.0,
         64.0,

@@ -14,7 +14,11 @@
 // counted. A triangle whose clamped texel range has at most SMALL texels is rasterized here;
 // bigger ones are appended to `large`.
 // phase 1: a fixed number of workgroups grid-stride over `large`, the 64 invocations of a group
-// striding over the triangle's texel range.
+// striding over a triangle's texels; a triangle of more than HUGE texels in LARGE_PARTS parts,
+// part k taking every LARGE_PARTS-th row of its range from row k on: a triangle over the whole map (a ground plane) is
+// spread over as many groups as there are parts, not left to one (on lavapipe, one CPU thread:
+// the whole pass waited on it). Only those: a part costs its group a set-up, and splitting every
+// large triangle made the pass 4x slower on teapot-rect.
 //
 // lavapipe stops every loop of a SIMD group after 65 535 passes per dispatch, silently; the last
 // loop below makes two passes unless the limiter ran out, and counts the invocations where it
@@ -22,6 +26,9 @@
 
 #define WG 64u
 #define SMALL 64u
+// Triangles of more texels than HUGE are split into LARGE_PARTS parts in phase 1.
+#define HUGE 16384u
+#define LARGE_PARTS 16u
 #define EPS 1e-3
 
 #define C_TRIANGLES 0
@@ -30,6 +37,10 @@
 #define C_TEXELS 3
 #define C_BEHIND 4
 #define C_CUT 5
+// Past RasterCounters: the large list's triangles of at most HUGE texels (from its front) and
+// those of more (from its back).
+#define C_FRONT 6
+#define C_HUGE 7
 
 layout(local_size_x = 64) in;
 
@@ -170,11 +181,16 @@ uint rasterize_texel(Setup s, ivec2 t) {
 }
 
 void main() {
+    // No barrier() anywhere: lavapipe runs a shader with one as coroutines, several times slower
+    // here.
     uint written = 0u;
     if (pc.phase == 0u) {
         uint tri = gl_GlobalInvocationID.x;
+        if (tri == 0u) {
+            // Every triangle is looked at: counted once, not by an atomic each.
+            atomicAdd(counters[C_TRIANGLES], pc.triangles);
+        }
         if (tri < pc.triangles) {
-            atomicAdd(counters[C_TRIANGLES], 1u);
             Setup s;
             uint r = setup(tri, s);
             if (r != SETUP_OK) {
@@ -185,9 +201,12 @@ void main() {
             } else if (all(lessThanEqual(s.lo, s.hi))) {
                 ivec2 size = s.hi - s.lo + 1;
                 uint count = uint(size.x) * uint(size.y);
-                if (count > SMALL) {
-                    uint slot = atomicAdd(counters[C_LARGE], 1u);
-                    large[slot] = tri;
+                if (count > HUGE) {
+                    atomicAdd(counters[C_LARGE], 1u);
+                    large[pc.triangles - 1u - atomicAdd(counters[C_HUGE], 1u)] = tri;
+                } else if (count > SMALL) {
+                    atomicAdd(counters[C_LARGE], 1u);
+                    large[atomicAdd(counters[C_FRONT], 1u)] = tri;
                 } else {
                     for (uint i = 0u; i < count; ++i) {
                         ivec2 t = s.lo + ivec2(int(i % uint(size.x)), int(i / uint(size.x)));
@@ -197,14 +216,24 @@ void main() {
             }
         }
     } else {
-        uint count = counters[C_LARGE];
-        for (uint j = gl_WorkGroupID.x; j < count; j += gl_NumWorkGroups.x) {
+        uint front = counters[C_FRONT];
+        uint items = front + counters[C_HUGE] * LARGE_PARTS;
+        for (uint k = gl_WorkGroupID.x; k < items; k += gl_NumWorkGroups.x) {
+            // A triangle of the front whole; one of the back in LARGE_PARTS parts.
+            uint tri = k < front ? large[k] : large[pc.triangles - 1u - (k - front) / LARGE_PARTS];
+            uint part = k < front ? 0u : (k - front) % LARGE_PARTS;
+            uint parts = k < front ? 1u : LARGE_PARTS;
             Setup s;
-            setup(large[j], s);
+            setup(tri, s);
             ivec2 size = s.hi - s.lo + 1;
-            uint texels = uint(size.x) * uint(size.y);
-            for (uint i = gl_LocalInvocationIndex; i < texels; i += WG) {
-                ivec2 t = s.lo + ivec2(int(i % uint(size.x)), int(i / uint(size.x)));
+            // Rows part, part + LARGE_PARTS, ... of the range: rows of the map lie apart in
+            // memory, so two groups never atomically update one cache line (interleaving runs
+            // of texels instead made the pass 5x slower on two CPU threads).
+            uint rows = uint(size.y) > part ? (uint(size.y) - part + parts - 1u) / parts : 0u;
+            uint part_texels = rows * uint(size.x);
+            for (uint i = gl_LocalInvocationIndex; i < part_texels; i += WG) {
+                uint row = part + parts * (i / uint(size.x));
+                ivec2 t = s.lo + ivec2(int(i % uint(size.x)), int(row));
                 written += rasterize_texel(s, t);
             }
         }

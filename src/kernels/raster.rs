@@ -16,7 +16,10 @@
 //! Design: one invocation per triangle sets it up and rasterizes it when its clamped texel range
 //! has at most 64 texels (nearly every triangle of a scene at these resolutions); bigger ones are
 //! appended to a list, which [`LARGE_GROUPS`] workgroups then grid-stride over, the 64
-//! invocations of a group striding over the triangle's texels. Fixed groups keep per-workgroup
+//! invocations of a group striding over a triangle's texels; one of more than 128² texels is
+//! split into 16 parts (part k: every 16th row from row k on) — so a triangle over the whole map
+//! (a ground plane) keeps 16 groups busy, not one (`teapot-rect`'s 1024² low-resolution map: the pass 22 → 4 ms on
+//! lavapipe, whose workgroups are CPU threads). Fixed groups keep per-workgroup
 //! overhead bounded; lavapipe's loop limiter (65 535 loop passes per SIMD group and dispatch)
 //! bounds the texels one group may handle, hence [`MAX_MAP_SIZE`]; a guard loop counts
 //! invocations the limiter cut short ([`RasterCounters::cut`]).
@@ -198,7 +201,13 @@ impl ConservativeRaster {
         let large = Buffer::storage(&self.ctx, "conservative raster large triangles", {
             4 * triangles.max(1) as u64
         })?;
-        let counters = Buffer::storage(&self.ctx, "conservative raster counters", 4 * COUNTERS)?;
+        // Two more words after RasterCounters: the large list's two ends (the shader's C_FRONT
+        // and C_HUGE).
+        let counters = Buffer::storage(
+            &self.ctx,
+            "conservative raster counters",
+            4 * (COUNTERS + 2),
+        )?;
         let set = DescriptorSet::new(
             &self.ctx,
             &self.pipeline,

@@ -770,7 +770,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     for s in &scene_names {
         let pts: Vec<_> = points.iter().filter(|p| &p.scene == s).cloned().collect();
         write_pareto_chart(
-            &args.out.join(format!("pareto-{s}.png")),
+            &args.out.join(crate::bench_page::pareto_file(s)),
             &format!("{s}: {title}"),
             &pts,
         )?;

@@ -43,10 +43,7 @@ pub fn write(
     for scene in scenes {
         page.heading(2, scene);
         if charted.contains(scene) {
-            page.image(
-                &format!("pareto-{scene}.png"),
-                &format!("{scene}: Pareto chart"),
-            )?;
+            page.image(&pareto_file(scene), &format!("{scene}: Pareto chart"))?;
         }
         let mut mine: Vec<&serde_json::Value> =
             rows.iter().filter(|r| r["scene"] == scene).collect();
@@ -111,4 +108,37 @@ pub fn write(
     }
     page.write(&out.join("index.html"))?;
     Ok(())
+}
+
+/// The file name of a scene's Pareto chart: the scene name with every character but ASCII
+/// letters, digits, `-`, `_` and `.` replaced by `_` (a procedural scene's `grid:800000@rect`
+/// would otherwise read as a URL scheme in the page's link).
+pub fn pareto_file(scene: &str) -> String {
+    let safe: String = scene
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    format!("pareto-{safe}.png")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pareto_file;
+
+    #[test]
+    fn chart_names_of_procedural_scenes_are_plain_files() {
+        assert_eq!(
+            pareto_file("grid:800000@rect"),
+            "pareto-grid_800000_rect.png"
+        );
+        assert_eq!(pareto_file("teapot-rect"), "pareto-teapot-rect.png");
+        let name = pareto_file("a b/c:d");
+        assert!(penumbra::report::html::href(&name).is_ok(), "{name}");
+    }
 }

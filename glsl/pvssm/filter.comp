@@ -18,7 +18,9 @@ layout(set = 0, binding = 6, rgba32f) uniform readonly image2D shape;
 layout(set = 0, binding = 7, r32f) uniform writeonly image2D visibility;
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
 
-shared uint group_counts[COUNTERS];
+// The invocation's counts, added to the counters once at the end (not through workgroup-shared
+// memory: its barrier() makes lavapipe run the shader as coroutines, 15-25 % slower here).
+uint counts[COUNTERS];
 
 // Widest kernel, in texels of its level, one invocation filters (bounds the loops); wider ones
 // are cut to it and counted (`filter_cut`): the prediction keeps kernels near rho's ~21 texels,
@@ -48,10 +50,9 @@ bool kernel_covered(ivec4 box, uint level) {
 }
 
 void main() {
-    if (gl_LocalInvocationIndex < COUNTERS) {
-        group_counts[gl_LocalInvocationIndex] = 0u;
+    for (int k = 0; k < COUNTERS; ++k) {
+        counts[k] = 0u;
     }
-    barrier();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, pc.view_size))) {
@@ -70,7 +71,7 @@ void main() {
                 level += 1u;
             }
             if (level > wanted) {
-                atomicAdd(group_counts[C_FALLBACK], 1u);
+                counts[C_FALLBACK] += 1u;
             }
             float s = float(1u << level);
             Receiver rc = make_receiver(c, r.xyz, n, 8.0 * s);
@@ -147,16 +148,17 @@ void main() {
             }
             float v = sum.y > 0.0 ? sum.x / sum.y : 1.0;
             imageStore(visibility, pixel, vec4(v));
-            atomicAdd(group_counts[v >= 1.0 ? C_LIT : (v <= 0.0 ? C_UMBRA : C_PENUMBRA)], 1u);
-            atomicAdd(group_counts[C_FILTER_TEXELS], texels);
+            counts[v >= 1.0 ? C_LIT : (v <= 0.0 ? C_UMBRA : C_PENUMBRA)] += 1u;
+            counts[C_FILTER_TEXELS] += texels;
             if (cut) {
-                atomicAdd(group_counts[C_FILTER_CUT], 1u);
+                counts[C_FILTER_CUT] += 1u;
             }
         }
     }
 
-    barrier();
-    if (gl_LocalInvocationIndex < COUNTERS && group_counts[gl_LocalInvocationIndex] > 0u) {
-        atomicAdd(counters[gl_LocalInvocationIndex], group_counts[gl_LocalInvocationIndex]);
+    for (int k = 0; k < COUNTERS; ++k) {
+        if (counts[k] > 0u) {
+            atomicAdd(counters[k], counts[k]);
+        }
     }
 }

@@ -51,7 +51,8 @@ void bin_sample(ivec2 pixel) {
         ivec2 g = clamp(ivec2(floor(grid_coord(q))), ivec2(0), ivec2(grid_size() - 1));
         cell = uint(g.y * grid_size() + g.x);
         atomicMax(cell_depth[cell], floatBitsToUint(max(q.z, 0.0)));
-        atomicMax(group_counters[C_MAX_DEPTH], floatBitsToUint(max(q.z, 0.0)));
+        uint depth_bits = floatBitsToUint(max(q.z, 0.0));
+        group_counters[C_MAX_DEPTH] = max(group_counters[C_MAX_DEPTH], depth_bits);
     } else {
         count(C_OVERFLOW_SAMPLES, 1u);
     }

@@ -8,7 +8,7 @@
 //   at the slot's offset. Both modes run the same test, so they agree;
 // - for the compute page raster (mode 2, which takes the entries in any order): one walk, the
 //   pairs appended — the root's (slot 0: at most every triangle once) to entries [0, triangles),
-//   the others' after them — at one atomic per workgroup and region. Why: walking every triangle
+//   the others' after them — at one atomic per triangle and region. Why: walking every triangle
 //   twice, with an atomic per pair each time, was the pass's cost (800k triangles: ~80 ms a walk
 //   on lavapipe). A pair past the buffer's capacity flags its slot incomplete (bin_cursor[slot]),
 //   and draws.comp takes such pages out of the table, as it does the pages whose scanned bins
@@ -31,20 +31,9 @@ layout(set = 0, binding = 6) buffer BinCursor { uint bin_cursor[]; };
 layout(set = 0, binding = 7) writeonly buffer Entries { uvec2 entries[]; };
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
 
-shared uint group_binned;
-// Mode 2: the workgroup's root pairs, its other pairs per level (then where each level's start
-// in the workgroup's share) and those past HITS of a triangle, and where its shares start.
-shared uint group_level[MAX_PAGE_LEVELS];
-shared uint group_spill;
-shared uint group_rest;
-shared uint group_root_base;
-shared uint group_rest_base;
-
-// What a walk in mode 2 found: the root (round 0's slot 0) or not, and the other pairs, the
-// first HITS of them kept as slot | level << 24 (a triangle with more walks again to write the
-// rest).
+// What a walk in mode 2 found: the root (round 0's slot 0) or not, and the other slots, the
+// first HITS of them kept (a triangle with more walks again to write the rest).
 const uint HITS = 16u;
-const uint LEVEL_SHIFT = 24u;
 bool hit_root = false;
 uint rest_hits = 0u;
 uint hits[HITS];
@@ -204,7 +193,7 @@ uint walk(uint tri, Projected t, uint what, uint next) {
                         hit_root = true;
                     } else {
                         if (rest_hits < HITS) {
-                            hits[rest_hits] = slot | level << LEVEL_SHIFT;
+                            hits[rest_hits] = slot;
                         }
                         rest_hits += 1u;
                     }
@@ -223,72 +212,36 @@ uint walk(uint tri, Projected t, uint what, uint next) {
 }
 
 void main() {
-    if (gl_LocalInvocationIndex == 0u) {
-        group_binned = 0u;
-        group_rest = 0u;
-        group_spill = 0u;
-    }
-    if (gl_LocalInvocationIndex < MAX_PAGE_LEVELS) {
-        group_level[gl_LocalInvocationIndex] = 0u;
-    }
-    barrier();
-
+    // No workgroup-shared sums and so no barrier(): lavapipe runs a shader with one as
+    // coroutines, which cost more than an atomic or two per triangle.
     uint tri = gl_GlobalInvocationID.x;
-    bool live = tri < pc.triangles;
-    Projected t;
-    uint binned = 0u;
-    if (live) {
-        t = project(tri);
-        binned = walk(tri, t, pc.mode == 2u ? WALK_RECORD : pc.mode, 0u);
+    if (tri >= pc.triangles) {
+        return;
     }
-    if (pc.mode == 2u) {
-        // The workgroup's share of each region: the root's pairs, then the others level by
-        // level (a SIMD group of the compute raster then takes neighbouring triangles at one
-        // level, mostly into one page: alike boxes, nearby texels), then those past HITS.
-        uint kept = min(rest_hits, HITS);
-        uint root_at = hit_root ? atomicAdd(group_binned, 1u) : 0u;
-        uint at[HITS];
-        for (uint h = 0u; h < kept; ++h) {
-            at[h] = atomicAdd(group_level[hits[h] >> LEVEL_SHIFT], 1u);
-        }
-        uint spill_at = atomicAdd(group_spill, rest_hits - kept);
-        barrier();
-        if (gl_LocalInvocationIndex == 0u) {
-            uint sum = 0u;
-            for (uint l = 0u; l < MAX_PAGE_LEVELS; ++l) {
-                uint n = group_level[l];
-                group_level[l] = sum;
-                sum += n;
-            }
-            group_rest = sum + group_spill;
-            uint base = pc.pool_pages;
-            group_root_base = atomicAdd(bin_cursor[base + APPEND_ROOT], group_binned);
-            group_rest_base = pc.triangles
-                + atomicAdd(bin_cursor[base + APPEND_REST], group_rest);
-        }
-        barrier();
+    Projected t = project(tri);
+    uint binned = walk(tri, t, pc.mode == 2u ? WALK_RECORD : pc.mode, 0u);
+    if (binned == 0u) {
+        return;
+    }
+    if (pc.mode == 0u) {
+        atomicAdd(counters[C_BINNED], binned);
+    } else if (pc.mode == 2u) {
+        atomicAdd(counters[C_BINNED], binned);
+        uint cursors = pc.pool_pages;
         if (hit_root) {
-            entries[group_root_base + root_at] = uvec2(tri, 0u);
+            entries[atomicAdd(bin_cursor[cursors + APPEND_ROOT], 1u)] = uvec2(tri, 0u);
             bin_count[0] = 1u;
         }
-        for (uint h = 0u; h < kept; ++h) {
-            uint level = hits[h] >> LEVEL_SHIFT;
-            uint pos = group_rest_base + group_level[level] + at[h];
-            append(tri, hits[h] & ((1u << LEVEL_SHIFT) - 1u), pos);
+        if (rest_hits > 0u) {
+            uint next = pc.triangles + atomicAdd(bin_cursor[cursors + APPEND_REST], rest_hits);
+            uint kept = min(rest_hits, HITS);
+            for (uint h = 0u; h < kept; ++h) {
+                append(tri, hits[h], next + h);
+            }
+            if (rest_hits > HITS) {
+                rest_hits = 0u;
+                walk(tri, t, WALK_APPEND, next + HITS);
+            }
         }
-        if (rest_hits > HITS) {
-            rest_hits = 0u;
-            walk(tri, t, WALK_APPEND, group_rest_base + group_rest - group_spill + spill_at);
-        }
-        if (gl_LocalInvocationIndex == 0u) {
-            group_binned += group_rest;
-        }
-    } else if (binned > 0u) {
-        atomicAdd(group_binned, binned);
-    }
-
-    barrier();
-    if (gl_LocalInvocationIndex == 0u && group_binned > 0u) {
-        atomicAdd(counters[C_BINNED], group_binned);
     }
 }

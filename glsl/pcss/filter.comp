@@ -27,13 +27,14 @@ vec3 rp_normal(ivec2 pixel) {
     return imageLoad(normals, pixel).xyz;
 }
 
-shared uint group_counts[COUNTERS];
+// The invocation's counts, added to the counters once at its end (not summed per workgroup in
+// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
+uint invocation_counts[COUNTERS];
 
 void main() {
-    if (gl_LocalInvocationIndex < COUNTERS) {
-        group_counts[gl_LocalInvocationIndex] = 0;
+    for (int k = 0; k < COUNTERS; ++k) {
+        invocation_counts[k] = 0u;
     }
-    barrier();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     ivec2 map_size = ivec2(pc.map_size);
@@ -65,12 +66,12 @@ void main() {
             v = lit / (n * n);
         }
         imageStore(visibility, pixel, vec4(v));
-        atomicAdd(group_counts[v >= 1.0 ? COUNT_LIT : (v <= 0.0 ? COUNT_UMBRA : COUNT_PENUMBRA)],
-                  1);
+        invocation_counts[v >= 1.0 ? COUNT_LIT : (v <= 0.0 ? COUNT_UMBRA : COUNT_PENUMBRA)] += 1;
     }
 
-    barrier();
-    if (gl_LocalInvocationIndex < COUNTERS && group_counts[gl_LocalInvocationIndex] > 0) {
-        atomicAdd(counters[gl_LocalInvocationIndex], group_counts[gl_LocalInvocationIndex]);
+    for (int k = 0; k < COUNTERS; ++k) {
+        if (invocation_counts[k] > 0u) {
+            atomicAdd(counters[k], invocation_counts[k]);
+        }
     }
 }

@@ -20,10 +20,12 @@ layout(set = 0, binding = 6) buffer Ssm { float ssm[]; };
 layout(set = 0, binding = 7) buffer Counters { uint counters[]; };
 layout(set = 0, binding = 8, r32f) uniform writeonly image2D visibility;
 
-shared uint group_counts[AT_COUNTERS];
+// The invocation's counts, added to the counters once at its end (not summed per workgroup in
+// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
+uint invocation_counts[AT_COUNTERS];
 
 void count(int slot) {
-    atomicAdd(group_counts[slot], 1u);
+    invocation_counts[slot] += 1u;
 }
 
 // The layer of texel t closer in depth to z: (occlusion, its distance from the light).
@@ -40,10 +42,9 @@ vec2 layer_at(ivec2 t, float z) {
 }
 
 void main() {
-    if (gl_LocalInvocationIndex < AT_COUNTERS) {
-        group_counts[gl_LocalInvocationIndex] = 0;
+    for (int k = 0; k < AT_COUNTERS; ++k) {
+        invocation_counts[k] = 0u;
     }
-    barrier();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     ivec2 map_size = ivec2(at.sizes.z);
@@ -89,8 +90,9 @@ void main() {
         }
     }
 
-    barrier();
-    if (gl_LocalInvocationIndex < AT_COUNTERS && group_counts[gl_LocalInvocationIndex] > 0) {
-        atomicAdd(counters[gl_LocalInvocationIndex], group_counts[gl_LocalInvocationIndex]);
+    for (int k = 0; k < AT_COUNTERS; ++k) {
+        if (invocation_counts[k] > 0u) {
+            atomicAdd(counters[k], invocation_counts[k]);
+        }
     }
 }

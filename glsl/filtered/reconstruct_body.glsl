@@ -14,7 +14,9 @@ layout(set = 0, binding = 2, r32f) uniform image2D visibility;
 // [0] view samples, [1] outside the light frustum, [2] lit, [3] umbra, [4] penumbra.
 layout(set = 0, binding = 3) buffer Counters { uint counters[]; };
 
-shared uint group_counts[5];
+// The invocation's counts, added to the counters once at its end (not summed per workgroup in
+// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
+uint invocation_counts[5];
 
 // a / b, finite for every finite a and b: b's magnitude is floored at 1e-15 (keeping its sign,
 // 0 counting as positive), so the quotient is at most |a|·1e15 and 0/0 cannot happen.
@@ -163,10 +165,9 @@ float visibility_of(vec4 m, float d) {
 }
 
 void main() {
-    if (gl_LocalInvocationIndex < 5) {
-        group_counts[gl_LocalInvocationIndex] = 0;
+    for (int k = 0; k < 5; ++k) {
+        invocation_counts[k] = 0u;
     }
-    barrier();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     bool last = (pc.flags & FLAG_LAST) != 0;
@@ -192,18 +193,19 @@ void main() {
                 v = 1.0;
             }
             if (sample_here) {
-                atomicAdd(group_counts[0], 1);
+                invocation_counts[0] += 1;
                 if (!inside) {
-                    atomicAdd(group_counts[1], 1);
+                    invocation_counts[1] += 1;
                 }
-                atomicAdd(group_counts[v >= 1.0 ? 2 : (v <= 0.0 ? 3 : 4)], 1);
+                invocation_counts[v >= 1.0 ? 2 : (v <= 0.0 ? 3 : 4)] += 1;
             }
         }
         imageStore(visibility, pixel, vec4(v));
     }
 
-    barrier();
-    if (gl_LocalInvocationIndex < 5 && group_counts[gl_LocalInvocationIndex] > 0) {
-        atomicAdd(counters[gl_LocalInvocationIndex], group_counts[gl_LocalInvocationIndex]);
+    for (int k = 0; k < 5; ++k) {
+        if (invocation_counts[k] > 0u) {
+            atomicAdd(counters[k], invocation_counts[k]);
+        }
     }
 }

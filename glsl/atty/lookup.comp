@@ -20,9 +20,8 @@ layout(set = 0, binding = 6) buffer Ssm { float ssm[]; };
 layout(set = 0, binding = 7) buffer Counters { uint counters[]; };
 layout(set = 0, binding = 8, r32f) uniform writeonly image2D visibility;
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[AT_COUNTERS];
+#define INVOCATION_COUNTS AT_COUNTERS
+#include "invocation_counts.glsl"
 
 void count(int slot) {
     invocation_counts[slot] += 1u;
@@ -42,9 +41,7 @@ vec2 layer_at(ivec2 t, float z) {
 }
 
 void main() {
-    for (int k = 0; k < AT_COUNTERS; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     ivec2 map_size = ivec2(at.sizes.z);
@@ -90,9 +87,5 @@ void main() {
         }
     }
 
-    for (int k = 0; k < AT_COUNTERS; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

@@ -45,9 +45,8 @@ vec3 rp_normal(ivec2 pixel) {
 #define NBUFFER_LEVELS_BINDING 9
 #include "nbuffer.glsl"
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[AT_COUNTERS];
+#define INVOCATION_COUNTS AT_COUNTERS
+#include "invocation_counts.glsl"
 
 void count(int slot, uint n) {
     if (n > 0u) {
@@ -67,9 +66,7 @@ float hidden(BpView view, ivec2 t, float d, vec4 c, vec2 g, vec2 up, float dp) {
 }
 
 void main() {
-    for (int k = 0; k < AT_COUNTERS; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     int n = at.sizes.z;
     ivec2 t = ivec2(gl_GlobalInvocationID.xy);
@@ -146,9 +143,5 @@ void main() {
     }
     count(AT_CUT, passes < 2 ? 1u : 0u);
 
-    for (int k = 0; k < AT_COUNTERS; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

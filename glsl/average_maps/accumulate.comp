@@ -38,9 +38,8 @@ layout(push_constant) uniform Push {
     int light_clip;     // 1: samples behind the receiver's tangent plane are blocked
 } pc;
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[6];
+#define INVOCATION_COUNTS 6
+#include "invocation_counts.glsl"
 
 // Written out so that the order of the additions is the reference's and the twin's.
 float dot3(vec3 a, vec3 b) {
@@ -56,9 +55,7 @@ bool behind_plane(vec3 p, vec3 n) {
 }
 
 void main() {
-    for (int k = 0; k < 6; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, pc.view_size))) {
         vec4 p = imageLoad(positions, pixel);
@@ -94,9 +91,5 @@ void main() {
         }
         imageStore(visibility, pixel, vec4(count));
     }
-    for (int k = 0; k < 6; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

@@ -51,9 +51,8 @@ vec3 rp_normal(ivec2 pixel) {
 #define NBUFFER_LEVELS_BINDING 9
 #include "nbuffer.glsl"
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[BM_COUNTERS];
+#define INVOCATION_COUNTS BM_COUNTERS
+#include "invocation_counts.glsl"
 
 // The depth a texel must be nearer than to block: the receiver plane's under it, and at most
 // the receiver's own (texels behind it pass a tilted plane's test, but no ray to the light
@@ -139,9 +138,7 @@ uint popcount(uvec4 a, uvec4 b) {
 }
 
 void main() {
-    for (int k = 0; k < BM_COUNTERS; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     ivec2 map_size = ivec2(bm.sizes.z);
@@ -275,9 +272,5 @@ void main() {
     }
     count(BM_CUT, passes < 2 ? 1u : 0u);
 
-    for (int k = 0; k < BM_COUNTERS; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

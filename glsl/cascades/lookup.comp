@@ -35,9 +35,8 @@ layout(set = 0, binding = 4) uniform Params {
 } params;
 
 #define COUNTERS (6 + MAX_CASCADES)
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[COUNTERS];
+#define INVOCATION_COUNTS COUNTERS
+#include "invocation_counts.glsl"
 
 float tile_depth(ivec2 texel, ivec2 origin, ivec2 n) {
     if (any(lessThan(texel, ivec2(0))) || any(greaterThanEqual(texel, n))) {
@@ -63,9 +62,7 @@ float tile_bilinear(vec2 p, ivec2 origin, ivec2 n, float z) {
 }
 
 void main() {
-    for (int k = 0; k < COUNTERS; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, params.view_size))) {
@@ -130,9 +127,5 @@ void main() {
         imageStore(visibility, pixel, vec4(v));
     }
 
-    for (int k = 0; k < COUNTERS; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

@@ -83,14 +83,11 @@ float distance_of(float z) {
     return pc.near + z * (pc.far - pc.near);
 }
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[6];
+#define INVOCATION_COUNTS 6
+#include "invocation_counts.glsl"
 
 void main() {
-    for (int k = 0; k < 6; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     bool filter_loop = (pc.flags & FLAG_FILTER) != 0;
@@ -161,9 +158,5 @@ void main() {
         imageStore(state, pixel, s);
     }
 
-    for (int k = 0; k < 6; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

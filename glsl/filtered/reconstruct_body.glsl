@@ -14,9 +14,8 @@ layout(set = 0, binding = 2, r32f) uniform image2D visibility;
 // [0] view samples, [1] outside the light frustum, [2] lit, [3] umbra, [4] penumbra.
 layout(set = 0, binding = 3) buffer Counters { uint counters[]; };
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[5];
+#define INVOCATION_COUNTS 5
+#include "invocation_counts.glsl"
 
 // a / b, finite for every finite a and b: b's magnitude is floored at 1e-15 (keeping its sign,
 // 0 counting as positive), so the quotient is at most |a|·1e15 and 0/0 cannot happen.
@@ -165,9 +164,7 @@ float visibility_of(vec4 m, float d) {
 }
 
 void main() {
-    for (int k = 0; k < 5; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     bool last = (pc.flags & FLAG_LAST) != 0;
@@ -203,9 +200,5 @@ void main() {
         imageStore(visibility, pixel, vec4(v));
     }
 
-    for (int k = 0; k < 5; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

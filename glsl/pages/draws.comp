@@ -21,10 +21,9 @@ layout(set = 0, binding = 4) readonly buffer Levels { LevelInfo level_info[]; };
 layout(set = 0, binding = 5) writeonly buffer Draws { uvec4 draws[]; };
 layout(set = 0, binding = 6) buffer Counters { uint counters[]; };
 // Per round (12 words): the compute page raster's dispatch (workgroups of 64, 1, 1), the
-// round's two ranges of bin entries that fit (page_raster.comp), then at word 8 the indirect
-// draw of the entries it lists for the graphics pipeline, empty until it does.
-// The compute raster takes two ranges of entries, words 3..4 and 5..6 (the root's region and
-// the others' in mode 2; one range and an empty one after a scan).
+// round's two ranges of bin entries that fit, words 3..4 and 5..6 (page_raster.comp; the root's
+// region and the others' in mode 2, one range and an empty one after a scan), then at word 8
+// the indirect draw of the entries it lists for the graphics pipeline, empty until it does.
 layout(set = 0, binding = 7) writeonly buffer RasterArgs { uint raster_args[]; };
 // Mode 2: per slot 1 when a pair did not fit, then the append cursors (APPEND_*).
 layout(set = 0, binding = 8) buffer BinCursor { uint bin_cursor[]; };

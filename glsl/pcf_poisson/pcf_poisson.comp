@@ -33,9 +33,8 @@ layout(push_constant) uniform Push {
     int pad0;
 } pc;
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[6];
+#define INVOCATION_COUNTS 6
+#include "invocation_counts.glsl"
 
 vec4 rp_position(ivec2 pixel) {
     return imageLoad(positions, pixel);
@@ -46,9 +45,7 @@ vec3 rp_normal(ivec2 pixel) {
 }
 
 void main() {
-    for (int k = 0; k < 6; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, pc.view_size))) {
@@ -86,9 +83,5 @@ void main() {
         imageStore(visibility, pixel, vec4(v));
     }
 
-    for (int k = 0; k < 6; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

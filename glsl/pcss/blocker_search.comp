@@ -70,9 +70,8 @@ vec2 pyramid_minmax_rect(ivec2 lo, ivec2 hi) {
     return result;
 }
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[COUNTERS];
+#define INVOCATION_COUNTS COUNTERS
+#include "invocation_counts.glsl"
 
 void count(int slot) {
     invocation_counts[slot] += 1;
@@ -86,9 +85,7 @@ void decide(ivec2 pixel, float v, int slot) {
 }
 
 void main() {
-    for (int k = 0; k < COUNTERS; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     ivec2 map_size = ivec2(pc.map_size);
@@ -181,9 +178,5 @@ void main() {
         }
     }
 
-    for (int k = 0; k < COUNTERS; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

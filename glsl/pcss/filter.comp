@@ -27,14 +27,11 @@ vec3 rp_normal(ivec2 pixel) {
     return imageLoad(normals, pixel).xyz;
 }
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[COUNTERS];
+#define INVOCATION_COUNTS COUNTERS
+#include "invocation_counts.glsl"
 
 void main() {
-    for (int k = 0; k < COUNTERS; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     ivec2 map_size = ivec2(pc.map_size);
@@ -69,9 +66,5 @@ void main() {
         invocation_counts[v >= 1.0 ? COUNT_LIT : (v <= 0.0 ? COUNT_UMBRA : COUNT_PENUMBRA)] += 1;
     }
 
-    for (int k = 0; k < COUNTERS; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

@@ -18,9 +18,8 @@ layout(set = 0, binding = 6, rgba32f) uniform readonly image2D shape;
 layout(set = 0, binding = 7, r32f) uniform writeonly image2D visibility;
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
 
-// The invocation's counts, added to the counters once at the end (not through workgroup-shared
-// memory: its barrier() makes lavapipe run the shader as coroutines, 15-25 % slower here).
-uint counts[COUNTERS];
+#define INVOCATION_COUNTS COUNTERS
+#include "invocation_counts.glsl"
 
 // Widest kernel, in texels of its level, one invocation filters (bounds the loops); wider ones
 // are cut to it and counted (`filter_cut`): the prediction keeps kernels near rho's ~21 texels,
@@ -50,9 +49,7 @@ bool kernel_covered(ivec4 box, uint level) {
 }
 
 void main() {
-    for (int k = 0; k < COUNTERS; ++k) {
-        counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, pc.view_size))) {
@@ -71,7 +68,7 @@ void main() {
                 level += 1u;
             }
             if (level > wanted) {
-                counts[C_FALLBACK] += 1u;
+                invocation_counts[C_FALLBACK] += 1u;
             }
             float s = float(1u << level);
             Receiver rc = make_receiver(c, r.xyz, n, 8.0 * s);
@@ -148,17 +145,13 @@ void main() {
             }
             float v = sum.y > 0.0 ? sum.x / sum.y : 1.0;
             imageStore(visibility, pixel, vec4(v));
-            counts[v >= 1.0 ? C_LIT : (v <= 0.0 ? C_UMBRA : C_PENUMBRA)] += 1u;
-            counts[C_FILTER_TEXELS] += texels;
+            invocation_counts[v >= 1.0 ? C_LIT : (v <= 0.0 ? C_UMBRA : C_PENUMBRA)] += 1u;
+            invocation_counts[C_FILTER_TEXELS] += texels;
             if (cut) {
-                counts[C_FILTER_CUT] += 1u;
+                invocation_counts[C_FILTER_CUT] += 1u;
             }
         }
     }
 
-    for (int k = 0; k < COUNTERS; ++k) {
-        if (counts[k] > 0u) {
-            atomicAdd(counters[k], counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

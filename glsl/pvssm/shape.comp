@@ -120,13 +120,11 @@ vec2 blocker_search(vec2 centre, vec2 half_low, float cells, Receiver rc, float 
 // Cells per side of the early-out's coarse level.
 const float COARSE_CELLS = 4.0;
 
-// The invocation's counts, added to the counters once at the end. Not through workgroup-shared
-// memory: its barrier() makes lavapipe run the shader as coroutines (the filter pass, its twin in
-// this, ran 15-25 % slower so), and a few atomics an invocation cost less.
-uint counts[COUNTERS];
+#define INVOCATION_COUNTS COUNTERS
+#include "invocation_counts.glsl"
 
 void count(int slot, uint n) {
-    counts[slot] += n;
+    invocation_counts[slot] += n;
 }
 
 void decide(ivec2 pixel, float v) {
@@ -135,9 +133,7 @@ void decide(ivec2 pixel, float v) {
 }
 
 void main() {
-    for (int k = 0; k < COUNTERS; ++k) {
-        counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     // fixed_level + 1, or 0 for the predicted level of each kernel.
@@ -254,9 +250,5 @@ void main() {
         }
     }
 
-    for (int k = 0; k < COUNTERS; ++k) {
-        if (counts[k] > 0u) {
-            atomicAdd(counters[k], counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

@@ -1,4 +1,5 @@
 #version 460
+#extension GL_GOOGLE_include_directive : require
 // Receivers, after the technique: combines its visibility V with the light's clipped fraction f
 // and counts the classes of the result. Filter techniques see the whole light through one map
 // rendered from its centre, so how V and f combine depends on which side of the tangent plane
@@ -32,14 +33,11 @@ layout(push_constant) uniform Push {
     int pad0;
 } pc;
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[5];
+#define INVOCATION_COUNTS 5
+#include "invocation_counts.glsl"
 
 void main() {
-    for (int k = 0; k < 5; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, pc.view_size)) && imageLoad(positions, pixel).w > 0.0) {
         float f = imageLoad(clip, pixel).r;
@@ -56,9 +54,5 @@ void main() {
         invocation_counts[0] += 1;
         invocation_counts[v >= 1.0 ? 1 : (v <= 0.0 ? 2 : 3)] += 1;
     }
-    for (int k = 0; k < 5; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

@@ -20,9 +20,8 @@ layout(set = 0, binding = 7, r32ui) uniform writeonly uimage2D refine_level;
 // [0] edge samples, [1] refinement page requests (before dedup)
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[2];
+#define INVOCATION_COUNTS 2
+#include "invocation_counts.glsl"
 
 // Flags page `page` of `level` and its coarser pages up to the first resident or flagged one.
 void flag_chain(uint level, uvec2 page) {
@@ -37,9 +36,7 @@ void flag_chain(uint level, uvec2 page) {
 }
 
 void main() {
-    for (int k = 0; k < 2; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, pc.view_size))) {
@@ -93,9 +90,5 @@ void main() {
         imageStore(refine_level, pixel, uvec4(target));
     }
 
-    for (int k = 0; k < 2; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

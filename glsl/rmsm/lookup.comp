@@ -23,14 +23,11 @@ layout(set = 0, binding = 7) buffer Counters { uint counters[]; };
 // Each sample's refinement target level, or NO_REFINE (edges.comp; read when pc.refine > 0).
 layout(set = 0, binding = 8, r32ui) uniform readonly uimage2D refine_level;
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[9];
+#define INVOCATION_COUNTS 9
+#include "invocation_counts.glsl"
 
 void main() {
-    for (int k = 0; k < 9; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, pc.view_size))) {
@@ -63,9 +60,5 @@ void main() {
         imageStore(visibility, pixel, vec4(v));
     }
 
-    for (int k = 0; k < 9; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

@@ -101,14 +101,11 @@ float chebyshev(vec2 m, float d, float min_variance) {
     return variance / max(variance + diff * diff, 1e-30);
 }
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[5];
+#define INVOCATION_COUNTS 5
+#include "invocation_counts.glsl"
 
 void main() {
-    for (int k = 0; k < 5; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, pc.view_size))) {
@@ -132,9 +129,5 @@ void main() {
         imageStore(visibility, pixel, vec4(v));
     }
 
-    for (int k = 0; k < 5; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

@@ -214,14 +214,11 @@ vec2 clamp_width(vec2 w) {
     return min(max(w, vec2(pc.min_kernel)), vec2(pc.max_width));
 }
 
-// The invocation's counts, added to the counters once at its end (not summed per workgroup in
-// shared memory: a barrier() makes lavapipe run the shader as coroutines, 15-25 % slower).
-uint invocation_counts[8];
+#define INVOCATION_COUNTS 8
+#include "invocation_counts.glsl"
 
 void main() {
-    for (int k = 0; k < 8; ++k) {
-        invocation_counts[k] = 0u;
-    }
+    invocation_counts_clear();
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, pc.view_size))) {
@@ -271,9 +268,5 @@ void main() {
         imageStore(visibility, pixel, vec4(v));
     }
 
-    for (int k = 0; k < 8; ++k) {
-        if (invocation_counts[k] > 0u) {
-            atomicAdd(counters[k], invocation_counts[k]);
-        }
-    }
+    invocation_counts_flush();
 }

@@ -17,9 +17,9 @@
 //! has at most 64 texels (nearly every triangle of a scene at these resolutions); bigger ones are
 //! appended to a list, which [`LARGE_GROUPS`] workgroups then grid-stride over, the 64
 //! invocations of a group striding over a triangle's texels; one of more than 128² texels is
-//! split into 16 parts (part k: every 16th row from row k on) — so a triangle over the whole map
-//! (a ground plane) keeps 16 groups busy, not one (`teapot-rect`'s 1024² low-resolution map: the pass 22 → 4 ms on
-//! lavapipe, whose workgroups are CPU threads). Fixed groups keep per-workgroup
+//! split into 16 parts (part k: every 16th row from row k on), so a triangle over the whole map
+//! (a ground plane) keeps several groups busy, not one (lavapipe runs a workgroup on one CPU
+//! thread; pvssm's low-res pass on `teapot-rect` 27 → 22 ms). Fixed groups keep per-workgroup
 //! overhead bounded; lavapipe's loop limiter (65 535 loop passes per SIMD group and dispatch)
 //! bounds the texels one group may handle, hence [`MAX_MAP_SIZE`]; a guard loop counts
 //! invocations the limiter cut short ([`RasterCounters::cut`]).

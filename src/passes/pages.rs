@@ -285,6 +285,12 @@ pub struct VirtualPages<'a> {
     _geometry: &'a SceneGeometry,
 }
 
+/// Words of `bin_cursor` after the pool's slots: bin.comp mode 2's append cursors, at these
+/// offsets (`APPEND_*` in `glsl/pages/pages_push.glsl`; the third, round 1's start, is the GPU's).
+const APPEND_CURSORS: usize = 3;
+const APPEND_ROOT: usize = 0;
+const APPEND_REST: usize = 1;
+
 /// What draws the binned casters into the atlas ([`PageRaster`]).
 enum PageDrawer {
     Graphics(Pipeline, DescriptorSet),
@@ -342,7 +348,10 @@ impl<'a> VirtualPages<'a> {
         let bin_count = storage("page bin counts", 4 * u64::from(pool))?;
         let bin_offset = storage("page bin offsets", 4 * u64::from(pool))?;
         // Per slot, then the append cursors of bin.comp's mode 2 (APPEND_* in pages_push.glsl).
-        let bin_cursor = storage("page bin cursors", 4 * (u64::from(pool) + 4))?;
+        let bin_cursor = storage(
+            "page bin cursors",
+            4 * (u64::from(pool) + APPEND_CURSORS as u64),
+        )?;
         let bins = storage("page bins", 8 * u64::from(capacity))?;
         let draws = Buffer::new(
             ctx,
@@ -810,8 +819,8 @@ impl<'a> VirtualPages<'a> {
             let pool = self.desc.pool_pages as usize;
             let triangles = self.push.triangles as usize;
             let room = self.push.capacity as usize - triangles;
-            let rest = (cursors[pool + 1] as usize).min(room);
-            let mut bins = pairs(0..cursors[pool] as usize);
+            let rest = (cursors[pool + APPEND_REST] as usize).min(room);
+            let mut bins = pairs(0..cursors[pool + APPEND_ROOT] as usize);
             bins.extend(pairs(triangles..triangles + rest));
             bins.sort_unstable_by_key(|&(t, s)| (s, t));
             return Ok(bins);

@@ -43,8 +43,6 @@ const int KIND_DIRECTIONAL = 2;
 const float QUARTER_PI = 0.78539816339744830962;
 const float HALF_PI = 1.57079632679489661923;
 
-shared uint group_counts[6];
-
 #include "light_samples.glsl"
 
 // Sample of cell (i, j) in [0, 1)^2: jittered by a hash of (pixel seed, cell), or the centre.
@@ -248,32 +246,24 @@ void add64(uint lo, uint value) {
 }
 
 void main() {
-    uint li = gl_LocalInvocationIndex;
-    if (li < 6u) {
-        group_counts[li] = 0u;
-    }
-    barrier();
+    // Counted per invocation and added once at the end, not per workgroup in shared memory:
+    // lavapipe runs a shader with a barrier() as coroutines (glsl/include/invocation_counts.glsl).
+    uint classes[4] = uint[4](0u, 0u, 0u, 0u);
+    uint rays = 0u;
+    uint centre_rays = 0u;
 
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, pc.view_size))) {
         vec4 p = imageLoad(positions, pixel);
         float v = 1.0;
         if (p.w > 0.0) {
-            uint rays = 0u;
-            uint centre_rays = 0u;
             vec3 n = imageLoad(normals, pixel).xyz;
             uint index = uint(pixel.y * pc.view_size.x + pixel.x);
             v = shade(p.xyz, n, index, rays, centre_rays);
             // The classes are final only after the last dispatch of the frame.
             if (pc.first_cell + pc.cell_count >= max(pc.samples, 1) * max(pc.samples, 1)) {
-                atomicAdd(group_counts[0], 1u);
-                atomicAdd(group_counts[v >= 1.0 ? 1 : (v <= 0.0 ? 2 : 3)], 1u);
-            }
-            if (rays > 0u) {
-                atomicAdd(group_counts[4], rays);
-            }
-            if (centre_rays > 0u) {
-                atomicAdd(group_counts[5], centre_rays);
+                classes[0] = 1u;
+                classes[v >= 1.0 ? 1 : (v <= 0.0 ? 2 : 3)] = 1u;
             }
         }
         imageStore(visibility, pixel, vec4(v));
@@ -291,10 +281,11 @@ void main() {
         atomicAdd(counters[8], 1u);
     }
 
-    barrier();
-    if (li < 4u && group_counts[li] > 0u) {
-        atomicAdd(counters[li], group_counts[li]);
-    } else if (li == 4u || li == 5u) {
-        add64(4u + 2u * (li - 4u), group_counts[li]);
+    for (int k = 0; k < 4; ++k) {
+        if (classes[k] > 0u) {
+            atomicAdd(counters[k], classes[k]);
+        }
     }
+    add64(4u, rays);
+    add64(6u, centre_rays);
 }

@@ -17,13 +17,11 @@ layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
 // [0] requested pages (marks before dedup)
 layout(set = 0, binding = 5) buffer Counters { uint counters[]; };
 
-shared uint group_marks;
+#define INVOCATION_COUNTS 1
+#include "invocation_counts.glsl"
 
 void main() {
-    if (gl_LocalInvocationIndex == 0u) {
-        group_marks = 0u;
-    }
-    barrier();
+    invocation_counts_clear();
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (pixel == ivec2(0)) {
         table[0] = 1u;
@@ -58,11 +56,8 @@ void main() {
                     }
                 }
             }
-            atomicAdd(group_marks, count);
+            invocation_counts[0] += count;
         }
     }
-    barrier();
-    if (gl_LocalInvocationIndex == 0u && group_marks > 0u) {
-        atomicAdd(counters[0], group_marks);
-    }
+    invocation_counts_flush();
 }

@@ -230,6 +230,13 @@ knob_choices! {
         /// The static (cubic) metric.
         Static => "static",
     }
+    /// `blocker_depth` of `pvssm`: which blockers the refined search averages.
+    BlockerDepth for "blocker_depth" {
+        /// Every blocker cell of the region.
+        Average => "average",
+        /// The silhouette's cells (beside a cell that does not block).
+        Silhouette => "silhouette",
+    }
     /// `page_raster` of `rmsm` and `pvssm`: what draws the pages' casters.
     PageRasterChoice for "page_raster" {
         /// Compute where workgroups run on CPU threads, the rasterizer otherwise.
@@ -341,6 +348,7 @@ mod tests {
             names::<NBufferSkip>(),
             names::<PvssmSkip>(),
             names::<RhoMode>(),
+            names::<BlockerDepth>(),
             names::<PageRasterChoice>(),
             names::<Partition>(),
             names::<Combine>(),

@@ -5,7 +5,7 @@
 // `search_cells` (32) cells a side, so its cost is bounded for any light; the average blocker distance is then that of
 // the cells' minima — gives z_avg (searched again over the kernel it predicts, `refine_search`
 // times: the first region, the light at the near plane, averages in casters whose shadow misses
-// the sample), or proves the sample fully lit — no texel of any caster lies
+// the sample; the refined search averages the silhouette's cells, silhouette_search), or proves the sample fully lit — no texel of any caster lies
 // nearer than its tangent plane there, and the map is conservative, so V = 1 and it is skipped
 // from then on. Otherwise the light kernel s_alpha (Eq. 1) and the pixel footprint phi'
 // (pixel axes through the tangent plane) are convolved into the filter h (Eq. 3), rho predicts
@@ -117,6 +117,95 @@ vec2 blocker_search(vec2 centre, vec2 half_low, float cells, Receiver rc, float 
     return sum;
 }
 
+// Row j's blocker cells from a.x on, one bit each (a region is at most 65 cells wide: the
+// `search_cells` knob stops at 64, and a region of n cells may straddle n + 1), with their
+// weighted distances added to `sum` in blocker_search's order.
+uvec3 row_blockers(Region r, int j, Receiver rc, float lowres_texel, inout vec2 sum) {
+    uvec3 bits = uvec3(0u);
+    float wy = min(float(j + 1), r.hi.y) - max(float(j), r.lo.y);
+    for (int i = r.a.x; i <= r.b.x; ++i) {
+        vec2 dz = cell_depths(r, i, j, rc, lowres_texel);
+        if (dz.x < dz.y - r.plane_spread - pc.search_bias) {
+            int k = i - r.a.x;
+            bits[k >> 5] |= 1u << uint(k & 31);
+            float w = (min(float(i + 1), r.hi.x) - max(float(i), r.lo.x)) * wy;
+            w = max(w, 1e-6);
+            sum += vec2(w * soft_light_distance(dz.x, pc.near, pc.far, pc.perspective), w);
+        }
+    }
+    return bits;
+}
+
+// A silhouette cell's blocker distance from its four children one level finer, where there is
+// one: the min pyramid keeps a cell's nearest depth, and a cell on a silhouette spans the steep
+// part of the caster, so its minimum lies nearer the light than the edge it holds.
+float silhouette_distance(Region r, int i, int j, float d, Receiver rc, float lowres_texel) {
+    if (r.cell < 2.0) {
+        return d;
+    }
+    Region c = r;
+    c.cell = 0.5 * r.cell;
+    c.size = 2 * r.size;
+    c.offset = r.offset - uint(c.size * c.size);
+    c.plane_spread = 0.5 * r.plane_spread;
+    vec2 sum = vec2(0.0);
+    for (int b = 0; b < 2; ++b) {
+        for (int a = 0; a < 2; ++a) {
+            vec2 dz = cell_depths(c, 2 * i + a, 2 * j + b, rc, lowres_texel);
+            if (dz.x < dz.y - c.plane_spread - pc.search_bias) {
+                sum += vec2(soft_light_distance(dz.x, pc.near, pc.far, pc.perspective), 1.0);
+            }
+        }
+    }
+    return sum.y > 0.0 ? sum.x / sum.y : d;
+}
+
+// The refined search with `blocker_depth = silhouette`: (sum of w * distance, sum of w) over the
+// region's silhouette cells — blocker cells beside a cell of the region that is not one — whose
+// distance to the receiver is at least SILHOUETTE_GAP of the one z_avg `d_avg` predicted (nearer
+// ones are the receiver's own surface crossing its tangent plane, or a caster touching it); over
+// every blocker cell, as blocker_search, where there is no such cell. Why: the map from the
+// light's centre sees a rounded caster's top, nearer the light than the silhouette that bounds
+// its shadow, so the average over all blockers widens the penumbra (teapot-rect's ground
+// shadow: too bright inside, too dark outside).
+vec2 silhouette_search(vec2 centre, vec2 half_low, float cells, Receiver rc, float lowres_texel,
+                       float dr, float d_avg) {
+    Region r = search_region(centre, half_low, cells, rc, lowres_texel);
+    float far_enough = dr - SILHOUETTE_GAP * (dr - d_avg);
+    // A missing neighbour (past the region) counts as a blocker: it makes no silhouette.
+    int last = r.b.x - r.a.x;
+    uvec3 last_bit = uvec3(0u);
+    last_bit[last >> 5] = 1u << uint(last & 31);
+    vec2 all_sum = vec2(0.0);
+    vec2 sum = vec2(0.0);
+    uvec3 above = uvec3(~0u);
+    uvec3 row = row_blockers(r, r.a.y, rc, lowres_texel, all_sum);
+    for (int j = r.a.y; j <= r.b.y; ++j) {
+        uvec3 below = j < r.b.y ? row_blockers(r, j + 1, rc, lowres_texel, all_sum) : uvec3(~0u);
+        uvec3 left = (row << 1u) | uvec3(1u, row.xy >> 31u);
+        uvec3 right = (row >> 1u) | uvec3(row.yz << 31u, 0u) | last_bit;
+        uvec3 edge = row & ~(left & right & above & below);
+        float wy = min(float(j + 1), r.hi.y) - max(float(j), r.lo.y);
+        for (int word = 0; word < 3; ++word) {
+            uint m = edge[word];
+            while (m != 0u) {
+                int i = r.a.x + 32 * word + findLSB(m);
+                m &= m - 1u;
+                float d = soft_light_distance(cell_depths(r, i, j, rc, lowres_texel).x, pc.near,
+                                              pc.far, pc.perspective);
+                if (d <= far_enough) {
+                    float w = (min(float(i + 1), r.hi.x) - max(float(i), r.lo.x)) * wy;
+                    w = max(w, 1e-6);
+                    sum += vec2(w * silhouette_distance(r, i, j, d, rc, lowres_texel), w);
+                }
+            }
+        }
+        above = row;
+        row = below;
+    }
+    return sum.y > 0.0 ? sum : all_sum;
+}
+
 // Cells per side of the early-out's coarse level.
 const float COARSE_CELLS = 4.0;
 
@@ -203,10 +292,13 @@ void main() {
             } else {
                 float d_avg = sum.x / sum.y;
                 vec2 w = soft_light_footprint(pc.light_size, pc.perspective, dr, d_avg);
+                bool silhouette = (pc.options & OPT_SILHOUETTE) != 0u;
                 for (uint k = 0u; k < refinements; ++k) {
                     vec2 half2 = (0.5 * w + abs(u_phi) + abs(v_phi)) / lowres_texel;
                     half2 = min(half2, half_low);
-                    vec2 sum2 = blocker_search(centre, half2, cells, rc, lowres_texel);
+                    vec2 sum2 = silhouette
+                        ? silhouette_search(centre, half2, cells, rc, lowres_texel, dr, d_avg)
+                        : blocker_search(centre, half2, cells, rc, lowres_texel);
                     if (sum2.y > 0.0) {
                         d_avg = sum2.x / sum2.y;
                         w = soft_light_footprint(pc.light_size, pc.perspective, dr, d_avg);

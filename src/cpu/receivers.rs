@@ -87,19 +87,18 @@ pub fn prepare(
 }
 
 /// `finish.comp`'s combination of a filter technique's V with the clipped fraction f (see there
-/// for why it switches at f = ½).
+/// for why it switches at f = ½, over a window up to f = 0.6): min(f, V) below ½, f·V from 0.6,
+/// blended linearly between.
 pub fn combine_clip(f: f32, v: f32) -> f32 {
-    if 2.0 * f < 1.0 {
-        f.min(v)
-    } else {
-        f * v
-    }
+    let t = ((f - 0.5) * 10.0).clamp(0.0, 1.0);
+    let behind = f.min(v);
+    behind + (f * v - behind) * t
 }
 
 /// The twin of `finish.comp`: the visibility after combining the technique's `visibility` with
 /// the clipped fractions (`scale`: V' = f·V where the light's centre is in front of the
-/// tangent plane, f ≥ ½, and min(f, V) where it is behind and the map already saw the receiver's
-/// own body block that part; else V' = V; f = 0 gives 0), and the counters
+/// tangent plane, f ≥ 0.6, min(f, V) where it is behind, f < ½, and the map already saw the
+/// receiver's own body block that part, a blend of the two between; else V' = V; f = 0 gives 0), and the counters
 /// (view samples, lit, umbra, penumbra, horizon umbra).
 pub fn finish(
     positions: &[Vec4],

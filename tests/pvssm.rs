@@ -35,6 +35,47 @@ fn render(engine: &Engine, prepared: &PreparedScene, set: &[(&str, &str)]) -> Fr
     frame
 }
 
+/// A bundled scene at test size, its 8 × 8-sample reference and which pixels are view samples:
+/// what the tests that score `pvssm` against the reference share.
+struct Scored {
+    prepared: PreparedScene,
+    reference: Frame,
+    is_sample: Vec<bool>,
+}
+
+impl Scored {
+    fn new(engine: &Engine, scene: &str) -> Scored {
+        let prepared = engine.prepare(&common::small(scene)).expect("prepare");
+        let positions = prepared
+            .view
+            .read_positions(engine.context())
+            .expect("positions");
+        let is_sample = positions.iter().map(|p| p.w > 0.0).collect();
+        let reference = engine
+            .render(&prepared, "reference", &knobs(&[("samples", "8")]), 1)
+            .expect("reference");
+        Scored {
+            prepared,
+            reference,
+            is_sample,
+        }
+    }
+
+    /// `pvssm`'s penumbra MAE against the reference with the knobs `set`, and its frame.
+    fn penumbra_mae(&self, engine: &Engine, set: &[(&str, &str)]) -> (f64, Frame) {
+        let frame = render(engine, &self.prepared, set);
+        let mae = penumbra::metrics::compare(
+            &self.reference.visibility,
+            &frame.visibility,
+            &self.is_sample,
+        )
+        .expect("metrics")
+        .penumbra_mae
+        .expect("the scene has a penumbra");
+        (mae, frame)
+    }
+}
+
 /// PCSS's assumptions hold exactly on parallel planes: V is the linear ramp of width
 /// w·h/(H − h); the width grows linearly with the light; touching, the ramp shrinks to the step.
 /// Without the analytic anti-aliasing: with it the ramp is further convolved with each pixel's
@@ -435,23 +476,9 @@ fn filter_and_prediction_match_cpu() {
 fn refined_blocker_search_is_closer_to_the_reference() {
     let engine = common::engine();
     for scene in ["scenes/teapot-rect.toml", "scenes/bunny-rect.toml"] {
-        let prepared = engine.prepare(&common::small(scene)).expect("prepare");
-        let positions = prepared
-            .view
-            .read_positions(engine.context())
-            .expect("positions");
-        let is_sample: Vec<bool> = positions.iter().map(|p| p.w > 0.0).collect();
-        let reference = engine
-            .render(&prepared, "reference", &knobs(&[("samples", "8")]), 1)
-            .expect("reference");
-        let error = |refine: &str| {
-            let frame = render(&engine, &prepared, &[("refine_search", refine)]);
-            penumbra::metrics::compare(&reference.visibility, &frame.visibility, &is_sample)
-                .expect("metrics")
-                .penumbra_mae
-                .expect("the scene has a penumbra")
-        };
-        let (once, refined) = (error("0"), error("1"));
+        let scored = Scored::new(&engine, scene);
+        let (once, _) = scored.penumbra_mae(&engine, &[("refine_search", "0")]);
+        let (refined, _) = scored.penumbra_mae(&engine, &[("refine_search", "1")]);
         eprintln!("{scene}: penumbra MAE {once:.4} -> {refined:.4} with the refined search");
         assert!(refined < once, "{scene}: {once} -> {refined}");
     }
@@ -469,37 +496,28 @@ fn refined_blocker_search_is_closer_to_the_reference() {
 fn silhouette_blocker_depth_is_closer_to_the_reference() {
     let engine = common::engine();
     for scene in ["scenes/teapot-rect.toml", "scenes/bunny-rect.toml"] {
-        let prepared = engine.prepare(&common::small(scene)).expect("prepare");
-        let positions = prepared
-            .view
-            .read_positions(engine.context())
-            .expect("positions");
-        let is_sample: Vec<bool> = positions.iter().map(|p| p.w > 0.0).collect();
-        let reference = engine
-            .render(&prepared, "reference", &knobs(&[("samples", "8")]), 1)
-            .expect("reference");
-        let frame = |depth: &str, refine: &str| {
-            render(
-                &engine,
-                &prepared,
-                &[("blocker_depth", depth), ("refine_search", refine)],
-            )
-        };
-        let error = |frame: &Frame| {
-            penumbra::metrics::compare(&reference.visibility, &frame.visibility, &is_sample)
-                .expect("metrics")
-                .penumbra_mae
-                .expect("the scene has a penumbra")
-        };
-        let (average, silhouette) = (
-            error(&frame("average", "1")),
-            error(&frame("silhouette", "1")),
+        let scored = Scored::new(&engine, scene);
+        let (average, _) = scored.penumbra_mae(
+            &engine,
+            &[("blocker_depth", "average"), ("refine_search", "1")],
+        );
+        let (silhouette, _) = scored.penumbra_mae(
+            &engine,
+            &[("blocker_depth", "silhouette"), ("refine_search", "1")],
         );
         eprintln!("{scene}: penumbra MAE {average:.4} -> {silhouette:.4} over the silhouette");
         assert!(silhouette < average, "{scene}: {average} -> {silhouette}");
+        let unrefined = |depth: &str| {
+            render(
+                &engine,
+                &scored.prepared,
+                &[("blocker_depth", depth), ("refine_search", "0")],
+            )
+            .visibility
+        };
         assert_eq!(
-            frame("average", "0").visibility,
-            frame("silhouette", "0").visibility,
+            unrefined("average"),
+            unrefined("silhouette"),
             "{scene}: without a refined search the knob must change nothing"
         );
     }

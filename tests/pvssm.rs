@@ -2,7 +2,8 @@
 //! continuity under a fine light-size sweep, the anti-aliased hard shadow as the light shrinks to
 //! a point, contact hardening, tile-merge invariance (pages of one level give the same V as one
 //! map), a conservative fully-lit flag, fewer pages as the light grows — and the filter against
-//! its CPU twin (`src/cpu/pvssm.rs`) reading the GPU's own pages. Small inputs: 128×96 views.
+//! its CPU twin (`src/cpu/pvssm.rs`) reading the GPU's own pages (the blocker search's twin:
+//! `tests/pvssm_search.rs`). Small inputs: 128×96 views.
 
 mod common;
 

@@ -11,7 +11,7 @@
 // (pixel axes through the tangent plane) are convolved into the filter h (Eq. 3), rho predicts
 // the texel size (Eqs. 4-5), and every page of that level the kernel's box touches is marked,
 // with its ancestors — not only the page under the kernel's centre (notes A4's seeding pitfall).
-// CPU twin: src/cpu/pvssm.rs.
+// CPU twins: src/cpu/pvssm_search.rs (the search), src/cpu/pvssm.rs (the kernel and the level).
 #extension GL_GOOGLE_include_directive : require
 #define TABLE_ACCESS
 #include "pvssm.glsl"

@@ -109,6 +109,12 @@ pub trait Technique: Send {
         Vec::new()
     }
 
+    /// Intermediate buffers by name (e.g. pvssm's low-resolution map and its min pyramid): for
+    /// tests and debugging views.
+    fn buffers(&self) -> Vec<(&'static str, &crate::gpu::Buffer)> {
+        Vec::new()
+    }
+
     /// Takes `params` without rebuilding, when every knob that differs from the ones it was
     /// built with changes no resource (a push constant, the rasterizer's dynamic depth bias):
     /// returns `true`, and the next frame renders exactly as a technique built with `params`

@@ -46,7 +46,8 @@
 //! the frame on `grid:800000@rect`), 0 never (an overflow falls back to the first coarser resident
 //! level, the root at worst)), `fixed_level` (-1: predicted; k: one whole map at level k
 //! for every kernel — level 0 of a 4096 virtual map is the paper's Table 2 baseline), `search_bias`, `tangent_plane`, `bin_factor`, and the depth bias of a level-0 page.
-//! CPU twin: [`crate::cpu::pvssm`] (kernel math and filter), [`crate::cpu::pages`] (pages).
+//! CPU twin: [`crate::cpu::pvssm`] (kernel math and filter), [`crate::cpu::pvssm_search`] (the
+//! blocker search), [`crate::cpu::pages`] (pages).
 
 use glam::IVec2;
 
@@ -452,5 +453,9 @@ impl Technique for Pvssm<'_> {
 
     fn images(&self) -> Vec<(&'static str, &Image)> {
         vec![("shape", &self.shape)]
+    }
+
+    fn buffers(&self) -> Vec<(&'static str, &crate::gpu::Buffer)> {
+        vec![("lowres", self.lowres.depth())]
     }
 }

@@ -354,12 +354,7 @@ fn filter_and_prediction_match_cpu() {
             table = pages.read_table()?;
             atlas = penumbra::gpu::f32s(&ctx.read_image(&pages.atlas)?);
             atlas_width = pages.atlas.extent().width;
-            let (_, image) = t
-                .images()
-                .into_iter()
-                .find(|(n, _)| *n == "shape")
-                .expect("shape");
-            shape = penumbra::gpu::f32s(&ctx.read_image(image)?);
+            shape = common::read_named_image(&ctx, t, "shape")?;
             Ok(())
         })
         .expect("render");

@@ -47,18 +47,8 @@ fn blocker_search_matches_cpu() {
             let (mut shape, mut pyramid) = (vec![], vec![]);
             engine
                 .render_inspect(&prepared, "pvssm", &set, 1, |t| {
-                    let (_, image) = t
-                        .images()
-                        .into_iter()
-                        .find(|(n, _)| *n == "shape")
-                        .expect("shape");
-                    shape = penumbra::gpu::f32s(&ctx.read_image(image)?);
-                    let (_, buffer) = t
-                        .buffers()
-                        .into_iter()
-                        .find(|(n, _)| *n == "lowres")
-                        .expect("lowres");
-                    pyramid = penumbra::gpu::f32s(&ctx.read_buffer(buffer)?);
+                    shape = common::read_named_image(&ctx, t, "shape")?;
+                    pyramid = common::read_named_buffer(&ctx, t, "lowres")?;
                     Ok(())
                 })
                 .expect("render");
@@ -92,17 +82,20 @@ fn blocker_search_matches_cpu() {
                 )
                 .unwrap_or((Vec2::ZERO, Vec2::ZERO));
                 let dr = setup.distance(c.z);
-                let cpu = blocker_distance(
-                    &pyramid,
-                    &params,
-                    Vec2::new(c.x, c.y),
-                    c.z,
-                    setup.footprint(dr, setup.near),
-                    u_phi,
-                    v_phi,
-                    &|d| setup.footprint(dr, d),
-                    &|z| setup.distance(z),
-                );
+                let twin = |params: &SearchParams| {
+                    blocker_distance(
+                        &pyramid,
+                        params,
+                        Vec2::new(c.x, c.y),
+                        c.z,
+                        setup.footprint(dr, setup.near),
+                        u_phi,
+                        v_phi,
+                        &|d| setup.footprint(dr, d),
+                        &|z| setup.distance(z),
+                    )
+                };
+                let cpu = twin(&params);
                 let s = &shape[4 * k..4 * k + 4];
                 let agrees = match cpu {
                     None => s[3] < 0.0,
@@ -113,21 +106,10 @@ fn blocker_search_matches_cpu() {
                     }
                 };
                 if params.silhouette {
-                    let plain = SearchParams {
+                    let average = twin(&SearchParams {
                         silhouette: false,
                         ..params
-                    };
-                    let average = blocker_distance(
-                        &pyramid,
-                        &plain,
-                        Vec2::new(c.x, c.y),
-                        c.z,
-                        setup.footprint(dr, setup.near),
-                        u_phi,
-                        v_phi,
-                        &|d| setup.footprint(dr, d),
-                        &|z| setup.distance(z),
-                    );
+                    });
                     moved += usize::from(average != cpu);
                 }
                 searched += 1;

@@ -338,3 +338,31 @@ pub fn render_parallel_planes(
     );
     (frame, positions)
 }
+
+/// A technique's intermediate image (`Technique::images`) read back by name as floats.
+pub fn read_named_image(
+    ctx: &Context,
+    technique: &dyn penumbra::techniques::Technique,
+    name: &str,
+) -> penumbra::Result<Vec<f32>> {
+    let (_, image) = technique
+        .images()
+        .into_iter()
+        .find(|(n, _)| *n == name)
+        .unwrap_or_else(|| panic!("no image {name}"));
+    Ok(penumbra::gpu::f32s(&ctx.read_image(image)?))
+}
+
+/// A technique's intermediate buffer (`Technique::buffers`) read back by name as floats.
+pub fn read_named_buffer(
+    ctx: &Context,
+    technique: &dyn penumbra::techniques::Technique,
+    name: &str,
+) -> penumbra::Result<Vec<f32>> {
+    let (_, buffer) = technique
+        .buffers()
+        .into_iter()
+        .find(|(n, _)| *n == name)
+        .unwrap_or_else(|| panic!("no buffer {name}"));
+    Ok(penumbra::gpu::f32s(&ctx.read_buffer(buffer)?))
+}

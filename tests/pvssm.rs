@@ -62,18 +62,17 @@ impl Scored {
         }
     }
 
-    /// `pvssm`'s penumbra MAE against the reference with the knobs `set`, and its frame.
-    fn penumbra_mae(&self, engine: &Engine, set: &[(&str, &str)]) -> (f64, Frame) {
+    /// `pvssm`'s penumbra MAE against the reference with the knobs `set`.
+    fn penumbra_mae(&self, engine: &Engine, set: &[(&str, &str)]) -> f64 {
         let frame = render(engine, &self.prepared, set);
-        let mae = penumbra::metrics::compare(
+        penumbra::metrics::compare(
             &self.reference.visibility,
             &frame.visibility,
             &self.is_sample,
         )
         .expect("metrics")
         .penumbra_mae
-        .expect("the scene has a penumbra");
-        (mae, frame)
+        .expect("the scene has a penumbra")
     }
 }
 
@@ -473,8 +472,8 @@ fn refined_blocker_search_is_closer_to_the_reference() {
     let engine = common::engine();
     for scene in ["scenes/teapot-rect.toml", "scenes/bunny-rect.toml"] {
         let scored = Scored::new(&engine, scene);
-        let (once, _) = scored.penumbra_mae(&engine, &[("refine_search", "0")]);
-        let (refined, _) = scored.penumbra_mae(&engine, &[("refine_search", "1")]);
+        let once = scored.penumbra_mae(&engine, &[("refine_search", "0")]);
+        let refined = scored.penumbra_mae(&engine, &[("refine_search", "1")]);
         eprintln!("{scene}: penumbra MAE {once:.4} -> {refined:.4} with the refined search");
         assert!(refined < once, "{scene}: {once} -> {refined}");
     }
@@ -493,11 +492,11 @@ fn silhouette_blocker_depth_is_closer_to_the_reference() {
     let engine = common::engine();
     for scene in ["scenes/teapot-rect.toml", "scenes/bunny-rect.toml"] {
         let scored = Scored::new(&engine, scene);
-        let (average, _) = scored.penumbra_mae(
+        let average = scored.penumbra_mae(
             &engine,
             &[("blocker_depth", "average"), ("refine_search", "1")],
         );
-        let (silhouette, _) = scored.penumbra_mae(
+        let silhouette = scored.penumbra_mae(
             &engine,
             &[("blocker_depth", "silhouette"), ("refine_search", "1")],
         );

@@ -50,9 +50,9 @@ void bin_sample(ivec2 pixel) {
     if (P.sizes.w == 0u || q.z > P.light_half.z) {
         ivec2 g = clamp(ivec2(floor(grid_coord(q))), ivec2(0), ivec2(grid_size() - 1));
         cell = uint(g.y * grid_size() + g.x);
-        atomicMax(cell_depth[cell], floatBitsToUint(max(q.z, 0.0)));
         uint depth_bits = floatBitsToUint(max(q.z, 0.0));
-        group_counters[C_MAX_DEPTH] = max(group_counters[C_MAX_DEPTH], depth_bits);
+        atomicMax(cell_depth[cell], depth_bits);
+        invocation_counters[C_MAX_DEPTH] = max(invocation_counters[C_MAX_DEPTH], depth_bits);
     } else {
         count(C_OVERFLOW_SAMPLES, 1u);
     }
@@ -63,10 +63,10 @@ void bin_sample(ivec2 pixel) {
 }
 
 void main() {
-    group_counters_clear();
+    invocation_counters_clear();
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, P.view.xy))) {
         bin_sample(pixel);
     }
-    group_counters_flush();
+    invocation_counters_flush();
 }

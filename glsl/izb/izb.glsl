@@ -135,16 +135,16 @@ vec2 grid_coord(vec3 q) {
 // The invocation's counter sums, added to the global counters once at its end. Not summed per
 // workgroup in shared memory: its barrier() makes lavapipe run the shader as coroutines, which
 // cost more than the atomics saved (measured on the pvssm passes: 15-25 %).
-uint group_counters[COUNTERS];
+uint invocation_counters[COUNTERS];
 
-void group_counters_clear() {
+void invocation_counters_clear() {
     for (uint i = 0u; i < COUNTERS; ++i) {
-        group_counters[i] = 0u;
+        invocation_counters[i] = 0u;
     }
 }
 
 void count(uint slot, uint value) {
-    group_counters[slot] += value;
+    invocation_counters[slot] += value;
 }
 
 // Adds to a 64-bit counter (lo, lo + 1): the carry goes to the high word.
@@ -160,9 +160,9 @@ void add64(uint lo, uint value) {
 
 // Adds the invocation's sums to the global counters (64-bit for the test counts, max for the
 // depth).
-void group_counters_flush() {
+void invocation_counters_flush() {
     for (uint i = 0u; i < COUNTERS; ++i) {
-        uint v = group_counters[i];
+        uint v = invocation_counters[i];
         if (v == 0u) {
             continue;
         }

@@ -11,7 +11,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 19, r32f) uniform writeonly image2D visibility;
 
 void main() {
-    group_counters_clear();
+    invocation_counters_clear();
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (all(lessThan(pixel, P.view.xy))) {
         uint index = uint(pixel.y * P.view.x + pixel.x);
@@ -60,6 +60,6 @@ void main() {
         }
         imageStore(visibility, pixel, vec4(v));
     }
-    group_counters_flush();
+    invocation_counters_flush();
     limiter_guard();
 }

@@ -12,7 +12,7 @@ layout(set = 0, binding = 24) uniform usamplerBuffer tri_list_texels;
 layout(set = 0, binding = 25) uniform samplerBuffer tri_vert_texels;
 
 void main() {
-    group_counters_clear();
+    invocation_counters_clear();
     Item item;
     if (work_item(item)) {
         uint s = item.s0 + gl_LocalInvocationID.x;
@@ -48,6 +48,6 @@ void main() {
             count(C_RAY_TESTS, rays);
         }
     }
-    group_counters_flush();
+    invocation_counters_flush();
     limiter_guard();
 }

@@ -232,7 +232,7 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
 }
 
 void main() {
-    group_counters_clear();
+    invocation_counters_clear();
     Item item;
     if (work_item(item)) {
         uint s = item.s0 + gl_LocalInvocationID.x;
@@ -295,6 +295,6 @@ void main() {
             count(C_RAY_TESTS, m_rays);
         }
     }
-    group_counters_flush();
+    invocation_counters_flush();
     limiter_guard();
 }

@@ -14,11 +14,11 @@
 // counted. A triangle whose clamped texel range has at most SMALL texels is rasterized here;
 // bigger ones are appended to `large`.
 // phase 1: a fixed number of workgroups grid-stride over `large`, the 64 invocations of a group
-// striding over a triangle's texels; a triangle of more than HUGE texels in LARGE_PARTS parts,
-// part k taking every LARGE_PARTS-th row of its range from row k on: a triangle over the whole
-// map (a ground plane) is spread over as many groups as there are parts, not left to one (on
-// lavapipe, one CPU thread: the whole pass waited on it). Only those: a part costs its group a set-up, and splitting every
-// large triangle made the pass 4x slower on teapot-rect.
+// striding over a triangle's texels; a triangle of more than HUGE texels in LARGE_PARTS parts, part
+// k taking every LARGE_PARTS-th row of its range from row k on: a triangle over the whole map (a
+// ground plane) is spread over as many groups as there are parts, not left to one (on lavapipe, one
+// CPU thread: the whole pass waited on it). Only those: a part costs its group a set-up, and
+// splitting every large triangle made the pass 4x slower on teapot-rect.
 //
 // lavapipe stops every loop of a SIMD group after 65 535 passes per dispatch, silently; the last
 // loop below makes two passes unless the limiter ran out, and counts the invocations where it

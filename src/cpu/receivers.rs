@@ -95,11 +95,11 @@ pub fn combine_clip(f: f32, v: f32) -> f32 {
     behind + (f * v - behind) * t
 }
 
-/// The twin of `finish.comp`: the visibility after combining the technique's `visibility` with
-/// the clipped fractions (`scale`: V' = f·V where the light's centre is in front of the
-/// tangent plane, f ≥ 0.6, min(f, V) where it is behind, f < ½, and the map already saw the
-/// receiver's own body block that part, a blend of the two between; else V' = V; f = 0 gives 0), and the counters
-/// (view samples, lit, umbra, penumbra, horizon umbra).
+/// The twin of `finish.comp`: the visibility after combining the technique's `visibility` with the
+/// clipped fractions (`scale`: V' = f·V where the light's centre is in front of the tangent plane,
+/// f ≥ 0.6, min(f, V) where it is behind, f < ½, and the map already saw the receiver's own body
+/// block that part, a blend of the two between; else V' = V; f = 0 gives 0), and the counters (view
+/// samples, lit, umbra, penumbra, horizon umbra).
 pub fn finish(
     positions: &[Vec4],
     clip: &[f32],

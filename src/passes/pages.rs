@@ -17,11 +17,12 @@
 //!    bounding box (an exact separating-axis test in the light's texel grid) and binned as
 //!    (triangle, slot) pairs: for the rasterizer counted, scanned and scattered, then one
 //!    indirect draw per level written from the bins; for the compute raster, which takes the
-//!    pairs in any order, appended in one walk (the root's in a region of their own), which
-//!    halves the pass on an 800k-triangle scene. A page whose bins would run past the bin buffer's capacity (`bin_factor` entries
-//!    per triangle or per pool slot, whichever is more: a scene of a few large triangles puts
-//!    most of them in every page) is taken out of the page table, so lookups fall back instead
-//!    of reading a page with missing casters (`bin_overflow_pages`); the root always fits;
+//!    pairs in any order, appended in one walk (the root's in a region of their own), which halves
+//!    the pass on an 800k-triangle scene. A page whose bins would run past the bin buffer's
+//!    capacity (`bin_factor` entries per triangle or per pool slot, whichever is more: a scene of a
+//!    few large triangles puts most of them in every page) is taken out of the page table, so
+//!    lookups fall back instead of reading a page with missing casters (`bin_overflow_pages`);
+//!    the root always fits;
 //! 4. **render** (`<name>-render`): the atlas is cleared and each level's bins are drawn with
 //!    one `vkCmdDrawIndirect`; the vertex shader pulls each triangle's corners by index, zooms
 //!    the page's part of the light frustum onto its slot and clips it to the slot with

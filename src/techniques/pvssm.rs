@@ -38,14 +38,16 @@
 //!
 //! Knobs: `lowres_size`, `virtual_size`, `page_size`, `pool_pages`, `rho` (`dynamic` | `static`),
 //! `rho_scale` (the quality/speed dial: texels across a kernel ×), `antialias`, `max_search`,
-//! `search_cells` (the search's cost bound: cells per side of the min-pyramid level it reads;
-//! with `refine_search` the first search, which only sizes the refined one, reads half as many),
-//! `refine_search`, `blocker_depth` (`average` | `silhouette`), `ancestors` (render each requested page's coarser ancestors too, so a pool
-//! overflow falls back one level at a time: 1 always, 2 — the default — only when the requests
-//! overflow the pool (without an overflow no lookup falls back, and the ancestors are a fifth of
-//! the frame on `grid:800000@rect`), 0 never (an overflow falls back to the first coarser resident
-//! level, the root at worst)), `fixed_level` (-1: predicted; k: one whole map at level k
-//! for every kernel — level 0 of a 4096 virtual map is the paper's Table 2 baseline), `search_bias`, `tangent_plane`, `bin_factor`, and the depth bias of a level-0 page.
+//! `search_cells` (the search's cost bound: cells per side of the min-pyramid level it reads; with
+//! `refine_search` the first search, which only sizes the refined one, reads half as many),
+//! `refine_search`, `blocker_depth` (`average` | `silhouette`), `ancestors` (render each requested
+//! page's coarser ancestors too, so a pool overflow falls back one level at a time: 1 always, 2 —
+//! the default — only when the requests overflow the pool (without an overflow no lookup falls
+//! back, and the ancestors are a fifth of the frame on `grid:800000@rect`), 0 never (an overflow
+//! falls back to the first coarser resident level, the root at worst)), `fixed_level` (-1:
+//! predicted; k: one whole map at level k for every kernel — level 0 of a 4096 virtual map is the
+//! paper's Table 2 baseline), `search_bias`, `tangent_plane`, `bin_factor`, and the depth bias of a
+//! level-0 page.
 //! CPU twin: [`crate::cpu::pvssm`] (kernel math and filter), [`crate::cpu::pvssm_search`] (the
 //! blocker search), [`crate::cpu::pages`] (pages).
 

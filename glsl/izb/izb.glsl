@@ -147,16 +147,7 @@ void count(uint slot, uint value) {
     invocation_counters[slot] += value;
 }
 
-// Adds to a 64-bit counter (lo, lo + 1): the carry goes to the high word.
-void add64(uint lo, uint value) {
-    if (value == 0u) {
-        return;
-    }
-    uint old = atomicAdd(counters[lo], value);
-    if (old + value < old) {
-        atomicAdd(counters[lo + 1u], 1u);
-    }
-}
+#include "counter64.glsl"
 
 // Adds the invocation's sums to the global counters (64-bit for the test counts, max for the
 // depth).

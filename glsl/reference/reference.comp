@@ -234,16 +234,7 @@ float shade(vec3 p, vec3 n, uint pixel_index, inout uint rays, inout uint centre
     return float(visible) / float(total);
 }
 
-// Adds to a 64-bit counter (lo, hi): the carry goes to hi.
-void add64(uint lo, uint value) {
-    if (value == 0u) {
-        return;
-    }
-    uint old = atomicAdd(counters[lo], value);
-    if (old + value < old) {
-        atomicAdd(counters[lo + 1u], 1u);
-    }
-}
+#include "counter64.glsl"
 
 void main() {
     // Counted per invocation and added once at the end, not per workgroup in shared memory:

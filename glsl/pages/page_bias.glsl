@@ -2,7 +2,8 @@
 // with the pages' per-level factors (pages_push.glsl): the slope factor times the plane's
 // largest gradient in the level's texels, plus the constant (doubled per level) in units of
 // 2^(e - 23) for the exponent e of the largest vertex depth, clamped by the clamp (doubled per
-// level; 0: none). Shared by page_raster.comp and the listed draw of page_depth.glsl.
+// level; 0: none). Shared by page_raster.comp and the listed draw of page_depth.glsl, with the
+// near-plane clip both take it from.
 // CPU twin: setup() in src/cpu/page_raster.rs.
 
 #ifndef PENUMBRA_PAGE_BIAS_GLSL
@@ -21,6 +22,35 @@ float page_depth_bias(float dzdx, float dzdy, float z_max, uint level) {
         bias = max(bias, clamp_value);
     }
     return bias;
+}
+
+// Level texel position (xy) and NDC depth (z) of a clip-space vertex with w > 0.
+vec3 level_position(vec4 v, float level_size) {
+    vec3 ndc = v.xyz / v.w;
+    return vec3((ndc.xy * 0.5 + 0.5) * level_size, ndc.z);
+}
+
+// The clip-space triangle (v0, v1, v2) cut by the near plane z = 0 (Sutherland-Hodgman), as
+// Vulkan's clip volume cuts it: 0, 3 or 4 vertices in `poly` (a convex polygon in the
+// triangle's order, drawn as the fan (0, 1, 2), (0, 2, 3)); returns the count. A triangle
+// reaching behind a light inside the scene has corners at w <= 0, where no projection holds:
+// the bias and the coverage are those of what is left in front.
+int near_clip(vec4 v0, vec4 v1, vec4 v2, out vec4 poly[4]) {
+    vec4 v[3] = vec4[3](v0, v1, v2);
+    poly = vec4[4](vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
+    int n = 0;
+    for (int m = 0; m < 3; ++m) {
+        vec4 p = v[m];
+        vec4 q = v[(m + 1) % 3];
+        if (p.z >= 0.0) {
+            poly[n++] = p;
+        }
+        if ((p.z >= 0.0) != (q.z >= 0.0)) {
+            float t = p.z / (p.z - q.z);
+            poly[n++] = mix(p, q, t);
+        }
+    }
+    return n;
 }
 
 #endif

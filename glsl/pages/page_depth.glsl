@@ -32,24 +32,44 @@ vec4 clip_vertex(uint i) {
 }
 
 #ifdef LISTED
-// The depth bias of triangle `tri` at `level` (0 when a corner is at w <= 0).
+// The depth bias of triangle `tri` at `level`, from its part in front of the near plane, as the
+// compute raster and the pipeline's bias take it (0 when nothing is left, or it is edge-on).
+// A triangle reaching behind a light inside the scene has no projection as a whole; taking no
+// bias for it (as this did) left such large triangles acne-ridden: the stress suite's
+// `light-inside` rmsm MAE 0.031 with the compute pages against 0.0025 with the rasterizer's.
 float triangle_bias(uint tri, uint level) {
-    vec4 v0 = clip_vertex(3u * tri), v1 = clip_vertex(3u * tri + 1u);
-    vec4 v2 = clip_vertex(3u * tri + 2u);
-    if (!(v0.w > 0.0 && v1.w > 0.0 && v2.w > 0.0)) {
+    vec4 poly[4];
+    int n = near_clip(clip_vertex(3u * tri), clip_vertex(3u * tri + 1u),
+                      clip_vertex(3u * tri + 2u), poly);
+    bool front = n >= 3;
+    for (int m = 0; m < n; ++m) {
+        front = front && poly[m].w > 0.0;
+    }
+    if (!front) {
         return 0.0;
     }
     float size = float(pc.virtual_size >> level);
-    vec3 a = vec3((v0.xy / v0.w * 0.5 + 0.5) * size, v0.z / v0.w);
-    vec3 b = vec3((v1.xy / v1.w * 0.5 + 0.5) * size, v1.z / v1.w);
-    vec3 c = vec3((v2.xy / v2.w * 0.5 + 0.5) * size, v2.z / v2.w);
+    vec3 a = level_position(poly[0], size);
+    vec3 b = level_position(poly[1], size);
+    vec3 c = level_position(poly[2], size);
+    float z_max = max(a.z, max(b.z, c.z));
+    if (n == 4) {
+        vec3 d = level_position(poly[3], size);
+        z_max = max(z_max, d.z);
+        // A clip point on a corner repeats it: the plane from the fan's other triangle then.
+        float area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+        if (!(area != 0.0)) {
+            b = c;
+            c = d;
+        }
+    }
     float area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
     if (!(area != 0.0)) {
         return 0.0;
     }
     float dzdx = ((b.z - a.z) * (c.y - a.y) - (c.z - a.z) * (b.y - a.y)) / area;
     float dzdy = ((c.z - a.z) * (b.x - a.x) - (b.z - a.z) * (c.x - a.x)) / area;
-    return page_depth_bias(dzdx, dzdy, max(a.z, max(b.z, c.z)), level);
+    return page_depth_bias(dzdx, dzdy, z_max, level);
 }
 #endif
 

@@ -139,12 +139,6 @@ void cover(Tri t, int i, int j, ivec2 lo, ivec2 origin, uint atlas_width) {
     atomicMin(atlas_bits[uint(at.y) * atlas_width + uint(at.x)], floatBitsToUint(z));
 }
 
-// Level texel position (xy) and NDC depth (z) of a clip-space vertex with w > 0.
-vec3 level_position(vec4 v, float level_size) {
-    vec3 ndc = v.xyz / v.w;
-    return vec3((ndc.xy * 0.5 + 0.5) * level_size, ndc.z);
-}
-
 // Bin entry k set up: its page (level texels lo..hi, atlas texel `origin` for lo) and its
 // one or two triangles after the near clip (count 0 when nothing is left).
 struct Entry {
@@ -173,18 +167,7 @@ Entry load_entry(uint k) {
     // fan. In front of it w > 0 for the light's projections, so the divisions are safe; a
     // vertex at w <= 0 that survives (no projection penumbra builds has one) drops the polygon.
     vec4 poly[4];
-    int n = 0;
-    for (int m = 0; m < 3; ++m) {
-        vec4 p = v[m];
-        vec4 q = v[(m + 1) % 3];
-        if (p.z >= 0.0) {
-            poly[n++] = p;
-        }
-        if ((p.z >= 0.0) != (q.z >= 0.0)) {
-            float t = p.z / (p.z - q.z);
-            poly[n++] = mix(p, q, t);
-        }
-    }
+    int n = near_clip(v[0], v[1], v[2], poly);
     bool front = n >= 3;
     for (int m = 0; m < n; ++m) {
         front = front && poly[m].w > 0.0;

@@ -248,7 +248,7 @@ impl Engine {
         let (view, visibility) = match external {
             Some(v) => v,
             None => (
-                ViewSamples::new(ctx, &scene.camera)?,
+                ViewSamples::for_scene(ctx, &scene.camera, &scene_bounds)?,
                 Image::new(
                     ctx,
                     "visibility",

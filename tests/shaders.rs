@@ -164,6 +164,11 @@ fn raster_interfaces_reflect_as_declared() {
     let (_, f) = shader_interface("passes/view_samples.frag").expect("reflect");
     assert_eq!(f.stage, vk::ShaderStageFlags::FRAGMENT);
     assert_eq!(f.push_constant_size, 96);
+    assert!(f.bindings.is_empty());
+    // The face-normal variant reads the scene's vertex and index buffers.
+    let (_, f) = shader_interface("passes/view_samples_faces.frag").expect("reflect");
+    assert_eq!(f.push_constant_size, 96);
+    assert_eq!(f.bindings.len(), 2);
 }
 
 #[test]
@@ -216,7 +221,11 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             twin!(penumbra::techniques::atty::AttyPush { phase }),
         ),
         (
-            vec!["passes/view_samples.vert", "passes/view_samples.frag"],
+            vec![
+                "passes/view_samples.vert",
+                "passes/view_samples.frag",
+                "passes/view_samples_faces.frag",
+            ],
             twin!(ViewSamplesPush {
                 view_proj,
                 eye,

@@ -11,7 +11,10 @@
 // nearly equal and the neighbour on the pixel's tangent plane); a projective light map keeps
 // planes planar, so the difference is exact for a planar receiver. Where no such neighbour exists,
 // or J is near-singular (the receiver seen edge-on from the light: det -> 0, the gradient
-// unbounded), the pixel falls back to a constant z~, and the caller counts it.
+// unbounded), the pixel falls back to a constant z~, and the caller counts it. Where the
+// neighbours lie closer than f32 positions resolve (a dense view of a tiny patch: their
+// light-space steps are rounding noise), the plane is the tangent plane from the normal,
+// sampled along it far enough to resolve — exact for a planar receiver for the same reason.
 // GLSL cannot pass an image with a format to a function, so the including shader defines the two
 // loads below (from its view-sample images).
 // CPU twin: src/cpu/receiver_plane.rs; keep the two in step.
@@ -36,6 +39,17 @@ const float RP_PLANE_DISTANCE = 0.01;
 // The det -> 0 clamp: |det J| relative to the lengths of its two columns (the sine of the angle
 // between the light-space images of the two screen axes).
 const float RP_MIN_SINE = 0.02;
+// Same-normal neighbours nearer than this fraction of |p| are too few f32 steps apart (2^-16:
+// ~128 ulps) for their difference to resolve a plane: the stress suite's `dense-cell`, 10^6
+// samples 7e-7 apart at |p| ~ 5, where the neighbours' planes were noise or absent and a wide
+// kernel self-shadowed a lit face (pcss MAE 0.27).
+const float RP_MIN_STEP = 1.0 / 65536.0;
+// How far along the tangent plane it is sampled then, relative to |p|: any length gives the
+// same plane, and a long one resolves the depth step (a light-space depth's f32 step is ~6e-8;
+// 2^-10 of |p| left a test plane's gradient 20 % off), halved while a step leaves the light's
+// front (a point light just above the receiver).
+const float RP_TANGENT_STEP = 1.0 / 16.0;
+const int RP_TANGENT_HALVINGS = 8;
 
 // Whether neighbour q (normal m; w > 0 for a sample) lies on the plane of p (normal n).
 bool rp_same_surface(vec4 p, vec3 n, vec4 q, vec3 m) {
@@ -58,8 +72,32 @@ vec3 rp_gradient(vec3 dx, vec3 dy) {
     return vec3(dz_du, dz_dv, 1.0);
 }
 
+// Whether neighbour q (normal m) has p's normal but lies nearer than f32 positions resolve.
+bool rp_unresolved(vec4 p, vec3 n, vec4 q, vec3 m) {
+    return q.w > 0.0 && dot(n, m) >= RP_SAME_NORMAL
+        && length(q.xyz - p.xyz) < RP_MIN_STEP * length(p.xyz);
+}
+
+// The gradient of the tangent plane (p, n) (as rp_gradient) from two light-space steps along
+// it; (0, 0, 0) where a step leaves the light's front or the plane is edge-on.
+vec3 rp_tangent_plane(vec3 p, vec3 n, mat4 light_view_proj, ivec2 map_size, vec4 c) {
+    vec3 a = abs(n.x) < 0.5 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
+    vec3 t1 = normalize(cross(n, a));
+    vec3 t2 = cross(n, t1);
+    float s = RP_TANGENT_STEP * length(p);
+    for (int k = 0; k < RP_TANGENT_HALVINGS && s > 0.0; ++k, s *= 0.5) {
+        vec4 c1 = shadow_coord(light_view_proj, p + s * t1, map_size);
+        vec4 c2 = shadow_coord(light_view_proj, p + s * t2, map_size);
+        if (c1.w > 0.0 && c2.w > 0.0) {
+            return rp_gradient(c1.xyz - c.xyz, c2.xyz - c.xyz);
+        }
+    }
+    return vec3(0.0);
+}
+
 // The light-space step (du, dv, dz~) of one pixel along `axis`, from the forward neighbour or
-// else the backward one; .w = 1 when found, 0 when neither is on the same plane.
+// else the backward one; .w = 1 when found, 0 when neither is on the same plane, -1 when one
+// with the same normal is nearer than the positions resolve.
 vec4 rp_step(ivec2 pixel, ivec2 axis, ivec2 view_size, mat4 light_view_proj, ivec2 map_size,
              vec4 p, vec3 n, vec4 c) {
     for (int side = 1; side >= -1; side -= 2) {
@@ -69,6 +107,9 @@ vec4 rp_step(ivec2 pixel, ivec2 axis, ivec2 view_size, mat4 light_view_proj, ive
         }
         vec4 q = rp_position(q_pixel);
         vec3 m = rp_normal(q_pixel);
+        if (rp_unresolved(p, n, q, m)) {
+            return vec4(0.0, 0.0, 0.0, -1.0);
+        }
         if (!rp_same_surface(p, n, q, m)) {
             continue;
         }
@@ -89,6 +130,9 @@ vec3 receiver_plane(ivec2 pixel, ivec2 view_size, mat4 light_view_proj, ivec2 ma
     vec3 n = rp_normal(pixel);
     vec4 dx = rp_step(pixel, ivec2(1, 0), view_size, light_view_proj, map_size, p, n, c);
     vec4 dy = rp_step(pixel, ivec2(0, 1), view_size, light_view_proj, map_size, p, n, c);
+    if (dx.w < 0.0 || dy.w < 0.0) {
+        return rp_tangent_plane(p.xyz, n, light_view_proj, map_size, c);
+    }
     if (dx.w == 0.0 || dy.w == 0.0) {
         return vec3(0.0);
     }

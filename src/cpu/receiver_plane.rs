@@ -9,7 +9,10 @@
 //! left) and down (else up) neighbours on the same plane; a projective light map keeps planes
 //! planar, so for a planar receiver they are exact. No such neighbour, or |det J| → 0 (the
 //! receiver seen edge-on from the light, where the gradient is unbounded): the pixel falls back
-//! to a constant depth and the techniques count it (`plane_fallback`).
+//! to a constant depth and the techniques count it (`plane_fallback`). A same-normal neighbour
+//! nearer than f32 positions resolve ([`MIN_STEP`]: a dense view of a tiny patch, whose
+//! light-space steps are rounding noise) makes the plane the tangent plane from the normal,
+//! sampled [`TANGENT_STEP`] of |p| along it — exact for a planar receiver for the same reason.
 //!
 //! Tolerance against the GPU: the decisions are exact except within float rounding of their
 //! thresholds, which [`ReceiverPlane::marginal`] flags so comparisons can exclude the pixel.
@@ -28,6 +31,15 @@ pub const PLANE_DISTANCE: f32 = 0.01;
 /// The det → 0 clamp: smallest |det J| relative to the lengths of its two columns (the sine of
 /// the angle between the light-space images of the screen axes).
 pub const MIN_SINE: f32 = 0.02;
+/// Same-normal neighbours nearer than this fraction of |p| are too few f32 steps apart
+/// (2⁻¹⁶: ~128 ulps) for their difference to resolve a plane.
+pub const MIN_STEP: f32 = 1.0 / 65536.0;
+/// How far along the tangent plane it is sampled then, relative to |p| (any length gives the
+/// same plane; a long one resolves the depth step), halved up to [`TANGENT_HALVINGS`] − 1
+/// times while a step leaves the light's front.
+pub const TANGENT_STEP: f32 = 1.0 / 16.0;
+/// Tries of [`TANGENT_STEP`], each half the last.
+pub const TANGENT_HALVINGS: usize = 8;
 
 /// Relative margin around a threshold inside which GPU rounding may decide the other way.
 const MARGIN: f32 = 1e-4;
@@ -90,6 +102,60 @@ pub fn same_surface(p: Vec4, n: Vec3, q: Vec4, m: Vec3) -> (bool, bool) {
     (along >= SAME_NORMAL && off <= limit, marginal)
 }
 
+/// Whether neighbour `q` (normal `m`) has `p`'s normal but lies nearer than f32 positions
+/// resolve, and whether that was a close call.
+pub fn unresolved(p: Vec4, n: Vec3, q: Vec4, m: Vec3) -> (bool, bool) {
+    if q.w <= 0.0 {
+        return (false, false);
+    }
+    let along = n.dot(m);
+    let distance = (q.xyz() - p.xyz()).length();
+    let limit = MIN_STEP * p.xyz().length();
+    let marginal =
+        (along - SAME_NORMAL).abs() < MARGIN || (distance - limit).abs() <= MARGIN * limit;
+    (along >= SAME_NORMAL && distance < limit, marginal)
+}
+
+/// The gradient of the tangent plane (`p`, `n`) from two light-space steps of
+/// [`TANGENT_STEP`]·|p| along it (halved while one leaves the light's front), `None` where
+/// they never both stay in front or the plane is edge-on; and whether the edge-on test was a
+/// close call.
+pub fn tangent_plane(
+    p: Vec3,
+    n: Vec3,
+    light_view_proj: Mat4,
+    map_size: IVec2,
+    c: Vec4,
+) -> (Option<Vec2>, bool) {
+    let a = if n.x.abs() < 0.5 { Vec3::X } else { Vec3::Y };
+    let t1 = n.cross(a).normalize();
+    let t2 = n.cross(t1);
+    let mut s = TANGENT_STEP * p.length();
+    for _ in 0..TANGENT_HALVINGS {
+        // Written so that NaN stops, as the shader's `s > 0.0`.
+        if s.partial_cmp(&0.0) != Some(Ordering::Greater) {
+            break;
+        }
+        let c1 = shadow_coord(light_view_proj, p + s * t1, map_size);
+        let c2 = shadow_coord(light_view_proj, p + s * t2, map_size);
+        if c1.w > 0.0 && c2.w > 0.0 {
+            return gradient(c1.xyz() - c.xyz(), c2.xyz() - c.xyz());
+        }
+        s *= 0.5;
+    }
+    (None, false)
+}
+
+/// What [`step`] found along one axis.
+enum Step {
+    /// The light-space step to a neighbour on the same plane.
+    Found(Vec3),
+    /// No neighbour on the same plane.
+    Missing,
+    /// A neighbour with the same normal nearer than the positions resolve.
+    Unresolved,
+}
+
 /// (∂z̃/∂u, ∂z̃/∂v) from the light-space steps (du, dv, dz̃) of one pixel along x and y, `None`
 /// where J is near-singular; and whether the singularity test was a close call.
 pub fn gradient(dx: Vec3, dy: Vec3) -> (Option<Vec2>, bool) {
@@ -106,7 +172,7 @@ pub fn gradient(dx: Vec3, dy: Vec3) -> (Option<Vec2>, bool) {
 }
 
 /// The light-space step of one pixel along `axis` from the forward, else the backward
-/// neighbour on the same plane; `None` when neither is.
+/// neighbour on the same plane.
 #[allow(
     clippy::too_many_arguments,
     reason = "mirrors the shader function's parameters"
@@ -121,24 +187,30 @@ fn step(
     n: Vec3,
     c: Vec4,
     marginal: &mut bool,
-) -> Option<Vec3> {
+) -> Step {
     for side in [1, -1] {
         let q_pixel = pixel + side * axis;
         if q_pixel.cmplt(IVec2::ZERO).any() || q_pixel.cmpge(view.size).any() {
             continue;
         }
-        let (same, close) = same_surface(p, n, view.position(q_pixel), view.normal(q_pixel));
+        let (q, m) = (view.position(q_pixel), view.normal(q_pixel));
+        let (dense, close) = unresolved(p, n, q, m);
+        *marginal |= close;
+        if dense {
+            return Step::Unresolved;
+        }
+        let (same, close) = same_surface(p, n, q, m);
         *marginal |= close;
         if !same {
             continue;
         }
-        let cq = shadow_coord(light_view_proj, view.position(q_pixel).xyz(), map_size);
+        let cq = shadow_coord(light_view_proj, q.xyz(), map_size);
         if cq.w <= 0.0 {
             continue;
         }
-        return Some(side as f32 * (cq.xyz() - c.xyz()));
+        return Step::Found(side as f32 * (cq.xyz() - c.xyz()));
     }
-    None
+    Step::Missing
 }
 
 /// The receiver plane of the view sample at `pixel` (position `p`, shadow coordinate `c`).
@@ -174,13 +246,18 @@ pub fn receiver_plane(
         c,
         &mut marginal,
     );
-    let (Some(dx), Some(dy)) = (dx, dy) else {
-        return ReceiverPlane {
-            marginal,
-            ..ReceiverPlane::default()
-        };
+    let (g, close) = match (dx, dy) {
+        (Step::Unresolved, _) | (_, Step::Unresolved) => {
+            tangent_plane(p.xyz(), n, light_view_proj, map_size, c)
+        }
+        (Step::Found(dx), Step::Found(dy)) => gradient(dx, dy),
+        _ => {
+            return ReceiverPlane {
+                marginal,
+                ..ReceiverPlane::default()
+            }
+        }
     };
-    let (g, close) = gradient(dx, dy);
     ReceiverPlane {
         gradient: g.unwrap_or(Vec2::ZERO),
         found: g.is_some(),
@@ -288,6 +365,41 @@ mod tests {
             size: IVec2::splat(7),
         };
         assert!(!plane_at(&view, Mat4::IDENTITY, IVec2::new(3, 3)).found);
+    }
+
+    /// Neighbours a few f32 steps apart (the plane of `plane_view` seen 10⁶ times denser: 1e-7
+    /// apart at |p| ~ 3) have rounding noise for light-space steps; the plane is then the
+    /// tangent plane from the normal, and its gradient the plane's own.
+    #[test]
+    fn neighbours_closer_than_f32_resolves_take_the_tangent_plane() {
+        let (light, _, normals) = plane_view(0.0);
+        let mut positions = Vec::new();
+        for j in 0..7 {
+            for i in 0..7 {
+                let (x, z) = (0.3 + 1e-7 * i as f32, 0.2 + 1e-7 * j as f32);
+                positions.push(Vec4::new(x, 0.3 * x + 0.1 * z, z, 1.0));
+            }
+        }
+        let view = ViewImages {
+            positions: &positions,
+            normals: &normals,
+            size: IVec2::splat(7),
+        };
+        let (_, far, _) = plane_view(0.0);
+        let c = |p: Vec4| shadow_coord(light, p.xyz(), MAP).xyz();
+        let (exact, _) = gradient(c(far[6]) - c(far[0]), c(far[42]) - c(far[0]));
+        let exact = exact.expect("not edge-on");
+        let p = positions[24];
+        let n = normals[24].xyz();
+        assert!(unresolved(p, n, positions[25], n).0);
+        assert!(!unresolved(p, n, far[25], n).0);
+        let plane = plane_at(&view, light, IVec2::new(3, 3));
+        assert!(plane.found);
+        assert!(
+            (plane.gradient - exact).length() <= 1e-3 * exact.length(),
+            "{} against {exact}",
+            plane.gradient
+        );
     }
 
     /// det J → 0: the two screen steps land on one line of the map, the gradient is unbounded,

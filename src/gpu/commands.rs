@@ -295,19 +295,23 @@ impl Recorder<'_> {
         unsafe { self.ctx.device().cmd_end_rendering(self.cmd) };
     }
 
-    /// Draws `index_count` indices with `pipeline` (inside `begin_rendering`). `depth_bias` is
-    /// (constant, slope, clamp) for pipelines built with depth bias. The vertex and index
-    /// buffers must have been declared with [`Access::VertexInput`] before rendering began.
+    /// Draws `index_count` indices with `pipeline` (inside `begin_rendering`), binding `set`
+    /// for shaders that read buffers (its resources tracked before rendering began, see
+    /// [`Recorder::use_set`]). `depth_bias` is (constant, slope, clamp) for pipelines built with
+    /// depth bias. The vertex and index buffers must have been declared with
+    /// [`Access::VertexInput`] before rendering began.
+    #[allow(clippy::too_many_arguments)]
     pub fn draw_indexed<T: Pod>(
         &mut self,
         pipeline: &Pipeline,
+        set: Option<&DescriptorSet>,
         vertices: &Buffer,
         indices: &Buffer,
         index_count: u32,
         push: &T,
         depth_bias: Option<[f32; 3]>,
     ) -> Result<()> {
-        self.bind_and_push(pipeline, None, push)?;
+        self.bind_and_push(pipeline, set, push)?;
         let device = self.ctx.device();
         unsafe {
             if let Some([constant, slope, clamp]) = depth_bias {

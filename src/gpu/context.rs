@@ -92,6 +92,9 @@ pub struct DeviceInfo {
     /// `shaderStorageImageExtendedFormats`: storage images of two-channel formats such as
     /// `R32G32_SFLOAT` (the filtered maps of two-channel techniques use it when present).
     pub storage_image_extended_formats: bool,
+    /// `geometryShader`, here for what it brings fragment shaders: `gl_PrimitiveID` (the
+    /// view-sample pass reads each pixel's triangle with it for an exact face normal).
+    pub geometry_shader: bool,
     /// `VK_EXT_conservative_rasterization`.
     pub conservative_rasterization: bool,
     /// `VK_EXT_fragment_shader_interlock`.
@@ -188,6 +191,9 @@ pub struct EnabledFeatures {
     pub clip_distance: bool,
     /// `shaderStorageImageExtendedFormats` (two-channel filtered maps; four channels without).
     pub storage_image_extended_formats: bool,
+    /// `geometryShader` (`gl_PrimitiveID` in the view-sample pass's fragment shader: the face
+    /// normal from the triangle's vertices; from position derivatives without).
+    pub geometry_shader: bool,
 }
 
 impl EnabledFeatures {
@@ -210,6 +216,7 @@ impl EnabledFeatures {
             depth_bias_clamp: info.depth_bias_clamp,
             clip_distance: info.clip_distance,
             storage_image_extended_formats: info.storage_image_extended_formats,
+            geometry_shader: info.geometry_shader,
         }
     }
 
@@ -231,7 +238,8 @@ impl EnabledFeatures {
             .shader_storage_image_extended_formats(
                 self.storage_image_extended_formats
                     || core.shader_storage_image_extended_formats == vk::TRUE,
-            );
+            )
+            .geometry_shader(self.geometry_shader || core.geometry_shader == vk::TRUE);
         let v12 = v12
             .shader_buffer_int64_atomics(
                 self.int64_atomics || v12.shader_buffer_int64_atomics == vk::TRUE,
@@ -243,7 +251,7 @@ impl EnabledFeatures {
     }
 
     /// (name, in `self`, in `other`) per feature.
-    fn pairs(&self, other: &EnabledFeatures) -> [(&'static str, bool, bool); 7] {
+    fn pairs(&self, other: &EnabledFeatures) -> [(&'static str, bool, bool); 8] {
         [
             ("shaderFloat64", self.float64, other.float64),
             ("shaderInt64", self.int64, other.int64),
@@ -271,6 +279,11 @@ impl EnabledFeatures {
                 "shaderStorageImageExtendedFormats",
                 self.storage_image_extended_formats,
                 other.storage_image_extended_formats,
+            ),
+            (
+                "geometryShader",
+                self.geometry_shader,
+                other.geometry_shader,
             ),
         ]
     }
@@ -570,6 +583,7 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<Device
         depth_bias_clamp: features.depth_bias_clamp == vk::TRUE,
         clip_distance: features.shader_clip_distance == vk::TRUE,
         storage_image_extended_formats: features.shader_storage_image_extended_formats == vk::TRUE,
+        geometry_shader: features.geometry_shader == vk::TRUE,
         conservative_rasterization: has_ext(ash::ext::conservative_rasterization::NAME),
         fragment_shader_interlock: has_ext(ash::ext::fragment_shader_interlock::NAME),
         ray_query: has_ext(ash::khr::ray_query::NAME),
@@ -822,6 +836,7 @@ impl Context {
         info.depth_bias_clamp = enabled.depth_bias_clamp;
         info.clip_distance = enabled.clip_distance;
         info.storage_image_extended_formats = enabled.storage_image_extended_formats;
+        info.geometry_shader = enabled.geometry_shader;
         let debug_utils = false;
         let mut shared = Self::assemble(
             entry,
@@ -1078,6 +1093,7 @@ fn create_device(
         .depth_bias_clamp(info.depth_bias_clamp)
         .shader_clip_distance(info.clip_distance)
         .shader_storage_image_extended_formats(info.storage_image_extended_formats)
+        .geometry_shader(info.geometry_shader)
         .shader_storage_image_write_without_format(false);
     let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
         .shader_buffer_int64_atomics(info.int64_atomics)

@@ -167,6 +167,7 @@ impl ShadowMap {
         let bias = self.desc.bias;
         let result = rec.draw_indexed(
             &self.pipeline,
+            None,
             &geometry.vertices,
             &geometry.indices,
             geometry.index_count,

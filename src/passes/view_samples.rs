@@ -5,9 +5,21 @@
 //! Two RGBA32F targets: `positions` (xyz world, w = 1 for a sample, 0 for background — the
 //! clear value) and `normals` (xyz unit normal facing the camera, w linear depth along the view
 //! direction). Full f32 so a receiver's depth reprojected into the light is not quantized.
+//!
+//! The normal is the face's: on a device with `geometryShader` (which gives fragment shaders
+//! `gl_PrimitiveID`) the cross product of the pixel's triangle's edges, read from the scene's
+//! buffers, for the pixels whose neighbours lie closer than 2⁻¹² of their distance from the
+//! origin; elsewhere, and on other devices, the cross product of the interpolated position's
+//! screen derivatives — the same plane, but only as exact as the f32 positions are far apart:
+//! noise where neighbouring pixels are a few f32 steps apart (`glsl/passes/view_samples.glsl`;
+//! the stress suite's `dense-cell`). Reading `gl_PrimitiveID` costs lavapipe's fragment stage
+//! even where no pixel needs it (the pass 1.2–1.6× slower on 800k triangles), so
+//! [`ViewSamples::for_scene`] takes that variant only when the camera's view of the scene may
+//! hold such pixels ([`may_be_denser_than_f32`]).
 
 use ash::vk;
-use glam::{IVec2, Vec4};
+use glam::{IVec2, Vec3, Vec4};
+use std::sync::Mutex;
 
 use super::SceneGeometry;
 use crate::error::{Error, Result};
@@ -15,7 +27,7 @@ use crate::gpu::{
     f32s, Access, Binding, Context, DescriptorSet, GraphicsDesc, Image, ImageDesc, Pipeline,
     Recorder, Sampler,
 };
-use crate::scene::Camera;
+use crate::scene::{Aabb, Camera};
 use crate::shader_types::{FromDepthPush, ViewSamplesPush};
 
 const SAMPLE_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
@@ -26,6 +38,10 @@ pub struct ViewSamples {
     /// The raster pipeline and depth buffer; `None` for the caller's images, which penumbra
     /// reads but never renders.
     raster: Option<(Pipeline, Image)>,
+    /// With face normals from `gl_PrimitiveID`: the scene's buffers bound for the fragment
+    /// shader, made by the last [`ViewSamples::record`] (it holds the set until the next, by
+    /// which time that submission has completed).
+    faces: Option<Mutex<Option<DescriptorSet>>>,
     /// For the caller's depth and normal G-buffer: the pass that unprojects it into
     /// `positions` and `normals` at the start of each frame.
     from_depth: Option<FromDepth>,
@@ -40,13 +56,29 @@ pub struct ViewSamples {
 }
 
 impl ViewSamples {
-    /// Creates the targets for `camera`'s resolution.
+    /// Creates the targets for `camera`'s resolution, with face normals from `gl_PrimitiveID`
+    /// wherever the pixels are denser than f32 resolves, if the device has `geometryShader`.
     pub fn new(ctx: &Context, camera: &Camera) -> Result<ViewSamples> {
+        Self::with_faces(ctx, camera, ctx.info().geometry_shader)
+    }
+
+    /// [`ViewSamples::new`] for a view of a scene within `bounds`: the face-normal variant only
+    /// where some pixel may need it ([`may_be_denser_than_f32`]).
+    pub fn for_scene(ctx: &Context, camera: &Camera, bounds: &Aabb) -> Result<ViewSamples> {
+        let faces = ctx.info().geometry_shader && may_be_denser_than_f32(camera, bounds);
+        Self::with_faces(ctx, camera, faces)
+    }
+
+    fn with_faces(ctx: &Context, camera: &Camera, faces: bool) -> Result<ViewSamples> {
         let pipeline = Pipeline::graphics(
             ctx,
             &GraphicsDesc {
                 vertex: "passes/view_samples.vert",
-                fragment: Some("passes/view_samples.frag"),
+                fragment: Some(if faces {
+                    "passes/view_samples_faces.frag"
+                } else {
+                    "passes/view_samples.frag"
+                }),
                 color_formats: &[SAMPLE_FORMAT, SAMPLE_FORMAT],
                 depth_format: vk::Format::D32_SFLOAT,
                 depth_bias: false,
@@ -71,6 +103,7 @@ impl ViewSamples {
         )?;
         Ok(ViewSamples {
             raster: Some((pipeline, depth)),
+            faces: faces.then(|| Mutex::new(None)),
             from_depth: None,
             positions: Image::new(
                 ctx,
@@ -98,6 +131,7 @@ impl ViewSamples {
         }
         Ok(ViewSamples {
             raster: None,
+            faces: None,
             from_depth: None,
             positions,
             normals,
@@ -175,6 +209,7 @@ impl ViewSamples {
         };
         Ok(ViewSamples {
             raster: None,
+            faces: None,
             from_depth: Some(FromDepth {
                 pipeline,
                 set,
@@ -218,7 +253,28 @@ impl ViewSamples {
                 "the view samples are the caller's images: the caller renders them".into(),
             ));
         };
+        let mut faces = match &self.faces {
+            Some(slot) => {
+                let set = DescriptorSet::new(
+                    rec.context(),
+                    pipeline,
+                    &[
+                        Binding::Buffer(&geometry.vertices),
+                        Binding::Buffer(&geometry.indices),
+                    ],
+                )?;
+                let mut slot = slot.lock().map_err(|_| {
+                    Error::InvalidArgument("the view samples' set lock was poisoned".into())
+                })?;
+                *slot = Some(set);
+                Some(slot)
+            }
+            None => None,
+        };
         rec.begin_pass("view-samples")?;
+        if let Some(set) = faces.as_ref().and_then(|slot| slot.as_ref()) {
+            rec.use_set(set);
+        }
         rec.use_buffer(&geometry.vertices, Access::VertexInput);
         rec.use_buffer(&geometry.indices, Access::VertexInput);
         rec.begin_rendering(
@@ -228,6 +284,7 @@ impl ViewSamples {
         let forward = (camera.target - camera.position).normalize_or_zero();
         let result = rec.draw_indexed(
             pipeline,
+            faces.as_mut().and_then(|slot| slot.as_ref()),
             &geometry.vertices,
             &geometry.indices,
             geometry.index_count,
@@ -252,6 +309,51 @@ impl ViewSamples {
     pub fn read_normals(&self, ctx: &Context) -> Result<Vec<Vec4>> {
         Ok(to_vec4(&f32s(&ctx.read_image(&self.normals)?)))
     }
+}
+
+/// Neighbouring pixels nearer than this fraction of their distance from the origin take the
+/// triangle's normal (`FACE_MIN_STEP` in `glsl/passes/view_samples.glsl`).
+pub const FACE_MIN_STEP: f32 = 1.0 / 4096.0;
+
+/// Whether some pixel of `camera`'s view of a scene within `bounds` may lie nearer its
+/// neighbours than [`FACE_MIN_STEP`] of its distance from the origin (with a factor 2 of
+/// margin): a pixel at view depth z spans at least z · 2 tan(fov/2) / height, the nearest
+/// sample is no nearer than the box's nearest corner along the view direction (or the near
+/// plane), and none is farther from the origin than the box's farthest corner.
+pub fn may_be_denser_than_f32(camera: &Camera, bounds: &Aabb) -> bool {
+    if bounds.is_empty() {
+        return false;
+    }
+    let forward = (camera.target - camera.position).normalize_or_zero();
+    let corners = (0..8).map(|k| {
+        Vec3::new(
+            if k & 1 == 0 {
+                bounds.min.x
+            } else {
+                bounds.max.x
+            },
+            if k & 2 == 0 {
+                bounds.min.y
+            } else {
+                bounds.max.y
+            },
+            if k & 4 == 0 {
+                bounds.min.z
+            } else {
+                bounds.max.z
+            },
+        )
+    });
+    let (nearest, farthest) = corners.fold((f32::MAX, 0.0f32), |(n, f), q| {
+        (n.min((q - camera.position).dot(forward)), f.max(q.length()))
+    });
+    let pixel = 2.0 * (0.5 * camera.fov_y_deg.to_radians()).tan() / camera.height.max(1) as f32;
+    let span = nearest.max(camera.near) * pixel;
+    // Written so that NaN (a degenerate camera) takes the exact variant.
+    !matches!(
+        span.partial_cmp(&(2.0 * FACE_MIN_STEP * farthest)),
+        Some(std::cmp::Ordering::Greater | std::cmp::Ordering::Equal)
+    )
 }
 
 /// That `image` is a storage image of `format` and `width`×`height`, as a technique binding it
@@ -316,4 +418,45 @@ struct FromDepth {
 
 fn to_vec4(f: &[f32]) -> Vec<Vec4> {
     f.chunks_exact(4).map(Vec4::from_slice).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn camera(fov_y_deg: f32) -> Camera {
+        Camera {
+            position: Vec3::new(5.0, 7.0, 11.0),
+            target: Vec3::new(1.0, 0.8, 0.0),
+            up: Vec3::Y,
+            fov_y_deg,
+            width: 512,
+            height: 384,
+            near: 0.1,
+            far: 100.0,
+        }
+    }
+
+    /// A bundled scene's view (teapot-rect) takes the derivatives' normals; the same view
+    /// narrowed to 0.002° (the stress suite's dense-cell), or moved 10⁵ units from the origin,
+    /// may hold pixels denser than f32 resolves.
+    #[test]
+    fn only_views_denser_than_f32_take_the_face_normals() {
+        let bounds = Aabb {
+            min: Vec3::new(-8.0, 0.0, -8.0),
+            max: Vec3::new(8.0, 3.2, 8.0),
+        };
+        assert!(!may_be_denser_than_f32(&camera(45.0), &bounds));
+        assert!(may_be_denser_than_f32(&camera(0.002), &bounds));
+        let far = Vec3::splat(1e5);
+        let moved = Aabb {
+            min: bounds.min + far,
+            max: bounds.max + far,
+        };
+        let mut c = camera(45.0);
+        c.position += far;
+        c.target += far;
+        assert!(may_be_denser_than_f32(&c, &moved));
+        assert!(!may_be_denser_than_f32(&camera(45.0), &Aabb::EMPTY));
+    }
 }

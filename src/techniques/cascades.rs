@@ -537,6 +537,7 @@ impl Technique for Cascades<'_> {
             rec.set_viewport_rect(t[0], t[1], self.tile.x, self.tile.y);
             result = rec.draw_indexed(
                 &self.depth_pipeline,
+                None,
                 &g.vertices,
                 &g.indices,
                 g.index_count,

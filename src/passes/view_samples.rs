@@ -63,7 +63,7 @@ impl ViewSamples {
     }
 
     /// [`ViewSamples::new`] for a view of a scene within `bounds`: the face-normal variant only
-    /// where some pixel may need it ([`may_be_denser_than_f32`]).
+    /// where some pixel may need it (a pixel at view depth z spans z · 2 tan(fov/2) / height).
     pub fn for_scene(ctx: &Context, camera: &Camera, bounds: &Aabb) -> Result<ViewSamples> {
         let faces = ctx.info().geometry_shader && may_be_denser_than_f32(camera, bounds);
         Self::with_faces(ctx, camera, faces)

@@ -31,12 +31,10 @@ vec3 vertex(uint i) {
     uint v = indices[i];
     return vec3(vertices[3u * v], vertices[3u * v + 1u], vertices[3u * v + 2u]);
 }
-#endif
 
-#ifdef FACE_FROM_PRIMITIVE
-// Pixels nearer than this fraction of |world| apart take the triangle's normal: the derivatives'
-// normal is good to ~2^-12 rad above it (0.01 degrees), and reading the triangle everywhere made
-// the pass 1.5x slower on a scene of 800k triangles (lavapipe).
+// Pixels nearer than this fraction of |world| apart take the triangle's normal; above it the
+// derivatives' normal is good to ~2^-12 rad (0.01 degrees). src/passes/view_samples.rs
+// FACE_MIN_STEP.
 const float FACE_MIN_STEP = 1.0 / 4096.0;
 #endif
 
@@ -46,7 +44,8 @@ void main() {
     vec3 n = cross(dx, dy);
 #ifdef FACE_FROM_PRIMITIVE
     // As a loop of at most one pass: lavapipe runs an `if` for every lane under a mask (its
-    // reads included) but skips a loop no lane enters (glsl/include/when.glsl).
+    // reads included) but skips a loop no lane enters (glsl/include/when.glsl, measured in
+    // compute shaders).
     WHEN(min(length(dx), length(dy)) < FACE_MIN_STEP * length(world)) {
         // One indexed draw of the whole scene from index 0: primitive k is triangle k.
         uint t = uint(gl_PrimitiveID);

@@ -732,8 +732,8 @@ impl Context {
     ///
     /// penumbra cannot see which optional features the caller enabled, so it assumes none
     /// ([`Context::from_raw_with_features`] says which):
-    /// float64/int64 shader variants, 64-bit atomics, depth-bias clamping and clip distances are
-    /// reported as absent (techniques then take their portable paths or say the feature is
+    /// float64/int64 shader variants, 64-bit atomics, depth-bias clamping, clip distances and
+    /// geometry shaders (the view samples' face normals for dense views) are reported as absent (techniques then take their portable paths or say the feature is
     /// unsupported), and debug labels and object names are off (`VK_EXT_debug_utils` may not be enabled).
     /// Validation messages go to the caller's own messenger, so this context's
     /// [`Context::validation`] log reports that validation did not run (`ran: false`).

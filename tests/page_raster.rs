@@ -62,6 +62,15 @@ fn differing(a: &[f32], b: &[f32], tol: f32) -> usize {
         .count()
 }
 
+/// Mean |a - b| over two visibility images.
+fn mean_abs_diff(a: &[f32], b: &[f32]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| f64::from((x - y).abs()))
+        .sum::<f64>()
+        / a.len() as f64
+}
+
 #[test]
 fn compute_pages_match_their_twin() {
     let engine = common::engine();
@@ -158,14 +167,7 @@ fn compute_pages_match_the_rasterizer() {
             // The rasterizer snaps vertices to 1/256 texel: depths move by up to that times
             // the slope, and centres that near an edge may fall on either side.
             let off = differing(&graphics.atlas, &compute.atlas, 1e-4);
-            let v_diff: f64 = graphics
-                .frame
-                .visibility
-                .iter()
-                .zip(&compute.frame.visibility)
-                .map(|(a, b)| f64::from((a - b).abs()))
-                .sum::<f64>()
-                / graphics.frame.visibility.len() as f64;
+            let v_diff = mean_abs_diff(&graphics.frame.visibility, &compute.frame.visibility);
             eprintln!(
                 "{scene} {technique} split {split}: {off} of {covered} covered texels differ, \
                  mean |dV| {v_diff:.2e}"
@@ -200,14 +202,7 @@ fn listed_triangles_behind_the_light_get_their_bias() {
     // raster_split = 0: every covering entry goes to the listed draw.
     let set = [("page_raster", "compute"), ("raster_split", "0")];
     let listed = render(&engine, &prepared, "rmsm", &set);
-    let v_diff = graphics
-        .frame
-        .visibility
-        .iter()
-        .zip(&listed.frame.visibility)
-        .map(|(a, b)| f64::from((a - b).abs()))
-        .sum::<f64>()
-        / graphics.frame.visibility.len() as f64;
+    let v_diff = mean_abs_diff(&graphics.frame.visibility, &listed.frame.visibility);
     let entries = listed.bins.len();
     eprintln!("light-inside: {entries} bin entries, mean |dV| {v_diff:.2e}");
     assert!(

@@ -41,7 +41,7 @@ const float RP_PLANE_DISTANCE = 0.01;
 const float RP_MIN_SINE = 0.02;
 // Same-normal neighbours nearer than this fraction of |p| are too few f32 steps apart (2^-16:
 // ~128 ulps) for their difference to resolve a plane: the stress suite's `dense-cell`, 10^6
-// samples 7e-7 apart at |p| ~ 5, where the neighbours' planes were noise or absent and a wide
+// samples 7e-7 apart at |p| ~ 1.5, where the neighbours' planes were noise or absent and a wide
 // kernel self-shadowed a lit face (pcss MAE 0.27).
 const float RP_MIN_STEP = 1.0 / 65536.0;
 // How far along the tangent plane it is sampled then, relative to |p|: any length gives the

@@ -13,7 +13,8 @@
 //! screen derivatives — the same plane, but only as exact as the f32 positions are far apart:
 //! noise where neighbouring pixels are a few f32 steps apart (`glsl/passes/view_samples.glsl`;
 //! the stress suite's `dense-cell`). Reading `gl_PrimitiveID` costs lavapipe's fragment stage
-//! even where no pixel needs it (the pass 1.2–1.6× slower on 800k triangles), so
+//! even where no pixel needs it (the pass 1.2–1.6× slower on `grid:800000@rect`, measured with
+//! the variant forced, medians of five interleaved runs), so
 //! [`ViewSamples::for_scene`] takes that variant only when the camera's view of the scene may
 //! hold such pixels ([`may_be_denser_than_f32`]).
 
@@ -253,7 +254,7 @@ impl ViewSamples {
                 "the view samples are the caller's images: the caller renders them".into(),
             ));
         };
-        let mut faces = match &self.faces {
+        let faces = match &self.faces {
             Some(slot) => {
                 let set = DescriptorSet::new(
                     rec.context(),
@@ -271,8 +272,10 @@ impl ViewSamples {
             }
             None => None,
         };
+        // The guard holds the set for this recording (and until the next one replaces it).
+        let set = faces.as_deref().and_then(Option::as_ref);
         rec.begin_pass("view-samples")?;
-        if let Some(set) = faces.as_ref().and_then(|slot| slot.as_ref()) {
+        if let Some(set) = set {
             rec.use_set(set);
         }
         rec.use_buffer(&geometry.vertices, Access::VertexInput);
@@ -284,7 +287,7 @@ impl ViewSamples {
         let forward = (camera.target - camera.position).normalize_or_zero();
         let result = rec.draw_indexed(
             pipeline,
-            faces.as_mut().and_then(|slot| slot.as_ref()),
+            set,
             &geometry.vertices,
             &geometry.indices,
             geometry.index_count,

@@ -339,17 +339,22 @@ pub fn render_parallel_planes(
     (frame, positions)
 }
 
+/// The item called `name` of a technique's named list (`kind` for the message).
+fn named<T>(items: Vec<(&'static str, T)>, kind: &str, name: &str) -> T {
+    items
+        .into_iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, item)| item)
+        .unwrap_or_else(|| panic!("no {kind} {name}"))
+}
+
 /// A technique's intermediate image (`Technique::images`) read back by name as floats.
 pub fn read_named_image(
     ctx: &Context,
     technique: &dyn penumbra::techniques::Technique,
     name: &str,
 ) -> penumbra::Result<Vec<f32>> {
-    let (_, image) = technique
-        .images()
-        .into_iter()
-        .find(|(n, _)| *n == name)
-        .unwrap_or_else(|| panic!("no image {name}"));
+    let image = named(technique.images(), "image", name);
     Ok(penumbra::gpu::f32s(&ctx.read_image(image)?))
 }
 
@@ -359,10 +364,6 @@ pub fn read_named_buffer(
     technique: &dyn penumbra::techniques::Technique,
     name: &str,
 ) -> penumbra::Result<Vec<f32>> {
-    let (_, buffer) = technique
-        .buffers()
-        .into_iter()
-        .find(|(n, _)| *n == name)
-        .unwrap_or_else(|| panic!("no buffer {name}"));
+    let buffer = named(technique.buffers(), "buffer", name);
     Ok(penumbra::gpu::f32s(&ctx.read_buffer(buffer)?))
 }

@@ -126,9 +126,10 @@ pub(crate) enum Command {
         /// view samples and the light grow, with fitted growth exponents and `scaling.png`) or
         /// `skipping` (every technique with its work skipping on and off: speed-up, output
         /// difference, what was skipped) or `selection` (the calibration table for
-        /// `--technique auto`, then its check on ten held-out scenes) or `reuse` (the host CPU
-        /// time of a technique's first frame, its next frame with the same renderer, and a
-        /// rebuilt one: what keeping a `ShadowRenderer` saves).
+        /// `--technique auto`, then its check on ten held-out scenes, or on `--scenes` ×
+        /// `--light-scale`) or `reuse` (the host CPU time of a technique's first frame, its next
+        /// frame with the same renderer, and a rebuilt one: what keeping a `ShadowRenderer`
+        /// saves).
         #[arg(long, default_value = "techniques")]
         suite: String,
         /// Scenes (files or procedural specs), comma-separated; default: every bundled scene.

@@ -433,6 +433,8 @@ fn main() {
         }),
         Command::Bench {
             suite,
+            scenes,
+            light_scale,
             quick,
             max_error,
             out,
@@ -446,6 +448,10 @@ fn main() {
             device: device.device.clone(),
             validation: !device.no_validation,
             cache: cache.dir(),
+            held_out: scenes
+                .iter()
+                .flat_map(|spec| light_scale.iter().map(move |&s| (spec.clone(), s)))
+                .collect(),
         }),
         Command::Bench { suite, .. } if suite != "techniques" => Err(anyhow::anyhow!(
             "unknown suite '{suite}': expected 'techniques', 'kernels', 'antialiasing', \

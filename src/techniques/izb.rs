@@ -43,7 +43,16 @@
 //! over the cell's triangles itself); on `teapot-rect` the light-sample loop was 84 → 60 ms when
 //! removed. Tried and not kept: the test's stages as `WHEN` blocks instead of early returns
 //! (1.6× slower), storage-buffer reads instead of texel views (the same), the light-square check
-//! before the edge normals (3 %).
+//! before the edge normals (3 %). Also tried (2026-12-02, seventh session, same scene): clusters
+//! of 4–32 triangles neighbouring in the Morton order of their centroids as the footprint's unit,
+//! each with its box in the light's frame, which a sample back-projects onto the light's square
+//! before testing the cluster's triangles (a SIMD group none of whose samples the box reaches
+//! skips them). Visibility stayed bit for bit, the footprint pass fell 37 → 11–14 ms and the
+//! pairs 587 k → 68–214 k, but the test pass did not get faster (348–532 ms against 366 at one
+//! triangle a unit): with 4 triangles a cluster the triangle tests fell 11.8 M → 6.8 M, yet the
+//! boxes (grown by their whole extent, no edge test) put pairs in 3× as many cells' work items
+//! (8.8 k → 28 k), and a box passes for the group whenever one of its 8 samples is reached;
+//! larger clusters made more tests, not fewer.
 //! 5. `resolve`: visibility from the masks.
 //!
 //! **izb** tests the ray from `o` to the light's centre (a rect light counts as a point at its

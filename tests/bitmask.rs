@@ -581,3 +581,54 @@ fn point_light_is_hard() {
     drop(prepared);
     common::assert_clean(&engine.context().validation());
 }
+
+/// Each 256-sample group runs in its own dispatch, so lavapipe's per-dispatch loop limiter gives
+/// every sample count the same region cap: on a 1024² map, whose regions here pass 51 texels
+/// (the cap at 1024 samples when the four groups shared one dispatch: 9 523 samples clamped then,
+/// none at 256), no more samples are clamped at 1024 than at 256, and the two estimate the same
+/// visibility (mean |ΔV| within 0.01).
+#[test]
+fn more_samples_keep_the_region_cap() {
+    let engine = common::engine();
+    let prepared = engine
+        .prepare(&common::small("plane-boxes@rect"))
+        .expect("prepare");
+    let with = |n: &str| {
+        let frame = engine
+            .render(&prepared, "bitmask", &knobs(1024, &[("samples", n)]), 1)
+            .expect("render");
+        assert_eq!(frame.stats.nan_count + frame.stats.out_of_range_count, 0);
+        frame
+    };
+    let (one, four) = (with("256"), with("1024"));
+    let clamped = |f: &Frame| f.stats.counters.get("clamped").copied().unwrap_or(0);
+    assert_eq!(
+        clamped(&four),
+        clamped(&one),
+        "clamped at 1024 vs 256 samples"
+    );
+    let penumbra = one.stats.counters.get("penumbra").copied().unwrap_or(0);
+    assert!(penumbra > 100, "too little penumbra to compare: {penumbra}");
+    let diff: f64 = one
+        .visibility
+        .iter()
+        .zip(&four.visibility)
+        .map(|(a, b)| f64::from((a - b).abs()))
+        .sum::<f64>()
+        / one.visibility.len() as f64;
+    if diff > 0.01 {
+        let dir = common::write_diff(
+            "bitmask-1024-vs-256",
+            one.width,
+            one.height,
+            &one.visibility,
+            &four.visibility,
+        );
+        panic!(
+            "mean |V(1024) - V(256)| = {diff:.4}; images in {}",
+            dir.display()
+        );
+    }
+    drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}

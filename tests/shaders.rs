@@ -221,6 +221,10 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             twin!(penumbra::techniques::atty::AttyPush { phase }),
         ),
         (
+            vec!["bitmask/bitmask.comp", "bitmask/bitmask_gap_fill.comp"],
+            twin!(penumbra::techniques::bitmask::BitmaskPush { group }),
+        ),
+        (
             vec![
                 "passes/view_samples.vert",
                 "passes/view_samples.frag",

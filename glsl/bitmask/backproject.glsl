@@ -15,7 +15,11 @@
 // — and otherwise its region shrinks to the footprint through the nearest texel. With skip on the
 // N-buffer answers these min/max questions in a few lookups instead of a scan, the same values
 // (exact), so the result is identical bit for bit. Mask bits come in groups of 256 (two uvec4),
-// the region's loop run once per group. Gap filling is a compile-time switch (GAP_FILL, set by
+// one dispatch per group (pc.group): lavapipe's loop limiter counts a SIMD group's loop passes
+// per dispatch, so every group gets the whole budget and the region cap does not shrink with
+// more samples. Each dispatch classifies the sample again (the same answer every time) and adds
+// its group's visible samples to the pixel's running count (and, in the first, the additive
+// mode's hidden area); the last writes V and the counters. Gap filling is a compile-time switch (GAP_FILL, set by
 // bitmask.comp and bitmask_gap_fill.comp): as a run-time branch, even one no invocation takes,
 // it made lavapipe's loop 60 % slower. CPU twin: src/cpu/bitmask.rs.
 #include "shadow_map.glsl"
@@ -35,6 +39,12 @@ layout(set = 0, binding = 6) uniform usamplerBuffer tables;
 // The light samples on the light's plane (view-space x, y; slopes for a directional light).
 layout(set = 0, binding = 7) uniform samplerBuffer samples;
 layout(set = 0, binding = 8, rgba32f) uniform readonly image2D positions;
+// Per pixel across the group dispatches: visible samples so far, and the hidden area's bits.
+layout(set = 0, binding = 38) buffer Running { uvec2 running[]; };
+
+layout(push_constant) uniform BitmaskPush {
+    int group;  // the 256-sample group of this dispatch
+} pc;
 
 vec4 rp_position(ivec2 pixel) {
     return imageLoad(receivers, pixel);
@@ -72,8 +82,13 @@ float bm_neighbour(BpView view, ivec2 t, vec4 c, vec2 g, float own, float dp) {
     return d < bm_blocking_depth(t, c, g) ? bm_factor(view, d, dp) : own;
 }
 
+// Counted once per sample: in the last group's dispatch.
+bool last_group() {
+    return pc.group == bm.samples.y - 1;
+}
+
 void count(int slot, uint n) {
-    if (n > 0u) {
+    if (n > 0u && last_group()) {
         invocation_counts[slot] += n;
     }
 }
@@ -146,8 +161,11 @@ void main() {
     if (all(lessThan(pixel, bm.sizes.xy))) {
         vec4 p = imageLoad(receivers, pixel);
         vec4 c = shadow_coord(bm.light_view_proj, p.xyz, map_size);
+        uint at = uint(pixel.y) * uint(bm.sizes.x) + uint(pixel.x);
         if (p.w <= 0.0) {
-            imageStore(visibility, pixel, vec4(1.0));
+            if (last_group()) {
+                imageStore(visibility, pixel, vec4(1.0));
+            }
         } else {
             count(BM_SAMPLES, 1u);
             // The tangent plane of the view sample itself (not the offset lookup position).
@@ -207,11 +225,15 @@ void main() {
                     skipped = 1u;
                 }
             }
-            uint visible = 0u;
-            float hidden = 0.0;
+            bool first = pc.group == 0;
+            uvec2 before = first ? uvec2(0u) : running[at];
+            uint visible = before.x;
+            float hidden = uintBitsToFloat(before.y);
             uint patches = 0u;
             if (decided != 2) {
-                for (int grp = 0; grp < bm.samples.y; ++grp) {
+                {
+                    // This dispatch's group of 256 light samples.
+                    int grp = pc.group;
                     uvec4 f0, f1;
                     front_bits(grp, p0, n0, f0, f1);
                     uvec4 m0 = uvec4(0u);
@@ -232,9 +254,9 @@ void main() {
                                               bm_neighbour(view, t + ivec2(0, 1), c, g, k, dp));
                                 }
                                 vec4 rect = bp_patch(view, t, k, kn, up);
-                                patches += grp == 0 ? 1u : 0u;
+                                patches += 1u;
                                 if (bm.samples.w != 0) {
-                                    // Once, not once per group of mask bits.
+                                    // Once, in the first group's dispatch.
                                     hidden += grp == 0 ? bp_area(rect) : 0.0;
                                 } else if (rect.z >= 0.0 && rect.x <= 1.0 && rect.w >= 0.0
                                            && rect.y <= 1.0) {
@@ -255,7 +277,11 @@ void main() {
             } else {
                 v = float(visible) / float(n);
             }
-            imageStore(visibility, pixel, vec4(v));
+            if (last_group()) {
+                imageStore(visibility, pixel, vec4(v));
+            } else {
+                running[at] = uvec2(visible, floatBitsToUint(hidden));
+            }
             count(v >= 1.0 ? BM_LIT : v <= 0.0 ? BM_UMBRA : BM_PENUMBRA, 1u);
             count(BM_SKIPPED_LIT, decided == 1 && skipped != 0u ? 1u : 0u);
             count(BM_SKIPPED_UMBRA, decided == 2 && skipped != 0u ? 1u : 0u);
@@ -270,7 +296,8 @@ void main() {
     for (int i = 0; i < min(bm.sizes.z, 1) + 1; ++i) {
         passes += 1;
     }
-    count(BM_CUT, passes < 2 ? 1u : 0u);
+    // Every dispatch's (count() keeps the last's only).
+    invocation_counts[BM_CUT] += passes < 2 ? 1u : 0u;
 
     invocation_counts_flush();
 }

@@ -472,15 +472,14 @@ struct Receiver<'a> {
 }
 
 /// The region cap the technique applies: `max_width`, or less where lavapipe's loop limiter
-/// (65 535 passes per SIMD group) would cut the loops — per 256-sample group three passes a
-/// texel (six with several groups) and two a row, `n` passes for the front masks, one a texel
-/// and two a row more for the scan with skip off, 1 000 to spare — with its own arithmetic.
+/// (65 535 passes per SIMD group and dispatch) would cut the loops of one 256-sample group's
+/// dispatch — three passes a texel and two a row, up to 256 passes for the group's front mask,
+/// one a texel and two a row more for the scan with skip off, 1 000 to spare — with its own
+/// arithmetic.
 fn effective_width(knobs: &BitmaskKnobs, n: u32) -> f32 {
-    let groups = f64::from(n.div_ceil(256));
-    let budget = 65_535.0 - 1_000.0 - f64::from(n);
+    let budget = 65_535.0 - 1_000.0 - f64::from(n.min(256));
     let scan = if knobs.skip { 0.0 } else { 1.0 };
-    let per_texel = if groups > 1.0 { 6.0 } else { 3.0 };
-    let (a, b) = (per_texel * groups + scan, 2.0 * (groups + scan));
+    let (a, b) = (3.0 + scan, 2.0 * (1.0 + scan));
     let w = (-b + (b * b + 4.0 * a * budget).sqrt()) / (2.0 * a);
     knobs.max_width.min(w.floor() as f32)
 }

@@ -19,9 +19,9 @@
 // per dispatch, so every group gets the whole budget and the region cap does not shrink with
 // more samples. Each dispatch classifies the sample again (the same answer every time) and adds
 // its group's visible samples to the pixel's running count (and, in the first, the additive
-// mode's hidden area); the last writes V and the counters. Gap filling is a compile-time switch (GAP_FILL, set by
-// bitmask.comp and bitmask_gap_fill.comp): as a run-time branch, even one no invocation takes,
-// it made lavapipe's loop 60 % slower. CPU twin: src/cpu/bitmask.rs.
+// mode's hidden area); the last writes V and the counters. Gap filling is a compile-time switch
+// (GAP_FILL, set by bitmask.comp and bitmask_gap_fill.comp): as a run-time branch, even one no
+// invocation takes, it made lavapipe's loop 60 % slower. CPU twin: src/cpu/bitmask.rs.
 #include "shadow_map.glsl"
 #include "soft_light.glsl"
 #include "backprojection.glsl"

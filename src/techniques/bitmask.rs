@@ -5,8 +5,9 @@
 //! Per frame: the D32 [`ShadowMap`] from the light's centre; with `skip` on, an [`NBuffer`] of it;
 //! then `glsl/bitmask/bitmask.comp`, one view sample per invocation and one dispatch per
 //! 256-sample group of the mask (so lavapipe's per-dispatch loop limiter gives every group the
-//! same region cap, [`loop_width`]; the groups' visible counts add up in a per-pixel buffer). Each texel of the sample's
-//! search region nearer the light than the receiver plane under it is a micropatch — the square
+//! same region cap, [`loop_width`]; the groups' visible counts add up in a per-pixel buffer).
+//! Each texel of the sample's search region nearer the light than the receiver plane under it
+//! is a micropatch — the square
 //! of the view plane it covers at its depth, parallel to the light — whose back-projection from
 //! the sample onto the light is an axis-aligned rectangle (`glsl/include/backprojection.glsl`).
 //! Its light samples are four table lookups: with each sample's coordinates snapped to a

@@ -369,7 +369,11 @@ pub fn cases() -> Vec<Case> {
             // Once held as known (pcss 0.27, pcf-poisson 0.26, pvssm 0.07): the view samples'
             // normals came from position derivatives, noise at 7e-7 spacing, and the receiver
             // plane from neighbours no closer than f32 resolves. Now face normals
-            // (gl_PrimitiveID) and the tangent plane there: 0 for all three.
+            // (gl_PrimitiveID) and the tangent plane there: 0 for all three. `pcf` and
+            // `pcf-coverage` read 0.034 (every sample at V ≈ 0.96): their default 3×3 box with
+            // one depth and no receiver-plane bias self-shadows the lit ground at this spot —
+            // the classic PCF acne, which the view magnifies to the whole image — and read 0
+            // with `receiver_plane_bias = 1`, `normal_offset = 1` or `kernel = 1` (2026-12-02).
             bound: |_| Bound::Mae(0.05),
         },
         Case {

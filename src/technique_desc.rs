@@ -230,7 +230,7 @@ knob_choices! {
         /// The static (cubic) metric.
         Static => "static",
     }
-    /// `blocker_depth` of `pvssm`: which blockers the refined search averages.
+    /// `blocker_depth` of `pvssm` and `pcss`: which blockers z_avg averages.
     BlockerDepth for "blocker_depth" {
         /// Every blocker cell of the region.
         Average => "average",

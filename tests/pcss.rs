@@ -73,7 +73,7 @@ fn pcss_matches_cpu() {
     let map = 256u32;
     let setup = PcssSetup::new(&prepared.light, &prepared.light_view, map);
     assert!(setup.light_size.min_element() > 1.0, "{setup:?}");
-    let cases: [(&[(&str, &str)], PcssKnobs); 5] = [
+    let cases: [(&[(&str, &str)], PcssKnobs); 7] = [
         (&[("search_taps", "0")], twin_knobs(0, 0, 2, true)),
         (
             &[("search_taps", "5"), ("filter_taps", "4"), ("skip", "off")],
@@ -101,6 +101,24 @@ fn pcss_matches_cpu() {
                 min_kernel: 2.5,
                 max_width: 12.0,
                 ..twin_knobs(8, 0, 2, true)
+            },
+        ),
+        (
+            &[("search_taps", "0"), ("blocker_depth", "silhouette")],
+            PcssKnobs {
+                silhouette: true,
+                ..twin_knobs(0, 0, 2, true)
+            },
+        ),
+        (
+            &[
+                ("search_taps", "8"),
+                ("blocker_depth", "silhouette"),
+                ("skip", "off"),
+            ],
+            PcssKnobs {
+                silhouette: true,
+                ..twin_knobs(8, 0, 0, true)
             },
         ),
     ];
@@ -173,6 +191,7 @@ fn twin_knobs(search_taps: u32, filter_taps: u32, skip: u32, receiver_plane: boo
         receiver_plane,
         min_kernel: 1.0,
         max_width: 128.0,
+        silhouette: false,
     }
 }
 

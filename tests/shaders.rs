@@ -384,7 +384,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 min_kernel,
                 max_width,
                 receiver_plane,
-                pad
+                blocker_depth
             }),
         ),
         (

@@ -70,6 +70,74 @@ vec2 pyramid_minmax_rect(ivec2 lo, ivec2 hi) {
     return result;
 }
 
+// Whether texel t blocks the receiver (tested at the receiver plane's depth under it); d: its
+// distance from the light.
+bool blocks(ivec2 t, vec4 c, vec2 g, out float d) {
+    float z = fetch_depth(shadow_map, t, ivec2(pc.map_size));
+    d = pcss_distance(z);
+    return z < rp_tap_depth(c.z, vec2(t) + 0.5 - c.xy, g);
+}
+
+// The search's tap (i, j) of an n x n grid over the box lo + [0, size]: its texel.
+ivec2 search_tap(vec2 lo, vec2 size, int i, int j) {
+    return ivec2(floor(lo + (vec2(i, j) + 0.5) * (size / float(pc.search_taps))));
+}
+
+// `blocker_depth = silhouette`: (sum of w * distance, sum of w) over the search's silhouette —
+// blocking texels (or taps) beside one that does not block, a neighbour past the region
+// counting as blocking — whose distance from the light is at most `far_enough` (away from the
+// receiver's own surface); zero where there is none. Why: the map from the light's centre sees
+// a rounded caster's top, nearer the light than the silhouette that bounds its shadow, so the
+// average over every blocker widens the penumbra (pvssm's refined search, shape.comp).
+vec2 silhouette_sum(ivec4 box, vec2 size, vec4 c, vec2 g, float far_enough) {
+    vec2 sum = vec2(0.0);
+    float d;
+    float dn;
+    if (pc.search_taps == 0) {
+        vec2 lo = c.xy - 0.5 * size;
+        vec2 hi = c.xy + 0.5 * size;
+        vec2 l = lo - vec2(box.xy);
+        vec2 h = hi - vec2(box.xy);
+        for (int j = box.y; j <= box.w; ++j) {
+            float y = float(j - box.y);
+            float wy = overlap_1d(y, y + 1.0, l.y, h.y);
+            for (int i = box.x; i <= box.z; ++i) {
+                ivec2 t = ivec2(i, j);
+                if (!blocks(t, c, g, d) || d > far_enough) {
+                    continue;
+                }
+                bool edge = (i > box.x && !blocks(t - ivec2(1, 0), c, g, dn))
+                    || (i < box.z && !blocks(t + ivec2(1, 0), c, g, dn))
+                    || (j > box.y && !blocks(t - ivec2(0, 1), c, g, dn))
+                    || (j < box.w && !blocks(t + ivec2(0, 1), c, g, dn));
+                if (edge) {
+                    float x = float(i - box.x);
+                    float w = overlap_1d(x, x + 1.0, l.x, h.x) * wy;
+                    sum += vec2(w * d, w);
+                }
+            }
+        }
+    } else {
+        int n = pc.search_taps;
+        vec2 lo = c.xy - 0.5 * size;
+        for (int j = 0; j < n; ++j) {
+            for (int i = 0; i < n; ++i) {
+                if (!blocks(search_tap(lo, size, i, j), c, g, d) || d > far_enough) {
+                    continue;
+                }
+                bool edge = (i > 0 && !blocks(search_tap(lo, size, i - 1, j), c, g, dn))
+                    || (i < n - 1 && !blocks(search_tap(lo, size, i + 1, j), c, g, dn))
+                    || (j > 0 && !blocks(search_tap(lo, size, i, j - 1), c, g, dn))
+                    || (j < n - 1 && !blocks(search_tap(lo, size, i, j + 1), c, g, dn));
+                if (edge) {
+                    sum += vec2(d, 1.0);
+                }
+            }
+        }
+    }
+    return sum;
+}
+
 #define INVOCATION_COUNTS COUNTERS
 #include "invocation_counts.glsl"
 
@@ -167,6 +235,13 @@ void main() {
                                 sum += vec2(pcss_distance(d), 1.0);
                             }
                         }
+                    }
+                }
+                if (sum.y > 0.0 && pc.blocker_depth == BLOCKER_SILHOUETTE) {
+                    float far_enough = dr - SILHOUETTE_GAP * (dr - sum.x / sum.y);
+                    vec2 edge = silhouette_sum(box, size, c, g, far_enough);
+                    if (edge.y > 0.0) {
+                        sum = edge;
                     }
                 }
                 if (sum.y > 0.0) {

@@ -31,8 +31,14 @@ layout(push_constant) uniform Push {
     float max_width;
     // 1: every texel is tested at the receiver plane's depth under its centre.
     int receiver_plane;
-    int pad0;
+    // 0: z_avg averages every blocker of the search; BLOCKER_SILHOUETTE: the silhouette's.
+    int blocker_depth;
 } pc;
+
+const int BLOCKER_SILHOUETTE = 1;
+// Of z_avg's distance to the receiver, the least a silhouette texel's may have (pvssm's
+// SILHOUETTE_GAP): nearer ones are the receiver's own surface crossing its plane.
+const float SILHOUETTE_GAP = 0.25;
 
 const int SKIP_NBUFFER = 1;
 const int SKIP_PYRAMID = 2;

@@ -57,7 +57,13 @@ pub struct PcssKnobs {
     pub min_kernel: f32,
     /// Cap on the widths, texels.
     pub max_width: f32,
+    /// `blocker_depth = silhouette`: z_avg over the search's silhouette (see [`pcss`]).
+    pub silhouette: bool,
 }
+
+/// The shader's `SILHOUETTE_GAP`: of z_avg's distance to the receiver, the least a silhouette
+/// texel's may have.
+pub const SILHOUETTE_GAP: f32 = 0.25;
 
 /// What the twin derives from the scene.
 #[derive(Clone, Copy, Debug)]
@@ -242,6 +248,72 @@ pub fn pcss(
                     tie |= near_edge(q);
                     test(q.floor().as_ivec2(), 1.0, &mut sum, &mut tie);
                 }
+            }
+        }
+        if sum.y > 0.0 && knobs.silhouette {
+            // The silhouette: blocking texels (taps) beside one that does not block, a
+            // neighbour past the region counting as blocking, whose distance from the light is
+            // at most far_enough; the plain average where there is none.
+            let far_enough = dr - SILHOUETTE_GAP * (dr - sum.x / sum.y);
+            let blocks = |t: IVec2, tie: &mut bool| -> (bool, f32) {
+                let offset = t.as_vec2() + 0.5 - centre;
+                let z = tap_depth(c.z, offset, g);
+                let d = map.fetch(t);
+                *tie |= is_tie(z, d, tie_epsilon(offset, g));
+                (d < z, setup.distance(d))
+            };
+            let mut edge_sum = Vec2::ZERO;
+            let mut visit =
+                |t: IVec2, weight: f32, neighbours: [Option<IVec2>; 4], tie: &mut bool| {
+                    let (b, d) = blocks(t, tie);
+                    if !b {
+                        return;
+                    }
+                    // The gap comparison within rounding of its bound: either side is possible.
+                    *tie |= (d - far_enough).abs() <= 1e-5 * dr.abs().max(1.0);
+                    if d > far_enough {
+                        return;
+                    }
+                    let mut edge = false;
+                    for n in neighbours.into_iter().flatten() {
+                        edge |= !blocks(n, tie).0;
+                    }
+                    if edge {
+                        edge_sum += Vec2::new(weight * d, weight);
+                    }
+                };
+            if knobs.search_taps == 0 {
+                for texel in coverage_texels(centre, size) {
+                    let t = texel.texel;
+                    let inside =
+                        |n: IVec2| (n.cmpge(first).all() && n.cmple(last).all()).then_some(n);
+                    let neighbours = [
+                        inside(t - IVec2::X),
+                        inside(t + IVec2::X),
+                        inside(t - IVec2::Y),
+                        inside(t + IVec2::Y),
+                    ];
+                    visit(t, texel.weight, neighbours, &mut tie);
+                }
+            } else {
+                let taps = knobs.search_taps as i32;
+                let tap = |k: i32, j: i32| {
+                    let q = lo + (Vec2::new(k as f32, j as f32) + 0.5) * (size / taps as f32);
+                    q.floor().as_ivec2()
+                };
+                for j in 0..taps {
+                    for k in 0..taps {
+                        let at = |dk: i32, dj: i32| {
+                            let (k2, j2) = (k + dk, j + dj);
+                            (k2 >= 0 && k2 < taps && j2 >= 0 && j2 < taps).then(|| tap(k2, j2))
+                        };
+                        let neighbours = [at(-1, 0), at(1, 0), at(0, -1), at(0, 1)];
+                        visit(tap(k, j), 1.0, neighbours, &mut tie);
+                    }
+                }
+            }
+            if edge_sum.y > 0.0 {
+                sum = edge_sum;
             }
         }
         if sum.y <= 0.0 {

@@ -96,7 +96,11 @@ pub const MAX_SKIP_LEVEL: u32 = 5;
 /// under lavapipe's 65 535 loop iterations.
 pub const EXHAUSTIVE_MAX_WIDTH: f32 = 200.0;
 
-const KNOBS: [Knob; 10] = [
+/// The widest `max_width` an exhaustive search with `blocker_depth = silhouette` accepts: its
+/// second walk over the region doubles the loop passes, 2·(170 + 2)² of lavapipe's 65 535.
+pub const SILHOUETTE_MAX_WIDTH: f32 = 170.0;
+
+const KNOBS: [Knob; 11] = [
     SHADOW_MAP_KNOBS[0],
     SHADOW_MAP_KNOBS[1],
     SHADOW_MAP_KNOBS[2],
@@ -137,6 +141,17 @@ const KNOBS: [Knob; 10] = [
         max: 1.0,
         integer: true,
         names: &[],
+    },
+    Knob {
+        name: "blocker_depth",
+        summary: "z_avg: the average of every blocker of the search, or of the silhouette's \
+                  (blockers beside one that does not block, away from the receiver's own \
+                  surface; a second walk over the region)",
+        default: KnobDefault::Value(0.0),
+        min: 0.0,
+        max: 1.0,
+        integer: true,
+        names: &["average", "silhouette"],
     },
     MIN_KERNEL,
     MAX_WIDTH,
@@ -186,8 +201,8 @@ pub struct PcssPush {
     pub max_width: f32,
     /// 1: receiver-plane depth per texel.
     pub receiver_plane: i32,
-    /// Padding to the block's size.
-    pub pad: i32,
+    /// 0: z_avg over every blocker; 1: over the silhouette's.
+    pub blocker_depth: i32,
 }
 
 /// The skip classification's structure (the `skip` knob).
@@ -245,7 +260,8 @@ fn parameter(message: String) -> Error {
 }
 
 /// The knobs that only change [`PcssPush`]: retunable in place (with the bias).
-const PUSH_KNOBS: [&str; 5] = [
+const PUSH_KNOBS: [&str; 6] = [
+    "blocker_depth",
     "search_taps",
     "filter_taps",
     "min_kernel",
@@ -264,6 +280,14 @@ fn push_knobs(params: &Params) -> Result<(i32, i32, f32, f32, i32)> {
     if min_kernel > max_width {
         return Err(parameter(format!(
             "min_kernel = {min_kernel} exceeds max_width = {max_width}"
+        )));
+    }
+    if search_taps == 0 && params.u32("blocker_depth")? == 1 && max_width > SILHOUETTE_MAX_WIDTH {
+        return Err(parameter(format!(
+            "max_width = {max_width} with an exhaustive search and blocker_depth = \
+             silhouette: at most {SILHOUETTE_MAX_WIDTH} texels (its two walks over the region \
+             must fit software drivers' 65 535 loop iterations); set search_taps, or a smaller \
+             max_width"
         )));
     }
     if (search_taps == 0 || filter_taps == 0) && max_width > EXHAUSTIVE_MAX_WIDTH {
@@ -356,7 +380,7 @@ impl<'a> Pcss<'a> {
             min_kernel,
             max_width,
             receiver_plane,
-            pad: 0,
+            blocker_depth: params.u32("blocker_depth")? as i32,
         };
         Ok(Pcss {
             ctx: ctx.clone(),
@@ -419,6 +443,7 @@ impl Technique for Pcss<'_> {
             min_kernel,
             max_width,
             receiver_plane,
+            blocker_depth: params.u32("blocker_depth")? as i32,
             ..self.push
         };
         self.built = params.clone();

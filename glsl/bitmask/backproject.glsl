@@ -225,8 +225,11 @@ void main() {
                     skipped = 1u;
                 }
             }
-            bool first = pc.group == 0;
-            uvec2 before = first ? uvec2(0u) : running[at];
+            // A branch, not a select: with one group the running buffer holds a single entry.
+            uvec2 before = uvec2(0u);
+            if (pc.group != 0) {
+                before = running[at];
+            }
             uint visible = before.x;
             float hidden = uintBitsToFloat(before.y);
             uint patches = 0u;

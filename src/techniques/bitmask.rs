@@ -490,9 +490,15 @@ impl<'a> Bitmask<'a> {
             samples.texel_view(vk::Format::R32G32_SFLOAT, 8)?,
         ];
         let counters = Buffer::storage(ctx, "bitmask counters", (COUNTER_NAMES.len() * 4) as u64)?;
-        // Each sample's visible count (and hidden area) between its groups' dispatches.
+        // Each sample's visible count (and hidden area) between its groups' dispatches; with one
+        // group no dispatch reads it (bound all the same).
         let pixels = u64::from(setup.view.width) * u64::from(setup.view.height);
-        let running = Buffer::storage(ctx, "bitmask running counts", 8 * pixels.max(1))?;
+        let running_bytes = if pattern.groups > 1 {
+            8 * pixels.max(1)
+        } else {
+            8
+        };
+        let running = Buffer::storage(ctx, "bitmask running counts", running_bytes)?;
         let pipeline = Pipeline::compute(
             ctx,
             if gap_fill == 1 {

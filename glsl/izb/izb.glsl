@@ -106,7 +106,8 @@ layout(push_constant) uniform Push {
 #define C_PENUMBRA 18
 #define C_HUGE 19
 #define C_ITEMS 20
-#define COUNTERS 21
+#define C_BATCH_LANES 21  // batched tests: a workgroup whose lanes are not one subgroup's 0-7
+#define COUNTERS 22
 
 int grid_size() {
     return P.view.z;

@@ -82,6 +82,9 @@ pub struct DeviceInfo {
     pub subgroup_size: u32,
     /// Subgroup arithmetic operations in compute shaders.
     pub subgroup_arithmetic: bool,
+    /// Subgroup basic, vote and shuffle operations in compute shaders (`izb`'s test passes read
+    /// triangles eight at a time and hand them round by shuffles when present).
+    pub subgroup_shuffle: bool,
     /// `shaderSubgroupExtendedTypes` (64-bit subgroup arithmetic).
     pub subgroup_extended_types: bool,
     /// `depthBiasClamp`.
@@ -579,6 +582,13 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<Device
             && subgroup
                 .supported_stages
                 .contains(vk::ShaderStageFlags::COMPUTE),
+        subgroup_shuffle: subgroup.supported_operations.contains(
+            vk::SubgroupFeatureFlags::BASIC
+                | vk::SubgroupFeatureFlags::VOTE
+                | vk::SubgroupFeatureFlags::SHUFFLE,
+        ) && subgroup
+            .supported_stages
+            .contains(vk::ShaderStageFlags::COMPUTE),
         subgroup_extended_types: f12.shader_subgroup_extended_types == vk::TRUE,
         depth_bias_clamp: features.depth_bias_clamp == vk::TRUE,
         clip_distance: features.shader_clip_distance == vk::TRUE,

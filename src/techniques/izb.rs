@@ -130,18 +130,18 @@ const SOFT_ITEM_PASSES: u32 = 30_000;
 const SOFT_ITEM_TRIANGLES: u32 = 256;
 
 /// Triangles per work item of `izb-soft` with an `n_a × n_b` light-sample grid: a triangle
-/// costs a SIMD group at most `n_a·n_b + n_b + 2·words + 4` loop passes (the still-open,
+/// costs a SIMD group at most `n_a·n_b + n_b + 2·words + 7` loop passes (the still-open,
 /// mask-word, row and column loops are entered on every pass of the loop around them, even with
-/// no lane in them).
+/// no lane in them; the batched test adds its batch, footprint-check and kept-triangle loops).
 pub fn soft_item_triangles(na: u32, nb: u32) -> u32 {
     let words = (na * nb).div_ceil(32);
-    (SOFT_ITEM_PASSES / (na * nb + nb + 2 * words + 4)).clamp(1, SOFT_ITEM_TRIANGLES)
+    (SOFT_ITEM_PASSES / (na * nb + nb + 2 * words + 7)).clamp(1, SOFT_ITEM_TRIANGLES)
 }
 /// Workgroups of the large-footprint passes (`LARGE_GROUPS` in `glsl/izb/izb.glsl`).
 const LARGE_GROUPS: u32 = 1024;
 
 /// The shader's counter words, in its order (`glsl/izb/izb.glsl`, `C_*`).
-const COUNTER_WORDS: [&str; 21] = [
+const COUNTER_WORDS: [&str; 22] = [
     "view_samples",
     "samples_binned",
     "behind_tangent_plane",
@@ -163,6 +163,7 @@ const COUNTER_WORDS: [&str; 21] = [
     "penumbra",
     "huge_triangles",
     "items",
+    "batch_lanes",
 ];
 
 const GRID: Knob = Knob::int(
@@ -180,9 +181,19 @@ const PAIR_CAPACITY: Knob = Knob::int(
     256.0,
 );
 
-const HARD_KNOBS: [Knob; 3] = [GRID, PAIR_CAPACITY, RAY_OFFSET];
+const TRIANGLE_BATCH: Knob = Knob::int(
+    "triangle_batch",
+    "1: the test pass reads a work item's triangles eight at a time, one a SIMD lane, and hands \
+     them round by subgroup shuffles where the device has them (izb-soft: each sample keeps \
+     only those its own footprint reaches); 0: one at a time",
+    1.0,
+    0.0,
+    1.0,
+);
 
-const SOFT_KNOBS: [Knob; 5] = [
+const HARD_KNOBS: [Knob; 4] = [GRID, PAIR_CAPACITY, RAY_OFFSET, TRIANGLE_BATCH];
+
+const SOFT_KNOBS: [Knob; 6] = [
     Knob {
         default: super::KnobDefault::Value(128.0),
         ..GRID
@@ -207,6 +218,7 @@ const SOFT_KNOBS: [Knob; 5] = [
         ..PAIR_CAPACITY
     },
     RAY_OFFSET,
+    TRIANGLE_BATCH,
 ];
 
 /// `izb`: alias-free hard shadows.
@@ -402,6 +414,13 @@ impl<'a> Izb<'a> {
         // One ray per sample unless a rect light is sampled: izb-soft with a point light, a hard
         // sun or a rect of zero extent runs izb's test.
         let sampled = kind == KIND_RECT;
+        // Triangles eight at a time where a subgroup holds a workgroup of ITEM_SAMPLES and has
+        // the operations (the soft test also ORs its lanes' kept triangles).
+        let info = ctx.info();
+        let batched = params.u32("triangle_batch")? == 1
+            && info.subgroup_shuffle
+            && info.subgroup_size >= ITEM_SAMPLES
+            && (!sampled || info.subgroup_arithmetic);
         let item_triangles = if sampled {
             soft_item_triangles(na, nb)
         } else {
@@ -528,10 +547,11 @@ impl<'a> Izb<'a> {
             scatter: pass("izb/scatter.comp")?,
             footprint: pass("izb/footprint.comp")?,
             args_pass: pass("izb/args.comp")?,
-            test: pass(if sampled {
-                "izb/test_soft.comp"
-            } else {
-                "izb/test_hard.comp"
+            test: pass(match (sampled, batched) {
+                (true, true) => "izb/test_soft_batched.comp",
+                (true, false) => "izb/test_soft.comp",
+                (false, true) => "izb/test_hard_batched.comp",
+                (false, false) => "izb/test_hard.comp",
             })?,
             resolve: pass("izb/resolve.comp")?,
             scan,
@@ -635,6 +655,16 @@ impl Technique for Izb<'_> {
                 ),
             });
         }
+        if get("batch_lanes") > 0 {
+            return Err(Error::Unsupported {
+                device: self.ctx.info().name.clone(),
+                feature: format!(
+                    "{name}'s batched test pass: {} of its workgroups were not one subgroup's \
+                     lanes 0-7 (set `triangle_batch = 0`)",
+                    get("batch_lanes")
+                ),
+            });
+        }
         if get("pair_overflow") > 0 {
             return Err(Error::Parameter {
                 technique: name.to_string(),
@@ -651,8 +681,8 @@ impl Technique for Izb<'_> {
                 "sample_tests" | "ray_tests" => {
                     out.push((k.clone(), v + (get(&format!("{k}_hi")) << 32)));
                 }
-                "sample_tests_hi" | "ray_tests_hi" | "max_depth_bits" | "cut" | "pair_overflow" => {
-                }
+                "sample_tests_hi" | "ray_tests_hi" | "max_depth_bits" | "cut" | "pair_overflow"
+                | "batch_lanes" => {}
                 _ => out.push((k.clone(), *v)),
             }
         }
@@ -686,7 +716,7 @@ mod tests {
         for samples in [1, 2, 7, 32, 100, 128, 512, 1000, 1024] {
             let (na, nb) = sample_grid(samples);
             let words = (na * nb).div_ceil(32);
-            let per_triangle = na * nb + nb + 2 * words + 3;
+            let per_triangle = na * nb + nb + 2 * words + 6;
             let t = soft_item_triangles(na, nb);
             assert!(t >= 1);
             assert!(

@@ -153,11 +153,12 @@ fn devices(json: bool) -> anyhow::Result<()> {
         }
         let yn = |b: bool| if b { "yes" } else { "no" };
         println!(
-            "   timestamps: {} valid bits, {} ns/tick; subgroup size {}, arithmetic {}",
+            "   timestamps: {} valid bits, {} ns/tick; subgroup size {}, arithmetic {}, shuffle {}",
             d.timestamp_valid_bits,
             d.timestamp_period,
             d.subgroup_size,
-            yn(d.subgroup_arithmetic)
+            yn(d.subgroup_arithmetic),
+            yn(d.subgroup_shuffle)
         );
         println!(
             "   float64 {}, int64 {}, int64 atomics {}, depth bias clamp {}, linear depth filtering {}",

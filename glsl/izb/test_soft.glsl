@@ -1,0 +1,418 @@
+// izb-soft pass 7, shared by `test_soft.comp` (one triangle at a time) and
+// `test_soft_batched.comp` (TRIANGLE_BATCH: triangles read eight at a time, one a lane, and handed
+// round by subgroup shuffles; each sample first keeps only the batch's triangles whose footprint
+// reaches it). One workgroup per work item, dispatched indirectly: an invocation per sample of
+// the item; the item's triangles in turn, the same for every invocation (their loads are
+// uniform). For each, the triangle back-projected from the sample's ray origin o onto the light
+// bounds, in the light's (a, b) square, the light samples it can block; the strata that box
+// touches and no triangle has blocked yet are decided one by one (by their distance to the
+// projected edges, or within 10^-3 of one by the reference's exact watertight ray test), and
+// what they block is OR-ed into the mask, kept in registers a word at a time. The box: the
+// triangle's central projection from o onto the light's plane when the triangle lies between
+// the two (its vertices at light-space depths in (0, 0.99 z_o)); otherwise (a neighbour of the
+// receiver, a triangle crossing the light's plane) the intersection of the boxes of the four
+// half-planes that bound the back-projection: beyond the triangle's plane, inside each edge's
+// plane through o.
+#include "izb.glsl"
+#include "watertight.glsl"
+#include "light_samples.glsl"
+
+layout(local_size_x = 8) in;
+// tri_list and tri_verts through texel views (src/techniques/izb.rs says why).
+layout(set = 0, binding = 24) uniform usamplerBuffer tri_list_texels;
+layout(set = 0, binding = 25) uniform samplerBuffer tri_vert_texels;
+
+// Box of the (a, b) square where the affine f = A + B (a - 1/2) + C (b - 1/2) (f = (A, B, C))
+// is at least -tolerance: the kept corners and the edge crossings. False if none is kept.
+bool half_square_box(vec3 f, out vec2 lo, out vec2 hi) {
+    float tol = 1e-4 * (abs(f.x) + 0.5 * abs(f.y) + 0.5 * abs(f.z));
+    vec4 at = f.x + tol + vec4(-0.5 * f.y - 0.5 * f.z, 0.5 * f.y - 0.5 * f.z,
+                               0.5 * f.y + 0.5 * f.z, -0.5 * f.y + 0.5 * f.z);
+    // Corners (0,0), (1,0), (1,1), (0,1) and their values.
+    vec2 c0 = vec2(0.0, 0.0);
+    vec2 c1 = vec2(1.0, 0.0);
+    vec2 c2 = vec2(1.0, 1.0);
+    vec2 c3 = vec2(0.0, 1.0);
+    lo = vec2(2.0);
+    hi = vec2(-1.0);
+    if (at.x >= 0.0) { lo = min(lo, c0); hi = max(hi, c0); }
+    if (at.y >= 0.0) { lo = min(lo, c1); hi = max(hi, c1); }
+    if (at.z >= 0.0) { lo = min(lo, c2); hi = max(hi, c2); }
+    if (at.w >= 0.0) { lo = min(lo, c3); hi = max(hi, c3); }
+    if ((at.x >= 0.0) != (at.y >= 0.0)) { vec2 x = mix(c0, c1, clamp(at.x / (at.x - at.y), 0.0, 1.0)); lo = min(lo, x); hi = max(hi, x); }
+    if ((at.y >= 0.0) != (at.z >= 0.0)) { vec2 x = mix(c1, c2, clamp(at.y / (at.y - at.z), 0.0, 1.0)); lo = min(lo, x); hi = max(hi, x); }
+    if ((at.z >= 0.0) != (at.w >= 0.0)) { vec2 x = mix(c2, c3, clamp(at.z / (at.z - at.w), 0.0, 1.0)); lo = min(lo, x); hi = max(hi, x); }
+    if ((at.w >= 0.0) != (at.x >= 0.0)) { vec2 x = mix(c3, c0, clamp(at.w / (at.w - at.x), 0.0, 1.0)); lo = min(lo, x); hi = max(hi, x); }
+    return hi.x >= lo.x;
+}
+
+// (a, b) of the point where the line from o through v meets the light's plane.
+vec2 project(vec3 o, vec4 v, float depth, vec2 inv_uv) {
+    vec3 x = o + (v.xyz - o) * (depth / (depth - v.w)) - P.light_c.xyz;
+    return vec2(dot(x, P.light_u.xyz) * inv_uv.x, dot(x, P.light_v.xyz) * inv_uv.y) + 0.5;
+}
+
+// The sample's data, read once for all the item's triangles (private: per invocation).
+uint s_index;
+bool s_all_front;
+vec4 s_origin;
+vec3 s_o;
+vec3 s_p;
+vec3 s_n;
+uint s_seed;
+uint s_base;
+vec2 inv_uv;
+float uu;
+float vv;
+int na;
+int nb;
+// One mask word (n_a·n_b ≤ 32): a box's bits are its columns' bits times its rows' first bits.
+bool one_word;
+uint row_starts;
+// The mask word in use, read once and OR-ed back once when another word (or the end) comes:
+// memory accesses are the expensive part of this loop on a CPU driver; and the rays traced.
+uint m_word;
+uint m_bits;
+uint m_fresh;
+uint m_rays;
+// Light samples of the word found behind the tangent plane: never to be tested again.
+uint m_behind;
+
+// The sample's test against one triangle: the light samples it blocks go into the mask word
+// state. A function, so that its early exits are returns: a `continue` of the triangle loop
+// under a per-sample condition makes that loop divergent to the compiler, which then loads each
+// triangle per invocation (a scalar loop over the SIMD lanes) instead of once for all.
+void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, float zmin,
+                   float zmax) {
+    float side = dot(normal, s_o - va.xyz);
+    if (side == 0.0 || side * light_side > 0.0) {
+        return;  // o in the triangle's plane, or on the light's side of it
+    }
+    vec2 lo;
+    vec2 hi;
+    // The projected triangle's edges as signed distances (inside > 0), for deciding
+    // light samples well inside or outside it without a ray; `band` = 0: no such
+    // shortcut (every candidate takes the exact test).
+    vec2 q0 = vec2(0.0);
+    vec2 q1 = vec2(0.0);
+    vec2 q2 = vec2(0.0);
+    vec2 n0 = vec2(0.0);
+    vec2 n1 = vec2(0.0);
+    vec2 n2 = vec2(0.0);
+    float band = 0.0;
+    // The projection when the triangle lies between o and the light's plane; otherwise
+    // (rarely) the half-planes, whose 4 boxes cost more than all the rest of this test.
+    bool between = zmin > 0.0 && zmax < 0.99 * s_origin.w;
+    if (between) {
+        q0 = project(s_o, va, s_origin.w, inv_uv);
+        q1 = project(s_o, vb, s_origin.w, inv_uv);
+        q2 = project(s_o, vc, s_origin.w, inv_uv);
+        lo = min(q0, min(q1, q2));
+        hi = max(q0, max(q1, q2));
+        vec2 margin = 1e-3 * (1.0 + max(abs(lo), abs(hi)));
+        vec2 d0 = q1 - q0;
+        vec2 d1 = q2 - q1;
+        vec2 d2 = q0 - q2;
+        float area = d0.x * d2.y - d0.y * d2.x;
+        float l0 = length(d0);
+        float l1 = length(d1);
+        float l2 = length(d2);
+        // A line light (uu or vv = 0) collapses an axis: no shortcut then.
+        if (uu > 0.0 && vv > 0.0 && min(l0, min(l1, l2)) > 0.0 && area != 0.0) {
+            float s = area > 0.0 ? -1.0 : 1.0;
+            n0 = s * vec2(-d0.y, d0.x) / l0;
+            n1 = s * vec2(-d1.y, d1.x) / l1;
+            n2 = s * vec2(-d2.y, d2.x) / l2;
+            band = max(margin.x, margin.y);
+        }
+        lo -= margin;
+        hi += margin;
+        if (uu == 0.0) { lo.x = 0.0; hi.x = 1.0; }
+        if (vv == 0.0) { lo.y = 0.0; hi.y = 1.0; }
+    }
+    WHEN(!between) {
+        // The light samples beyond the triangle's plane and inside its three edge
+        // planes through o: the intersection of the four half-squares' boxes.
+        vec3 beyond = side > 0.0 ? -normal : normal;
+        vec3 e0 = cross(va.xyz - s_o, vb.xyz - s_o);
+        vec3 e1 = cross(vb.xyz - s_o, vc.xyz - s_o);
+        vec3 e2 = cross(vc.xyz - s_o, va.xyz - s_o);
+        float orient = dot(e0, vc.xyz - s_o);
+        if (orient == 0.0) {
+            return;  // edge-on from o
+        }
+        float sg = orient > 0.0 ? 1.0 : -1.0;
+        vec3 c = P.light_c.xyz;
+        vec3 f0 = vec3(dot(beyond, c - va.xyz), dot(beyond, P.light_u.xyz), dot(beyond, P.light_v.xyz));
+        vec3 f1 = sg * vec3(dot(e0, c - s_o), dot(e0, P.light_u.xyz), dot(e0, P.light_v.xyz));
+        vec3 f2 = sg * vec3(dot(e1, c - s_o), dot(e1, P.light_u.xyz), dot(e1, P.light_v.xyz));
+        vec3 f3 = sg * vec3(dot(e2, c - s_o), dot(e2, P.light_u.xyz), dot(e2, P.light_v.xyz));
+        vec2 l1, h1, l2, h2, l3, h3;
+        if (!half_square_box(f0, lo, hi) || !half_square_box(f1, l1, h1) ||
+            !half_square_box(f2, l2, h2) || !half_square_box(f3, l3, h3)) {
+            return;
+        }
+        lo = max(max(lo, l1), max(l2, l3)) - 1e-4;
+        hi = min(min(hi, h1), min(h2, h3)) + 1e-4;
+        if (any(greaterThan(lo, hi))) {
+            return;
+        }
+    }
+    if (any(greaterThan(lo, vec2(1.0))) || any(lessThan(hi, vec2(0.0)))) {
+        return;
+    }
+    ivec2 c0 = ivec2(clamp(floor(lo * vec2(na, nb)), vec2(0.0), vec2(na - 1, nb - 1)));
+    ivec2 c1 = ivec2(clamp(floor(hi * vec2(na, nb)), vec2(0.0), vec2(na - 1, nb - 1)));
+    // Word by word of the mask (one for up to 32 light samples): the box's bits in the word
+    // that no triangle has blocked yet, then those bits one by one, so a pass of the loop is a
+    // light sample to decide (none for a box blocked already: an umbra, or the strata a
+    // neighbouring triangle covered). The mask's memory is touched once a triangle and word.
+    int first = c0.y * na + c0.x;
+    int last = c1.y * na + c1.x;
+    for (int wi = first / 32; wi <= last / 32; ++wi) {
+        uint word = s_base + uint(wi);
+        WHEN(word != m_word) {
+            if (m_fresh != 0u) {
+                atomicOr(masks[m_word], m_fresh);
+            }
+            m_word = word;
+            m_bits = masks[word];
+            m_fresh = 0u;
+            m_behind = 0u;
+        }
+        int lo_bit = wi * 32;
+        uint box = 0u;
+        if (one_word) {
+            uint cols = ((2u << uint(c1.x - c0.x)) - 1u) << uint(c0.x);
+            uint rows = ((2u << uint(c1.y * na)) - 1u) & ~((1u << uint(c0.y * na)) - 1u);
+            box = cols * (row_starts & rows);
+        }
+        int row0 = int((float(lo_bit) + 0.5) * P.pattern_f.x);
+        int row1 = int((float(lo_bit + 31) + 0.5) * P.pattern_f.x);
+        for (int j = max(c0.y, row0); !one_word && j <= min(c1.y, row1); ++j) {
+            int b0 = max(j * na + c0.x, lo_bit) - lo_bit;
+            int b1 = min(j * na + c1.x, lo_bit + 31) - lo_bit;
+            if (b0 <= b1) {
+                box |= ((2u << uint(b1 - b0)) - 1u) << uint(b0);
+            }
+        }
+        uint todo = box & ~(m_bits | m_fresh | m_behind);
+        while (todo != 0u) {
+            int b = findLSB(todo);
+            todo &= todo - 1u;
+            uint mask = 1u << uint(b);
+            int bit = lo_bit + b;
+            // Row and column without an integer division (a scalar loop over the SIMD lanes
+            // on a CPU driver): bit + 1/2 lies mid-way between multiples of n_a, far from the
+            // f32 product's rounding.
+            int j = int((float(bit) + 0.5) * P.pattern_f.x);
+            int i = bit - j * na;
+            // The reference's light sample, ray and tangent-plane test, to the bit.
+            vec2 x = light_cell_point(s_seed, i, j, na, P.pattern_f.xy, P.pattern.z != 0);
+            precise float sx = x.x - 0.5;
+            precise float sy = x.y - 0.5;
+            precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx + P.light_v.xyz * sy;
+            precise vec3 to_light = ls - s_p;
+            if (!s_all_front && dot3(s_n, to_light) <= 0.0) {
+                m_behind |= mask;
+                continue;  // behind the tangent plane: the resolve pass leaves it out
+            }
+            if (band > 0.0) {
+                // Well outside the projected triangle: no ray can hit; well inside (and the
+                // triangle strictly between o and the light): every ray does.
+                vec3 dist = vec3(dot(n0, x - q0), dot(n1, x - q1), dot(n2, x - q2));
+                float nearest = min(dist.x, min(dist.y, dist.z));
+                if (nearest < -band) {
+                    continue;
+                }
+                if (nearest > band) {
+                    m_fresh |= mask;
+                    continue;
+                }
+            }
+            precise vec3 d = ls - s_o;
+            Ray r = make_ray(s_o, d, 1.0);
+            vec4 w;
+            m_rays += 1u;
+            if (hit_triangle(r, va.xyz, vb.xyz, vc.xyz, w)) {
+                m_fresh |= mask;
+            }
+        }
+    }
+}
+
+// What a triangle's tests need that does not depend on the sample: its plane's normal, the
+// side of that plane the whole light is on (0: it straddles it), its projected box in grid
+// coordinates (the footprint pass's) and its nearest depth.
+struct TriSetup {
+    vec3 normal;
+    float light_side;
+    vec4 box;
+    float zmin;
+    float inv_zmin;  // 0 when `every`
+    bool every;      // a vertex at or behind the depth floor: it reaches every sample
+};
+
+TriSetup tri_setup(vec4 va, vec4 vb, vec4 vc) {
+    TriSetup ts;
+    ts.normal = cross(vb.xyz - va.xyz, vc.xyz - va.xyz);
+    float a = dot(ts.normal, P.light_c.xyz - va.xyz);
+    float spread = 0.5 * (abs(dot(ts.normal, P.light_u.xyz)) + abs(dot(ts.normal, P.light_v.xyz)));
+    float tol = 1e-4 * (abs(a) + spread);
+    ts.light_side = a - spread > tol ? 1.0 : (a + spread < -tol ? -1.0 : 0.0);
+    vec3 qa = light_space(va.xyz);
+    vec3 qb = light_space(vb.xyz);
+    vec3 qc = light_space(vc.xyz);
+    ts.zmin = min(qa.z, min(qb.z, qc.z));
+    ts.every = P.sizes.w != 0u && ts.zmin <= P.light_half.z;
+    vec2 ga = ts.every ? vec2(0.0) : grid_coord(qa);
+    vec2 gb = ts.every ? vec2(0.0) : grid_coord(qb);
+    vec2 gc = ts.every ? vec2(0.0) : grid_coord(qc);
+    ts.box = vec4(min(ga, min(gb, gc)), max(ga, max(gb, gc)));
+    ts.inv_zmin = ts.every ? 0.0 : 1.0 / ts.zmin;
+    return ts;
+}
+
+// The sample's own footprint check (the footprint pass's, for this sample rather than its
+// cell's deepest one and whole area): a point of the triangle on a ray from o to the light
+// projects within the light's half extents times 1/z - 1/z_o of o's projection, and within the
+// triangle's projected box. A sample no projection reaches (the overflow cell) keeps every
+// triangle.
+vec3 s_q;
+bool s_every;
+vec2 s_g;
+float s_inv_z;
+
+bool reaches(vec4 box, float zmin, float inv_zmin, bool every) {
+    vec2 grow = vec2(CELL_MARGIN);
+    if (P.view.w == KIND_RECT) {
+        grow += max(inv_zmin - s_inv_z, 0.0) * (1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw);
+    }
+    return every || s_every ||
+           (zmin <= s_q.z * (1.0 + 1e-5) && all(greaterThanEqual(s_g, box.xy - grow)) &&
+            all(lessThanEqual(s_g, box.zw + grow)));
+}
+
+void main() {
+    invocation_counters_clear();
+    Item item;
+    if (work_item(item)) {
+        uint s = item.s0 + gl_LocalInvocationID.x;
+        bool live = s < item.s1;
+        uint entry = live ? cell_samples[s] : 0u;
+        s_index = entry & LOCAL_INDEX;
+        s_all_front = (entry & ALL_IN_FRONT) != 0u;
+        s_origin = live ? origins[s_index] : vec4(0.0);
+        s_o = s_origin.xyz;
+        s_p = vec3(0.0);
+        s_n = vec3(0.0);
+        if (live && !s_all_front) {
+            ivec2 pixel = ivec2(int(s_index % uint(P.view.x)), int(s_index / uint(P.view.x)));
+            s_p = imageLoad(positions, pixel).xyz;
+            s_n = imageLoad(normals, pixel).xyz;
+        }
+        uu = dot(P.light_u.xyz, P.light_u.xyz);
+        vv = dot(P.light_v.xyz, P.light_v.xyz);
+        inv_uv = vec2(uu > 0.0 ? 1.0 / uu : 0.0, vv > 0.0 ? 1.0 / vv : 0.0);
+        na = P.pattern.x;
+        nb = P.pattern.y;
+        s_seed = pcg(s_index);
+        s_base = s_index * uint(P.pattern.w);
+        // The first word now, outside all loops (with up to 32 light samples, the only one).
+        m_word = s_base;
+        m_bits = live ? masks[s_base] : 0u;
+        m_fresh = 0u;
+        m_behind = 0u;
+        m_rays = 0u;
+        int light_samples = na * nb;
+        one_word = light_samples <= 32;
+        row_starts = 0u;
+        for (int j = 0; one_word && j < nb; ++j) {
+            row_starts |= 1u << uint(j * na);
+        }
+        uint all_bits = light_samples >= 32 ? 0xFFFFFFFFu : (1u << uint(light_samples)) - 1u;
+        s_q = light_space(s_o);
+        s_every = P.sizes.w != 0u && s_q.z <= P.light_half.z;
+        s_g = s_every ? vec2(0.0) : grid_coord(s_q);
+        s_inv_z = s_every ? 0.0 : 1.0 / s_q.z;
+        // Triangle–sample tests made (those the sample's own footprint check keeps).
+        uint tests = 0u;
+#ifdef TRIANGLE_BATCH
+        // The batch's lanes are the workgroup's invocations; the host takes this path only
+        // where a subgroup holds a whole workgroup, and a subgroup that does not number them
+        // 0-7 fails the frame (`batch_lanes`) rather than shuffle from lanes it does not have.
+        uint lane = gl_SubgroupInvocationID;
+        if (gl_LocalInvocationID.x == 0u &&
+            (gl_NumSubgroups != 1u || !subgroupAll(lane < ITEM_SAMPLES))) {
+            atomicAdd(counters[C_BATCH_LANES], 1u);
+        }
+        for (uint k0 = item.t0; k0 < item.t1; k0 += ITEM_SAMPLES) {
+            // Each lane reads one triangle of the batch and sets it up (a texel fetch is a
+            // gather over the SIMD lanes on a CPU driver: one for eight triangles instead of
+            // one each); the sample keeps those whose footprint reaches it, and the kept ones
+            // go round by shuffles, in the list's order.
+            uint kk = min(k0 + lane, item.t1 - 1u);
+            int t = int(texelFetch(tri_list_texels, int(kk)).x);
+            vec4 la = texelFetch(tri_vert_texels, 3 * t);
+            vec4 lb = texelFetch(tri_vert_texels, 3 * t + 1);
+            vec4 lc = texelFetch(tri_vert_texels, 3 * t + 2);
+            TriSetup ts = tri_setup(la, lb, lc);
+            uint n = min(ITEM_SAMPLES, item.t1 - k0);
+            uint mine = 0u;
+            for (uint i = 0u; i < n; ++i) {
+                bool r = reaches(subgroupShuffle(ts.box, i), subgroupShuffle(ts.zmin, i),
+                                 subgroupShuffle(ts.inv_zmin, i), subgroupShuffle(ts.every, i));
+                mine |= r ? 1u << i : 0u;
+            }
+            mine = live ? mine : 0u;
+            tests += uint(bitCount(mine));
+            uint keep = subgroupOr(mine);
+            while (keep != 0u) {
+                uint i = uint(findLSB(keep));
+                keep &= keep - 1u;
+                vec4 va = subgroupShuffle(la, i);
+                vec4 vb = subgroupShuffle(lb, i);
+                vec4 vc = subgroupShuffle(lc, i);
+                vec3 normal = subgroupShuffle(ts.normal, i);
+                float light_side = subgroupShuffle(ts.light_side, i);
+                float zmin = min(va.w, min(vb.w, vc.w));
+                float zmax = max(va.w, max(vb.w, vc.w));
+                // A sample with one mask word whose every light sample is decided (blocked or
+                // behind its tangent plane: an umbra) skips the test; as a loop, so that a SIMD
+                // group whose samples are all decided skips it altogether.
+                bool open = !one_word || (m_bits | m_fresh | m_behind) != all_bits;
+                WHEN(open && (mine & (1u << i)) != 0u) {
+                    test_triangle(va, vb, vc, normal, light_side, zmin, zmax);
+                }
+            }
+        }
+#else
+        for (uint k = item.t0; k < item.t1; ++k) {
+            // The same triangle for every invocation: uniform loads.
+            int t = int(texelFetch(tri_list_texels, int(k)).x);
+            vec4 va = texelFetch(tri_vert_texels, 3 * t);
+            vec4 vb = texelFetch(tri_vert_texels, 3 * t + 1);
+            vec4 vc = texelFetch(tri_vert_texels, 3 * t + 2);
+            TriSetup ts = tri_setup(va, vb, vc);
+            bool reach = live && reaches(ts.box, ts.zmin, ts.inv_zmin, ts.every);
+            tests += reach ? 1u : 0u;
+            float zmin = min(va.w, min(vb.w, vc.w));
+            float zmax = max(va.w, max(vb.w, vc.w));
+            // As above: a decided sample skips the test, as a loop.
+            bool open = !one_word || (m_bits | m_fresh | m_behind) != all_bits;
+            WHEN(reach && open) {
+                test_triangle(va, vb, vc, ts.normal, ts.light_side, zmin, zmax);
+            }
+        }
+#endif
+        if (m_fresh != 0u) {
+            atomicOr(masks[m_word], m_fresh);
+        }
+        if (live) {
+            count(C_SAMPLE_TESTS, tests);
+            count(C_RAY_TESTS, m_rays);
+        }
+    }
+    invocation_counters_flush();
+    limiter_guard();
+}

@@ -1,0 +1,9 @@
+#version 460
+// izb-soft pass 7, triangles eight at a time handed round by subgroup shuffles: test_soft.glsl.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_vote : require
+#extension GL_KHR_shader_subgroup_shuffle : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#define TRIANGLE_BATCH 1
+#include "test_soft.glsl"

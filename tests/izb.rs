@@ -460,5 +460,18 @@ fn bad_input_gives_clear_errors() {
             .unwrap_or_else(|| panic!("{knob}={value} accepted"));
         assert!(err.to_string().contains(knob), "{err}");
     }
+    // izb-soft's grid: 0 (its default) picks 64 cells with a rect light; 1-7 are refused.
+    let prepared = engine
+        .prepare(&boxes(rect_light(), false))
+        .expect("prepare");
+    let auto = render(&engine, &prepared, "izb-soft", &[]);
+    let explicit = render(&engine, &prepared, "izb-soft", &[("grid", "64")]);
+    assert_eq!(differ("izb-soft-grid-auto", &auto, &explicit), 0);
+    assert_eq!(counter(&auto, "pairs"), counter(&explicit, "pairs"));
+    let err = engine
+        .render(&prepared, "izb-soft", &common::knobs(&[("grid", "4")]), 1)
+        .err()
+        .expect("izb-soft grid=4 accepted");
+    assert!(err.to_string().contains("grid"), "{err}");
     common::assert_clean(&engine.context().validation());
 }

@@ -166,10 +166,15 @@ const COUNTER_WORDS: [&str; 22] = [
     "batch_lanes",
 ];
 
+/// `izb`'s grid, cells a side (`izb-soft`'s with one ray a sample).
+const GRID_DEFAULT: u32 = 128;
+/// `izb-soft`'s grid with a sampled rect light.
+const SOFT_GRID: u32 = 64;
+
 const GRID: Knob = Knob::int(
     "grid",
     "light-space grid cells per side over the view samples' bounds",
-    128.0,
+    GRID_DEFAULT as f64,
     8.0,
     4096.0,
 );
@@ -194,12 +199,15 @@ const TRIANGLE_BATCH: Knob = Knob::int(
 const HARD_KNOBS: [Knob; 4] = [GRID, PAIR_CAPACITY, RAY_OFFSET, TRIANGLE_BATCH];
 
 const SOFT_KNOBS: [Knob; 6] = [
-    // Coarser than izb's: each sample checks its own footprint before its tests (the batched
-    // test pass), so a coarser grid costs the test pass little while the footprint pass shrinks
-    // with the cells (README, "Exact shadows at the view samples": 64 was faster than 128 on
-    // every scene measured but bunny-rect, 3 % slower there).
+    // 0 = auto: with a sampled rect light each sample checks its own footprint before its tests
+    // (the batched test pass), so a coarser grid costs the test pass little while the footprint
+    // pass shrinks with the cells — 64 then; izb's 128 with one ray a sample (README, "Exact
+    // shadows at the view samples").
     Knob {
-        default: super::KnobDefault::Value(64.0),
+        summary: "light-space grid cells per side over the view samples' bounds (8-4096; 0: 64 \
+                  with a rect light, 128 with one ray a sample)",
+        default: super::KnobDefault::Value(0.0),
+        min: 0.0,
         ..GRID
     },
     Knob::int(
@@ -369,7 +377,7 @@ impl<'a> Izb<'a> {
             technique: name.to_string(),
             message,
         };
-        let grid = params.u32("grid")?;
+        let grid_knob = params.u32("grid")?;
         let capacity = u64::from(params.u32("pair_capacity")?) * 1_000_000;
         let (mut kind, centre, u, v) = light_encoding(setup.light, name)?;
         let extent = u != Vec3::ZERO || v != Vec3::ZERO;
@@ -425,6 +433,16 @@ impl<'a> Izb<'a> {
             && info.subgroup_shuffle
             && info.subgroup_size >= ITEM_SAMPLES
             && (!sampled || info.subgroup_arithmetic);
+        let grid = match grid_knob {
+            0 if sampled => SOFT_GRID,
+            0 => GRID_DEFAULT,
+            1..=7 => {
+                return Err(bad(format!(
+                    "grid {grid_knob}: at least 8 cells a side (or 0 for the default)"
+                )))
+            }
+            g => g,
+        };
         let item_triangles = if sampled {
             soft_item_triangles(na, nb)
         } else {

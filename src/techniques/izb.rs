@@ -81,7 +81,10 @@
 //! the part of the light still open for the sample (the box of its unblocked strata, recomputed
 //! once a batch): tests 3.59 M → 2.90 M on `bunny-rect` and 1.46 M → 1.04 M on `teapot-rect`, the
 //! visibility the same, but two interleaved A/Bs of five gave the bunny's test pass −11 % and
-//! +10 % and the teapot's ±2 % — the per-batch recomputation eats the saving. With the check,
+//! +10 % and the teapot's ±2 % — the per-batch recomputation eats the saving; and the
+//! vertices' light-frame (a, b) set up per lane and shuffled with the batch, so a kept test's
+//! back-projection is three interpolations instead of three projections: −1 to −2 %, within the
+//! noise (same visibility), not kept. With the check,
 //! the grid hardly changes the tests, so `izb-soft` defaults to 64 cells with a rect light.
 //! 5. `resolve`: visibility from the masks.
 //!

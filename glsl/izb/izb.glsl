@@ -181,6 +181,21 @@ void limiter_guard() {
     }
 }
 
+#ifdef TRIANGLE_BATCH
+// The test passes' batch lane: the invocation's subgroup lane, which must be 0-7 with the
+// workgroup one subgroup (the host takes the batched shaders only where a subgroup holds a whole
+// workgroup); otherwise the frame fails (`batch_lanes`) rather than shuffle from lanes that are
+// not there. Called in uniform control flow: `subgroupAll` must see every lane.
+uint batch_lane() {
+    uint lane = gl_SubgroupInvocationID;
+    bool ok = gl_NumSubgroups == 1u && subgroupAll(lane < ITEM_SAMPLES);
+    if (!ok && gl_LocalInvocationID.x == 0u) {
+        atomicAdd(counters[C_BATCH_LANES], 1u);
+    }
+    return lane;
+}
+#endif
+
 // A work item of the test pass: samples [s0, s1) of cell_samples against triangles [t0, t1) of
 // tri_list, all of one cell.
 struct Item {

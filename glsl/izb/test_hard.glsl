@@ -29,13 +29,8 @@ void main() {
         bool was = shadowed;
         uint rays = 0u;
 #ifdef TRIANGLE_BATCH
-        // As in test_soft.glsl: the host takes this path only where a subgroup holds a whole
-        // workgroup; lanes not numbered 0-7 fail the frame (`batch_lanes`).
-        uint lane = gl_SubgroupInvocationID;
-        if (gl_LocalInvocationID.x == 0u &&
-            (gl_NumSubgroups != 1u || !subgroupAll(lane < ITEM_SAMPLES))) {
-            atomicAdd(counters[C_BATCH_LANES], 1u);
-        }
+        // The batch's lanes are the workgroup's invocations (izb.glsl, batch_lane()).
+        uint lane = batch_lane();
         for (uint k0 = item.t0; k0 < item.t1; k0 += ITEM_SAMPLES) {
             // One gather for eight triangles' vertices instead of one each.
             uint kk = min(k0 + lane, item.t1 - 1u);

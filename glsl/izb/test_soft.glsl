@@ -338,14 +338,8 @@ void main() {
         // Triangle–sample tests made (those the sample's own footprint check keeps).
         uint tests = 0u;
 #ifdef TRIANGLE_BATCH
-        // The batch's lanes are the workgroup's invocations; the host takes this path only
-        // where a subgroup holds a whole workgroup, and a subgroup that does not number them
-        // 0-7 fails the frame (`batch_lanes`) rather than shuffle from lanes it does not have.
-        uint lane = gl_SubgroupInvocationID;
-        if (gl_LocalInvocationID.x == 0u &&
-            (gl_NumSubgroups != 1u || !subgroupAll(lane < ITEM_SAMPLES))) {
-            atomicAdd(counters[C_BATCH_LANES], 1u);
-        }
+        // The batch's lanes are the workgroup's invocations (izb.glsl, batch_lane()).
+        uint lane = batch_lane();
         for (uint k0 = item.t0; k0 < item.t1; k0 += ITEM_SAMPLES) {
             // Each lane reads one triangle of the batch and sets it up (a texel fetch is a
             // gather over the SIMD lanes on a CPU driver: one for eight triangles instead of

@@ -1,3 +1,5 @@
+#define EXP_UNROLL 1
+#define EXP_UNROLL 1
 // izb-soft pass 7, shared by `test_soft.comp` (one triangle at a time) and
 // `test_soft_batched.comp` (TRIANGLE_BATCH: triangles read eight at a time, one a lane, and handed
 // round by subgroup shuffles; each sample first keeps only the batch's triangles whose footprint
@@ -77,6 +79,57 @@ uint m_fresh;
 uint m_rays;
 // Light samples of the word found behind the tangent plane: never to be tested again.
 uint m_behind;
+
+// The light samples of `box` (bits lo_bit.. of the word in use) that no triangle has blocked
+// yet, decided one by one against the triangle (va, vb, vc), whose projection from the sample's
+// ray origin is q0 q1 q2 with inward edge normals n0 n1 n2 (`band` = 0: no projection
+// shortcut). A pass of the loop is a light sample to decide (none for a box blocked already: an
+// umbra, or the strata a neighbouring triangle covered).
+void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec2 q0, vec2 q1, vec2 q2,
+                   vec2 n0, vec2 n1, vec2 n2, float band) {
+    uint todo = box & ~(m_bits | m_fresh | m_behind);
+    while (todo != 0u) {
+        int b = findLSB(todo);
+        todo &= todo - 1u;
+        uint mask = 1u << uint(b);
+        int bit = lo_bit + b;
+        // Row and column without an integer division (a scalar loop over the SIMD lanes
+        // on a CPU driver): bit + 1/2 lies mid-way between multiples of n_a, far from the
+        // f32 product's rounding.
+        int j = int((float(bit) + 0.5) * P.pattern_f.x);
+        int i = bit - j * na;
+        // The reference's light sample, ray and tangent-plane test, to the bit.
+        vec2 x = light_cell_point(s_seed, i, j, na, P.pattern_f.xy, P.pattern.z != 0);
+        precise float sx = x.x - 0.5;
+        precise float sy = x.y - 0.5;
+        precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx + P.light_v.xyz * sy;
+        precise vec3 to_light = ls - s_p;
+        if (!s_all_front && dot3(s_n, to_light) <= 0.0) {
+            m_behind |= mask;
+            continue;  // behind the tangent plane: the resolve pass leaves it out
+        }
+        if (band > 0.0) {
+            // Well outside the projected triangle: no ray can hit; well inside (and the
+            // triangle strictly between o and the light): every ray does.
+            vec3 dist = vec3(dot(n0, x - q0), dot(n1, x - q1), dot(n2, x - q2));
+            float nearest = min(dist.x, min(dist.y, dist.z));
+            if (nearest < -band) {
+                continue;
+            }
+            if (nearest > band) {
+                m_fresh |= mask;
+                continue;
+            }
+        }
+        precise vec3 d = ls - s_o;
+        Ray r = make_ray(s_o, d, 1.0);
+        vec4 w;
+        m_rays += 1u;
+        if (hit_triangle(r, va.xyz, vb.xyz, vc.xyz, w)) {
+            m_fresh |= mask;
+        }
+    }
+}
 
 // The sample's test against one triangle: the light samples it blocks go into the mask word
 // state. A function, so that its early exits are returns: a `continue` of the triangle loop
@@ -163,10 +216,19 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
     }
     ivec2 c0 = ivec2(clamp(floor(lo * vec2(na, nb)), vec2(0.0), vec2(na - 1, nb - 1)));
     ivec2 c1 = ivec2(clamp(floor(hi * vec2(na, nb)), vec2(0.0), vec2(na - 1, nb - 1)));
-    // Word by word of the mask (one for up to 32 light samples): the box's bits in the word
-    // that no triangle has blocked yet, then those bits one by one, so a pass of the loop is a
-    // light sample to decide (none for a box blocked already: an umbra, or the strata a
-    // neighbouring triangle covered). The mask's memory is touched once a triangle and word.
+    if (one_word) {
+        // One mask word, never switched: the box's bits directly, its columns' bits times its
+        // rows' first bits. No word loop: on a CPU driver each loop level, even of one pass,
+        // costs the SIMD group its mask bookkeeping (this pass was 16–26 % slower with the
+        // word loop for one word on teapot-rect and bunny-rect).
+        uint cols = ((2u << uint(c1.x - c0.x)) - 1u) << uint(c0.x);
+        uint rows = ((2u << uint(c1.y * na)) - 1u) & ~((1u << uint(c0.y * na)) - 1u);
+        decide_strata(cols * (row_starts & rows), 0, va, vb, vc, q0, q1, q2, n0, n1, n2, band);
+        return;
+    }
+    // Word by word of the mask: the box's bits in the word, read once and OR-ed back once
+    // when another word (or the end) comes; the mask's memory is touched once a triangle and
+    // word.
     int first = c0.y * na + c0.x;
     int last = c1.y * na + c1.x;
     for (int wi = first / 32; wi <= last / 32; ++wi) {
@@ -181,63 +243,17 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
             m_behind = 0u;
         }
         int lo_bit = wi * 32;
-        uint box = 0u;
-        if (one_word) {
-            uint cols = ((2u << uint(c1.x - c0.x)) - 1u) << uint(c0.x);
-            uint rows = ((2u << uint(c1.y * na)) - 1u) & ~((1u << uint(c0.y * na)) - 1u);
-            box = cols * (row_starts & rows);
-        }
         int row0 = int((float(lo_bit) + 0.5) * P.pattern_f.x);
         int row1 = int((float(lo_bit + 31) + 0.5) * P.pattern_f.x);
-        for (int j = max(c0.y, row0); !one_word && j <= min(c1.y, row1); ++j) {
+        uint box = 0u;
+        for (int j = max(c0.y, row0); j <= min(c1.y, row1); ++j) {
             int b0 = max(j * na + c0.x, lo_bit) - lo_bit;
             int b1 = min(j * na + c1.x, lo_bit + 31) - lo_bit;
             if (b0 <= b1) {
                 box |= ((2u << uint(b1 - b0)) - 1u) << uint(b0);
             }
         }
-        uint todo = box & ~(m_bits | m_fresh | m_behind);
-        while (todo != 0u) {
-            int b = findLSB(todo);
-            todo &= todo - 1u;
-            uint mask = 1u << uint(b);
-            int bit = lo_bit + b;
-            // Row and column without an integer division (a scalar loop over the SIMD lanes
-            // on a CPU driver): bit + 1/2 lies mid-way between multiples of n_a, far from the
-            // f32 product's rounding.
-            int j = int((float(bit) + 0.5) * P.pattern_f.x);
-            int i = bit - j * na;
-            // The reference's light sample, ray and tangent-plane test, to the bit.
-            vec2 x = light_cell_point(s_seed, i, j, na, P.pattern_f.xy, P.pattern.z != 0);
-            precise float sx = x.x - 0.5;
-            precise float sy = x.y - 0.5;
-            precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx + P.light_v.xyz * sy;
-            precise vec3 to_light = ls - s_p;
-            if (!s_all_front && dot3(s_n, to_light) <= 0.0) {
-                m_behind |= mask;
-                continue;  // behind the tangent plane: the resolve pass leaves it out
-            }
-            if (band > 0.0) {
-                // Well outside the projected triangle: no ray can hit; well inside (and the
-                // triangle strictly between o and the light): every ray does.
-                vec3 dist = vec3(dot(n0, x - q0), dot(n1, x - q1), dot(n2, x - q2));
-                float nearest = min(dist.x, min(dist.y, dist.z));
-                if (nearest < -band) {
-                    continue;
-                }
-                if (nearest > band) {
-                    m_fresh |= mask;
-                    continue;
-                }
-            }
-            precise vec3 d = ls - s_o;
-            Ray r = make_ray(s_o, d, 1.0);
-            vec4 w;
-            m_rays += 1u;
-            if (hit_triangle(r, va.xyz, vb.xyz, vc.xyz, w)) {
-                m_fresh |= mask;
-            }
-        }
+        decide_strata(box, lo_bit, va, vb, vc, q0, q1, q2, n0, n1, n2, band);
     }
 }
 

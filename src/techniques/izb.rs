@@ -75,7 +75,16 @@
 //! for bit the same. Interleaved medians: `izb-soft`'s test pass 307 → 246 ms from the batch
 //! alone, → ~210 with the check (teapot 82 → 58); `izb`'s 17.6 → 10.8 ms. A mask box made by
 //! arithmetic when one word holds the samples (columns' bits times the rows' first bits) instead
-//! of the row loop: ~6 %. Tried, not kept: each lane taking its own next kept triangle (shuffles
+//! of the row loop: ~6 %; and with one word no mask-word loop around the strata at all (a
+//! loop of one pass still costs the SIMD group its mask bookkeeping on lavapipe): the test pass
+//! 205 → 151 ms on `bunny-rect` and 54 → 46 on `teapot-rect` (interleaved medians of five,
+//! 2026-12-03; the 32-sample default is one word). Tried then, not kept (interleaved A/Bs, no
+//! gain beyond the noise): the tangent-plane test of every stratum once per item instead of in
+//! the strata loop, `subgroupBroadcast` for the batch instead of `subgroupShuffle`, an `if`
+//! instead of the `WHEN` around a kept test, and the footprint-check loop unrolled (the bunny's
+//! pass 15 % slower). Counted then on `teapot-rect` / `bunny-rect`: of the kept tests, 17 k / 25
+//! k are cut by the triangle's plane and 52 k / 122 k project off the light; 0.34 M / 1.34 M find
+//! every stratum of their box decided already. Tried, not kept: each lane taking its own next kept triangle (shuffles
 //! with per-lane indices: fewer passes, but the lanes' tests diverge — no gain) and the exact ray
 //! test behind a `WHEN` (slower again, as in the first version), and the check grown by only
 //! the part of the light still open for the sample (the box of its unblocked strata, recomputed

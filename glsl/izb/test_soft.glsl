@@ -18,6 +18,7 @@
 #include "izb.glsl"
 #include "watertight.glsl"
 #include "light_samples.glsl"
+#include "small_int.glsl"
 
 layout(local_size_x = 8) in;
 // tri_list and tri_verts through texel views (src/techniques/izb.rs says why).
@@ -94,9 +95,9 @@ void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec2 q0, vec
         uint mask = 1u << uint(b);
         int bit = lo_bit + b;
         // Row and column without an integer division (a scalar loop over the SIMD lanes
-        // on a CPU driver): bit + 1/2 lies mid-way between multiples of n_a, far from the
-        // f32 product's rounding.
-        int j = int((float(bit) + 0.5) * P.pattern_f.x);
+        // on a CPU driver) or a float-to-int conversion (small_int.glsl says why): bit + 1/2
+        // lies mid-way between multiples of n_a, far from the f32 product's rounding.
+        int j = small_int((float(bit) + 0.5) * P.pattern_f.x);
         int i = bit - j * na;
         // The reference's light sample, ray and tangent-plane test, to the bit.
         vec2 x = light_cell_point(s_seed, i, j, na, P.pattern_f.xy, P.pattern.z != 0);
@@ -214,8 +215,8 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
     if (any(greaterThan(lo, vec2(1.0))) || any(lessThan(hi, vec2(0.0)))) {
         return;
     }
-    ivec2 c0 = ivec2(clamp(floor(lo * vec2(na, nb)), vec2(0.0), vec2(na - 1, nb - 1)));
-    ivec2 c1 = ivec2(clamp(floor(hi * vec2(na, nb)), vec2(0.0), vec2(na - 1, nb - 1)));
+    ivec2 c0 = min(small_int(lo * vec2(na, nb)), ivec2(na - 1, nb - 1));
+    ivec2 c1 = min(small_int(hi * vec2(na, nb)), ivec2(na - 1, nb - 1));
     if (one_word) {
         // One mask word, never switched: the box's bits directly, its columns' bits times its
         // rows' first bits. No word loop: on a CPU driver each loop level, even of one pass,
@@ -243,8 +244,8 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
             m_behind = 0u;
         }
         int lo_bit = wi * 32;
-        int row0 = int((float(lo_bit) + 0.5) * P.pattern_f.x);
-        int row1 = int((float(lo_bit + 31) + 0.5) * P.pattern_f.x);
+        int row0 = small_int((float(lo_bit) + 0.5) * P.pattern_f.x);
+        int row1 = small_int((float(lo_bit + 31) + 0.5) * P.pattern_f.x);
         uint box = 0u;
         for (int j = max(c0.y, row0); j <= min(c1.y, row1); ++j) {
             int b0 = max(j * na + c0.x, lo_bit) - lo_bit;

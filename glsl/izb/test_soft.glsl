@@ -1,5 +1,3 @@
-#define EXP_UNROLL 1
-#define EXP_UNROLL 1
 // izb-soft pass 7, shared by `test_soft.comp` (one triangle at a time) and
 // `test_soft_batched.comp` (TRIANGLE_BATCH: triangles read eight at a time, one a lane, and handed
 // round by subgroup shuffles; each sample first keeps only the batch's triangles whose footprint

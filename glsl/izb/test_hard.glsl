@@ -6,11 +6,9 @@
 // the sun) until one hits. The verdict stays in a register and is stored once.
 #include "izb.glsl"
 #include "watertight.glsl"
+#include "item_triangles.glsl"
 
 layout(local_size_x = 8) in;
-// tri_list and tri_verts through texel views (src/techniques/izb.rs says why).
-layout(set = 0, binding = 24) uniform usamplerBuffer tri_list_texels;
-layout(set = 0, binding = 25) uniform samplerBuffer tri_vert_texels;
 
 void main() {
     invocation_counters_clear();
@@ -33,11 +31,11 @@ void main() {
         uint lane = batch_lane();
         for (uint k0 = item.t0; k0 < item.t1; k0 += ITEM_SAMPLES) {
             // One gather for eight triangles' vertices instead of one each.
-            uint kk = min(k0 + lane, item.t1 - 1u);
-            int t = int(texelFetch(tri_list_texels, int(kk)).x);
-            vec3 la = texelFetch(tri_vert_texels, 3 * t).xyz;
-            vec3 lb = texelFetch(tri_vert_texels, 3 * t + 1).xyz;
-            vec3 lc = texelFetch(tri_vert_texels, 3 * t + 2).xyz;
+            vec4 la4, lb4, lc4;
+            item_triangle(min(k0 + lane, item.t1 - 1u), la4, lb4, lc4);
+            vec3 la = la4.xyz;
+            vec3 lb = lb4.xyz;
+            vec3 lc = lc4.xyz;
             uint n = min(ITEM_SAMPLES, item.t1 - k0);
             for (uint i = 0u; i < n; ++i) {
                 vec3 va = subgroupShuffle(la, i);
@@ -54,10 +52,11 @@ void main() {
         }
 #else
         for (uint k = item.t0; k < item.t1; ++k) {
-            int t = int(texelFetch(tri_list_texels, int(k)).x);
-            vec3 va = texelFetch(tri_vert_texels, 3 * t).xyz;
-            vec3 vb = texelFetch(tri_vert_texels, 3 * t + 1).xyz;
-            vec3 vc = texelFetch(tri_vert_texels, 3 * t + 2).xyz;
+            vec4 a, b, c;
+            item_triangle(k, a, b, c);
+            vec3 va = a.xyz;
+            vec3 vb = b.xyz;
+            vec3 vc = c.xyz;
             // As above.
             WHEN(!shadowed) {
                 vec4 w;

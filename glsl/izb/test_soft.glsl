@@ -17,11 +17,9 @@
 #include "watertight.glsl"
 #include "light_samples.glsl"
 #include "small_int.glsl"
+#include "item_triangles.glsl"
 
 layout(local_size_x = 8) in;
-// tri_list and tri_verts through texel views (src/techniques/izb.rs says why).
-layout(set = 0, binding = 24) uniform usamplerBuffer tri_list_texels;
-layout(set = 0, binding = 25) uniform samplerBuffer tri_vert_texels;
 
 // Box of the (a, b) square where the affine f = A + B (a - 1/2) + C (b - 1/2) (f = (A, B, C))
 // is at least -tolerance: the kept corners and the edge crossings. False if none is kept.
@@ -360,11 +358,8 @@ void main() {
             // gather over the SIMD lanes on a CPU driver: one for eight triangles instead of
             // one each); the sample keeps those whose footprint reaches it, and the kept ones
             // go round by shuffles, in the list's order.
-            uint kk = min(k0 + lane, item.t1 - 1u);
-            int t = int(texelFetch(tri_list_texels, int(kk)).x);
-            vec4 la = texelFetch(tri_vert_texels, 3 * t);
-            vec4 lb = texelFetch(tri_vert_texels, 3 * t + 1);
-            vec4 lc = texelFetch(tri_vert_texels, 3 * t + 2);
+            vec4 la, lb, lc;
+            item_triangle(min(k0 + lane, item.t1 - 1u), la, lb, lc);
             TriSetup ts = tri_setup(la, lb, lc);
             uint n = min(ITEM_SAMPLES, item.t1 - k0);
             uint mine = 0u;
@@ -398,10 +393,8 @@ void main() {
 #else
         for (uint k = item.t0; k < item.t1; ++k) {
             // The same triangle for every invocation: uniform loads.
-            int t = int(texelFetch(tri_list_texels, int(k)).x);
-            vec4 va = texelFetch(tri_vert_texels, 3 * t);
-            vec4 vb = texelFetch(tri_vert_texels, 3 * t + 1);
-            vec4 vc = texelFetch(tri_vert_texels, 3 * t + 2);
+            vec4 va, vb, vc;
+            item_triangle(k, va, vb, vc);
             TriSetup ts = tri_setup(va, vb, vc);
             bool reach = live && reaches(ts.box, ts.zmin, ts.inv_zmin, ts.every);
             tests += reach ? 1u : 0u;

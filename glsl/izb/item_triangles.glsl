@@ -1,0 +1,19 @@
+// The test passes' reads of a work item's triangles, shared by test_hard.glsl and
+// test_soft.glsl: entry k of the cell triangle lists and its three vertices (xyz, and w the
+// vertex's light-space depth), through texel views rather than storage buffers
+// (src/techniques/izb.rs says why).
+
+#ifndef PENUMBRA_IZB_ITEM_TRIANGLES_GLSL
+#define PENUMBRA_IZB_ITEM_TRIANGLES_GLSL
+
+layout(set = 0, binding = 24) uniform usamplerBuffer tri_list_texels;
+layout(set = 0, binding = 25) uniform samplerBuffer tri_vert_texels;
+
+void item_triangle(uint k, out vec4 a, out vec4 b, out vec4 c) {
+    int t = int(texelFetch(tri_list_texels, int(k)).x);
+    a = texelFetch(tri_vert_texels, 3 * t);
+    b = texelFetch(tri_vert_texels, 3 * t + 1);
+    c = texelFetch(tri_vert_texels, 3 * t + 2);
+}
+
+#endif

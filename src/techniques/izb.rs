@@ -21,8 +21,9 @@
 //!    (`izb-soft`) triangles, scanned, so no item's work grows with a grazing cell's lists.
 //! 4. `test` (dispatched indirectly, one workgroup per item, found by a binary search of the
 //!    items' prefix sum): an invocation per sample, the item's triangles in turn — the same for
-//!    every invocation, read through texel views, eight at a time where the device has subgroup
-//!    shuffles (below) — each tested with the reference's watertight shadow-ray test
+//!    every invocation, read through texel views (`glsl/izb/item_triangles.glsl`), eight at a
+//!    time where the device has subgroup shuffles (below) — each tested with the reference's
+//!    watertight shadow-ray test
 //!    (`glsl/include/watertight.glsl`, bit for bit the same arithmetic on the same origin and
 //!    direction); the mask stays in registers and is written once.
 //!
@@ -37,9 +38,10 @@
 //! `glsl/izb/izb.glsl`), which lavapipe skips when no lane enters. Measured on `teapot-rect`
 //! at 512×384 (32 light samples): the test pass went from 15 to 7 ms (`izb`) and from 922 to
 //! about 240–280 ms (`izb-soft`). Where the soft test's time went on 2026-12-02 (Mesa 25,
-//! `bunny-rect`, variants of `test_soft.comp` (now `test_soft.glsl`) built locally and timed interleaved against it,
-//! medians of three): of 12.9 M triangle–sample tests, 11.8 M had a sample with open light
-//! samples (the umbra skip saves little), 8.7 M passed the plane test and 3.2 M back-projected
+//! `bunny-rect`, variants of `test_soft.comp` (now `test_soft.glsl`) built locally and timed
+//! interleaved against it, medians of three): of 12.9 M triangle–sample tests, 11.8 M had a
+//! sample with open light samples (the umbra skip saves little), 8.7 M passed the plane test and
+//! 3.2 M back-projected
 //! onto the light's square; cut after the plane test the pass still took 95 of 277 ms (the loop
 //! over the cell's triangles itself); on `teapot-rect` the light-sample loop was 84 → 60 ms when
 //! removed. Tried and not kept: the test's stages as `WHEN` blocks instead of early returns
@@ -91,9 +93,10 @@
 //! and the box's strata made the bunny's test pass 173 → 148 ms and the teapot's 42 → 40. The
 //! rest of the loop is spread thin (no instruction above 1 % of the samples; many stack spills).
 //! The same helper in `pvssm`'s filter (per kernel column, not per texel) was not faster, and a
-//! `WHEN` around its page lookup made the filter 20 % slower. Tried, not kept: each lane taking its own next kept triangle (shuffles
-//! with per-lane indices: fewer passes, but the lanes' tests diverge — no gain) and the exact ray
-//! test behind a `WHEN` (slower again, as in the first version), and the check grown by only
+//! `WHEN` around its page lookup made the filter 20 % slower. Tried, not kept: each lane taking
+//! its own next kept triangle (shuffles with per-lane indices: fewer passes, but the lanes'
+//! tests diverge — no gain) and the exact ray test behind a `WHEN` (slower again, as in the first
+//! version), and the check grown by only
 //! the part of the light still open for the sample (the box of its unblocked strata, recomputed
 //! once a batch): tests 3.59 M → 2.90 M on `bunny-rect` and 1.46 M → 1.04 M on `teapot-rect`, the
 //! visibility the same, but two interleaved A/Bs of five gave the bunny's test pass −11 % and

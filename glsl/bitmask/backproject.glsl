@@ -147,6 +147,30 @@ void front_bits(int g, vec3 p, vec3 n, out uvec4 f0, out uvec4 f1) {
     }
 }
 
+// Region texel t of map depth d: when it blocks, its back-projected patch's light samples
+// leave the mask (m0, m1), or with `additive` its area adds to `hidden`.
+void bm_texel(BpView view, ivec2 t, float d, vec4 c, vec2 g, float dp, vec2 up, int grp,
+              inout uvec4 m0, inout uvec4 m1, inout float hidden, inout uint patches) {
+    if (d < bm_blocking_depth(t, c, g)) {
+        float k = bm_factor(view, d, dp);
+        vec4 kn = vec4(k);
+        if (GAP_FILL != 0) {
+            kn = vec4(bm_neighbour(view, t - ivec2(1, 0), c, g, k, dp),
+                      bm_neighbour(view, t + ivec2(1, 0), c, g, k, dp),
+                      bm_neighbour(view, t - ivec2(0, 1), c, g, k, dp),
+                      bm_neighbour(view, t + ivec2(0, 1), c, g, k, dp));
+        }
+        vec4 rect = bp_patch(view, t, k, kn, up);
+        patches += 1u;
+        if (bm.samples.w != 0) {
+            // Once, in the first group's dispatch.
+            hidden += grp == 0 ? bp_area(rect) : 0.0;
+        } else if (rect.z >= 0.0 && rect.x <= 1.0 && rect.w >= 0.0 && rect.y <= 1.0) {
+            rect_bits(rect, grp, m0, m1);
+        }
+    }
+}
+
 uint popcount(uvec4 a, uvec4 b) {
     uvec4 c = uvec4(bitCount(a)) + uvec4(bitCount(b));
     return c.x + c.y + c.z + c.w;
@@ -243,29 +267,23 @@ void main() {
                     uvec4 m1 = uvec4(0u);
                     // A decided sample's region is empty: no lane of it runs the loop.
                     int last_row = decided == 0 ? region.w : region.y - 1;
-                    for (int j = region.y; j <= last_row; ++j) {
-                        for (int i = region.x; i <= region.z; ++i) {
-                            ivec2 t = ivec2(i, j);
-                            float d = fetch_depth(shadow_map, t, map_size);
-                            if (d < bm_blocking_depth(t, c, g)) {
-                                float k = bm_factor(view, d, dp);
-                                vec4 kn = vec4(k);
-                                if (GAP_FILL != 0) {
-                                    kn = vec4(bm_neighbour(view, t - ivec2(1, 0), c, g, k, dp),
-                                              bm_neighbour(view, t + ivec2(1, 0), c, g, k, dp),
-                                              bm_neighbour(view, t - ivec2(0, 1), c, g, k, dp),
-                                              bm_neighbour(view, t + ivec2(0, 1), c, g, k, dp));
-                                }
-                                vec4 rect = bp_patch(view, t, k, kn, up);
-                                patches += 1u;
-                                if (bm.samples.w != 0) {
-                                    // Once, in the first group's dispatch.
-                                    hidden += grp == 0 ? bp_area(rect) : 0.0;
-                                } else if (rect.z >= 0.0 && rect.x <= 1.0 && rect.w >= 0.0
-                                           && rect.y <= 1.0) {
-                                    rect_bits(rect, grp, m0, m1);
-                                }
-                            }
+                    // Two rows and two columns a step from one gather (gather_depths); a texel
+                    // past the region reads 2.0, which blocks nothing.
+                    vec2 inv_size = 1.0 / vec2(map_size);
+                    for (int j = region.y; j <= last_row; j += 2) {
+                        bool row2 = j < last_row;
+                        for (int i = region.x; i <= region.z; i += 2) {
+                            bool col2 = i < region.z;
+                            vec4 d = gather_depths(shadow_map, vec2(i, j), inv_size);
+                            d = mix(vec4(2.0), d, bvec4(true, col2, row2, col2 && row2));
+                            bm_texel(view, ivec2(i, j), d.x, c, g, dp, up, grp, m0, m1, hidden,
+                                     patches);
+                            bm_texel(view, ivec2(i + 1, j), d.y, c, g, dp, up, grp, m0, m1,
+                                     hidden, patches);
+                            bm_texel(view, ivec2(i, j + 1), d.z, c, g, dp, up, grp, m0, m1,
+                                     hidden, patches);
+                            bm_texel(view, ivec2(i + 1, j + 1), d.w, c, g, dp, up, grp, m0, m1,
+                                     hidden, patches);
                         }
                     }
                     visible += popcount(f0 & ~m0, f1 & ~m1);

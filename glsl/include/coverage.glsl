@@ -34,16 +34,27 @@ vec2 coverage_filter(sampler2D map, ivec2 map_size, vec2 centre, vec2 size, floa
     // exact as those of a small one.
     vec2 l = lo - vec2(first);
     vec2 h = hi - vec2(first);
-    vec2 sum = vec2(0.0);
-    for (int j = first.y; j <= last.y; ++j) {
+    precise vec2 sum = vec2(0.0);
+    vec2 inv_size = 1.0 / vec2(map_size);
+    // Two rows and two columns a step, read by one gather (gather_depths). With an odd count the
+    // last step's second row or column lies past `last`: outside the box, so its overlap is
+    // exactly 0 and it adds nothing to either sum.
+    for (int j = first.y; j <= last.y; j += 2) {
         float y = float(j - first.y);
-        float wy = overlap_1d(y, y + 1.0, l.y, h.y);
-        for (int i = first.x; i <= last.x; ++i) {
+        vec2 wy = vec2(overlap_1d(y, y + 1.0, l.y, h.y), overlap_1d(y + 1.0, y + 2.0, l.y, h.y));
+        vec4 oy = vec4(float(j), float(j), float(j + 1), float(j + 1)) + 0.5 - centre.y;
+        for (int i = first.x; i <= last.x; i += 2) {
             float x = float(i - first.x);
-            float w = overlap_1d(x, x + 1.0, l.x, h.x) * wy;
-            vec2 to_texel = vec2(float(i), float(j)) + 0.5 - centre;
-            float zt = rp_tap_depth(z, to_texel, dz_duv);
-            sum += vec2(w * depth_test(map, ivec2(i, j), map_size, zt), w);
+            vec2 wx = vec2(overlap_1d(x, x + 1.0, l.x, h.x), overlap_1d(x + 1.0, x + 2.0, l.x, h.x));
+            vec4 w = vec4(wx * wy.x, wx * wy.y);
+            vec4 ox = vec4(float(i), float(i + 1), float(i), float(i + 1)) + 0.5 - centre.x;
+            vec4 zt = rp_tap_depth4(z, ox, oy, dz_duv);
+            // w * test is w or 0 exactly, and both sums add in the same order — kept by
+            // `precise` on `sum`: without it the compiler reassociated one of the two and a fully
+            // lit kernel read V = 1 + 1 ulp — so an all-lit kernel sums to exactly its area and
+            // V never exceeds 1.
+            vec4 lit = w * vec4(lessThanEqual(zt, gather_depths(map, vec2(i, j), inv_size)));
+            sum += vec2((lit.x + lit.y) + (lit.z + lit.w), (w.x + w.y) + (w.z + w.w));
         }
     }
     return sum;

@@ -10,6 +10,12 @@ float rp_tap_depth(float z, vec2 offset, vec2 dz_duv) {
     return min(z + (offset.x * dz_duv.x + offset.y * dz_duv.y), 1.0);
 }
 
+// rp_tap_depth for four taps at offsets (ox[k], oy[k]), component by component the same
+// arithmetic.
+vec4 rp_tap_depth4(float z, vec4 ox, vec4 oy, vec2 dz_duv) {
+    return min(z + (ox * dz_duv.x + oy * dz_duv.y), vec4(1.0));
+}
+
 // The plane's depths (min, max) over the centres of texels box.xy ..= box.zw: the plane is
 // linear, so its extremes are at the corners (each clamped to the far plane like every tap).
 vec2 rp_depth_range(float z, vec2 centre, ivec4 box, vec2 dz_duv) {

@@ -93,6 +93,7 @@ void main() {
             uint base = level_offset(pc.levels, level);
             vec2 sum = vec2(0.0);
             uint texels = 0u;
+            vec2 inv_atlas = 1.0 / vec2(textureSize(atlas, 0));
             for (int i = i0; i <= i1; ++i) {
                 float x0 = max(float(i), x_lo);
                 float x1 = min(float(i + 1), x_hi);
@@ -115,13 +116,16 @@ void main() {
                 int page_end = 0;
                 uint slot = 0u;
                 ivec2 origin = ivec2(0);
-                for (int j = j0; j <= j1; ++j) {
-                    float wy = min(float(j + 1), y_hi) - max(float(j), y_lo);
-                    if (wy <= 0.0) {
-                        continue;
-                    }
-                    float w = wx * wy;
-                    float lit = 1.0;
+                // Rows in pairs from an even row, both read by one gather (gather_depths in
+                // shadow_map.glsl: a texelFetch is a call on lavapipe). Pages are an even number
+                // of rows (`page_size` >= 16) and start at even rows, so a pair never straddles
+                // two pages, and the level, a whole number of pages, holds both rows or
+                // neither. A row outside the kernel has wy <= 0 (or, past a cut, lies after j1) and
+                // adds nothing, so the sums are added in the same order as one row at a time.
+                for (int j = j0 & ~1; j <= j1; j += 2) {
+                    vec2 wy = vec2(min(float(j + 1), y_hi) - max(float(j), y_lo),
+                                   min(float(j + 2), y_hi) - max(float(j + 1), y_lo));
+                    vec2 lit = vec2(1.0);
                     if (column_inside && j >= 0 && j < size) {
                         if (j >= page_end) {
                             int py = j / ps;
@@ -134,13 +138,26 @@ void main() {
                             }
                         }
                         if (slot != 0u) {
-                            vec2 tc = (vec2(i, j) + 0.5) * s;
-                            float zt = rc.z + dot(rc.dz, tc - rc.c);
-                            lit = zt <= texelFetch(atlas, origin + ivec2(i, j), 0).r ? 1.0 : 0.0;
+                            vec2 tc0 = (vec2(i, j) + 0.5) * s;
+                            vec2 tc1 = (vec2(i, j + 1) + 0.5) * s;
+                            vec2 zt = vec2(rc.z + dot(rc.dz, tc0 - rc.c),
+                                           rc.z + dot(rc.dz, tc1 - rc.c));
+                            // gather_depths' x and z: texels (i, j) and (i, j + 1).
+                            vec4 d = gather_depths(atlas, vec2(origin + ivec2(i, j)),
+                                                   inv_atlas);
+                            lit = vec2(lessThanEqual(zt, d.xz));
                         }
                     }
-                    sum += vec2(w * lit, w);
-                    texels += 1u;
+                    if (wy.x > 0.0) {
+                        float w = wx * wy.x;
+                        sum += vec2(w * lit.x, w);
+                        texels += 1u;
+                    }
+                    if (wy.y > 0.0 && j < j1) {
+                        float w = wx * wy.y;
+                        sum += vec2(w * lit.y, w);
+                        texels += 1u;
+                    }
                 }
             }
             float v = sum.y > 0.0 ? sum.x / sum.y : 1.0;

@@ -43,9 +43,10 @@ pub struct CoverageTexel {
     pub offset: Vec2,
 }
 
-/// Every texel the box of full `size` centred at `centre` may overlap, with its weight, in the
-/// shader's loop order (rows, then columns). Edges are taken relative to the first texel, as in
-/// the shader, so a large map's weights are as exact as a small one's.
+/// Every texel the box of full `size` centred at `centre` may overlap, with its weight, row by
+/// row (the shader visits them in 2×2 blocks, one gather each, so its sums differ from these in
+/// the last bits). Edges are taken relative to the first texel, as in the shader, so a large
+/// map's weights are as exact as a small one's.
 pub fn coverage_texels(centre: Vec2, size: Vec2) -> Vec<CoverageTexel> {
     let lo = centre - 0.5 * size;
     let hi = centre + 0.5 * size;

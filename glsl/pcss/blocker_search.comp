@@ -83,6 +83,18 @@ ivec2 search_tap(vec2 lo, vec2 size, int i, int j) {
     return ivec2(floor(lo + (vec2(i, j) + 0.5) * (size / float(pc.search_taps))));
 }
 
+// One texel t of silhouette_sum's exhaustive walk, given whether it and its left, right,
+// upper and lower neighbours block: it counts when it blocks within `far_enough` beside a
+// neighbour inside the box that does not.
+void silhouette_texel(ivec2 t, ivec4 box, bool self, bool left, bool right, bool up, bool down,
+                      float d, float w, float far_enough, inout vec2 sum) {
+    bool edge = (t.x > box.x && !left) || (t.x < box.z && !right) || (t.y > box.y && !up)
+        || (t.y < box.w && !down);
+    if (self && d <= far_enough && edge) {
+        sum += vec2(w * d, w);
+    }
+}
+
 // `blocker_depth = silhouette`: (sum of w * distance, sum of w) over the search's silhouette —
 // blocking texels (or taps) beside one that does not block, a neighbour past the region
 // counting as blocking — whose distance from the light is at most `far_enough` (away from the
@@ -98,23 +110,41 @@ vec2 silhouette_sum(ivec4 box, vec2 size, vec4 c, vec2 g, float far_enough) {
         vec2 hi = c.xy + 0.5 * size;
         vec2 l = lo - vec2(box.xy);
         vec2 h = hi - vec2(box.xy);
-        for (int j = box.y; j <= box.w; ++j) {
+        vec2 inv_size = 1.0 / vec2(pc.map_size);
+        // The texels in 2x2 blocks, each with the 4x4 texels around it from four gathers (its
+        // own four and their eight neighbours): four calls a block where a texel at a time took
+        // one, and four more for a blocker's neighbours. An odd count's extra row or column
+        // has weight 0.
+        for (int j = box.y; j <= box.w; j += 2) {
             float y = float(j - box.y);
-            float wy = overlap_1d(y, y + 1.0, l.y, h.y);
-            for (int i = box.x; i <= box.z; ++i) {
-                ivec2 t = ivec2(i, j);
-                if (!blocks(t, c, g, d) || d > far_enough) {
-                    continue;
-                }
-                bool edge = (i > box.x && !blocks(t - ivec2(1, 0), c, g, dn))
-                    || (i < box.z && !blocks(t + ivec2(1, 0), c, g, dn))
-                    || (j > box.y && !blocks(t - ivec2(0, 1), c, g, dn))
-                    || (j < box.w && !blocks(t + ivec2(0, 1), c, g, dn));
-                if (edge) {
-                    float x = float(i - box.x);
-                    float w = overlap_1d(x, x + 1.0, l.x, h.x) * wy;
-                    sum += vec2(w * d, w);
-                }
+            vec2 wy = vec2(overlap_1d(y, y + 1.0, l.y, h.y), overlap_1d(y + 1.0, y + 2.0, l.y, h.y));
+            for (int i = box.x; i <= box.z; i += 2) {
+                float x = float(i - box.x);
+                vec2 wx = vec2(overlap_1d(x, x + 1.0, l.x, h.x),
+                               overlap_1d(x + 1.0, x + 2.0, l.x, h.x));
+                // Rows j - 1 .. j + 2 of columns i - 1 .. i + 2 (gather_depths' order is
+                // (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)).
+                vec4 a = gather_depths(shadow_map, vec2(i - 1, j - 1), inv_size);
+                vec4 b = gather_depths(shadow_map, vec2(i + 1, j - 1), inv_size);
+                vec4 e = gather_depths(shadow_map, vec2(i - 1, j + 1), inv_size);
+                vec4 f = gather_depths(shadow_map, vec2(i + 1, j + 1), inv_size);
+                vec4 ox = vec4(float(i - 1), float(i), float(i + 1), float(i + 2)) + 0.5 - c.x;
+                bvec4 r0 = lessThan(vec4(a.xy, b.xy),
+                                    rp_tap_depth4(c.z, ox, vec4(float(j - 1) + 0.5 - c.y), g));
+                bvec4 r1 = lessThan(vec4(a.zw, b.zw),
+                                    rp_tap_depth4(c.z, ox, vec4(float(j) + 0.5 - c.y), g));
+                bvec4 r2 = lessThan(vec4(e.xy, f.xy),
+                                    rp_tap_depth4(c.z, ox, vec4(float(j + 1) + 0.5 - c.y), g));
+                bvec4 r3 = lessThan(vec4(e.zw, f.zw),
+                                    rp_tap_depth4(c.z, ox, vec4(float(j + 2) + 0.5 - c.y), g));
+                silhouette_texel(ivec2(i, j), box, r1.y, r1.x, r1.z, r0.y, r2.y,
+                                 pcss_distance(a.w), wx.x * wy.x, far_enough, sum);
+                silhouette_texel(ivec2(i + 1, j), box, r1.z, r1.y, r1.w, r0.z, r2.z,
+                                 pcss_distance(b.z), wx.y * wy.x, far_enough, sum);
+                silhouette_texel(ivec2(i, j + 1), box, r2.y, r2.x, r2.z, r1.y, r3.y,
+                                 pcss_distance(e.y), wx.x * wy.y, far_enough, sum);
+                silhouette_texel(ivec2(i + 1, j + 1), box, r2.z, r2.y, r2.w, r1.z, r3.z,
+                                 pcss_distance(f.x), wx.y * wy.y, far_enough, sum);
             }
         }
     } else {

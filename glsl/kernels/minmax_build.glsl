@@ -1,6 +1,6 @@
 // Min/max pyramid level l + 1 from level l: each texel the min and max of its 2 x 2 children,
 // ignoring children past the edge (odd sizes round up, so the last row and column have partial
-// children). MINMAX_FROM_SOURCE: level 0 is the source image (R32F or D32), read with texelFetch.
+// children). MINMAX_FROM_SOURCE: level 0 is the source image (R32F or D32), read by textureGather.
 // CPU twin: src/cpu/minmax.rs `build`.
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -9,10 +9,6 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 0) uniform sampler2D source;
 layout(set = 0, binding = 1, r32f) uniform writeonly image2D dst_min;
 layout(set = 0, binding = 2, r32f) uniform writeonly image2D dst_max;
-
-vec2 fetch(ivec2 p) {
-    return vec2(texelFetch(source, p, 0).r);
-}
 #else
 layout(set = 0, binding = 0, r32f) uniform readonly image2D src_min;
 layout(set = 0, binding = 1, r32f) uniform readonly image2D src_max;
@@ -38,6 +34,18 @@ void main() {
     ivec2 c = 2 * p;
     bool right = c.x + 1 < pc.src_size.x;
     bool below = c.y + 1 < pc.src_size.y;
+#ifdef MINMAX_FROM_SOURCE
+    // The four children from one gather at their shared corner (on lavapipe a texelFetch is a
+    // call; see gather_depths in shadow_map.glsl), its x y z w being children (0, 1) (1, 1)
+    // (1, 0) (0, 0); a child past the edge takes child (0, 0)'s value, which moves neither the
+    // min nor the max.
+    vec4 g = textureGather(source, vec2(c + 1) / vec2(pc.src_size));
+    float d00 = g.w;
+    float d10 = right ? g.z : d00;
+    float d01 = below ? g.x : d00;
+    float d11 = right && below ? g.y : d00;
+    vec2 m = vec2(min(min(d00, d10), min(d01, d11)), max(max(d00, d10), max(d01, d11)));
+#else
     vec2 m = fetch(c);
     if (right) {
         vec2 v = fetch(c + ivec2(1, 0));
@@ -51,6 +59,7 @@ void main() {
         vec2 v = fetch(c + ivec2(1, 1));
         m = vec2(min(m.x, v.x), max(m.y, v.y));
     }
+#endif
     imageStore(dst_min, p, vec4(m.x));
     imageStore(dst_max, p, vec4(m.y));
 }

@@ -2,7 +2,7 @@
 //! is ceil(w / 2^l) × ceil(h / 2^l) and holds, per texel, the (min, max) of its 2 × 2 children
 //! at level l − 1, partial children at odd sizes included. CPU twin: [`crate::cpu::minmax`].
 //!
-//! Level 0 is the source (a D32 shadow map or an R32F image, read with `texelFetch`); levels
+//! Level 0 is the source (a D32 shadow map or an R32F image, read by `textureGather`); levels
 //! 1 .. down to 1 × 1 are pairs of R32F storage images (min, max) — see [`super::nbuffer`] for
 //! why not RG32F — built by one dispatch per level, each reading the level below.
 

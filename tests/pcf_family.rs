@@ -30,10 +30,10 @@ use std::path::PathBuf;
 
 use glam::{IVec2, Mat4, Vec2, Vec3, Vec4};
 use penumbra::cpu::pcf::{pcf_with_plane, PcfOutput, COUNTER_NAMES};
-use penumbra::cpu::pcf_coverage::pcf_coverage;
+use penumbra::cpu::pcf_coverage::{coverage_texels, pcf_coverage};
 use penumbra::cpu::pcf_poisson::{pcf_poisson, poisson_disk, rotations, PoissonKernel};
 use penumbra::cpu::receiver_plane::ViewImages;
-use penumbra::cpu::shadow_map::{shadow_coord, DepthMap};
+use penumbra::cpu::shadow_map::{inside_map, shadow_coord, DepthMap};
 use penumbra::engine::PreparedScene;
 use penumbra::gpu::f32s;
 use penumbra::passes::{DepthBias, ShadowMapDesc};
@@ -582,41 +582,80 @@ fn one_tap_kernels_are_the_standard_lookups() {
 
 /// The filtered techniques on one plane with nothing above it, lit from straight above: every
 /// weight lands on a lit texel, so V is exactly 1 (the normalisation is exact).
+/// View samples inside the map whose coverage kernel of width `kernel` weighs a texel off the
+/// map. The shaders read such texels through the sampler's opaque-white border (`gather_depths`
+/// in `glsl/include/shadow_map.glsl`), not an explicit test, so a test of that path must show
+/// that it reaches some.
+fn samples_reaching_off_map(positions: &[Vec4], light_view_proj: Mat4, kernel: f32) -> usize {
+    let size = IVec2::splat(MAP);
+    let off = |t: IVec2| t.cmplt(IVec2::ZERO).any() || t.cmpge(size).any();
+    positions
+        .iter()
+        .filter(|p| p.w > 0.0)
+        .map(|p| shadow_coord(light_view_proj, p.truncate(), size))
+        .filter(|&c| inside_map(c, size))
+        .filter(|c| {
+            coverage_texels(c.truncate().truncate(), Vec2::splat(kernel))
+                .iter()
+                .any(|t| t.weight > 0.0 && off(t.texel))
+        })
+        .count()
+}
+
 #[test]
 fn a_flat_unoccluded_plane_is_exactly_lit() {
     let engine = common::engine();
-    let prepared = engine
-        .prepare(&lone_plane(Vec3::new(0.0, 10.0, 0.0)))
-        .expect("prepare");
-    let cases: [(&str, &[(&str, &str)]); 4] = [
+    let cases: [(&str, &[(&str, &str)]); 6] = [
         ("hard", &[]),
         ("pcf", &[("kernel", "7")]),
+        ("pcf", &[("kernel", "15")]),
         ("pcf-poisson", &[("taps", "32"), ("radius", "4")]),
         ("pcf-coverage", &[("kernel", "6.3")]),
+        ("pcf-coverage", &[("kernel", "14.3")]),
     ];
-    for (technique, set) in cases {
-        for rpb in ["0", "1"] {
-            if technique == "hard" && rpb == "1" {
-                continue;
-            }
-            // The technique itself on a lone plane (the engine would prove that nothing casts
-            // and skip it).
-            let mut set = set.to_vec();
-            set.push(("caster_skip", "0"));
-            if technique != "hard" {
-                set.push(("receiver_plane_bias", rpb));
-            }
-            let frame = render(&engine, &prepared, technique, &set);
-            assert_plane_in_view(&frame, technique);
-            let c = &frame.stats.counters;
-            assert_eq!(c["lit"], c["view_samples"], "{technique} rpb={rpb}: {c:?}");
-            assert!(
-                frame.visibility.iter().all(|&v| v == 1.0),
-                "{technique} rpb={rpb}"
-            );
+    // High, the light's frustum holds the whole view; low (1 above the 12 x 12 plane), its
+    // field of view is capped and the view runs past the map's edge, so the kernels of the
+    // samples near it read texels off the map, which must read as lit.
+    for (height, view_past_the_map) in [(10.0, false), (1.0, true)] {
+        let prepared = engine
+            .prepare(&lone_plane(Vec3::new(0.0, height, 0.0)))
+            .expect("prepare");
+        if view_past_the_map {
+            let positions = prepared
+                .view
+                .read_positions(engine.context())
+                .expect("positions");
+            let reaching = samples_reaching_off_map(&positions, prepared.light_view.view_proj, 6.3);
+            assert!(reaching > 0, "no kernel reaches off the map");
         }
+        for (technique, set) in cases {
+            for rpb in ["0", "1"] {
+                if technique == "hard" && rpb == "1" {
+                    continue;
+                }
+                // The technique itself on a lone plane (the engine would prove that nothing
+                // casts and skip it).
+                let mut set = set.to_vec();
+                set.push(("caster_skip", "0"));
+                if technique != "hard" {
+                    set.push(("receiver_plane_bias", rpb));
+                }
+                let frame = render(&engine, &prepared, technique, &set);
+                let c = &frame.stats.counters;
+                if view_past_the_map {
+                    assert!(c["outside_light"] > 0, "{technique}: {c:?}");
+                } else {
+                    assert_plane_in_view(&frame, technique);
+                }
+                assert_eq!(c["lit"], c["view_samples"], "{technique} rpb={rpb}: {c:?}");
+                assert!(
+                    frame.visibility.iter().all(|&v| v == 1.0),
+                    "{technique} rpb={rpb} (light at {height})"
+                );
+            }
+        }
+        drop(prepared);
     }
-    drop(prepared);
     common::assert_clean(&engine.context().validation());
 }
 

@@ -122,11 +122,8 @@ void main() {
             // region reads 2.0, which hides nothing.
             vec2 inv_size = 1.0 / vec2(map_size);
             for (int j = region.y; j <= region.w; j += 2) {
-                bool row2 = j < region.w;
                 for (int i = region.x; i <= region.z; i += 2) {
-                    bool col2 = i < region.z;
-                    bvec4 inside = bvec4(true, col2, row2, col2 && row2);
-                    vec4 d = mix(vec4(2.0), gather_depths(front_map, vec2(i, j), inv_size), inside);
+                    vec4 d = gather_region_depths(front_map, ivec2(i, j), region.zw, inv_size, 2.0);
                     vec4 h = vec4(hidden(view, ivec2(i, j), d.x, c, g, up, dp),
                                   hidden(view, ivec2(i + 1, j), d.y, c, g, up, dp),
                                   hidden(view, ivec2(i, j + 1), d.z, c, g, up, dp),
@@ -135,9 +132,10 @@ void main() {
                     patches += (hit.x + hit.y) + (hit.z + hit.w);
                     front += (h.x + h.y) + (h.z + h.w);
 #if SIDES == 2
-                    // An empty back texel (0) reads as the far plane.
-                    vec4 b = gather_depths(back_map, vec2(i, j), inv_size);
-                    b = mix(vec4(2.0), mix(vec4(1.0), b, greaterThan(b, vec4(0.0))), inside);
+                    // An empty back texel (0) reads as the far plane (2.0 past the region
+                    // stays 2.0).
+                    vec4 b = gather_region_depths(back_map, ivec2(i, j), region.zw, inv_size, 2.0);
+                    b = mix(vec4(1.0), b, greaterThan(b, vec4(0.0)));
                     back += (hidden(view, ivec2(i, j), b.x, c, g, up, dp)
                              + hidden(view, ivec2(i + 1, j), b.y, c, g, up, dp))
                         + (hidden(view, ivec2(i, j + 1), b.z, c, g, up, dp)

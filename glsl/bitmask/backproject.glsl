@@ -271,11 +271,9 @@ void main() {
                     // past the region reads 2.0, which blocks nothing.
                     vec2 inv_size = 1.0 / vec2(map_size);
                     for (int j = region.y; j <= last_row; j += 2) {
-                        bool row2 = j < last_row;
                         for (int i = region.x; i <= region.z; i += 2) {
-                            bool col2 = i < region.z;
-                            vec4 d = gather_depths(shadow_map, vec2(i, j), inv_size);
-                            d = mix(vec4(2.0), d, bvec4(true, col2, row2, col2 && row2));
+                            vec4 d = gather_region_depths(shadow_map, ivec2(i, j),
+                                                          ivec2(region.z, last_row), inv_size, 2.0);
                             bm_texel(view, ivec2(i, j), d.x, c, g, dp, up, grp, m0, m1, hidden,
                                      patches);
                             bm_texel(view, ivec2(i + 1, j), d.y, c, g, dp, up, grp, m0, m1,

@@ -47,6 +47,15 @@ vec4 gather_depths(sampler2D map, vec2 texel, vec2 inv_size) {
     return textureGather(map, (texel + 1.0) * inv_size).wzxy;
 }
 
+// gather_depths for the 2x2 block at `texel` of a walk over a region that ends at texel `last`
+// (inclusive): a texel past the last column or row reads `outside` instead of the map.
+vec4 gather_region_depths(sampler2D map, ivec2 texel, ivec2 last, vec2 inv_size, float outside) {
+    bool col2 = texel.x < last.x;
+    bool row2 = texel.y < last.y;
+    return mix(vec4(outside), gather_depths(map, vec2(texel), inv_size),
+               bvec4(true, col2, row2, col2 && row2));
+}
+
 // 1 where the receiver at depth z is lit by texel `texel`.
 float depth_test(sampler2D map, ivec2 texel, ivec2 map_size, float z) {
     return z <= fetch_depth(map, texel, map_size) ? 1.0 : 0.0;

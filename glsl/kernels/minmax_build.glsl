@@ -6,6 +6,8 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 #ifdef MINMAX_FROM_SOURCE
+#include "shadow_map.glsl"
+
 layout(set = 0, binding = 0) uniform sampler2D source;
 layout(set = 0, binding = 1, r32f) uniform writeonly image2D dst_min;
 layout(set = 0, binding = 2, r32f) uniform writeonly image2D dst_max;
@@ -35,16 +37,12 @@ void main() {
     bool right = c.x + 1 < pc.src_size.x;
     bool below = c.y + 1 < pc.src_size.y;
 #ifdef MINMAX_FROM_SOURCE
-    // The four children from one gather at their shared corner (on lavapipe a texelFetch is a
-    // call; see gather_depths in shadow_map.glsl), its x y z w being children (0, 1) (1, 1)
-    // (1, 0) (0, 0); a child past the edge takes child (0, 0)'s value, which moves neither the
-    // min nor the max.
-    vec4 g = textureGather(source, vec2(c + 1) / vec2(pc.src_size));
-    float d00 = g.w;
-    float d10 = right ? g.z : d00;
-    float d01 = below ? g.x : d00;
-    float d11 = right && below ? g.y : d00;
-    vec2 m = vec2(min(min(d00, d10), min(d01, d11)), max(max(d00, d10), max(d01, d11)));
+    // The four children from one gather (gather_depths: on lavapipe a texelFetch is a call); a
+    // child past the edge takes child (0, 0)'s value, which moves neither the min nor the max
+    // (the sampler's border, 1.0, would move the max).
+    vec4 d = gather_depths(source, vec2(c), 1.0 / vec2(pc.src_size));
+    d.yzw = mix(d.xxx, d.yzw, bvec3(right, below, right && below));
+    vec2 m = vec2(min(min(d.x, d.y), min(d.z, d.w)), max(max(d.x, d.y), max(d.z, d.w)));
 #else
     vec2 m = fetch(c);
     if (right) {

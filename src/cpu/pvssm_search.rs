@@ -230,7 +230,7 @@ pub fn blocker_distance(
     }
     let cells = params.cells as f32;
     let first_cells = if params.refinements > 0 {
-        (0.5 * cells).max(2.0)
+        (0.25 * cells).max(2.0)
     } else {
         cells
     };

@@ -190,10 +190,13 @@ impl ConservativeRaster {
             ));
         }
         check_buffer(NAME, indices, 12 * triangles as u64)?;
-        let depth = Buffer::storage(
+        // Also a texel buffer: a reader whose loads sit in loops takes them through a texel view
+        // (pvssm's blocker search; `src/techniques/pvssm.rs` says why).
+        let depth = Buffer::storage_with(
             &self.ctx,
             "conservative depth",
             4 * (map_size as u64 * map_size as u64 + spare_texels),
+            vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
         )?;
         if triangles > 0 {
             check_buffer(NAME, vertices, 12)?;

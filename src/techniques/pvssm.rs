@@ -39,7 +39,7 @@
 //! Knobs: `lowres_size`, `virtual_size`, `page_size`, `pool_pages`, `rho` (`dynamic` | `static`),
 //! `rho_scale` (the quality/speed dial: texels across a kernel ×), `antialias`, `max_search`,
 //! `search_cells` (the search's cost bound: cells per side of the min-pyramid level it reads; with
-//! `refine_search` the first search, which only sizes the refined one, reads half as many),
+//! `refine_search` the first search, which only sizes the refined one, reads a quarter as many),
 //! `refine_search`, `blocker_depth` (`average` | `silhouette`), `ancestors` (render each requested
 //! page's coarser ancestors too, so a pool overflow falls back one level at a time: 1 always, 2 —
 //! the default — only when the requests overflow the pool (without an overflow no lookup falls
@@ -56,7 +56,9 @@ use glam::IVec2;
 use super::soft_light::soft_light;
 use super::{virtual_map, Knob, Params, Technique, TechniqueInfo, TechniqueSetup};
 use crate::error::{Error, Result};
-use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
+use crate::gpu::{
+    Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder, TexelView,
+};
 use crate::kernels::raster::{ConservativeRaster, RasterBinding};
 use crate::passes::pages::VirtualPages;
 use crate::passes::LightProjection;
@@ -125,7 +127,7 @@ const KNOBS: [Knob; 22] = [
     Knob::int(
         "search_cells",
         "blocker-search cells per side: the min-pyramid level is chosen to span at most this \
-         (half as many for a first search that a refined one follows)",
+         (a quarter as many for a first search that a refined one follows)",
         32.0,
         2.0,
         64.0,
@@ -207,6 +209,8 @@ pub struct Pvssm<'a> {
     /// The virtual map's page machinery (public for tests).
     pub pages: VirtualPages<'a>,
     raster: ConservativeRaster,
+    // The shape pass's view of `lowres` (before it: dropped first).
+    _lowres_texels: TexelView,
     /// The conservative low-resolution map and, after it in the same buffer, its min pyramid
     /// level after level: float bits of each texel's minimum depth.
     pub lowres: RasterBinding<'a>,
@@ -288,10 +292,15 @@ impl<'a> Pvssm<'a> {
             &setup.geometry.indices,
             triangles,
             lowres_size,
-            u64::from(offset + 1 - lowres_size * lowres_size),
+            // Whole quads: the shape pass reads four texels a fetch (shape.comp).
+            u64::from(offset + 1).next_multiple_of(4) - u64::from(lowres_size * lowres_size),
         )?;
         let mip_pipeline = Pipeline::compute(ctx, "pvssm/lowres_mip.comp")?;
         let mip_set = DescriptorSet::new(ctx, &mip_pipeline, &[Binding::Buffer(lowres.depth())])?;
+        // The searches read the pyramid four texels a fetch (shape.comp says why).
+        let lowres_texels = lowres
+            .depth()
+            .texel_view(ash::vk::Format::R32G32B32A32_UINT, 16)?;
         let camera_buffer =
             virtual_map::view_camera(ctx, "pvssm camera", setup, params.u32("tangent_plane")?)?;
         let samples = setup.view;
@@ -316,7 +325,7 @@ impl<'a> Pvssm<'a> {
                 Binding::Image(setup.receivers),
                 Binding::Buffer(&camera_buffer),
                 Binding::Buffer(&pages.table),
-                Binding::Buffer(lowres.depth()),
+                Binding::Texels(&lowres_texels),
                 Binding::Image(&shape),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&counters),
@@ -384,6 +393,7 @@ impl<'a> Pvssm<'a> {
             raster,
             lowres,
             mip: (mip_pipeline, mip_set),
+            _lowres_texels: lowres_texels,
             mip_levels,
             shape,
             shape_pass: (shape_pipeline, shape_set),

@@ -69,6 +69,9 @@ pub struct PreparedScene {
     samples_read: [std::sync::OnceLock<Vec<Vec4>>; 2],
     /// The caster test, run once (penumbra's own samples only).
     caster_test: std::sync::OnceLock<CasterTest>,
+    /// The triangles that may cast into the view, uploaded once (penumbra's own samples only;
+    /// `None` when every triangle may, or none).
+    casters: std::sync::OnceLock<Option<SceneGeometry>>,
 }
 
 impl PreparedScene {
@@ -119,6 +122,38 @@ impl PreparedScene {
         let eps = crate::passes::caster_cull::tolerance(&self.positions);
         let test = CasterCull::new(ctx, &self.view, &self.geometry, &self.light, eps)?.run()?;
         Ok(Some(*self.caster_test.get_or_init(|| test)))
+    }
+
+    /// The scene's triangles that may shadow some view sample, as a geometry of their own: the
+    /// per-triangle form of [`PreparedScene::caster_test`] (a triangle proved to shadow no view
+    /// sample — a ground plane under everything it could darken — is left out), run and uploaded
+    /// the first time it is asked. `None` for the caller's view samples (they change from frame
+    /// to frame, so the proof would not hold), and where it would leave out nothing (or
+    /// everything: then nothing casts, which [`PreparedScene::nothing_casts`] answers).
+    /// Techniques that rasterize casters into maps of their own take it (knob `caster_skip`).
+    pub fn caster_geometry(&self, ctx: &Context) -> Result<Option<&SceneGeometry>> {
+        if self.view.is_external() {
+            return Ok(None);
+        }
+        if let Some(g) = self.casters.get() {
+            return Ok(g.as_ref());
+        }
+        let eps = crate::passes::caster_cull::tolerance(&self.positions);
+        let (_, flags) = CasterCull::new(ctx, &self.view, &self.geometry, &self.light, eps)?
+            .run_per_triangle()?;
+        let kept: Vec<u32> = self
+            .indices
+            .chunks_exact(3)
+            .zip(&flags)
+            .filter(|(_, &may)| may)
+            .flat_map(|(t, _)| t.iter().copied())
+            .collect();
+        let geometry = if kept.is_empty() || kept.len() == self.indices.len() {
+            None
+        } else {
+            Some(SceneGeometry::from_triangles(ctx, &self.positions, &kept)?)
+        };
+        Ok(self.casters.get_or_init(|| geometry).as_ref())
     }
 
     /// How many receiver sets (light clipping, normal offset) its renderers have built: one per
@@ -301,6 +336,7 @@ impl Engine {
             receivers: ReceiverCache::default(),
             samples_read: Default::default(),
             caster_test: Default::default(),
+            casters: Default::default(),
         })
     }
 

@@ -168,9 +168,20 @@ impl<'a> ShadowRenderer<'a> {
             }
             _ => None,
         };
+        // The casters alone, for the techniques that take them: proved once per prepared scene.
+        let casters = if info.uses_casters
+            && info.has_caster_skip()
+            && params.u32("caster_skip")? == 1
+            && !caster_skip
+        {
+            prepared.caster_geometry(ctx)?.unwrap_or(&prepared.geometry)
+        } else {
+            &prepared.geometry
+        };
         let setup = TechniqueSetup {
             ctx,
             geometry: &prepared.geometry,
+            casters,
             positions: &prepared.positions,
             indices: &prepared.indices,
             view: &prepared.view,

@@ -322,4 +322,12 @@ pub struct CasterTestPush {
     pub eps: f32,
     /// 0 point, 1 rect, 2 directional.
     pub kind: i32,
+    /// 0: stop at the first triangle that may cast; 1: a flag for every triangle.
+    pub per_triangle: u32,
+    /// Padding to 16 bytes.
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+    /// Padding.
+    pub pad2: u32,
 }

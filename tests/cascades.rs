@@ -237,6 +237,7 @@ fn setup<'a>(
     TechniqueSetup {
         ctx: engine.context(),
         geometry: &prepared.geometry,
+        casters: &prepared.geometry,
         positions: &prepared.positions,
         indices: &prepared.indices,
         view: &prepared.view,

@@ -92,6 +92,9 @@ fn compute_pages_match_their_twin() {
             ("page_raster", "compute"),
             // Every triangle in compute: the twin does not model the rasterizer.
             ("raster_split", "1048576"),
+            // Every triangle binned, so that the bins index the scene's own triangle list (with
+            // the caster list they index the casters').
+            ("caster_skip", "0"),
         ],
     );
     assert!(gpu.bins.len() > 1000, "{} bins", gpu.bins.len());

@@ -307,7 +307,11 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 triangles,
                 tile_count,
                 eps,
-                kind
+                kind,
+                per_triangle,
+                pad0,
+                pad1,
+                pad2
             }),
         ),
         (

@@ -22,7 +22,10 @@
 // Each invocation takes triangles in a grid-stride loop and stops at the first tile one may cast
 // onto; once a triangle is found (`may_cast`), every invocation stops at its next triangle: the
 // question is whether any triangle casts, not how many. `tested` counts the triangles looked at.
-// CPU twin: src/cpu/caster_cull.rs (`nothing_casts`).
+// With `per_triangle` set it answers for every triangle instead: flags[t] = 1 when triangle t may
+// cast onto some tile, 0 when it provably shadows no view sample (the engine's caster list:
+// techniques that rasterize casters leave those out — a ground plane under its scene).
+// CPU twin: src/cpu/caster_cull.rs (`may_cast`, `casters`).
 
 layout(local_size_x = 64) in;
 
@@ -31,6 +34,8 @@ layout(set = 0, binding = 1) readonly buffer Indices { uint indices[]; };
 layout(set = 0, binding = 2) readonly buffer Tiles { vec4 tiles[]; };
 // may_cast: triangles found that may cast (stops at the first few); tested: triangles tested
 layout(set = 0, binding = 3) coherent buffer Result { uint may_cast; uint tested; };
+// per_triangle: 1 where the triangle may cast, 0 where it provably casts nothing into the view.
+layout(set = 0, binding = 4) writeonly buffer Flags { uint flags[]; };
 
 layout(push_constant) uniform Push {
     vec4 light_position;  // point/rect: position; directional: unit direction towards the light
@@ -40,6 +45,10 @@ layout(push_constant) uniform Push {
     uint tile_count;
     float eps;
     int kind;             // 0 point, 1 rect, 2 directional
+    uint per_triangle;    // 0: stop at the first caster; 1: a flag for every triangle
+    uint pad0;
+    uint pad1;
+    uint pad2;
 } pc;
 
 vec3 vertex(uint i) {
@@ -178,46 +187,60 @@ bool outside_shadow_volume(uint t, vec3 a, vec3 b, vec3 c) {
         || apart(t, cross(c - b, spine), a, b, c) || apart(t, cross(a - c, spine), a, b, c);
 }
 
+// Whether triangle `tri` may cast onto some tile (false proves it shadows no view sample).
+bool triangle_may_cast(uint tri) {
+    vec3 a = vertex(3u * tri);
+    vec3 b = vertex(3u * tri + 1u);
+    vec3 c = vertex(3u * tri + 2u);
+    vec3 n = cross(b - a, c - a);
+    float len = length(n);
+    if (!(len > 0.0) || isinf(len)) {
+        return false;
+    }
+    n /= len;
+    float d = dot(n, a);
+    vec2 j = light_interval(n, d);
+    float jeps = pc.kind == 2 ? 0.0 : pc.eps;
+    bool light_above = j.y > jeps;
+    bool light_below = j.x < -jeps;
+    if (!light_above && !light_below) {
+        return false;
+    }
+    for (uint t = 0; t < pc.tile_count; ++t) {
+        if (tiles[3u * t + 2u].w <= 0.0) {
+            continue;
+        }
+        vec2 i = tile_interval(t, n, d);
+        if (!((i.x < -pc.eps && light_above) || (i.y > pc.eps && light_below))) {
+            continue;
+        }
+        if (outside_shadow_volume(t, a, b, c)) {
+            continue;
+        }
+        return true;
+    }
+    return false;
+}
+
 void main() {
     light_corners();
     uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
     uint count = 0u;
     bool found = false;
-    for (uint tri = gl_GlobalInvocationID.x; tri < pc.triangles && !found; tri += stride) {
-        if (may_cast != 0u) {
-            break;
+    if (pc.per_triangle != 0u) {
+        for (uint tri = gl_GlobalInvocationID.x; tri < pc.triangles; tri += stride) {
+            count += 1u;
+            bool may = triangle_may_cast(tri);
+            flags[tri] = may ? 1u : 0u;
+            found = found || may;
         }
-        count += 1u;
-        vec3 a = vertex(3u * tri);
-        vec3 b = vertex(3u * tri + 1u);
-        vec3 c = vertex(3u * tri + 2u);
-        vec3 n = cross(b - a, c - a);
-        float len = length(n);
-        if (!(len > 0.0) || isinf(len)) {
-            continue;
-        }
-        n /= len;
-        float d = dot(n, a);
-        vec2 j = light_interval(n, d);
-        float jeps = pc.kind == 2 ? 0.0 : pc.eps;
-        bool light_above = j.y > jeps;
-        bool light_below = j.x < -jeps;
-        if (!light_above && !light_below) {
-            continue;
-        }
-        for (uint t = 0; t < pc.tile_count; ++t) {
-            if (tiles[3u * t + 2u].w <= 0.0) {
-                continue;
+    } else {
+        for (uint tri = gl_GlobalInvocationID.x; tri < pc.triangles && !found; tri += stride) {
+            if (may_cast != 0u) {
+                break;
             }
-            vec2 i = tile_interval(t, n, d);
-            if (!((i.x < -pc.eps && light_above) || (i.y > pc.eps && light_below))) {
-                continue;
-            }
-            if (outside_shadow_volume(t, a, b, c)) {
-                continue;
-            }
-            found = true;
-            break;
+            count += 1u;
+            found = triangle_may_cast(tri);
         }
     }
     if (count > 0u) {

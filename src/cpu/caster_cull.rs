@@ -248,26 +248,52 @@ pub fn may_cast(
     light: &Light,
     eps: f32,
 ) -> bool {
-    let eps = f64::from(eps);
     let corners = light_corners(light);
-    indices.chunks_exact(3).any(|t| {
-        let [a, b, c] = [0, 1, 2].map(|k| positions[t[k] as usize].as_dvec3());
-        let n = (b - a).cross(c - a);
-        let len = n.length();
-        // Zero area (or NaN) casts nothing, as in the shader.
-        if len.is_nan() || len <= 0.0 || !len.is_finite() {
-            return false;
-        }
-        let n = n.normalize();
-        let d = n.dot(a);
-        let (above, below) = light_side(light, &corners, n, d, eps);
-        if !above && !below {
-            return false;
-        }
-        tiles.iter().filter(|t| t.samples > 0).any(|t| {
-            let (imin, imax) = tile_interval(t, n, d);
-            let beyond = (imin < -eps && above) || (imax > eps && below);
-            beyond && !outside_shadow_volume(t, [a, b, c], light, &corners, eps)
-        })
+    indices
+        .chunks_exact(3)
+        .any(|t| triangle_may_cast(tiles, positions, t, light, &corners, f64::from(eps)))
+}
+
+/// The same decision for every triangle (`test.comp` with `per_triangle`): `true` where the
+/// triangle may cast onto some tile, `false` where it provably shadows no sample.
+pub fn casters(
+    tiles: &[TileBounds],
+    positions: &[Vec3],
+    indices: &[u32],
+    light: &Light,
+    eps: f32,
+) -> Vec<bool> {
+    let corners = light_corners(light);
+    indices
+        .chunks_exact(3)
+        .map(|t| triangle_may_cast(tiles, positions, t, light, &corners, f64::from(eps)))
+        .collect()
+}
+
+fn triangle_may_cast(
+    tiles: &[TileBounds],
+    positions: &[Vec3],
+    t: &[u32],
+    light: &Light,
+    corners: &[(DVec3, f64)],
+    eps: f64,
+) -> bool {
+    let [a, b, c] = [0, 1, 2].map(|k| positions[t[k] as usize].as_dvec3());
+    let n = (b - a).cross(c - a);
+    let len = n.length();
+    // Zero area (or NaN) casts nothing, as in the shader.
+    if len.is_nan() || len <= 0.0 || !len.is_finite() {
+        return false;
+    }
+    let n = n.normalize();
+    let d = n.dot(a);
+    let (above, below) = light_side(light, corners, n, d, eps);
+    if !above && !below {
+        return false;
+    }
+    tiles.iter().filter(|t| t.samples > 0).any(|t| {
+        let (imin, imax) = tile_interval(t, n, d);
+        let beyond = (imin < -eps && above) || (imax > eps && below);
+        beyond && !outside_shadow_volume(t, [a, b, c], light, corners, eps)
     })
 }

@@ -60,6 +60,10 @@ pub struct SearchParams {
     pub refinements: u32,
     /// The coarse look first (`skip = coarse`).
     pub coarse_skip: bool,
+    /// Whether the pyramid holds every caster, so that no blocker found proves the sample lit
+    /// (false when a caster crosses the light's plane: then such a sample gets z_avg at its own
+    /// distance, a kernel of its pixel alone, and no coarse skip).
+    pub lit_proof: bool,
     /// Average the silhouette's cells in the refined searches (`blocker_depth = silhouette`).
     pub silhouette: bool,
 }
@@ -235,7 +239,7 @@ pub fn blocker_distance(
         cells
     };
     let bias = params.search_bias;
-    if params.coarse_skip {
+    if params.coarse_skip && params.lit_proof {
         // A coarse cell's minimum is no larger than any of its children's: nothing here means
         // nothing finer either.
         let r = region(pyramid, centre, half, COARSE_CELLS);
@@ -246,12 +250,12 @@ pub fn blocker_distance(
         }
     }
     let first = region_search(pyramid, centre, half, first_cells, z, bias, None, distance);
-    if first.y == 0.0 {
+    if first.y == 0.0 && params.lit_proof {
         return None;
     }
-    let mut d_avg = first.x / first.y;
-    let mut w = footprint(d_avg);
     let dr = distance(z);
+    let mut d_avg = if first.y > 0.0 { first.x / first.y } else { dr };
+    let mut w = footprint(d_avg);
     for _ in 0..params.refinements {
         let half2 = ((0.5 * w + pixel) / params.lowres_texel).min(half);
         let far_enough = params
@@ -282,6 +286,7 @@ mod tests {
             cells: 32,
             refinements: 1,
             coarse_skip: true,
+            lit_proof: true,
             silhouette,
         }
     }
@@ -317,6 +322,24 @@ mod tests {
             )
         };
         assert_eq!(run(&p, true), None);
+        // A map that may miss a caster proves nothing: z_avg at the receiver's own distance
+        // (1.8 for depth 0.8), the kernel its footprint there.
+        let unproved = SearchParams {
+            lit_proof: false,
+            ..params(true)
+        };
+        let d = blocker_distance(
+            &p,
+            &unproved,
+            Vec2::splat(32.0),
+            0.8,
+            Vec2::splat(16.0),
+            Vec2::ZERO,
+            Vec2::ZERO,
+            &footprint,
+            &linear,
+        );
+        assert_eq!(d, Some((1.8, Vec2::splat(4.0))));
         // A blocker plane at depth 0.3 over the left half: every search gives its distance.
         let half = pyramid(64, |i, _| if i < 32 { 0.3 } else { 1.0 });
         let p = MinPyramid {

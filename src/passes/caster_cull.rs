@@ -24,6 +24,11 @@
 //!    that may cast: the question is "any", and in a scene that casts it is answered after a
 //!    few triangles.
 //!
+//! The same test answers per triangle ([`CasterCull::run_per_triangle`], the shader's
+//! `per_triangle` mode: no early stop, a flag each): a triangle flagged 0 shadows no view sample,
+//! so a technique that rasterizes casters into maps of its own may leave it out — the prepared
+//! scene's caster list ([`crate::PreparedScene::caster_geometry`], taken by `pvssm`).
+//!
 //! "None may cast" is a proof; "some may" proves nothing: the tests see each tile's bounds, not
 //! its samples, so a shadow volume that meets a tile's box and slab without reaching any of its
 //! samples still counts. The test runs
@@ -86,6 +91,10 @@ pub fn test_push(light: &Light, triangles: u32, tile_count: u32, eps: f32) -> Ca
         tile_count,
         eps,
         kind,
+        per_triangle: 0,
+        pad0: 0,
+        pad1: 0,
+        pad2: 0,
     }
 }
 
@@ -106,6 +115,7 @@ pub struct CasterCull {
     test_push: CasterTestPush,
     tiles: Buffer,
     result: Buffer,
+    flags: Buffer,
 }
 
 impl CasterCull {
@@ -125,6 +135,11 @@ impl CasterCull {
         let count = across * down;
         let tiles = Buffer::storage(ctx, "caster tiles", 48 * u64::from(count.max(1)))?;
         let result = Buffer::storage(ctx, "caster test", 8)?;
+        let flags = Buffer::storage(
+            ctx,
+            "caster flags",
+            4 * u64::from((geometry.index_count / 3).max(1)),
+        )?;
         let tiles_set = DescriptorSet::new(
             ctx,
             &tiles_pipeline,
@@ -142,6 +157,7 @@ impl CasterCull {
                 Binding::Buffer(&geometry.indices),
                 Binding::Buffer(&tiles),
                 Binding::Buffer(&result),
+                Binding::Buffer(&flags),
             ],
         )?;
         Ok(CasterCull {
@@ -157,6 +173,7 @@ impl CasterCull {
             test_push: test_push(light, geometry.index_count / 3, count, eps),
             tiles,
             result,
+            flags,
         })
     }
 
@@ -173,6 +190,22 @@ impl CasterCull {
             tested: r.get(1).copied().unwrap_or(0),
             gpu_ms: timestamps.results()?.first().and_then(|t| t.gpu_ms),
         })
+    }
+
+    /// Answers for every triangle instead of stopping at the first: `true` where the triangle
+    /// may cast onto some view sample, `false` where it provably casts nothing into the view
+    /// (one submission, the flags read back). The answer holds for these view samples only.
+    pub fn run_per_triangle(&mut self) -> Result<(CasterTest, Vec<bool>)> {
+        self.test_push.per_triangle = 1;
+        let test = self.run();
+        self.test_push.per_triangle = 0;
+        let test = test?;
+        let flags = u32s(&self.ctx.read_buffer(&self.flags)?);
+        let triangles = self.test_push.triangles as usize;
+        Ok((
+            test,
+            flags.iter().take(triangles).map(|&f| f != 0).collect(),
+        ))
     }
 
     /// Records both steps (the result buffer must have been cleared).

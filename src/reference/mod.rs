@@ -124,6 +124,7 @@ pub const REFERENCE: TechniqueInfo = TechniqueInfo {
     shadow_map: false,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| {
         let settings = Settings::from_params(params, false)?;
         Ok(Box::new(Reference::new(setup, &settings, "reference")?))
@@ -140,6 +141,7 @@ pub const REFERENCE_SINGLE_LAYER: TechniqueInfo = TechniqueInfo {
     shadow_map: false,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| {
         let settings = Settings::from_params(params, true)?;
         Ok(Box::new(Reference::new(

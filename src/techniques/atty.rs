@@ -138,6 +138,7 @@ pub const ATTY: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(Atty::new(setup, params)?)),
 };
 

@@ -181,6 +181,7 @@ pub const BITMASK: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: true,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(Bitmask::new(setup, params)?)),
 };
 

@@ -120,6 +120,7 @@ pub const CASCADES: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(Cascades::new(setup, params)?)),
 };
 

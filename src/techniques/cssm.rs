@@ -126,6 +126,7 @@ pub const CSSM: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(Cssm::new(setup, params)?)),
 };
 

@@ -78,6 +78,7 @@ pub const ESSM: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(Essm::new(setup, params)?)),
 };
 

@@ -291,6 +291,7 @@ pub const IZB: TechniqueInfo = TechniqueInfo {
     shadow_map: false,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(Izb::new(setup, params, false)?)),
 };
 
@@ -304,6 +305,7 @@ pub const IZB_SOFT: TechniqueInfo = TechniqueInfo {
     shadow_map: false,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(Izb::new(setup, params, true)?)),
 };
 

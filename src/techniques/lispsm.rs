@@ -109,6 +109,7 @@ pub const LISPSM: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(Lispsm::new(setup, params)?)),
 };
 

@@ -45,6 +45,10 @@ pub struct TechniqueSetup<'a> {
     pub ctx: &'a Context,
     /// The scene's triangles on the GPU.
     pub geometry: &'a SceneGeometry,
+    /// The triangles that may shadow some view sample ([`crate::PreparedScene::caster_geometry`]),
+    /// or `geometry` itself where none was proved not to (or `caster_skip` is 0): what a technique
+    /// that rasterizes casters into maps of its own may draw instead of `geometry`.
+    pub casters: &'a SceneGeometry,
     /// The same triangles on the CPU (world space): what CPU-side builds (a BVH) start from.
     pub positions: &'a [Vec3],
     /// Triangle-list indices into `positions`.
@@ -198,6 +202,9 @@ pub struct TechniqueInfo {
     /// `light_clip` on (`average-maps`, `bitmask`): the engine then does not scale its result by
     /// the clipped fraction (it still writes horizon umbra).
     pub clips_light: bool,
+    /// Whether it draws [`TechniqueSetup::casters`] rather than every triangle (`pvssm`): the
+    /// renderer then has the prepared scene prove which triangles cast (once per scene).
+    pub uses_casters: bool,
     /// Builds an instance.
     pub create: for<'a> fn(&TechniqueSetup<'a>, &Params) -> Result<Box<dyn Technique + 'a>>,
 }

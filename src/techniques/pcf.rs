@@ -65,6 +65,7 @@ pub const HARD: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| {
         Ok(Box::new(pcf_pass(
             setup,
@@ -96,6 +97,7 @@ pub const PCF: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| {
         let kernel = params.u32("kernel")? as i32;
         let receiver_plane = params.u32("receiver_plane_bias")? as i32;

@@ -46,6 +46,7 @@ pub const PCF_COVERAGE: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(pcf_coverage(setup, params)?)),
 };
 

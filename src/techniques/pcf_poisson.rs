@@ -61,6 +61,7 @@ pub const PCF_POISSON: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(pcf_poisson(setup, params)?)),
 };
 

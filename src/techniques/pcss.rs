@@ -171,6 +171,7 @@ pub const PCSS: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(Pcss::new(setup, params)?)),
 };
 

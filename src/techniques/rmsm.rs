@@ -108,6 +108,7 @@ pub const RMSM: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(Rmsm::new(setup, params)?)),
 };
 

@@ -91,6 +91,7 @@ pub const SAVSM: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(Savsm::new(setup, params)?)),
 };
 

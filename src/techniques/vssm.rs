@@ -95,6 +95,7 @@ pub const VSSM: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| Ok(Box::new(Vssm::new(setup, params)?)),
 };
 

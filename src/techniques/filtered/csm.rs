@@ -113,6 +113,7 @@ pub const CSM: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| create(setup, params, "csm", config(params)?),
 };
 

@@ -55,6 +55,7 @@ pub const ESM: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| create(setup, params, "esm", config(params)?),
 };
 

@@ -94,6 +94,7 @@ pub const EVSM: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| create(setup, params, "evsm", config(params)?),
 };
 

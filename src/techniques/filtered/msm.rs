@@ -70,6 +70,7 @@ pub const MSM: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| create(setup, params, "msm", config(params)?),
 };
 

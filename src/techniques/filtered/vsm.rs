@@ -64,6 +64,7 @@ pub const VSM: TechniqueInfo = TechniqueInfo {
     shadow_map: true,
     per_light_sample: false,
     clips_light: false,
+    uses_casters: false,
     create: |setup, params| create(setup, params, "vsm", config(params)?),
 };
 

@@ -308,10 +308,10 @@ mod tests {
             size: 64,
         };
         let footprint = |_: f32| Vec2::splat(4.0);
-        let run = |p: &MinPyramid, silhouette| {
+        let run_with = |p: &MinPyramid, params: &SearchParams| {
             blocker_distance(
                 p,
-                &params(silhouette),
+                params,
                 Vec2::splat(32.0),
                 0.8,
                 Vec2::splat(16.0),
@@ -321,6 +321,7 @@ mod tests {
                 &linear,
             )
         };
+        let run = |p: &MinPyramid, silhouette| run_with(p, &params(silhouette));
         assert_eq!(run(&p, true), None);
         // A map that may miss a caster proves nothing: z_avg at the receiver's own distance
         // (1.8 for depth 0.8), the kernel its footprint there.
@@ -328,18 +329,7 @@ mod tests {
             lit_proof: false,
             ..params(true)
         };
-        let d = blocker_distance(
-            &p,
-            &unproved,
-            Vec2::splat(32.0),
-            0.8,
-            Vec2::splat(16.0),
-            Vec2::ZERO,
-            Vec2::ZERO,
-            &footprint,
-            &linear,
-        );
-        assert_eq!(d, Some((1.8, Vec2::splat(4.0))));
+        assert_eq!(run_with(&p, &unproved), Some((1.8, Vec2::splat(4.0))));
         // A blocker plane at depth 0.3 over the left half: every search gives its distance.
         let half = pyramid(64, |i, _| if i < 32 { 0.3 } else { 1.0 });
         let p = MinPyramid {

@@ -68,21 +68,9 @@ fn gpu_and_twin(scene: &Scene) -> bool {
     let engine = common::engine();
     let ctx = engine.context().clone();
     let prepared = engine.prepare(scene).expect("prepare");
-    let eps = tolerance(&prepared.positions);
-    let pass = CasterCull::new(
-        &ctx,
-        &prepared.view,
-        &prepared.geometry,
-        &prepared.light,
-        eps,
-    )
-    .expect("pass");
+    let (pass, eps, cpu) = common::caster_pass(&prepared, &ctx);
     let gpu = pass.run().expect("run");
     let tiles = pass.read_tiles().expect("tiles");
-    let positions = prepared.view.read_positions(&ctx).expect("positions");
-    let normals = prepared.view.read_normals(&ctx).expect("normals");
-    let (w, h) = (prepared.view.width as usize, prepared.view.height as usize);
-    let cpu = twin::tile_bounds(&positions, &normals, w, h);
     assert_eq!(tiles.len(), cpu.len(), "{}: tile count", scene.name);
     let scale = penumbra::reference::bvh::scene_scale(&prepared.positions);
     for (k, (g, c)) in tiles.iter().zip(&cpu).enumerate() {

@@ -7,22 +7,13 @@
 mod common;
 
 use penumbra::cpu::caster_cull as twin;
-use penumbra::passes::caster_cull::{tolerance, CasterCull};
 
 /// GPU flags and the twin's for `spec` at test size; returns the GPU's.
 fn flags_against_twin(spec: &str) -> Vec<bool> {
     let engine = common::engine();
     let ctx = engine.context().clone();
     let prepared = engine.prepare(&common::small(spec)).expect("prepare");
-    let eps = tolerance(&prepared.positions);
-    let mut pass = CasterCull::new(
-        &ctx,
-        &prepared.view,
-        &prepared.geometry,
-        &prepared.light,
-        eps,
-    )
-    .expect("pass");
+    let (mut pass, eps, tiles) = common::caster_pass(&prepared, &ctx);
     let (test, gpu) = pass.run_per_triangle().expect("run");
     assert_eq!(gpu.len(), prepared.triangles, "{spec}: a flag a triangle");
     assert_eq!(
@@ -30,10 +21,6 @@ fn flags_against_twin(spec: &str) -> Vec<bool> {
         "{spec}: all tested"
     );
     assert_eq!(test.may_cast, gpu.iter().any(|&f| f), "{spec}: any");
-    let positions = prepared.view.read_positions(&ctx).expect("positions");
-    let normals = prepared.view.read_normals(&ctx).expect("normals");
-    let (w, h) = (prepared.view.width as usize, prepared.view.height as usize);
-    let tiles = twin::tile_bounds(&positions, &normals, w, h);
     let cpu = twin::casters(
         &tiles,
         &prepared.positions,
@@ -41,12 +28,11 @@ fn flags_against_twin(spec: &str) -> Vec<bool> {
         &prepared.light,
         eps,
     );
-    // The GPU decides in f32, the twin in f64: a triangle whose decision rests within rounding
-    // of the tolerance may go either way. One in a thousand may, and never the ground plane
-    // (checked below) — a looser allowance would hide a wrong interval.
+    // The GPU decides in f32, the twin in f64, yet on these scenes no decision rests within
+    // rounding of the tolerance: every flag agrees (as `tests/caster_cull.rs`' "any" does).
     let differing: Vec<usize> = (0..gpu.len()).filter(|&t| gpu[t] != cpu[t]).collect();
     assert!(
-        differing.len() * 1000 <= gpu.len(),
+        differing.is_empty(),
         "{spec}: {} of {} triangles differ from the twin (first {:?})",
         differing.len(),
         gpu.len(),
@@ -86,17 +72,19 @@ fn the_ground_plane_under_the_teapot_casts_nothing() {
         .caster_geometry(&ctx)
         .expect("caster geometry")
         .expect("some triangles left out");
+    // The same proof on the same samples: exactly the flagged triangles are kept.
     let kept = casters.index_count as usize / 3;
-    assert!(
-        kept < prepared.triangles - 1 && kept >= teapot.saturating_sub(teapot / 1000 + 1),
-        "{kept} casters of {} triangles ({teapot} flagged)",
-        prepared.triangles
-    );
+    assert_eq!(kept, flags.iter().filter(|&&f| f).count());
+    assert!(kept < prepared.triangles, "nothing left out");
     common::assert_clean(&ctx.validation());
 }
 
-/// `pvssm` with the caster list (`caster_skip` = 1, the default) and with every triangle: the same
-/// shadows but where the ground plane's own texels decided a sample — none should.
+/// `pvssm` with the caster list (`caster_skip` = 1, the default) and with every triangle: the
+/// list is in effect (its counter), and the shadows are the same but for a few samples near the
+/// ground plane's contact with the teapot, where its texels in the conservative map had joined
+/// the blocker search (0.1 % of the view samples at most, each within 1e-4; measured: 1 of 8 018,
+/// by 1e-7 — the full-size bunny-rect, where the bunny's feet meet the plane, moves more: see
+/// `known_difference` in `tools/penumbra/skipping.rs`).
 #[test]
 fn pvssm_draws_the_casters_alone_for_the_same_shadows() {
     let engine = common::engine();
@@ -115,17 +103,17 @@ fn pvssm_draws_the_casters_alone_for_the_same_shadows() {
     };
     let casters = render("1");
     let every = render("0");
-    let samples = casters.visibility.len();
-    let worst = casters
-        .visibility
-        .iter()
-        .zip(&every.visibility)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0f32, f32::max);
-    let (differing, _) =
+    let counter = |f: &penumbra::Frame, name: &str| f.stats.counters.get(name).copied();
+    assert!(
+        counter(&casters, "non_casters") >= Some(2),
+        "the plane left out"
+    );
+    assert_eq!(counter(&every, "non_casters"), Some(0));
+    let samples = counter(&casters, "view_samples").expect("view_samples") as usize;
+    let (differing, worst) =
         penumbra::metrics::bitwise_difference(&casters.visibility, &every.visibility);
     assert!(
-        worst <= 1e-3 && differing * 1000 <= samples,
+        worst <= 1e-4 && differing * 1000 <= samples,
         "{differing} of {samples} differ, worst {worst}"
     );
     common::assert_clean(&engine.context().validation());

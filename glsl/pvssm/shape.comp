@@ -124,35 +124,9 @@ bool may_have_blocker(vec2 centre, vec2 half_low, float cells, Receiver rc, floa
     return found;
 }
 
-// The blocker search over the region: (sum of w * distance, sum of w) over the cells nearer
-// than the receiver plane's lowest depth over them.
-vec2 blocker_search(vec2 centre, vec2 half_low, float cells, Receiver rc, float lowres_texel) {
-    Region r = search_region(centre, half_low, cells, rc, lowres_texel);
-    vec2 sum = vec2(0.0);
-    for (int j = r.a.y; j <= r.b.y; ++j) {
-        float wy = min(float(j + 1), r.hi.y) - max(float(j), r.lo.y);
-        ivec3 qs = row_quads(r, j);
-        for (int q = qs.x, i0 = qs.z; q <= qs.y; ++q, i0 += 4) {
-            vec4 d = uintBitsToFloat(texelFetch(lowres, q));
-            for (int c = 0; c < 4; ++c) {
-                int i = i0 + c;
-                bool inside = i >= r.a.x && i <= r.b.x;
-                if (inside && d[c] < plane_depth(r, i, j, rc, lowres_texel) - r.plane_spread
-                                         - pc.search_bias) {
-                    float w = (min(float(i + 1), r.hi.x) - max(float(i), r.lo.x)) * wy;
-                    // A region thinner than a cell still weighs its one cell.
-                    w = max(w, 1e-6);
-                    sum += vec2(w * soft_light_distance(d[c], pc.near, pc.far, pc.perspective), w);
-                }
-            }
-        }
-    }
-    return sum;
-}
-
 // Row j's blocker cells from a.x on, one bit each (a region is at most 65 cells wide: the
 // `search_cells` knob stops at 64, and a region of n cells may straddle n + 1), with their
-// weighted distances added to `sum` in blocker_search's order.
+// weighted distances added to `sum` (row by row, blocker_search's sums).
 uvec3 row_blockers(Region r, int j, Receiver rc, float lowres_texel, inout vec2 sum) {
     uvec3 bits = uvec3(0u);
     float wy = min(float(j + 1), r.hi.y) - max(float(j), r.lo.y);
@@ -167,12 +141,25 @@ uvec3 row_blockers(Region r, int j, Receiver rc, float lowres_texel, inout vec2 
                 int k = i - r.a.x;
                 bits[k >> 5] |= 1u << uint(k & 31);
                 float w = (min(float(i + 1), r.hi.x) - max(float(i), r.lo.x)) * wy;
+                // A region thinner than a cell still weighs its one cell.
                 w = max(w, 1e-6);
                 sum += vec2(w * soft_light_distance(d[c], pc.near, pc.far, pc.perspective), w);
             }
         }
     }
     return bits;
+}
+
+// The blocker search over the region: (sum of w * distance, sum of w) over the cells nearer
+// than the receiver plane's lowest depth over them (row_blockers' sums, row after row; the
+// bits are not needed here).
+vec2 blocker_search(vec2 centre, vec2 half_low, float cells, Receiver rc, float lowres_texel) {
+    Region r = search_region(centre, half_low, cells, rc, lowres_texel);
+    vec2 sum = vec2(0.0);
+    for (int j = r.a.y; j <= r.b.y; ++j) {
+        row_blockers(r, j, rc, lowres_texel, sum);
+    }
+    return sum;
 }
 
 // A silhouette cell's blocker distance from its four children one level finer, where there is

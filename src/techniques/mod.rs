@@ -202,7 +202,8 @@ pub struct TechniqueInfo {
     /// `light_clip` on (`average-maps`, `bitmask`): the engine then does not scale its result by
     /// the clipped fraction (it still writes horizon umbra).
     pub clips_light: bool,
-    /// Whether it draws [`TechniqueSetup::casters`] rather than every triangle (`pvssm`): the
+    /// Whether it draws [`TechniqueSetup::casters`] rather than every triangle (`pvssm`,
+    /// `average-maps`): the
     /// renderer then has the prepared scene prove which triangles cast (once per scene).
     pub uses_casters: bool,
     /// Builds an instance.

@@ -367,3 +367,30 @@ pub fn read_named_buffer(
     let buffer = named(technique.buffers(), "buffer", name);
     Ok(penumbra::gpu::f32s(&ctx.read_buffer(buffer)?))
 }
+
+/// The caster test (`glsl/caster_cull/`) bound to `prepared`'s view samples and triangles at the
+/// reference's tolerance, with that tolerance and the CPU twin's tile bounds of the same samples
+/// (read back): what the caster tests compare.
+pub fn caster_pass(
+    prepared: &penumbra::engine::PreparedScene,
+    ctx: &Context,
+) -> (
+    penumbra::passes::caster_cull::CasterCull,
+    f32,
+    Vec<penumbra::cpu::caster_cull::TileBounds>,
+) {
+    let eps = penumbra::passes::caster_cull::tolerance(&prepared.positions);
+    let pass = penumbra::passes::caster_cull::CasterCull::new(
+        ctx,
+        &prepared.view,
+        &prepared.geometry,
+        &prepared.light,
+        eps,
+    )
+    .expect("caster pass");
+    let positions = prepared.view.read_positions(ctx).expect("positions");
+    let normals = prepared.view.read_normals(ctx).expect("normals");
+    let (w, h) = (prepared.view.width as usize, prepared.view.height as usize);
+    let tiles = penumbra::cpu::caster_cull::tile_bounds(&positions, &normals, w, h);
+    (pass, eps, tiles)
+}

@@ -36,6 +36,12 @@ vec3 level_position(vec4 v, float level_size) {
 // reaching behind a light inside the scene has corners at w <= 0, where no projection holds:
 // the bias and the coverage are those of what is left in front.
 int near_clip(vec4 v0, vec4 v1, vec4 v2, out vec4 poly[4]) {
+    poly = vec4[4](v0, v1, v2, vec4(0.0));
+    if (v0.z >= 0.0 && v1.z >= 0.0 && v2.z >= 0.0) {
+        // Nearly every triangle: nothing to cut, and no indexed writes (on lavapipe the loop's
+        // poly[n++] keeps the polygon in memory rather than in registers).
+        return 3;
+    }
     vec4 v[3] = vec4[3](v0, v1, v2);
     poly = vec4[4](vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
     int n = 0;

@@ -51,7 +51,7 @@ bool kernel_covered(ivec4 box, uint level) {
 void main() {
     invocation_counts_clear();
 
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 pixel = simd_block_pixel();
     if (all(lessThan(pixel, pc.view_size))) {
         vec4 k = imageLoad(shape, pixel);
         if (k.w != DECIDED) {

@@ -9,6 +9,18 @@
 #include "shadow_map.glsl"
 #include "soft_light.glsl"
 
+// The pixel of this invocation in an 8 x 8 workgroup, laid out so that each run of eight
+// invocations (a SIMD group of lavapipe's, subgroup size 8) covers a 4 x 2 block instead of a
+// row of 8: a block crosses fewer shadow boundaries, so fewer groups pay a penumbra lane's
+// search and filter for lanes that needed neither.
+ivec2 simd_block_pixel() {
+    uint l = gl_LocalInvocationIndex;
+    uint lane = l & 7u;
+    uint group = l >> 3u;
+    uvec2 local = uvec2((group & 1u) * 4u + (lane & 3u), (group >> 1u) * 2u + (lane >> 2u));
+    return ivec2(gl_WorkGroupID.xy * 8u + local);
+}
+
 layout(push_constant) uniform Push {
     mat4 light_view_proj;
     ivec2 view_size;
@@ -41,9 +53,6 @@ layout(push_constant) uniform Push {
 #define OPT_COARSE_SKIP 8u
 // blocker_depth = silhouette: the refined search averages the silhouette cells (shape.comp).
 #define OPT_SILHOUETTE 16u
-// Some caster crosses the light's plane (or lies before its near plane): the conservative
-// low-res map leaves it out, so no blocker found proves nothing (shape.comp).
-#define OPT_NO_LIT_PROOF 32u
 // Of the predicted z_avg's distance to the receiver, the least a silhouette cell's may have
 // (0.1-0.5 measured: penumbra MAE teapot-rect 0.0152-0.0159, bunny-rect 0.0295-0.0307).
 #define SILHOUETTE_GAP 0.25

@@ -1,23 +1,34 @@
 //! CPU twin of the conservative software rasterizer ([`crate::kernels::raster`],
-//! `glsl/kernels/raster_conservative.comp`): the same rule, written plainly, one triangle and
-//! one texel at a time.
+//! `glsl/kernels/raster_conservative.comp`): the same rule, written plainly, one piece and one
+//! row at a time.
 //!
 //! Rule: texel coordinates `c = (ndc.xy · 0.5 + 0.5) · N` (no y flip). Texel `[x, x+1] ×
-//! [y, y+1]`, expanded by `eps` texels on every side, is covered when the projected triangle
-//! overlaps it: bounding boxes overlap and no edge has all four (expanded) corners strictly
-//! outside. Its depth is `max(min vertex NDC z, min plane depth at the expanded corners)`,
-//! clamped to `[0, 1]`; texels keep the minimum over the triangles, 1.0 where none covers them.
-//! Skipped: triangles with a vertex at `w ≤ 0`, entirely before the near (`z < 0`) or past the
-//! far plane (`z > w`), or of zero area.
+//! [y, y+1]`, expanded by `eps` texels on every side, is covered when the projected polygon
+//! overlaps it: the polygon's x-extent within the row's slab `[y − eps, y + 1 + eps]` (its
+//! edges clipped to the slab) meets `[x − eps, x + 1 + eps]` — exact overlap of a convex
+//! polygon and a square, which the unit tests check against the separating-axis form. Its depth
+//! is `max(min vertex NDC z, min plane depth at the expanded corners)`, clamped to `[0, 1]`;
+//! texels keep the minimum over the pieces, 1.0 where none covers them.
+//!
+//! Pieces: a triangle with every vertex at `w > 0` and `z ≥ 0` is one piece, itself. Any other
+//! triangle not entirely behind the light (every `w ≤ 0`) is clipped in clip space to the cone
+//! `|x|, |y| ≤ 2w` and to `w ≥ 10⁻⁶ · max w` (what that drops projects outside the map or lies
+//! at the light's plane) and split at `z = 0`: the far piece keeps the plane of its largest fan
+//! triangle, the near piece lies at depth 0. A piece of zero projected area (a segment) takes
+//! its smallest vertex depth everywhere. Skipped: triangles entirely behind the light, entirely
+//! past the far plane (`z > w > 0`), or with a non-finite projection.
 //!
 //! Tolerance against the GPU: coverage is exact except for texels whose expanded square lies
-//! within ~1e-3 texel of a triangle edge (the GPU may contract the edge functions and the matrix
-//! product into FMAs); depths agree within a few ulp where the same triangles cover a texel.
-//! Because coverage grows and depths fall as `eps` grows, a test can bracket the GPU's map
-//! (rasterized with [`crate::kernels::raster::EPS`]) between this twin at `eps / 2` (a
-//! texel covered there is covered on the GPU, with a depth no larger) and at `2 · eps`.
+//! within ~1e-3 texel of a polygon edge (the GPU may contract the products into FMAs); depths
+//! agree within a few ulp where the same pieces cover a texel. Because coverage grows and depths
+//! fall as `eps` grows, a test can bracket the GPU's map (rasterized with
+//! [`crate::kernels::raster::EPS`]) between this twin at `eps / 2` (a texel covered there is
+//! covered on the GPU, with a depth no larger) and at `2 · eps`.
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3, Vec4};
+
+/// The clip cone's half-width in NDC (the shader's `GUARD`).
+const GUARD: f32 = 2.0;
 
 /// The twin's output: depths and the counters the GPU keeps.
 #[derive(Clone, Debug)]
@@ -26,69 +37,130 @@ pub struct ConservativeDepth {
     pub depth: Vec<f32>,
     /// Triangles read.
     pub triangles: u32,
-    /// Triangles skipped (behind the light, outside the depth range, zero area).
+    /// Triangles skipped (entirely behind the light or past the far plane, or a whole one with
+    /// a non-finite projection).
     pub skipped: u32,
-    /// Of `skipped`, those with a vertex at `w ≤ 0`.
+    /// Of `skipped`, those entirely behind the light (every `w ≤ 0`).
     pub behind_light: u32,
-    /// Triangles whose clamped texel range has more than `small` texels.
+    /// Triangles listed for the large pass: whole ones whose clamped texel range has more than
+    /// `small` texels, and every clipped one.
     pub large: u32,
-    /// Covered (triangle, texel) pairs.
+    /// Covered (piece, texel) pairs.
     pub texels: u32,
+    /// Triangles drawn through the clip (before the near or behind the light's plane).
+    pub clipped: u32,
 }
 
-/// A triangle projected to texels, with its depth plane.
-struct Projected {
-    p: [Vec2; 3],
-    /// Sign of the doubled signed area.
-    sgn: f32,
+/// A piece projected to texels (xy) and NDC depth (z), with its depth rule.
+struct Piece {
+    p: Vec<Vec3>,
     zmin: f32,
+    /// Plane: `z0 + dz · (c − p0)`; `dz = 0`, `z0 = zmin` where it has no plane.
+    p0: Vec2,
     z0: f32,
     dz: Vec2,
     tmin: Vec2,
     tmax: Vec2,
 }
 
-enum Setup {
-    Behind,
-    Skipped,
-    Ok(Projected),
+fn project(c: Vec4, n: f32) -> Vec3 {
+    let ndc = c.truncate() / c.w;
+    ((ndc.truncate() * 0.5 + 0.5) * n).extend(ndc.z)
 }
 
-fn setup(v: [Vec3; 3], view_proj: Mat4, n: f32) -> Setup {
-    let c = v.map(|p| view_proj * p.extend(1.0));
-    if c.iter().any(|c| c.w <= 0.0) {
-        return Setup::Behind;
-    }
-    if c.iter().all(|c| c.z < 0.0) || c.iter().all(|c| c.z > c.w) {
-        return Setup::Skipped;
-    }
-    let ndc = c.map(|c| c.truncate() / c.w);
-    let p = ndc.map(|q| (q.truncate() * 0.5 + 0.5) * n);
-    let e1 = p[1] - p[0];
-    let e2 = p[2] - p[0];
+/// The piece over projected vertices `p`, its plane through `p[a], p[b], p[c]`; `flat`: at
+/// depth 0 (a near piece).
+fn piece(p: Vec<Vec3>, plane: [usize; 3], flat: bool) -> Piece {
+    let zmin = if flat {
+        0.0
+    } else {
+        p.iter().map(|v| v.z).fold(f32::INFINITY, f32::min)
+    };
+    let tmin = p
+        .iter()
+        .fold(Vec2::splat(f32::INFINITY), |m, v| m.min(v.truncate()));
+    let tmax = p
+        .iter()
+        .fold(Vec2::splat(f32::NEG_INFINITY), |m, v| m.max(v.truncate()));
+    let (a, b, c) = (p[plane[0]], p[plane[1]], p[plane[2]]);
+    let mut out = Piece {
+        p0: a.truncate(),
+        z0: zmin,
+        dz: Vec2::ZERO,
+        zmin,
+        tmin,
+        tmax,
+        p: Vec::new(),
+    };
+    let e1 = b.truncate() - a.truncate();
+    let e2 = c.truncate() - a.truncate();
     let area = e1.x * e2.y - e1.y * e2.x;
-    if area == 0.0 || !area.is_finite() {
-        return Setup::Skipped;
-    }
-    let dz1 = ndc[1].z - ndc[0].z;
-    let dz2 = ndc[2].z - ndc[0].z;
-    Setup::Ok(Projected {
-        p,
-        sgn: if area > 0.0 { 1.0 } else { -1.0 },
-        zmin: ndc[0].z.min(ndc[1].z).min(ndc[2].z),
-        z0: ndc[0].z,
-        dz: Vec2::new(
+    if !flat && area != 0.0 && !area.is_infinite() {
+        let dz1 = b.z - a.z;
+        let dz2 = c.z - a.z;
+        let dz = Vec2::new(
             (dz1 * e2.y - dz2 * e1.y) / area,
             (dz2 * e1.x - dz1 * e2.x) / area,
-        ),
-        tmin: p[0].min(p[1]).min(p[2]),
-        tmax: p[0].max(p[1]).max(p[2]),
-    })
+        );
+        if dz.is_finite() {
+            out.z0 = a.z;
+            out.dz = dz;
+        }
+    }
+    out.p = p;
+    out
+}
+
+/// The part of polygon `v` where `plane · v ≥ offset` (Sutherland–Hodgman).
+fn clip(v: &[Vec4], plane: Vec4, offset: f32) -> Vec<Vec4> {
+    let mut out = Vec::new();
+    for i in 0..v.len() {
+        let (p, q) = (v[i], v[(i + 1) % v.len()]);
+        let (dp, dq) = (plane.dot(p) - offset, plane.dot(q) - offset);
+        if dp >= 0.0 {
+            out.push(p);
+        }
+        if (dp >= 0.0) != (dq >= 0.0) {
+            out.push(p + (q - p) * (dp / (dp - dq)));
+        }
+    }
+    out
+}
+
+/// The far (`near == false`) or near piece of a triangle that is neither whole nor skipped.
+fn clipped_piece(c: [Vec4; 3], near: bool, n: f32) -> Option<Piece> {
+    let mut v = c.to_vec();
+    for plane in [
+        Vec4::new(-1.0, 0.0, 0.0, GUARD),
+        Vec4::new(1.0, 0.0, 0.0, GUARD),
+        Vec4::new(0.0, -1.0, 0.0, GUARD),
+        Vec4::new(0.0, 1.0, 0.0, GUARD),
+    ] {
+        v = clip(&v, plane, 0.0);
+    }
+    let w_max = c[0].w.max(c[1].w).max(c[2].w);
+    v = clip(&v, Vec4::W, 1e-6 * w_max);
+    v = clip(&v, Vec4::Z * if near { -1.0 } else { 1.0 }, 0.0);
+    if v.len() < 3 {
+        return None;
+    }
+    let p: Vec<Vec3> = v.iter().map(|&c| project(c, n)).collect();
+    if !p.iter().all(|q| q.is_finite()) {
+        return None;
+    }
+    // The fan triangle of largest area carries the plane.
+    let area = |i: usize| {
+        let e1 = p[i].truncate() - p[0].truncate();
+        let e2 = p[i + 1].truncate() - p[0].truncate();
+        (e1.x * e2.y - e1.y * e2.x).abs()
+    };
+    let best = (1..p.len() - 1).fold(1, |b, i| if area(i) > area(b) { i } else { b });
+    Some(piece(p, [0, best, best + 1], near))
 }
 
 /// The inclusive texel range `[lo, hi]` of a bounding box, clamped to the map (empty when any
 /// `lo > hi`).
-fn texel_range(t: &Projected, n: u32, eps: f32) -> ([i64; 2], [i64; 2]) {
+fn texel_range(t: &Piece, n: u32, eps: f32) -> ([i64; 2], [i64; 2]) {
     let nf = n as f32;
     let lo = [t.tmin.x, t.tmin.y].map(|v| ((v - eps).clamp(-1.0, nf).floor() as i64).max(0));
     let hi =
@@ -96,30 +168,40 @@ fn texel_range(t: &Projected, n: u32, eps: f32) -> ([i64; 2], [i64; 2]) {
     (lo, hi)
 }
 
-/// The conservative depth of texel `(x, y)` under the triangle, or `None` when it does not
-/// cover the texel.
-fn texel_depth(t: &Projected, x: i64, y: i64, eps: f32) -> Option<f32> {
-    let lo = Vec2::new(x as f32 - eps, y as f32 - eps);
-    let hi = Vec2::new(x as f32 + (1.0 + eps), y as f32 + (1.0 + eps));
-    if t.tmin.x > hi.x || t.tmin.y > hi.y || t.tmax.x < lo.x || t.tmax.y < lo.y {
-        return None;
-    }
-    let corners = [lo, Vec2::new(hi.x, lo.y), Vec2::new(lo.x, hi.y), hi];
-    for e in 0..3 {
-        let (p, q) = (t.p[e], t.p[(e + 1) % 3]);
-        let d = q - p;
-        let all_outside = corners.iter().all(|c| {
-            let s = d.x * (c.y - p.y) - d.y * (c.x - p.x);
-            s * t.sgn < 0.0
-        });
-        if all_outside {
-            return None;
+/// The x-extent of the polygon within the slab `ylo ≤ y ≤ yhi` (`lo > hi` when it misses it).
+fn slab_extent(p: &[Vec3], ylo: f32, yhi: f32) -> (f32, f32) {
+    let mut extent = (f32::INFINITY, f32::NEG_INFINITY);
+    for i in 0..p.len() {
+        let (a, b) = (p[i].truncate(), p[(i + 1) % p.len()].truncate());
+        if a.y.max(b.y) < ylo || a.y.min(b.y) > yhi {
+            continue;
+        }
+        let dy = b.y - a.y;
+        let (ta, tb) = if dy != 0.0 {
+            (
+                ((ylo - a.y) / dy).clamp(0.0, 1.0),
+                ((yhi - a.y) / dy).clamp(0.0, 1.0),
+            )
+        } else {
+            (0.0, 1.0)
+        };
+        for t in [ta, tb] {
+            let x = a.x + (b.x - a.x) * t;
+            extent = (extent.0.min(x), extent.1.max(x));
         }
     }
+    extent
+}
+
+/// The conservative depth of covered texel `(x, y)` under the piece.
+fn texel_depth(t: &Piece, x: i64, y: i64, eps: f32) -> f32 {
+    let lo = Vec2::new(x as f32 - eps, y as f32 - eps);
+    let hi = Vec2::new(x as f32 + (1.0 + eps), y as f32 + (1.0 + eps));
+    let corners = [lo, Vec2::new(hi.x, lo.y), Vec2::new(lo.x, hi.y), hi];
     let plane_min = corners
         .iter()
         .map(|c| {
-            let r = *c - t.p[0];
+            let r = *c - t.p0;
             t.z0 + t.dz.x * r.x + t.dz.y * r.y
         })
         .fold(f32::INFINITY, f32::min);
@@ -130,12 +212,48 @@ fn texel_depth(t: &Projected, x: i64, y: i64, eps: f32) -> Option<f32> {
         t.zmin
     };
     let z = z.min(1.0);
-    Some(if z > 0.0 { z } else { 0.0 })
+    if z > 0.0 {
+        z
+    } else {
+        0.0
+    }
+}
+
+/// The pieces of one triangle, or why it has none.
+enum Pieces {
+    Behind,
+    Skipped,
+    Whole(Piece),
+    Clipped(Vec<Piece>),
+}
+
+fn pieces(v: [Vec3; 3], view_proj: Mat4, n: f32) -> Pieces {
+    let c = v.map(|p| view_proj * p.extend(1.0));
+    if c.iter().all(|c| c.w <= 0.0) {
+        return Pieces::Behind;
+    }
+    if c.iter().all(|c| c.w > 0.0 && c.z > c.w) {
+        return Pieces::Skipped;
+    }
+    if c.iter().all(|c| c.w > 0.0 && c.z >= 0.0) {
+        let p: Vec<Vec3> = c.iter().map(|&c| project(c, n)).collect();
+        if !p.iter().all(|q| q.is_finite()) {
+            return Pieces::Skipped;
+        }
+        return Pieces::Whole(piece(p, [0, 1, 2], false));
+    }
+    Pieces::Clipped(
+        [false, true]
+            .into_iter()
+            .filter_map(|near| clipped_piece(c, near, n))
+            .collect(),
+    )
 }
 
 /// Rasterizes `indices` (a triangle list) over `positions` through `view_proj` into an `n × n`
-/// conservative depth map, squares expanded by `eps` texels; triangles with more than `small`
-/// texels in range count as large (the GPU uses [`crate::kernels::raster::SMALL_TEXELS`]).
+/// conservative depth map, squares expanded by `eps` texels; whole triangles with more than
+/// `small` texels in range count as large (the GPU uses
+/// [`crate::kernels::raster::SMALL_TEXELS`]), as does every clipped triangle.
 pub fn rasterize(
     positions: &[Vec3],
     indices: &[u32],
@@ -151,35 +269,47 @@ pub fn rasterize(
         behind_light: 0,
         large: 0,
         texels: 0,
+        clipped: 0,
     };
     for tri in indices.chunks_exact(3) {
         out.triangles += 1;
         let v = [0, 1, 2].map(|k| positions[tri[k] as usize]);
-        let t = match setup(v, view_proj, n as f32) {
-            Setup::Behind => {
+        let (list, whole) = match pieces(v, view_proj, n as f32) {
+            Pieces::Behind => {
                 out.skipped += 1;
                 out.behind_light += 1;
                 continue;
             }
-            Setup::Skipped => {
+            Pieces::Skipped => {
                 out.skipped += 1;
                 continue;
             }
-            Setup::Ok(t) => t,
+            Pieces::Whole(t) => (vec![t], true),
+            Pieces::Clipped(list) => {
+                out.clipped += 1;
+                out.large += 1;
+                (list, false)
+            }
         };
-        let (lo, hi) = texel_range(&t, n, eps);
-        if lo[0] > hi[0] || lo[1] > hi[1] {
-            continue;
-        }
-        if (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) > small as i64 {
-            out.large += 1;
-        }
-        for y in lo[1]..=hi[1] {
-            for x in lo[0]..=hi[0] {
-                if let Some(z) = texel_depth(&t, x, y, eps) {
+        for t in list {
+            let (lo, hi) = texel_range(&t, n, eps);
+            if lo[0] > hi[0] || lo[1] > hi[1] {
+                continue;
+            }
+            if whole && (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) > small as i64 {
+                out.large += 1;
+            }
+            for y in lo[1]..=hi[1] {
+                let (x0, x1) = slab_extent(&t.p, y as f32 - eps, y as f32 + (1.0 + eps));
+                // Texel x is covered when x − eps ≤ x1 and x + 1 + eps ≥ x0.
+                let cols = (
+                    ((x0 - 1.0 - eps).clamp(-2.0, n as f32).ceil() as i64).max(lo[0]),
+                    ((x1 + eps).clamp(-2.0, n as f32).floor() as i64).min(hi[0]),
+                );
+                for x in cols.0..=cols.1 {
                     out.texels += 1;
                     let i = (y * n as i64 + x) as usize;
-                    out.depth[i] = out.depth[i].min(z);
+                    out.depth[i] = out.depth[i].min(texel_depth(&t, x, y, eps));
                 }
             }
         }
@@ -236,7 +366,7 @@ mod tests {
     }
 
     #[test]
-    fn skips_are_counted() {
+    fn skips_and_clips_are_counted() {
         let p = vec![
             Vec3::new(0.0, 0.0, 0.5),
             Vec3::new(0.5, 0.0, 0.5),
@@ -245,22 +375,147 @@ mod tests {
             Vec3::new(0.5, 0.0, -0.5),
             Vec3::new(0.0, 0.5, -0.5),
             Vec3::new(1.0, 1.0, 0.5),
+            Vec3::new(0.0, 0.0, 1.5),
+            Vec3::new(0.5, 0.0, 1.5),
+            Vec3::new(0.0, 0.5, 1.5),
         ];
-        // Degenerate (repeated vertex), in front of the near plane, then a good one.
+        // A repeated vertex (drawn as its segment), one before the near plane (clipped, drawn at
+        // depth 0), one past the far plane (skipped), then a good one.
         let r = rasterize(
             &p,
-            &[0, 0, 1, 3, 4, 5, 0, 1, 2],
+            &[0, 0, 1, 3, 4, 5, 7, 8, 9, 0, 1, 2],
             Mat4::IDENTITY,
             16,
             1e-3,
             64,
         );
-        assert_eq!((r.triangles, r.skipped, r.behind_light), (3, 2, 0));
-        // A perspective-like matrix: w = -z; a vertex at z > 0 is behind.
+        assert_eq!(
+            (r.triangles, r.skipped, r.behind_light, r.clipped),
+            (4, 1, 0, 1)
+        );
+        // The segment from texel (8, 8) to (12, 8) at depth 0.5, the near triangle at 0.
+        assert_eq!(r.depth[8 * 16 + 10], 0.0);
+        let alone = rasterize(&p, &[0, 0, 1], Mat4::IDENTITY, 16, 1e-3, 64);
+        assert_eq!(alone.depth[8 * 16 + 10], 0.5);
+        assert_eq!(alone.depth[9 * 16 + 10], 1.0);
+        // A perspective-like matrix: w = -z; every vertex at z > 0 is behind.
         let m = Mat4::from_cols_array(&[
             1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0,
         ]);
         let r = rasterize(&p, &[0, 1, 6], m, 16, 1e-3, 64);
         assert_eq!((r.skipped, r.behind_light), (1, 1));
+    }
+
+    /// xorshift32 floats in [0, 1).
+    struct Rng(u32);
+
+    impl Rng {
+        fn next(&mut self) -> f32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 17;
+            self.0 ^= self.0 << 5;
+            (self.0 >> 8) as f32 / (1u32 << 24) as f32
+        }
+
+        fn point(&mut self, centre: Vec3, size: f32) -> Vec3 {
+            centre + Vec3::new(self.next() - 0.5, self.next() - 0.5, self.next() - 0.5) * size
+        }
+    }
+
+    /// The separating-axis form of the coverage rule for a whole triangle: bounding boxes
+    /// overlap and no edge has all four expanded corners strictly outside.
+    fn overlaps(p: [Vec2; 3], x: i64, y: i64, eps: f32) -> bool {
+        let lo = Vec2::new(x as f32 - eps, y as f32 - eps);
+        let hi = Vec2::new(x as f32 + 1.0 + eps, y as f32 + 1.0 + eps);
+        let (tmin, tmax) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+        if tmin.x > hi.x || tmin.y > hi.y || tmax.x < lo.x || tmax.y < lo.y {
+            return false;
+        }
+        let e1 = p[1] - p[0];
+        let e2 = p[2] - p[0];
+        let sgn = (e1.x * e2.y - e1.y * e2.x).signum();
+        let corners = [lo, Vec2::new(hi.x, lo.y), Vec2::new(lo.x, hi.y), hi];
+        (0..3).all(|e| {
+            let (a, b) = (p[e], p[(e + 1) % 3]);
+            let d = b - a;
+            corners
+                .iter()
+                .any(|c| (d.x * (c.y - a.y) - d.y * (c.x - a.x)) * sgn >= 0.0)
+        })
+    }
+
+    /// The row extents cover exactly what the separating-axis test does, bracketed by half and
+    /// twice the epsilon (the two round differently).
+    #[test]
+    fn row_extents_agree_with_the_separating_axis_test() {
+        let n = 32;
+        let mut rng = Rng(777);
+        for t in 0..400 {
+            let size = [0.05, 0.3, 1.5][t % 3];
+            let centre = rng.point(Vec3::ZERO, 1.6);
+            let v = [0; 3].map(|_| rng.point(centre, size));
+            let v = v.map(|p| Vec3::new(p.x, p.y, 0.5));
+            let r = rasterize(&v, &[0, 1, 2], Mat4::IDENTITY, n, 1e-3, 64);
+            let p = v.map(|q| (q.truncate() * 0.5 + 0.5) * n as f32);
+            for y in 0..n as i64 {
+                for x in 0..n as i64 {
+                    let covered = r.depth[(y * n as i64 + x) as usize] < 1.0;
+                    if overlaps(p, x, y, 0.5e-3) {
+                        assert!(covered, "triangle {t}: ({x}, {y}) not covered");
+                    }
+                    if covered {
+                        assert!(overlaps(p, x, y, 2e-3), "triangle {t}: ({x}, {y}) covered");
+                    }
+                }
+            }
+        }
+    }
+
+    /// Triangles crossing a perspective light's plane and its near plane: every point of them
+    /// in front of the light that projects into the map lies in a covered texel, at a depth no
+    /// larger than its own (clamped to [0, 1]).
+    #[test]
+    fn triangles_crossing_the_light_plane_stay_conservative() {
+        let view = Mat4::look_at_rh(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y);
+        let vp = Mat4::perspective_rh(60f32.to_radians(), 1.0, 1.0, 8.0) * view;
+        let n = 64;
+        let mut rng = Rng(4242);
+        let mut clipped = 0;
+        for t in 0..200 {
+            // Centres around the light's plane (z = 5) and its near plane (z = 4).
+            let centre = rng.point(Vec3::new(0.0, 0.0, 4.5), 4.0);
+            let size = [0.5, 2.0, 8.0][t % 3];
+            let v = [0; 3].map(|_| rng.point(centre, size));
+            let r = rasterize(&v, &[0, 1, 2], vp, n, 1e-3, 64);
+            clipped += r.clipped;
+            for i in 0..=40 {
+                for j in 0..=40 - i {
+                    let (a, b) = (i as f32 / 40.0, j as f32 / 40.0);
+                    let q = v[0] * (1.0 - a - b) + v[1] * a + v[2] * b;
+                    let c = vp * q.extend(1.0);
+                    if c.w <= 1e-3 {
+                        continue;
+                    }
+                    let ndc = c.truncate() / c.w;
+                    let tx = (ndc.truncate() * 0.5 + 0.5) * n as f32;
+                    // Off the map, or within rounding of its edge.
+                    if tx.x < 0.01
+                        || tx.y < 0.01
+                        || tx.x > n as f32 - 0.01
+                        || tx.y > n as f32 - 0.01
+                    {
+                        continue;
+                    }
+                    let (x, y) = (tx.x as usize, tx.y as usize);
+                    let got = r.depth[y * n as usize + x];
+                    let own = ndc.z.clamp(0.0, 1.0);
+                    assert!(
+                        got <= own + 1e-4,
+                        "triangle {t}: point at texel ({x}, {y}) depth {own}, map {got}"
+                    );
+                }
+            }
+        }
+        assert!(clipped > 50, "only {clipped} clipped triangles");
     }
 }

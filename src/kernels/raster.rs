@@ -7,26 +7,38 @@
 //! Rule (`glsl/kernels/raster_conservative.comp`): texel coordinates are those of
 //! `shadow_coord` (`c = (ndc.xy · 0.5 + 0.5) · N`, no y flip). Texel `[x, x+1] × [y, y+1]`,
 //! expanded by [`EPS`] texels on every side so float rounding never loses coverage, is covered
-//! when the projected triangle overlaps it: bounding boxes overlap and no edge has all four
-//! corners strictly outside. Its depth is `max(min vertex NDC z, min of the triangle's plane
-//! depth at the four expanded corners)` clamped to `[0, 1]` (NDC z is affine in screen x, y for
-//! a planar triangle, so the plane's minimum over the square is at a corner). Texels combine
-//! with `atomicMin` on the float bits.
+//! when the projected polygon overlaps it, found row by row: the polygon's x-extent within the
+//! row's slab against the texel's. Its depth is `max(min vertex NDC z, the plane's minimum over
+//! the expanded square)` clamped to `[0, 1]` (NDC z is affine in screen x, y for a planar
+//! polygon, so the minimum is at a corner). Texels combine with `atomicMin` on the float bits.
+//!
+//! The polygon: a triangle with every vertex in front of the near plane (`w > 0`, `z ≥ 0`) is
+//! itself. One reaching before the near plane or behind the light's plane is clipped in clip
+//! space to the cone `|x|, |y| ≤ 2w` (what it drops projects outside the map; the cone holds no
+//! point behind the light, where nothing lies between a receiver and it) and split at `z = 0`:
+//! its far piece keeps its plane, its near piece lies at depth 0. So a caster crossing the
+//! light's plane (a roof over a light inside the scene) still marks every texel it may cover,
+//! and a blocker search may still prove a sample lit — before, such triangles were skipped and
+//! pvssm had to give up its fully-lit proof for the whole frame. A triangle edge-on to the
+//! light's centre is drawn as the segment it projects to, at its smallest depth (from the rest
+//! of an area light it is not edge-on).
 //!
 //! Design: one invocation per triangle sets it up and rasterizes it when its clamped texel range
-//! has at most 64 texels (nearly every triangle of a scene at these resolutions); bigger ones are
-//! appended to a list, which [`LARGE_GROUPS`] workgroups then grid-stride over, the 64
-//! invocations of a group striding over a triangle's texels; one of more than 128² texels is
-//! split into 16 parts (part k: every 16th row from row k on), so a triangle over the whole map
-//! (a ground plane) keeps several groups busy, not one (lavapipe runs a workgroup on one CPU
-//! thread; pvssm's low-res pass on `teapot-rect` 27 → 22 ms). Fixed groups keep per-workgroup
-//! overhead bounded; lavapipe's loop limiter (65 535 loop passes per SIMD group and dispatch)
-//! bounds the texels one group may handle, hence [`MAX_MAP_SIZE`]; a guard loop counts
-//! invocations the limiter cut short ([`RasterCounters::cut`]).
+//! has at most 64 texels (nearly every triangle of a scene at these resolutions); bigger ones,
+//! and every clipped piece, are appended to a list, which [`LARGE_GROUPS`] workgroups then
+//! grid-stride over, each of the group's eight runs of eight invocations taking every eighth
+//! row and its eight invocations the row's covered texels (only those: the row's extent comes
+//! from the polygon's edges, where the first version tested every texel of the bounding box
+//! with twelve edge functions — `pvssm-lowres` on `teapot-rect` 16.9 → 5.5 ms, below); one of
+//! more than 128² texels is split into 16 parts (part k: every 16th row from row k on), so a
+//! triangle over the whole map (a ground plane) keeps several groups busy, not one (lavapipe
+//! runs a workgroup on one CPU thread). Fixed groups keep per-workgroup overhead bounded;
+//! lavapipe's loop limiter (65 535 loop passes per SIMD group and dispatch) bounds the texels
+//! one group may handle, hence [`MAX_MAP_SIZE`]; a guard loop counts invocations the limiter cut
+//! short ([`RasterCounters::cut`]).
 //!
-//! Skipped triangles (counted): a vertex at `w ≤ 0` (behind the light: not conservative, the
-//! caller must not rely on the map for such geometry — [`RasterCounters::behind_light`] says
-//! whether any was there), entirely in front of the near or behind the far plane, zero area.
+//! Skipped triangles (counted): entirely behind the light (every `w ≤ 0`), entirely past the far
+//! plane, a non-finite projection.
 //!
 //! Use: [`ConservativeRaster::new`] once, [`ConservativeRaster::bind`] to the geometry and the
 //! output, then [`ConservativeRaster::record`]; [`ConservativeRaster::run`] is the
@@ -44,7 +56,7 @@ use crate::gpu::{f32s, u32s, Binding, Buffer, Context, DescriptorSet, Pipeline, 
 pub const EPS: f32 = 1e-3;
 
 /// A triangle whose clamped texel range has more texels than this goes to the large pass.
-pub const SMALL_TEXELS: u32 = 64;
+pub const SMALL_TEXELS: u32 = 1024;
 
 /// Workgroups of the large-triangle pass.
 pub const LARGE_GROUPS: u32 = 256;
@@ -81,17 +93,22 @@ pub struct RasterPush {
 pub struct RasterCounters {
     /// Triangles read.
     pub triangles: u32,
-    /// Triangles skipped: behind the light, outside the depth range, or of zero area.
+    /// Triangles skipped: entirely behind the light or past the far plane, or a whole one whose
+    /// projection is not finite.
     pub skipped: u32,
-    /// Triangles handed to the large pass (more than [`SMALL_TEXELS`] texels in range).
+    /// Triangles handed to the large pass: whole ones of more than [`SMALL_TEXELS`] texels in
+    /// range, and every clipped one.
     pub large: u32,
     /// Covered (triangle, texel) pairs: `atomicMin`s done.
     pub texels: u32,
-    /// Of `skipped`, triangles with a vertex at `w ≤ 0`: where nonzero the map is not
-    /// conservative for them.
+    /// Of `skipped`, triangles entirely behind the light (every `w ≤ 0`): none of them can
+    /// lie between a receiver and the light.
     pub behind_light: u32,
     /// Invocations whose loops lavapipe's loop limiter cut short; nonzero means a wrong map.
     pub cut: u32,
+    /// Triangles drawn through the clip: reaching before the near plane or behind the light's
+    /// plane.
+    pub clipped: u32,
 }
 
 /// Counters in the counters buffer.
@@ -201,8 +218,9 @@ impl ConservativeRaster {
         if triangles > 0 {
             check_buffer(NAME, vertices, 12)?;
         }
+        // Two entries a triangle: a clipped one lists its far and its near piece.
         let large = Buffer::storage(&self.ctx, "conservative raster large triangles", {
-            4 * triangles.max(1) as u64
+            8 * triangles.max(1) as u64
         })?;
         // Two more words after RasterCounters: the large list's two ends (the shader's C_FRONT
         // and C_HUGE).

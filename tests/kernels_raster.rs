@@ -45,10 +45,27 @@ fn check_against_twin(
     n: u32,
     gpu: &[f32],
     counters: &RasterCounters,
+    clip: bool,
 ) -> ConservativeDepth {
-    let tight = rasterize(positions, indices, view_proj, n, EPS * 0.5, SMALL_TEXELS);
-    let loose = rasterize(positions, indices, view_proj, n, EPS * 2.0, SMALL_TEXELS);
-    let twin = rasterize(positions, indices, view_proj, n, EPS, SMALL_TEXELS);
+    let tight = rasterize(
+        positions,
+        indices,
+        view_proj,
+        n,
+        EPS * 0.5,
+        SMALL_TEXELS,
+        clip,
+    );
+    let loose = rasterize(
+        positions,
+        indices,
+        view_proj,
+        n,
+        EPS * 2.0,
+        SMALL_TEXELS,
+        clip,
+    );
+    let twin = rasterize(positions, indices, view_proj, n, EPS, SMALL_TEXELS, clip);
     assert_eq!(gpu.len(), (n * n) as usize);
     let mut bad = Vec::new();
     for (i, &g) in gpu.iter().enumerate() {
@@ -170,14 +187,18 @@ fn random_triangles_match_the_twin_and_are_conservative() {
     let raster = ConservativeRaster::new(&ctx).expect("pipeline");
     let (positions, indices) = random_triangles(3000, 12345);
     let vp = perspective_light();
-    for n in [128, 256] {
-        let (gpu, counters) = raster.run(&positions, &indices, vp, n).expect("run");
-        let what = format!("random-{n}");
-        let twin = check_against_twin(&what, (&positions, &indices), vp, n, &gpu, &counters);
-        // Some entirely behind the light, some past the far plane, many clipped at the light's
-        // or the near plane (drawn, not skipped).
+    for (n, clip) in [(128, true), (256, true), (128, false)] {
+        let (gpu, counters) = raster.run(&positions, &indices, vp, n, clip).expect("run");
+        let what = format!("random-{n}-clip-{clip}");
+        let twin = check_against_twin(&what, (&positions, &indices), vp, n, &gpu, &counters, clip);
+        // Some behind the light, some past the far plane; with the clip many clipped at the
+        // light's or the near plane (drawn, not skipped), without it skipped.
         assert!(twin.behind_light > 0 && twin.skipped > twin.behind_light);
-        assert!(twin.clipped > 100, "{what}: only {} clipped", twin.clipped);
+        if clip {
+            assert!(twin.clipped > 100, "{what}: only {} clipped", twin.clipped);
+        } else {
+            assert!(twin.clipped == 0 && twin.behind_light > 100, "{what}");
+        }
         assert!(
             twin.large > 50,
             "{what}: only {} large triangles",
@@ -197,7 +218,7 @@ fn a_scene_mesh_matches_the_twin_and_is_conservative() {
     let light = penumbra::passes::LightView::fit(&scene.light, &scene.bounds()).expect("fit");
     for n in [128, 256] {
         let (gpu, counters) = raster
-            .run(&positions, &indices, light.view_proj, n)
+            .run(&positions, &indices, light.view_proj, n, true)
             .expect("run");
         let what = format!("spot-point-{n}");
         check_against_twin(
@@ -207,6 +228,7 @@ fn a_scene_mesh_matches_the_twin_and_is_conservative() {
             n,
             &gpu,
             &counters,
+            true,
         );
         assert_eq!(
             counters.behind_light, 0,
@@ -231,8 +253,8 @@ fn the_bound_api_rasterizes_scene_geometry() {
         .expect("bind");
     // Twice in one submission: the second recording starts from a cleared map.
     ctx.submit(None, |rec| {
-        raster.record(rec, &binding, light.view_proj)?;
-        raster.record(rec, &binding, light.view_proj)
+        raster.record(rec, &binding, light.view_proj, false)?;
+        raster.record(rec, &binding, light.view_proj, false)
     })
     .expect("submit");
     let gpu = penumbra::gpu::f32s(&ctx.read_buffer(binding.depth()).expect("read"));
@@ -245,6 +267,7 @@ fn the_bound_api_rasterizes_scene_geometry() {
         n,
         &gpu,
         &counters,
+        false,
     );
     assert!(raster
         .bind(
@@ -277,7 +300,7 @@ fn a_sliver_marks_every_texel_it_crosses() {
     ];
     let indices = [0, 1, 2];
     let (gpu, counters) = raster
-        .run(&positions, &indices, Mat4::IDENTITY, n)
+        .run(&positions, &indices, Mat4::IDENTITY, n, true)
         .expect("run");
     let mut crossed = std::collections::BTreeSet::new();
     for s in 0..=200_000 {
@@ -308,6 +331,7 @@ fn a_sliver_marks_every_texel_it_crosses() {
         n,
         &gpu,
         &counters,
+        true,
     );
     common::assert_clean(&ctx.validation());
 }
@@ -323,7 +347,7 @@ fn one_triangle_fills_a_1024_map_through_the_large_path() {
         Vec3::new(-1.0, 3.0, 0.25),
     ];
     let (gpu, counters) = raster
-        .run(&positions, &[0, 1, 2], Mat4::IDENTITY, n)
+        .run(&positions, &[0, 1, 2], Mat4::IDENTITY, n, true)
         .expect("run (fails if the loop limiter cut it short)");
     let wrong = gpu.iter().filter(|&&d| d != 0.25).count();
     assert_eq!(wrong, 0, "{wrong} texels not at depth 0.25");
@@ -347,7 +371,7 @@ fn an_empty_list_leaves_the_map_empty() {
     let ctx = common::context();
     let raster = ConservativeRaster::new(&ctx).expect("pipeline");
     let (gpu, counters) = raster
-        .run(&[Vec3::ZERO], &[], Mat4::IDENTITY, 16)
+        .run(&[Vec3::ZERO], &[], Mat4::IDENTITY, 16, true)
         .expect("run");
     assert!(gpu.iter().all(|&d| d == 1.0));
     assert_eq!(counters, RasterCounters::default());

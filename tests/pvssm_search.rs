@@ -70,6 +70,7 @@ fn blocker_search_matches_cpu() {
                 cells: 32,
                 refinements: 1,
                 coarse_skip: true,
+                lit_proof: true,
                 silhouette: depth == "silhouette",
             };
             let (mut searched, mut lit, mut off, mut moved) = (0usize, 0usize, 0usize, 0usize);

@@ -640,7 +640,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 triangles,
                 map_size,
                 phase,
-                pad
+                clip
             }),
         ),
         (

@@ -12,7 +12,9 @@
 //
 // Which polygon: a triangle with every vertex at w > 0 and z >= 0 is itself (a "whole" piece).
 // One reaching before the near plane or behind the light's plane has no projection as a whole;
-// it is clipped in clip space to the guard cone |x|, |y| <= GUARD * w (what it drops projects
+// with pc.clip = 0 it is skipped (a vertex at w <= 0, or every vertex before the near plane) or
+// drawn whole with its depths clamped to 0 (some vertices before it), as before the clip
+// existed (pvssm, src/kernels/raster.rs says why); with pc.clip = 1 it is clipped in clip space to the guard cone |x|, |y| <= GUARD * w (what it drops projects
 // outside the map, and the cone holds no point at w <= 0: the light's own plane, behind which
 // nothing lies between a receiver and the light) and w >= 1e-6 of its largest w, then split at
 // z = 0 into a far piece (z >= 0, drawn with its plane: its vertices lie at w >= near, well
@@ -94,7 +96,11 @@ layout(push_constant) uniform Push {
     uint map_size;
     // 0: per-triangle pass, 1: large-triangle pass.
     uint phase;
-    uint pad;
+    // 1: triangles reaching before the near plane or behind the light are clipped (below);
+    // 0: those with a vertex at w <= 0 or wholly before the near plane are skipped, and one
+    // with only some vertices before it is drawn whole, its depths clamped to 0 (pvssm's
+    // choice: its pages do not hold what lies before the near plane either).
+    uint clip;
 } pc;
 
 // A piece set up for rasterization: its depth rule and texel range. The vertices stay with the
@@ -423,11 +429,12 @@ void main() {
             bool behind = a.w <= 0.0 && b.w <= 0.0 && c.w <= 0.0;
             bool past_far = a.w > 0.0 && b.w > 0.0 && c.w > 0.0 && a.z > a.w && b.z > b.w
                 && c.z > c.w;
-            bool whole = a.w > 0.0 && b.w > 0.0 && c.w > 0.0 && a.z >= 0.0 && b.z >= 0.0
-                && c.z >= 0.0;
-            if (behind || past_far) {
+            bool front = a.w > 0.0 && b.w > 0.0 && c.w > 0.0;
+            bool whole = front && (pc.clip != 0u ? a.z >= 0.0 && b.z >= 0.0 && c.z >= 0.0
+                                                 : !(a.z < 0.0 && b.z < 0.0 && c.z < 0.0));
+            if (behind || past_far || (pc.clip == 0u && !whole)) {
                 atomicAdd(counters[C_SKIPPED], 1u);
-                if (behind) {
+                if (behind || (pc.clip == 0u && !front)) {
                     atomicAdd(counters[C_BEHIND], 1u);
                 }
             } else if (whole) {

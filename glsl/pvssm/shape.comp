@@ -313,16 +313,18 @@ void main() {
             // the shape pass 10-25 % faster; at an eighth 0.01414 and 0.03067, no faster).
             float first_cells = refinements > 0u ? max(2.0, 0.25 * cells) : cells;
             vec2 sum = vec2(0.0);
-            // The low-res map holds every caster (the conservative raster clips those crossing
-            // the light's plane instead of leaving them out), so no blocker found proves the
-            // sample lit.
-            if ((pc.options & OPT_COARSE_SKIP) == 0u
+            // Whether the low-res map holds every caster, so that finding no blocker proves the
+            // sample lit: not when a caster crosses the light's plane (OPT_NO_LIT_PROOF, the
+            // conservative raster leaves those out). Then a sample with no blocker found takes
+            // the kernel of its pixel alone (z_avg at the receiver) and the pages decide it.
+            bool lit_proof = (pc.options & OPT_NO_LIT_PROOF) == 0u;
+            if ((pc.options & OPT_COARSE_SKIP) == 0u || !lit_proof
                 || may_have_blocker(centre, half_low, COARSE_CELLS, rc, lowres_texel)) {
                 sum = blocker_search(centre, half_low, first_cells, rc, lowres_texel);
             } else {
                 count(C_SKIPPED_LIT, 1u);
             }
-            if (sum.y == 0.0) {
+            if (sum.y == 0.0 && lit_proof) {
                 count(C_FULLY_LIT, 1u);
                 count(C_LIT, 1u);
                 decide(pixel, 1.0);

@@ -227,15 +227,24 @@ enum Pieces {
     Clipped(Vec<Piece>),
 }
 
-fn pieces(v: [Vec3; 3], view_proj: Mat4, n: f32) -> Pieces {
+fn pieces(v: [Vec3; 3], view_proj: Mat4, n: f32, clip: bool) -> Pieces {
     let c = v.map(|p| view_proj * p.extend(1.0));
-    if c.iter().all(|c| c.w <= 0.0) {
+    let front = c.iter().all(|c| c.w > 0.0);
+    if c.iter().all(|c| c.w <= 0.0) || (!clip && !front) {
         return Pieces::Behind;
     }
     if c.iter().all(|c| c.w > 0.0 && c.z > c.w) {
         return Pieces::Skipped;
     }
-    if c.iter().all(|c| c.w > 0.0 && c.z >= 0.0) {
+    let whole = if clip {
+        c.iter().all(|c| c.z >= 0.0)
+    } else {
+        !c.iter().all(|c| c.z < 0.0)
+    };
+    if !clip && !whole {
+        return Pieces::Skipped;
+    }
+    if front && whole {
         let p: Vec<Vec3> = c.iter().map(|&c| project(c, n)).collect();
         if !p.iter().all(|q| q.is_finite()) {
             return Pieces::Skipped;
@@ -253,7 +262,10 @@ fn pieces(v: [Vec3; 3], view_proj: Mat4, n: f32) -> Pieces {
 /// Rasterizes `indices` (a triangle list) over `positions` through `view_proj` into an `n × n`
 /// conservative depth map, squares expanded by `eps` texels; whole triangles with more than
 /// `small` texels in range count as large (the GPU uses
-/// [`crate::kernels::raster::SMALL_TEXELS`]), as does every clipped triangle.
+/// [`crate::kernels::raster::SMALL_TEXELS`]), as does every clipped triangle. Without `clip`,
+/// triangles with a vertex at `w ≤ 0` are skipped (counted `behind_light`), as are those
+/// wholly before the near plane, and one with some vertices before it is drawn whole, its
+/// depths clamped to 0.
 pub fn rasterize(
     positions: &[Vec3],
     indices: &[u32],
@@ -261,6 +273,7 @@ pub fn rasterize(
     n: u32,
     eps: f32,
     small: u32,
+    clip: bool,
 ) -> ConservativeDepth {
     let mut out = ConservativeDepth {
         depth: vec![1.0; n as usize * n as usize],
@@ -274,7 +287,7 @@ pub fn rasterize(
     for tri in indices.chunks_exact(3) {
         out.triangles += 1;
         let v = [0, 1, 2].map(|k| positions[tri[k] as usize]);
-        let (list, whole) = match pieces(v, view_proj, n as f32) {
+        let (list, whole) = match pieces(v, view_proj, n as f32, clip) {
             Pieces::Behind => {
                 out.skipped += 1;
                 out.behind_light += 1;
@@ -334,7 +347,7 @@ mod tests {
             ndc(3.5, 2.25, 0.5, n),
             ndc(2.25, 3.5, 0.5, n),
         ];
-        let r = rasterize(&p, &[0, 1, 2], Mat4::IDENTITY, 8, 1e-3, 64);
+        let r = rasterize(&p, &[0, 1, 2], Mat4::IDENTITY, 8, 1e-3, 64, true);
         let covered: Vec<usize> = (0..64).filter(|&i| r.depth[i] < 1.0).collect();
         // (2,2), (3,2), (2,3); (3,3) only touches the hypotenuse's far side: x + y = 5.75 < 6.
         assert_eq!(covered, vec![2 * 8 + 2, 2 * 8 + 3, 3 * 8 + 2]);
@@ -352,7 +365,7 @@ mod tests {
             ndc(0.0, 4.0, 0.0, n),
             ndc(4.0, 4.0, 0.8, n),
         ];
-        let r = rasterize(&p, &[0, 1, 2, 1, 3, 2], Mat4::IDENTITY, 4, 1e-3, 64);
+        let r = rasterize(&p, &[0, 1, 2, 1, 3, 2], Mat4::IDENTITY, 4, 1e-3, 64, true);
         for y in 0..4 {
             for x in 0..4 {
                 let expected = (0.2 * (x as f32 - 1e-3)).max(0.0);
@@ -388,6 +401,7 @@ mod tests {
             16,
             1e-3,
             64,
+            true,
         );
         assert_eq!(
             (r.triangles, r.skipped, r.behind_light, r.clipped),
@@ -395,15 +409,18 @@ mod tests {
         );
         // The segment from texel (8, 8) to (12, 8) at depth 0.5, the near triangle at 0.
         assert_eq!(r.depth[8 * 16 + 10], 0.0);
-        let alone = rasterize(&p, &[0, 0, 1], Mat4::IDENTITY, 16, 1e-3, 64);
+        let alone = rasterize(&p, &[0, 0, 1], Mat4::IDENTITY, 16, 1e-3, 64, true);
         assert_eq!(alone.depth[8 * 16 + 10], 0.5);
         assert_eq!(alone.depth[9 * 16 + 10], 1.0);
         // A perspective-like matrix: w = -z; every vertex at z > 0 is behind.
         let m = Mat4::from_cols_array(&[
             1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0,
         ]);
-        let r = rasterize(&p, &[0, 1, 6], m, 16, 1e-3, 64);
+        let r = rasterize(&p, &[0, 1, 6], m, 16, 1e-3, 64, true);
         assert_eq!((r.skipped, r.behind_light), (1, 1));
+        // Without the clip, the triangle before the near plane is skipped.
+        let r = rasterize(&p, &[3, 4, 5], Mat4::IDENTITY, 16, 1e-3, 64, false);
+        assert_eq!((r.skipped, r.behind_light, r.clipped), (1, 0, 0));
     }
 
     /// xorshift32 floats in [0, 1).
@@ -455,7 +472,7 @@ mod tests {
             let centre = rng.point(Vec3::ZERO, 1.6);
             let v = [0; 3].map(|_| rng.point(centre, size));
             let v = v.map(|p| Vec3::new(p.x, p.y, 0.5));
-            let r = rasterize(&v, &[0, 1, 2], Mat4::IDENTITY, n, 1e-3, 64);
+            let r = rasterize(&v, &[0, 1, 2], Mat4::IDENTITY, n, 1e-3, 64, true);
             let p = v.map(|q| (q.truncate() * 0.5 + 0.5) * n as f32);
             for y in 0..n as i64 {
                 for x in 0..n as i64 {
@@ -486,7 +503,7 @@ mod tests {
             let centre = rng.point(Vec3::new(0.0, 0.0, 4.5), 4.0);
             let size = [0.5, 2.0, 8.0][t % 3];
             let v = [0; 3].map(|_| rng.point(centre, size));
-            let r = rasterize(&v, &[0, 1, 2], vp, n, 1e-3, 64);
+            let r = rasterize(&v, &[0, 1, 2], vp, n, 1e-3, 64, true);
             clipped += r.clipped;
             for i in 0..=40 {
                 for j in 0..=40 - i {

@@ -60,6 +60,10 @@ pub struct SearchParams {
     pub refinements: u32,
     /// The coarse look first (`skip = coarse`).
     pub coarse_skip: bool,
+    /// Whether the pyramid holds every caster, so that no blocker found proves the sample lit
+    /// (false when a caster crosses the light's plane: then such a sample gets z_avg at its own
+    /// distance, a kernel of its pixel alone, and no coarse skip).
+    pub lit_proof: bool,
     /// Average the silhouette's cells in the refined searches (`blocker_depth = silhouette`).
     pub silhouette: bool,
 }
@@ -235,7 +239,7 @@ pub fn blocker_distance(
         cells
     };
     let bias = params.search_bias;
-    if params.coarse_skip {
+    if params.coarse_skip && params.lit_proof {
         // A coarse cell's minimum is no larger than any of its children's: nothing here means
         // nothing finer either.
         let r = region(pyramid, centre, half, COARSE_CELLS);
@@ -246,7 +250,7 @@ pub fn blocker_distance(
         }
     }
     let first = region_search(pyramid, centre, half, first_cells, z, bias, None, distance);
-    if first.y == 0.0 {
+    if first.y == 0.0 && params.lit_proof {
         return None;
     }
     let dr = distance(z);
@@ -282,6 +286,7 @@ mod tests {
             cells: 32,
             refinements: 1,
             coarse_skip: true,
+            lit_proof: true,
             silhouette,
         }
     }
@@ -303,10 +308,10 @@ mod tests {
             size: 64,
         };
         let footprint = |_: f32| Vec2::splat(4.0);
-        let run = |p: &MinPyramid, silhouette| {
+        let run_with = |p: &MinPyramid, params: &SearchParams| {
             blocker_distance(
                 p,
-                &params(silhouette),
+                params,
                 Vec2::splat(32.0),
                 0.8,
                 Vec2::splat(16.0),
@@ -316,7 +321,15 @@ mod tests {
                 &linear,
             )
         };
+        let run = |p: &MinPyramid, silhouette| run_with(p, &params(silhouette));
         assert_eq!(run(&p, true), None);
+        // A map that may miss a caster proves nothing: z_avg at the receiver's own distance
+        // (1.8 for depth 0.8), the kernel its footprint there.
+        let unproved = SearchParams {
+            lit_proof: false,
+            ..params(true)
+        };
+        assert_eq!(run_with(&p, &unproved), Some((1.8, Vec2::splat(4.0))));
         // A blocker plane at depth 0.3 over the left half: every search gives its distance.
         let half = pyramid(64, |i, _| if i < 32 { 0.3 } else { 1.0 });
         let p = MinPyramid {

@@ -13,23 +13,31 @@
 //! polygon, so the minimum is at a corner). Texels combine with `atomicMin` on the float bits.
 //!
 //! The polygon: a triangle with every vertex in front of the near plane (`w > 0`, `z ≥ 0`) is
-//! itself. One reaching before the near plane or behind the light's plane is clipped in clip
-//! space to the cone `|x|, |y| ≤ 2w` (what it drops projects outside the map; the cone holds no
-//! point behind the light, where nothing lies between a receiver and it) and split at `z = 0`:
-//! its far piece keeps its plane, its near piece lies at depth 0. So a caster crossing the
-//! light's plane (a roof over a light inside the scene) still marks every texel it may cover,
-//! and a blocker search may still prove a sample lit — before, such triangles were skipped and
-//! pvssm had to give up its fully-lit proof for the whole frame. A triangle edge-on to the
-//! light's centre is drawn as the segment it projects to, at its smallest depth (from the rest
-//! of an area light it is not edge-on).
+//! itself. With `clip` ([`ConservativeRaster::record`]), one reaching before the near plane or
+//! behind the light's plane is clipped in clip space to the cone `|x|, |y| ≤ 2w` (what it drops
+//! projects outside the map; the cone holds no point behind the light, where nothing lies
+//! between a receiver and it) and split at `z = 0`: its far piece keeps its plane, its near
+//! piece lies at depth 0 — so a caster crossing the light's plane (a roof over a light inside
+//! the scene) still marks every texel it may cover. Without (pvssm's choice, `record` says
+//! why), a triangle with a vertex at `w ≤ 0` or wholly before the near plane is skipped and one
+//! with some vertices before it is drawn whole, its depths clamped to 0. A triangle edge-on to
+//! the light's centre is drawn as the segment it projects to, at its smallest depth (from the
+//! rest of an area light it is not edge-on).
 //!
 //! Design: one invocation per triangle sets it up and rasterizes it when its clamped texel range
-//! has at most 64 texels (nearly every triangle of a scene at these resolutions); bigger ones,
+//! has at most [`SMALL_TEXELS`] (1024) texels (nearly every triangle of a scene at these
+//! resolutions), row by row; bigger ones,
 //! and every clipped piece, are appended to a list, which [`LARGE_GROUPS`] workgroups then
 //! grid-stride over, each of the group's eight runs of eight invocations taking every eighth
 //! row and its eight invocations the row's covered texels (only those: the row's extent comes
 //! from the polygon's edges, where the first version tested every texel of the bounding box
-//! with twelve edge functions — `pvssm-lowres` on `teapot-rect` 16.9 → 5.5 ms, below); one of
+//! with twelve edge functions, and sent every triangle of more than 64 texels to a workgroup
+//! of its own — 4 706 of teapot-rect's 6.3k triangles in pvssm's fitted 1024² map, most of a
+//! group's 64 invocations idle on each). Triangles of at most 16 texels keep the texel-by-texel
+//! separating-axis test (rows cost them more). `pvssm-lowres` on teapot-rect 24.7 → 7.6 ms,
+//! on `grid:800000@rect` (800k tiny triangles) 48 → 64 ms: interleaved `penumbra render`
+//! runs against `89893f4`'s binary, medians of five and two, on the 2-core VM in a slow phase
+//! (2026-12-03). One of
 //! more than 128² texels is split into 16 parts (part k: every 16th row from row k on), so a
 //! triangle over the whole map (a ground plane) keeps several groups busy, not one (lavapipe
 //! runs a workgroup on one CPU thread). Fixed groups keep per-workgroup overhead bounded;
@@ -37,8 +45,9 @@
 //! one group may handle, hence [`MAX_MAP_SIZE`]; a guard loop counts invocations the limiter cut
 //! short ([`RasterCounters::cut`]).
 //!
-//! Skipped triangles (counted): entirely behind the light (every `w ≤ 0`), entirely past the far
-//! plane, a non-finite projection.
+//! Skipped triangles (counted): entirely behind the light (every `w ≤ 0`; without `clip`, any
+//! vertex there), entirely past the far plane (without `clip`, or wholly before the near plane),
+//! a non-finite projection.
 //!
 //! Use: [`ConservativeRaster::new`] once, [`ConservativeRaster::bind`] to the geometry and the
 //! output, then [`ConservativeRaster::record`]; [`ConservativeRaster::run`] is the
@@ -83,8 +92,9 @@ pub struct RasterPush {
     pub map_size: u32,
     /// 0: per-triangle pass; 1: large-triangle pass.
     pub phase: u32,
-    /// Padding.
-    pub pad: u32,
+    /// 1: clip triangles reaching before the near plane or behind the light; 0: skip them
+    /// (see [`ConservativeRaster::record`]).
+    pub clip: u32,
 }
 
 /// What a rasterization counted (the GPU's counters buffer, in this order, `u32` each).
@@ -101,8 +111,9 @@ pub struct RasterCounters {
     pub large: u32,
     /// Covered (triangle, texel) pairs: `atomicMin`s done.
     pub texels: u32,
-    /// Of `skipped`, triangles entirely behind the light (every `w ≤ 0`): none of them can
-    /// lie between a receiver and the light.
+    /// Of `skipped`, triangles behind the light: every vertex at `w ≤ 0` (none of them can lie
+    /// between a receiver and the light), or without `clip` any vertex there (the map is then
+    /// not conservative for them).
     pub behind_light: u32,
     /// Invocations whose loops lavapipe's loop limiter cut short; nonzero means a wrong map.
     pub cut: u32,
@@ -252,12 +263,21 @@ impl ConservativeRaster {
     }
 
     /// Records the rasterization: fills the depth buffer with [`EMPTY_DEPTH_BITS`] and the
-    /// counters with 0, then the per-triangle and the large-triangle dispatches.
+    /// counters with 0, then the per-triangle and the large-triangle dispatches. With `clip`,
+    /// triangles reaching before the near plane or behind the light are clipped and drawn (the
+    /// map then holds every caster between the light's plane and the far plane); without, those
+    /// with a vertex at `w ≤ 0` or wholly before the near plane are skipped (counted
+    /// `behind_light` and `skipped`) and one with only some vertices before it is drawn whole,
+    /// its depths clamped to 0 — pvssm's choice, whose pages do not hold what lies before the
+    /// near plane either: with the clip, `all-in-shadow`'s roof (crossing the light's plane)
+    /// gave its blocker search blockers beside the light, kernels of the whole map and penumbra
+    /// MAE 0.0042 where leaving the roof out and giving up the fully-lit proof gives 0.0000.
     pub fn record(
         &self,
         rec: &mut Recorder<'_>,
         binding: &RasterBinding<'_>,
         light_view_proj: Mat4,
+        clip: bool,
     ) -> Result<()> {
         rec.fill(&binding.depth, EMPTY_DEPTH_BITS);
         rec.fill(&binding.counters, 0);
@@ -266,7 +286,7 @@ impl ConservativeRaster {
             triangles: binding.triangles,
             map_size: binding.map_size,
             phase: 0,
-            pad: 0,
+            clip: u32::from(clip),
         };
         // With no triangle one invocation still runs the limiter guard.
         let threads = binding.triangles.max(1);
@@ -289,6 +309,7 @@ impl ConservativeRaster {
         indices: &[u32],
         light_view_proj: Mat4,
         map_size: u32,
+        clip: bool,
     ) -> Result<(Vec<f32>, RasterCounters)> {
         if indices.len() % 3 != 0 || indices.iter().any(|&i| i as usize >= positions.len()) {
             return Err(param_error(
@@ -307,8 +328,9 @@ impl ConservativeRaster {
         let vertices = self.ctx.buffer_with("raster vertices", usage, &flat)?;
         let index_buffer = self.ctx.buffer_with("raster indices", usage, indices)?;
         let binding = self.bind(&vertices, &index_buffer, triangles, map_size, 0)?;
-        self.ctx
-            .submit(None, |rec| self.record(rec, &binding, light_view_proj))?;
+        self.ctx.submit(None, |rec| {
+            self.record(rec, &binding, light_view_proj, clip)
+        })?;
         let counters = binding.read_counters(&self.ctx)?;
         if counters.cut > 0 {
             return Err(Error::Shader {

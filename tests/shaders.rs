@@ -634,13 +634,16 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
-            vec!["kernels/raster_conservative.comp"],
+            vec![
+                "kernels/raster_conservative.comp",
+                "kernels/raster_conservative_clip.comp",
+            ],
             twin!(raster::RasterPush {
                 light_view_proj,
                 triangles,
                 map_size,
                 phase,
-                clip
+                pad
             }),
         ),
         (

@@ -34,10 +34,13 @@
 //! with twelve edge functions, and sent every triangle of more than 64 texels to a workgroup
 //! of its own — 4 706 of teapot-rect's 6.3k triangles in pvssm's fitted 1024² map, most of a
 //! group's 64 invocations idle on each). Triangles of at most 16 texels keep the texel-by-texel
-//! separating-axis test (rows cost them more). `pvssm-lowres` on teapot-rect 24.7 → 7.6 ms,
-//! on `grid:800000@rect` (800k tiny triangles) 48 → 64 ms: interleaved `penumbra render`
-//! runs against `89893f4`'s binary, medians of five and two, on the 2-core VM in a slow phase
-//! (2026-12-03). One of
+//! separating-axis test (rows cost them more). The clip lives in a second shader
+//! (`raster_conservative_clip.comp`, the same source with `CLIP`): its arrays, present in a
+//! shader at all, made every invocation of it slower on lavapipe. `pvssm-lowres` (no clip) on
+//! teapot-rect 24.3 → 7.7 ms, on `grid:800000@rect` (800k tiny triangles) 63.9 → 53.0 ms
+//! (with the clip in the same shader it had been 48 → 64): interleaved `penumbra render SCENE
+//! --technique pvssm --no-validation --frames 3` runs against `89893f4`'s binary, medians of
+//! five and three, on the 2-core VM in a slow phase (2026-12-03). One of
 //! more than 128² texels is split into 16 parts (part k: every 16th row from row k on), so a
 //! triangle over the whole map (a ground plane) keeps several groups busy, not one (lavapipe
 //! runs a workgroup on one CPU thread). Fixed groups keep per-workgroup overhead bounded;
@@ -92,9 +95,8 @@ pub struct RasterPush {
     pub map_size: u32,
     /// 0: per-triangle pass; 1: large-triangle pass.
     pub phase: u32,
-    /// 1: clip triangles reaching before the near plane or behind the light; 0: skip them
-    /// (see [`ConservativeRaster::record`]).
-    pub clip: u32,
+    /// Padding.
+    pub pad: u32,
 }
 
 /// What a rasterization counted (the GPU's counters buffer, in this order, `u32` each).
@@ -131,6 +133,8 @@ pub struct RasterBinding<'a> {
     triangles: u32,
     map_size: u32,
     set: DescriptorSet,
+    // The same bindings for the clipping shader.
+    clip_set: DescriptorSet,
     depth: Buffer,
     counters: Buffer,
     _large: Buffer,
@@ -174,6 +178,10 @@ impl RasterBinding<'_> {
 pub struct ConservativeRaster {
     ctx: Context,
     pipeline: Pipeline,
+    // `raster_conservative_clip.comp`: the same with the clip (two shaders, not a push
+    // constant: the clip's arrays, present in a shader at all, slow every invocation of it on
+    // lavapipe — phase 0 on grid:800000@rect 51 against 81 ms).
+    clip_pipeline: Pipeline,
 }
 
 impl ConservativeRaster {
@@ -182,6 +190,7 @@ impl ConservativeRaster {
         Ok(ConservativeRaster {
             ctx: ctx.clone(),
             pipeline: Pipeline::compute(ctx, "kernels/raster_conservative.comp")?,
+            clip_pipeline: Pipeline::compute(ctx, "kernels/raster_conservative_clip.comp")?,
         })
     }
 
@@ -240,21 +249,20 @@ impl ConservativeRaster {
             "conservative raster counters",
             4 * (COUNTERS + 2),
         )?;
-        let set = DescriptorSet::new(
-            &self.ctx,
-            &self.pipeline,
-            &[
-                Binding::Buffer(vertices),
-                Binding::Buffer(indices),
-                Binding::Buffer(&depth),
-                Binding::Buffer(&large),
-                Binding::Buffer(&counters),
-            ],
-        )?;
+        let bindings = [
+            Binding::Buffer(vertices),
+            Binding::Buffer(indices),
+            Binding::Buffer(&depth),
+            Binding::Buffer(&large),
+            Binding::Buffer(&counters),
+        ];
+        let set = DescriptorSet::new(&self.ctx, &self.pipeline, &bindings)?;
+        let clip_set = DescriptorSet::new(&self.ctx, &self.clip_pipeline, &bindings)?;
         Ok(RasterBinding {
             triangles,
             map_size,
             set,
+            clip_set,
             depth,
             counters,
             _large: large,
@@ -286,18 +294,18 @@ impl ConservativeRaster {
             triangles: binding.triangles,
             map_size: binding.map_size,
             phase: 0,
-            clip: u32::from(clip),
+            pad: 0,
+        };
+        let (pipeline, set) = if clip {
+            (&self.clip_pipeline, &binding.clip_set)
+        } else {
+            (&self.pipeline, &binding.set)
         };
         // With no triangle one invocation still runs the limiter guard.
         let threads = binding.triangles.max(1);
-        rec.dispatch(&self.pipeline, &binding.set, &push, [threads, 1, 1])?;
+        rec.dispatch(pipeline, set, &push, [threads, 1, 1])?;
         push.phase = 1;
-        rec.dispatch(
-            &self.pipeline,
-            &binding.set,
-            &push,
-            [LARGE_GROUPS * WG, 1, 1],
-        )
+        rec.dispatch(pipeline, set, &push, [LARGE_GROUPS * WG, 1, 1])
     }
 
     /// Uploads `positions` and `indices` (a triangle list), rasterizes them into a

@@ -398,6 +398,8 @@ void list_piece(uint tri, uint piece, uint count) {
 }
 
 // Rows `first`, first + step, ... of the setup's range, columns from `lane` on by `lanes`.
+// (Two copies, for a triangle and for a clipped polygon: with a fixed three-vertex array every
+// index is a constant and the vertices stay in registers; the polygon's loop indexes its array.)
 uint raster_rows_triangle(vec3 p[3], Setup s, int first, int step, int lane, int lanes) {
     uint written = 0u;
     vec3 inv = vec3(inverse_dy(p[0].xy, p[1].xy), inverse_dy(p[1].xy, p[2].xy),

@@ -333,6 +333,7 @@ pub fn rasterize(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::test_support::Rng;
 
     /// Texel coordinates to NDC at map size `n` (z given), for an identity light matrix.
     fn ndc(x: f32, y: f32, z: f32, n: f32) -> Vec3 {
@@ -423,20 +424,9 @@ mod tests {
         assert_eq!((r.skipped, r.behind_light, r.clipped), (1, 0, 0));
     }
 
-    /// xorshift32 floats in [0, 1).
-    struct Rng(u32);
-
-    impl Rng {
-        fn next(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 17;
-            self.0 ^= self.0 << 5;
-            (self.0 >> 8) as f32 / (1u32 << 24) as f32
-        }
-
-        fn point(&mut self, centre: Vec3, size: f32) -> Vec3 {
-            centre + Vec3::new(self.next() - 0.5, self.next() - 0.5, self.next() - 0.5) * size
-        }
+    /// A point within `size / 2` of `centre` on each axis.
+    fn point(rng: &mut Rng, centre: Vec3, size: f32) -> Vec3 {
+        centre + rng.vec3() * (0.5 * size)
     }
 
     /// The separating-axis form of the coverage rule for a whole triangle: bounding boxes
@@ -469,8 +459,8 @@ mod tests {
         let mut rng = Rng(777);
         for t in 0..400 {
             let size = [0.05, 0.3, 1.5][t % 3];
-            let centre = rng.point(Vec3::ZERO, 1.6);
-            let v = [0; 3].map(|_| rng.point(centre, size));
+            let centre = point(&mut rng, Vec3::ZERO, 1.6);
+            let v = [0; 3].map(|_| point(&mut rng, centre, size));
             let v = v.map(|p| Vec3::new(p.x, p.y, 0.5));
             let r = rasterize(&v, &[0, 1, 2], Mat4::IDENTITY, n, 1e-3, 64, true);
             let p = v.map(|q| (q.truncate() * 0.5 + 0.5) * n as f32);
@@ -500,9 +490,9 @@ mod tests {
         let mut clipped = 0;
         for t in 0..200 {
             // Centres around the light's plane (z = 5) and its near plane (z = 4).
-            let centre = rng.point(Vec3::new(0.0, 0.0, 4.5), 4.0);
+            let centre = point(&mut rng, Vec3::new(0.0, 0.0, 4.5), 4.0);
             let size = [0.5, 2.0, 8.0][t % 3];
-            let v = [0; 3].map(|_| rng.point(centre, size));
+            let v = [0; 3].map(|_| point(&mut rng, centre, size));
             let r = rasterize(&v, &[0, 1, 2], vp, n, 1e-3, 64, true);
             clipped += r.clipped;
             for i in 0..=40 {

@@ -103,7 +103,8 @@ layout(push_constant) uniform Push {
 // near plane are skipped, and one with only some vertices before it is drawn whole, its depths
 // clamped to 0 (pvssm's choice: its pages do not hold what lies before the near plane either).
 // Two shaders rather than a push constant: the clip's arrays, present in a shader at all, made
-// phase 0 on grid:800000@rect 50 -> 80 ms on lavapipe.
+// pvssm's low-res pass on grid:800000@rect 51.9 -> 70.7 ms on lavapipe
+// (7134be3 against f9c162a).
 #ifdef CLIP
 #define CLIP_MODE true
 #else

@@ -94,6 +94,7 @@ fn check_against_twin(
     assert_eq!(counters.skipped, twin.skipped, "{what}: skipped");
     assert_eq!(counters.behind_light, twin.behind_light, "{what}: behind");
     assert_eq!(counters.clipped, twin.clipped, "{what}: clipped");
+    assert_eq!(counters.missed, twin.missed, "{what}: missed");
     assert_eq!(counters.large, twin.large, "{what}: large");
     assert!(
         (tight.texels..=loose.texels).contains(&counters.texels),
@@ -194,10 +195,14 @@ fn random_triangles_match_the_twin_and_are_conservative() {
         // Some behind the light, some past the far plane; with the clip many clipped at the
         // light's or the near plane (drawn, not skipped), without it skipped.
         assert!(twin.behind_light > 0 && twin.skipped > twin.behind_light);
+        // Missed (left out though they may cast): none with the clip; without it those
+        // crossing the light's plane or wholly before the near plane.
         if clip {
             assert!(twin.clipped > 100, "{what}: only {} clipped", twin.clipped);
+            assert_eq!(twin.missed, 0, "{what}");
         } else {
             assert!(twin.clipped == 0 && twin.behind_light > 100, "{what}");
+            assert!(twin.missed > 100, "{what}: only {} missed", twin.missed);
         }
         assert!(
             twin.large > 50,
@@ -361,6 +366,7 @@ fn one_triangle_fills_a_1024_map_through_the_large_path() {
             behind_light: 0,
             cut: 0,
             clipped: 0,
+            missed: 0,
         }
     );
     common::assert_clean(&ctx.validation());

@@ -69,10 +69,15 @@
 #define C_BEHIND 4
 #define C_CUT 5
 #define C_CLIPPED 6
+// Skipped triangles that may still cast between a receiver and the light (the map leaves them
+// out, so it proves nothing lit): without CLIP, those reaching the light's plane (not wholly
+// behind it) or wholly before the near plane; in either mode, a whole one whose projection is
+// not finite. pvssm's shape pass reads this word (RasterCounters::missed).
+#define C_MISSED 7
 // Past RasterCounters: the large list's entries of at most HUGE texels (from its front) and
 // those of more (from its back).
-#define C_FRONT 7
-#define C_HUGE 8
+#define C_FRONT 8
+#define C_HUGE 9
 
 #extension GL_GOOGLE_include_directive : require
 #include "small_int.glsl"
@@ -455,11 +460,15 @@ void main() {
                 if (behind || (!CLIP_MODE && !front)) {
                     atomicAdd(counters[C_BEHIND], 1u);
                 }
+                if (!behind && !past_far) {
+                    atomicAdd(counters[C_MISSED], 1u);
+                }
             } else if (whole) {
                 vec3 p[3];
                 Setup s;
                 if (!whole_piece(a, b, c, p, s)) {
                     atomicAdd(counters[C_SKIPPED], 1u);
+                    atomicAdd(counters[C_MISSED], 1u);
                 } else {
                     uint count = texel_count(s);
                     vec2 e1 = p[1].xy - p[0].xy;

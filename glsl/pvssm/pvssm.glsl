@@ -56,9 +56,6 @@ layout(push_constant) uniform Push {
 #define OPT_COARSE_SKIP 8u
 // blocker_depth = silhouette: the refined search averages the silhouette cells (shape.comp).
 #define OPT_SILHOUETTE 16u
-// Some caster crosses the light's plane (or lies before its near plane): the conservative
-// low-res map leaves it out, so no blocker found proves nothing (shape.comp).
-#define OPT_NO_LIT_PROOF 32u
 // Of the predicted z_avg's distance to the receiver, the least a silhouette cell's may have
 // (0.1-0.5 measured: penumbra MAE teapot-rect 0.0152-0.0159, bunny-rect 0.0295-0.0307).
 #define SILHOUETTE_GAP 0.25

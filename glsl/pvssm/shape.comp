@@ -44,6 +44,11 @@ uint mip_offset(uint level) {
 layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D shape;
 layout(set = 0, binding = 7, r32f) uniform writeonly image2D visibility;
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
+// The conservative raster's counters (src/kernels/raster.rs RasterCounters) from this frame's
+// low-res pass: word RASTER_MISSED counts the casters it left out (crossing the light's plane, or
+// wholly before the near plane): with any, finding no blocker in the map proves nothing.
+layout(set = 0, binding = 9) readonly buffer RasterCounts { uint raster_counts[]; };
+#define RASTER_MISSED 7
 
 // A search region centre ± half_low (low-resolution texels) at the min pyramid's level where
 // it spans at most `cells` cells a side: that level's cells a..b, the region in cell units
@@ -314,10 +319,10 @@ void main() {
             float first_cells = refinements > 0u ? max(2.0, 0.25 * cells) : cells;
             vec2 sum = vec2(0.0);
             // Whether the low-res map holds every caster, so that finding no blocker proves the
-            // sample lit: not when a caster crosses the light's plane (OPT_NO_LIT_PROOF, the
-            // conservative raster leaves those out). Then a sample with no blocker found takes
+            // sample lit: not when the raster left a caster out (one crossing the light's plane:
+            // its own count, read here on the GPU). Then a sample with no blocker found takes
             // the kernel of its pixel alone (z_avg at the receiver) and the pages decide it.
-            bool lit_proof = (pc.options & OPT_NO_LIT_PROOF) == 0u;
+            bool lit_proof = raster_counts[RASTER_MISSED] == 0u;
             if ((pc.options & OPT_COARSE_SKIP) == 0u || !lit_proof
                 || may_have_blocker(centre, half_low, COARSE_CELLS, rc, lowres_texel)) {
                 sum = blocker_search(centre, half_low, first_cells, rc, lowres_texel);

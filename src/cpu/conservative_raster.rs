@@ -49,6 +49,10 @@ pub struct ConservativeDepth {
     pub texels: u32,
     /// Triangles drawn through the clip (before the near or behind the light's plane).
     pub clipped: u32,
+    /// Of `skipped`, those that may still cast (neither wholly behind the light nor wholly past
+    /// the far plane): without `clip`, reaching the light's plane or wholly before the near
+    /// plane; a whole one with a non-finite projection.
+    pub missed: u32,
 }
 
 /// A piece projected to texels (xy) and NDC depth (z), with its depth rule.
@@ -221,8 +225,14 @@ fn texel_depth(t: &Piece, x: i64, y: i64, eps: f32) -> f32 {
 
 /// The pieces of one triangle, or why it has none.
 enum Pieces {
-    Behind,
-    Skipped,
+    /// Skipped with a vertex at `w ≤ 0`; `may_cast` unless every vertex is there.
+    Behind {
+        may_cast: bool,
+    },
+    /// Skipped otherwise; `may_cast` unless wholly past the far plane.
+    Skipped {
+        may_cast: bool,
+    },
     Whole(Piece),
     Clipped(Vec<Piece>),
 }
@@ -230,11 +240,12 @@ enum Pieces {
 fn pieces(v: [Vec3; 3], view_proj: Mat4, n: f32, clip: bool) -> Pieces {
     let c = v.map(|p| view_proj * p.extend(1.0));
     let front = c.iter().all(|c| c.w > 0.0);
-    if c.iter().all(|c| c.w <= 0.0) || (!clip && !front) {
-        return Pieces::Behind;
+    let behind = c.iter().all(|c| c.w <= 0.0);
+    if behind || (!clip && !front) {
+        return Pieces::Behind { may_cast: !behind };
     }
     if c.iter().all(|c| c.w > 0.0 && c.z > c.w) {
-        return Pieces::Skipped;
+        return Pieces::Skipped { may_cast: false };
     }
     let whole = if clip {
         c.iter().all(|c| c.z >= 0.0)
@@ -242,12 +253,12 @@ fn pieces(v: [Vec3; 3], view_proj: Mat4, n: f32, clip: bool) -> Pieces {
         !c.iter().all(|c| c.z < 0.0)
     };
     if !clip && !whole {
-        return Pieces::Skipped;
+        return Pieces::Skipped { may_cast: true };
     }
     if front && whole {
         let p: Vec<Vec3> = c.iter().map(|&c| project(c, n)).collect();
         if !p.iter().all(|q| q.is_finite()) {
-            return Pieces::Skipped;
+            return Pieces::Skipped { may_cast: true };
         }
         return Pieces::Whole(piece(p, [0, 1, 2], false));
     }
@@ -283,18 +294,21 @@ pub fn rasterize(
         large: 0,
         texels: 0,
         clipped: 0,
+        missed: 0,
     };
     for tri in indices.chunks_exact(3) {
         out.triangles += 1;
         let v = [0, 1, 2].map(|k| positions[tri[k] as usize]);
         let (list, whole) = match pieces(v, view_proj, n as f32, clip) {
-            Pieces::Behind => {
+            Pieces::Behind { may_cast } => {
                 out.skipped += 1;
                 out.behind_light += 1;
+                out.missed += u32::from(may_cast);
                 continue;
             }
-            Pieces::Skipped => {
+            Pieces::Skipped { may_cast } => {
                 out.skipped += 1;
+                out.missed += u32::from(may_cast);
                 continue;
             }
             Pieces::Whole(t) => (vec![t], true),
@@ -405,8 +419,8 @@ mod tests {
             true,
         );
         assert_eq!(
-            (r.triangles, r.skipped, r.behind_light, r.clipped),
-            (4, 1, 0, 1)
+            (r.triangles, r.skipped, r.behind_light, r.clipped, r.missed),
+            (4, 1, 0, 1, 0)
         );
         // The segment from texel (8, 8) to (12, 8) at depth 0.5, the near triangle at 0.
         assert_eq!(r.depth[8 * 16 + 10], 0.0);
@@ -418,10 +432,19 @@ mod tests {
             1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0,
         ]);
         let r = rasterize(&p, &[0, 1, 6], m, 16, 1e-3, 64, true);
-        assert_eq!((r.skipped, r.behind_light), (1, 1));
-        // Without the clip, the triangle before the near plane is skipped.
+        assert_eq!((r.skipped, r.behind_light, r.missed), (1, 1, 0));
+        // Without the clip, the triangle before the near plane is skipped, and may cast.
         let r = rasterize(&p, &[3, 4, 5], Mat4::IDENTITY, 16, 1e-3, 64, false);
-        assert_eq!((r.skipped, r.behind_light, r.clipped), (1, 0, 0));
+        assert_eq!(
+            (r.skipped, r.behind_light, r.clipped, r.missed),
+            (1, 0, 0, 1)
+        );
+        // Crossing the light's plane: clipped and drawn with the clip, skipped and missed
+        // without.
+        let r = rasterize(&p, &[3, 4, 6], m, 16, 1e-3, 64, true);
+        assert_eq!((r.skipped, r.clipped, r.missed), (0, 1, 0));
+        let r = rasterize(&p, &[3, 4, 6], m, 16, 1e-3, 64, false);
+        assert_eq!((r.skipped, r.behind_light, r.missed), (1, 1, 1));
     }
 
     /// A point within `size / 2` of `centre` on each axis.

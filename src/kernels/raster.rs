@@ -50,7 +50,10 @@
 //!
 //! Skipped triangles (counted): entirely behind the light (every `w ≤ 0`; without `clip`, any
 //! vertex there), entirely past the far plane (without `clip`, or wholly before the near plane),
-//! a non-finite projection.
+//! a non-finite projection. Those of them that may still cast (all but the wholly behind and
+//! the wholly past the far plane) are counted apart, [`RasterCounters::missed`]: while it is 0
+//! the map holds every caster before the far plane, and a search finding no blocker in it
+//! proves a sample lit.
 //!
 //! Use: [`ConservativeRaster::new`] once, [`ConservativeRaster::bind`] to the geometry and the
 //! output, then [`ConservativeRaster::record`]; [`ConservativeRaster::run`] is the
@@ -122,7 +125,17 @@ pub struct RasterCounters {
     /// Triangles drawn through the clip: reaching before the near plane or behind the light's
     /// plane.
     pub clipped: u32,
+    /// Skipped triangles that may still cast between a receiver and the light, so that a map
+    /// missing them proves nothing lit: without `clip`, those reaching the light's plane (some
+    /// vertex at `w ≤ 0`, not every one) or wholly before the near plane; in either mode a whole
+    /// one whose projection is not finite. A reader on the GPU finds it at word
+    /// [`MISSED_WORD`] of [`RasterBinding::counters`] (pvssm's shape pass does, instead of a
+    /// CPU replica of these rules).
+    pub missed: u32,
 }
+
+/// The index of [`RasterCounters::missed`] in the counters buffer, in `u32` words.
+pub const MISSED_WORD: u32 = 7;
 
 /// Counters in the counters buffer.
 const COUNTERS: u64 = (std::mem::size_of::<RasterCounters>() / 4) as u64;
@@ -275,7 +288,8 @@ impl ConservativeRaster {
     /// triangles reaching before the near plane or behind the light are clipped and drawn (the
     /// map then holds every caster between the light's plane and the far plane); without, those
     /// with a vertex at `w ≤ 0` or wholly before the near plane are skipped (counted
-    /// `behind_light` and `skipped`) and one with only some vertices before it is drawn whole,
+    /// `skipped`, `behind_light` where a vertex is at `w ≤ 0`, and `missed` unless every one
+    /// is) and one with only some vertices before it is drawn whole,
     /// its depths clamped to 0 — pvssm's choice, whose pages do not hold what lies before the
     /// near plane either: with the clip, `all-in-shadow`'s roof (crossing the light's plane)
     /// gave its blocker search blockers beside the light, kernels of the whole map and penumbra
@@ -360,6 +374,12 @@ mod tests {
     use super::*;
     use crate::gpu::shader_interface;
     use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn missed_is_the_word_the_shaders_read() {
+        // `C_MISSED` in raster_conservative.glsl and `RASTER_MISSED` in pvssm/shape.comp.
+        assert_eq!(offset_of!(RasterCounters, missed), 4 * MISSED_WORD as usize);
+    }
 
     #[test]
     fn raster_push_layout() {

@@ -238,9 +238,6 @@ pub struct Pvssm<'a> {
     view_size: IVec2,
     // Triangles the caster list left out of the low-res map and the pages.
     non_casters: u64,
-    // Triangles the conservative raster cannot hold (crossing the light's plane): with any, no
-    // blocker found proves nothing.
-    lowres_missing: u64,
 }
 
 impl<'a> Pvssm<'a> {
@@ -346,6 +343,8 @@ impl<'a> Pvssm<'a> {
                 Binding::Image(&shape),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&counters),
+                // Its `missed` word: whether the low-res map can prove a sample lit.
+                Binding::Buffer(lowres.counters()),
             ],
         )?;
         let filter_pipeline = Pipeline::compute(ctx, "pvssm/filter.comp")?;
@@ -379,10 +378,6 @@ impl<'a> Pvssm<'a> {
         }
         if params.u32("blocker_depth")? == 1 {
             options |= 16;
-        }
-        let unproved = lowres_misses(setup.positions, setup.indices, view.view_proj);
-        if unproved > 0 {
-            options |= 32;
         }
         // -1 (predicted) is stored as 0, level k as k + 1.
         options |= ((fixed_level + 1.0) as u32) << 20;
@@ -424,29 +419,8 @@ impl<'a> Pvssm<'a> {
             push,
             view_size,
             non_casters: u64::from((setup.geometry.index_count - setup.casters.index_count) / 3),
-            lowres_missing: unproved,
         })
     }
-}
-
-/// How many triangles the conservative raster leaves out under `view_proj` (its set-up's skips:
-/// a vertex at or behind the light's plane, w ≤ 0, or every vertex before the near plane, z < 0)
-/// — triangles that may still cast, so that with any the low-resolution map proves nothing lit.
-/// Tested on every triangle of the scene (the caster list's are among them), with a margin far
-/// above the rounding of the shader's own transform.
-fn lowres_misses(positions: &[glam::Vec3], indices: &[u32], view_proj: glam::Mat4) -> u64 {
-    let clip = |i: u32| {
-        let c = view_proj * positions[i as usize].extend(1.0);
-        let margin = 1e-5 * (c.x.abs() + c.y.abs() + c.z.abs() + c.w.abs());
-        (c.w <= margin, c.z < margin)
-    };
-    indices
-        .chunks_exact(3)
-        .filter(|t| {
-            let v = [clip(t[0]), clip(t[1]), clip(t[2])];
-            v.iter().any(|&(behind, _)| behind) || v.iter().all(|&(_, before)| before)
-        })
-        .count() as u64
 }
 
 impl Pvssm<'_> {
@@ -489,7 +463,12 @@ impl Technique for Pvssm<'_> {
                 .filter(|(n, _)| !n.starts_with("refine_")),
         );
         out.push(("non_casters".into(), self.non_casters));
-        out.push(("lowres_missing".into(), self.lowres_missing));
+        // Casters the conservative raster left out (crossing the light's plane): with any, no
+        // blocker found proves nothing (the shape pass reads the same word).
+        out.push((
+            "lowres_missing".into(),
+            u64::from(self.lowres.read_counters(&self.ctx)?.missed),
+        ));
         Ok(out)
     }
 
@@ -514,41 +493,5 @@ impl Technique for Pvssm<'_> {
 
     fn buffers(&self) -> Vec<(&'static str, &crate::gpu::Buffer)> {
         vec![("lowres", self.lowres.depth())]
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use glam::{Mat4, Vec3};
-
-    use super::lowres_misses;
-
-    /// A light at the origin looking down −z (near 1, far 100): a triangle in front is held by the
-    /// conservative raster, one reaching behind the light or lying before the near plane is not.
-    #[test]
-    fn triangles_the_conservative_raster_leaves_out_are_counted() {
-        let view_proj = Mat4::perspective_rh(1.0, 1.0, 1.0, 100.0);
-        let positions = [
-            // In front, between near and far.
-            Vec3::new(-1.0, 0.0, -10.0),
-            Vec3::new(1.0, 0.0, -10.0),
-            Vec3::new(0.0, 1.0, -12.0),
-            // Reaching behind the light (z > 0 in view space: w < 0).
-            Vec3::new(0.0, 0.0, 5.0),
-            // Before the near plane.
-            Vec3::new(-0.1, 0.0, -0.5),
-            Vec3::new(0.1, 0.0, -0.5),
-            Vec3::new(0.0, 0.1, -0.6),
-        ];
-        assert_eq!(lowres_misses(&positions, &[0, 1, 2], view_proj), 0);
-        assert_eq!(lowres_misses(&positions, &[0, 1, 3], view_proj), 1);
-        assert_eq!(lowres_misses(&positions, &[4, 5, 6], view_proj), 1);
-        // One vertex before the near plane alone: rasterized (its depth clamped to 0), not left
-        // out.
-        assert_eq!(lowres_misses(&positions, &[0, 1, 4], view_proj), 0);
-        assert_eq!(
-            lowres_misses(&positions, &[0, 1, 2, 0, 1, 3, 4, 5, 6], view_proj),
-            2
-        );
     }
 }

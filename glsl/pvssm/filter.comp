@@ -48,6 +48,11 @@ bool kernel_covered(ivec4 box, uint level) {
     return true;
 }
 
+// The receiver plane's depth at the centre of texel `t` of a level of texel size `s`.
+float plane_at(Receiver rc, vec2 t, float s) {
+    return rc.z + dot(rc.dz, (t + 0.5) * s - rc.c);
+}
+
 void main() {
     invocation_counts_clear();
 
@@ -94,20 +99,38 @@ void main() {
             vec2 sum = vec2(0.0);
             uint texels = 0u;
             vec2 inv_atlas = 1.0 / vec2(textureSize(atlas, 0));
-            for (int i = i0; i <= i1; ++i) {
-                float x0 = max(float(i), x_lo);
-                float x1 = min(float(i + 1), x_hi);
-                float wx = x1 - x0;
-                if (wx <= 0.0) {
+            // Columns in pairs from an even column, both read by the same gathers (a gather
+            // holds a 2x2 block; one column a gather read half of what it fetched): the pair's
+            // rows are the union of its two columns' (sheared) row ranges, and each texel adds
+            // to its own column's sums only where that column's range holds it. A page is an
+            // even number of columns and starts at an even one, so a pair never straddles two
+            // pages.
+            for (int i = i0 & ~1; i <= i1; i += 2) {
+                // Column i and i + 1: the x extents' widths (<= 0: not in the kernel, or
+                // past a cut), their centre rows' extents and their row ranges.
+                vec2 x0 = max(vec2(i, i + 1), vec2(x_lo));
+                vec2 x1 = min(vec2(i + 1, i + 2), vec2(x_hi));
+                vec2 wx = x1 - x0;
+                wx.x = i >= i0 ? wx.x : 0.0;
+                wx.y = i + 1 <= i1 ? wx.y : 0.0;
+                bvec2 in_kernel = greaterThan(wx, vec2(0.0));
+                if (!any(in_kernel)) {
                     continue;
                 }
-                float yc = centre.y + (0.5 * (x0 + x1) - centre.x) * slope;
-                float y_lo = yc - vy;
-                float y_hi = yc + vy;
-                int j0 = int(floor(y_lo));
-                int j1 = int(ceil(y_hi)) - 1;
-                cut = cut || j1 > j0 + MAX_SPAN - 1;
+                vec2 yc = centre.y + (0.5 * (x0 + x1) - centre.x) * slope;
+                vec2 y_lo = yc - vy;
+                vec2 y_hi = yc + vy;
+                ivec2 j0 = ivec2(floor(y_lo));
+                ivec2 j1 = ivec2(ceil(y_hi)) - 1;
+                cut = cut || (in_kernel.x && j1.x > j0.x + MAX_SPAN - 1)
+                    || (in_kernel.y && j1.y > j0.y + MAX_SPAN - 1);
                 j1 = min(j1, j0 + MAX_SPAN - 1);
+                // An inactive column's range is empty and takes no part in the union.
+                j0 = mix(ivec2(1 << 30), j0, in_kernel);
+                j1 = mix(ivec2(-(1 << 30)), j1, in_kernel);
+                int j_first = min(j0.x, j0.y);
+                int j_last = max(j1.x, j1.y);
+                // The level is an even number of columns: both or neither inside.
                 bool column_inside = i >= 0 && i < size;
                 int px = column_inside ? i / ps : 0;
                 // First row past the current page, the current page's slot + 1 (0: not
@@ -116,16 +139,19 @@ void main() {
                 int page_end = 0;
                 uint slot = 0u;
                 ivec2 origin = ivec2(0);
-                // Rows in pairs from an even row, both read by one gather (gather_depths in
+                // Rows in pairs from an even row, the 2x2 block by one gather (gather_depths in
                 // shadow_map.glsl: a texelFetch is a call on lavapipe). Pages are an even number
-                // of rows (`page_size` >= 16) and start at even rows, so a pair never straddles
+                // of rows (`page_size` >= 16) and start at even rows, so a block never straddles
                 // two pages, and the level, a whole number of pages, holds both rows or
-                // neither. A row outside the kernel has wy <= 0 (or, past a cut, lies after j1) and
-                // adds nothing, so the sums are added in the same order as one row at a time.
-                for (int j = j0 & ~1; j <= j1; j += 2) {
-                    vec2 wy = vec2(min(float(j + 1), y_hi) - max(float(j), y_lo),
-                                   min(float(j + 2), y_hi) - max(float(j + 1), y_lo));
-                    vec2 lit = vec2(1.0);
+                // neither. A row outside a column's range has wy <= 0 there (or, past a cut,
+                // lies after its j1) and adds nothing.
+                for (int j = j_first & ~1; j <= j_last; j += 2) {
+                    // (column i: rows j, j + 1; column i + 1: rows j, j + 1).
+                    vec4 wy = vec4(min(float(j + 1), y_hi.x) - max(float(j), y_lo.x),
+                                   min(float(j + 2), y_hi.x) - max(float(j + 1), y_lo.x),
+                                   min(float(j + 1), y_hi.y) - max(float(j), y_lo.y),
+                                   min(float(j + 2), y_hi.y) - max(float(j + 1), y_lo.y));
+                    vec4 lit = vec4(1.0);
                     if (column_inside && j >= 0 && j < size) {
                         if (j >= page_end) {
                             int py = j / ps;
@@ -138,26 +164,22 @@ void main() {
                             }
                         }
                         if (slot != 0u) {
-                            vec2 tc0 = (vec2(i, j) + 0.5) * s;
-                            vec2 tc1 = (vec2(i, j + 1) + 0.5) * s;
-                            vec2 zt = vec2(rc.z + dot(rc.dz, tc0 - rc.c),
-                                           rc.z + dot(rc.dz, tc1 - rc.c));
-                            // gather_depths' x and z: texels (i, j) and (i, j + 1).
+                            // The plane at each texel's centre, as the twin computes it.
+                            vec4 zt = vec4(plane_at(rc, vec2(i, j), s),
+                                           plane_at(rc, vec2(i, j + 1), s),
+                                           plane_at(rc, vec2(i + 1, j), s),
+                                           plane_at(rc, vec2(i + 1, j + 1), s));
+                            // gather_depths' order: (i, j), (i+1, j), (i, j+1), (i+1, j+1).
                             vec4 d = gather_depths(atlas, vec2(origin + ivec2(i, j)),
                                                    inv_atlas);
-                            lit = vec2(lessThanEqual(zt, d.xz));
+                            lit = vec4(lessThanEqual(zt, d.xzyw));
                         }
                     }
-                    if (wy.x > 0.0) {
-                        float w = wx * wy.x;
-                        sum += vec2(w * lit.x, w);
-                        texels += 1u;
-                    }
-                    if (wy.y > 0.0 && j < j1) {
-                        float w = wx * wy.y;
-                        sum += vec2(w * lit.y, w);
-                        texels += 1u;
-                    }
+                    bvec4 adds = bvec4(wy.x > 0.0 && j <= j1.x, wy.y > 0.0 && j < j1.x,
+                                       wy.z > 0.0 && j <= j1.y, wy.w > 0.0 && j < j1.y);
+                    vec4 w = mix(vec4(0.0), vec4(wx.xx, wx.yy) * wy, adds);
+                    sum += vec2(dot(w, lit), w.x + w.y + w.z + w.w);
+                    texels += uint(adds.x) + uint(adds.y) + uint(adds.z) + uint(adds.w);
                 }
             }
             float v = sum.y > 0.0 ? sum.x / sum.y : 1.0;

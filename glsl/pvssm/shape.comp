@@ -106,24 +106,36 @@ ivec3 row_quads(Region r, int j) {
     return ivec3(q0, (base + r.b.x) >> 2, 4 * q0 - base);
 }
 
+// The receiver plane's depth over row j of the region's level, as an affine function of the
+// cell column i: plane(i) = x.x + x.y * (i + 0.5) (plane_depth's terms regrouped, rounding
+// aside), less `offset`.
+vec2 row_plane(Region r, int j, Receiver rc, float lowres_texel, float offset) {
+    float step = lowres_texel * r.cell;
+    float y = rc.z + rc.dz.y * ((float(j) + 0.5) * step - rc.c.y) - rc.dz.x * rc.c.x - offset;
+    return vec2(y, rc.dz.x * step);
+}
+
 // Whether any cell of the region may hold a blocker: a cell's minimum nearer than the receiver
 // plane's *highest* depth over the cell. A coarse cell's minimum is no larger than any of its
 // children's and its plane maximum no smaller than theirs, so when this finds nothing, no finer
 // search (which compares with the plane's lowest depth) finds a blocker either: the sample is
 // fully lit, decided at a few reads instead of up to `search_cells`² — most samples of a scene.
+// A quad's four cells are compared as one vector, without a branch (rows of cells with
+// columns as floats: exact for any region size).
 bool may_have_blocker(vec2 centre, vec2 half_low, float cells, Receiver rc, float lowres_texel) {
     Region r = search_region(centre, half_low, cells, rc, lowres_texel);
     bool found = false;
+    vec2 span = vec2(r.a.x, r.b.x);
     for (int j = r.a.y; j <= r.b.y; ++j) {
         ivec3 qs = row_quads(r, j);
-        for (int q = qs.x, i0 = qs.z; q <= qs.y; ++q, i0 += 4) {
+        vec2 plane = row_plane(r, j, rc, lowres_texel, pc.search_bias - r.plane_spread);
+        vec4 col = float(qs.z) + vec4(0.0, 1.0, 2.0, 3.0);
+        for (int q = qs.x; q <= qs.y; ++q, col += 4.0) {
             vec4 d = uintBitsToFloat(texelFetch(lowres, q));
-            for (int c = 0; c < 4; ++c) {
-                int i = i0 + c;
-                bool inside = i >= r.a.x && i <= r.b.x;
-                found = found || (inside && d[c] < plane_depth(r, i, j, rc, lowres_texel)
-                                                     + r.plane_spread - pc.search_bias);
-            }
+            bvec4 hit = lessThan(d, plane.x + plane.y * (col + 0.5));
+            bvec4 inside = bvec4(uvec4(greaterThanEqual(col, span.xxxx))
+                                 & uvec4(lessThanEqual(col, span.yyyy)));
+            found = found || any(bvec4(uvec4(hit) & uvec4(inside)));
         }
     }
     return found;
@@ -131,25 +143,41 @@ bool may_have_blocker(vec2 centre, vec2 half_low, float cells, Receiver rc, floa
 
 // Row j's blocker cells from a.x on, one bit each (a region is at most 65 cells wide: the
 // `search_cells` knob stops at 64, and a region of n cells may straddle n + 1), with their
-// weighted distances added to `sum` (row by row, blocker_search's sums).
+// weighted distances added to `sum` (row by row, blocker_search's sums). A quad's four cells are
+// compared as one vector; only a quad holding a blocker goes on to the bits and the sums (an
+// `if` no SIMD lane enters costs nothing on lavapipe: most quads of a region hold none).
 uvec3 row_blockers(Region r, int j, Receiver rc, float lowres_texel, inout vec2 sum) {
     uvec3 bits = uvec3(0u);
     float wy = min(float(j + 1), r.hi.y) - max(float(j), r.lo.y);
     ivec3 qs = row_quads(r, j);
-    for (int q = qs.x, i0 = qs.z; q <= qs.y; ++q, i0 += 4) {
+    vec2 plane = row_plane(r, j, rc, lowres_texel, r.plane_spread + pc.search_bias);
+    vec2 span = vec2(r.a.x, r.b.x);
+    int k0 = qs.z - r.a.x;
+    for (int q = qs.x; q <= qs.y; ++q, k0 += 4) {
         vec4 d = uintBitsToFloat(texelFetch(lowres, q));
-        for (int c = 0; c < 4; ++c) {
-            int i = i0 + c;
-            bool inside = i >= r.a.x && i <= r.b.x;
-            if (inside && d[c] < plane_depth(r, i, j, rc, lowres_texel) - r.plane_spread
-                                     - pc.search_bias) {
-                int k = i - r.a.x;
-                bits[k >> 5] |= 1u << uint(k & 31);
-                float w = (min(float(i + 1), r.hi.x) - max(float(i), r.lo.x)) * wy;
-                // A region thinner than a cell still weighs its one cell.
-                w = max(w, 1e-6);
-                sum += vec2(w * soft_light_distance(d[c], pc.near, pc.far, pc.perspective), w);
-            }
+        vec4 col = float(k0 + r.a.x) + vec4(0.0, 1.0, 2.0, 3.0);
+        uvec4 blocks = uvec4(lessThan(d, plane.x + plane.y * (col + 0.5)))
+                     & uvec4(greaterThanEqual(col, span.xxxx)) & uvec4(lessThanEqual(col, span.yyyy));
+        uint m = blocks.x | (blocks.y << 1u) | (blocks.z << 2u) | (blocks.w << 3u);
+        if (m != 0u) {
+            // Cells before a.x are never blocks (inside), so k0 < 0 shifts only zeros out.
+            uint placed = k0 < 0 ? m >> uint(-k0) : m;
+            int k = max(k0, 0);
+            uint lo_word = placed << uint(k & 31);
+            // The bits past the word's end (k & 31 > 28), or none.
+            uint hi_word = (k & 31) > 28 ? placed >> uint(32 - (k & 31)) : 0u;
+            int w = k >> 5;
+            bits.x |= w == 0 ? lo_word : 0u;
+            bits.y |= w == 1 ? lo_word : (w == 0 ? hi_word : 0u);
+            bits.z |= w == 2 ? lo_word : (w == 1 ? hi_word : 0u);
+            vec4 wx = min(col + 1.0, vec4(r.hi.x)) - max(col, vec4(r.lo.x));
+            // A region thinner than a cell still weighs its one cell.
+            vec4 w4 = mix(vec4(0.0), max(wx * wy, 1e-6), bvec4(blocks));
+            vec4 dist = vec4(soft_light_distance(d.x, pc.near, pc.far, pc.perspective),
+                             soft_light_distance(d.y, pc.near, pc.far, pc.perspective),
+                             soft_light_distance(d.z, pc.near, pc.far, pc.perspective),
+                             soft_light_distance(d.w, pc.near, pc.far, pc.perspective));
+            sum += vec2(dot(w4, dist), w4.x + w4.y + w4.z + w4.w);
         }
     }
     return bits;

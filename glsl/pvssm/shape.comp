@@ -197,9 +197,13 @@ vec2 blocker_search(vec2 centre, vec2 half_low, float cells, Receiver rc, float 
 
 // A silhouette cell's blocker distance from its four children one level finer, where there is
 // one: the min pyramid keeps a cell's nearest depth, and a cell on a silhouette spans the steep
-// part of the caster, so its minimum lies nearer the light than the edge it holds.
-float silhouette_distance(Region r, int i, int j, float d, Receiver rc, float lowres_texel) {
+// part of the caster, so its minimum lies nearer the light than the edge it holds. Also the
+// cell's own distance, `d`: on a level above the map, the least of its children's depths (the
+// pyramid's rule, bit for bit), so that a silhouette cell costs two reads, not three.
+float silhouette_distance(Region r, int i, int j, Receiver rc, float lowres_texel, out float d) {
     if (r.cell < 2.0) {
+        d = soft_light_distance(cell_depths(r, i, j, rc, lowres_texel).x, pc.near, pc.far,
+                                pc.perspective);
         return d;
     }
     Region c = r;
@@ -208,12 +212,14 @@ float silhouette_distance(Region r, int i, int j, float d, Receiver rc, float lo
     c.offset = r.offset - uint(c.size * c.size);
     c.plane_spread = 0.5 * r.plane_spread;
     vec2 sum = vec2(0.0);
+    float d_min = 1.0;
     for (int b = 0; b < 2; ++b) {
         // A child pair (2i, 2i + 1) starts at an even texel (every level finer than 1x1 has an
         // even side and starts at a multiple of 4): one quad holds both.
         uint k = c.offset + uint((2 * j + b) * c.size + 2 * i);
         uvec4 q = texelFetch(lowres, int(k >> 2u));
         vec2 pair = uintBitsToFloat((k & 2u) != 0u ? q.zw : q.xy);
+        d_min = min(d_min, min(pair.x, pair.y));
         for (int a = 0; a < 2; ++a) {
             float d_child = pair[a];
             if (d_child < plane_depth(c, 2 * i + a, 2 * j + b, rc, lowres_texel) - c.plane_spread
@@ -222,6 +228,7 @@ float silhouette_distance(Region r, int i, int j, float d, Receiver rc, float lo
             }
         }
     }
+    d = soft_light_distance(d_min, pc.near, pc.far, pc.perspective);
     return sum.y > 0.0 ? sum.x / sum.y : d;
 }
 
@@ -256,12 +263,12 @@ vec2 silhouette_search(vec2 centre, vec2 half_low, float cells, Receiver rc, flo
             while (m != 0u) {
                 int i = r.a.x + 32 * word + findLSB(m);
                 m &= m - 1u;
-                float d = soft_light_distance(cell_depths(r, i, j, rc, lowres_texel).x, pc.near,
-                                              pc.far, pc.perspective);
+                float d;
+                float d_sil = silhouette_distance(r, i, j, rc, lowres_texel, d);
                 if (d <= far_enough) {
                     float w = (min(float(i + 1), r.hi.x) - max(float(i), r.lo.x)) * wy;
                     w = max(w, 1e-6);
-                    sum += vec2(w * silhouette_distance(r, i, j, d, rc, lowres_texel), w);
+                    sum += vec2(w * d_sil, w);
                 }
             }
         }

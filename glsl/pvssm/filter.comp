@@ -89,9 +89,10 @@ void main() {
             i1 = min(i1, i0 + MAX_SPAN - 1);
             float slope = u.y / u.x;
             // The level's page grid, looked up once a page rather than once a texel: a column
-            // crosses a page boundary at most every `page_size` rows, so the table entry and the
-            // slot's atlas origin are fetched when j enters a new page (same reads, same sums in
-            // the same order as `test_texel` per texel).
+            // pair crosses a page boundary at most every `page_size` rows, so the table entry and
+            // the slot's atlas origin are fetched when j enters a new page (the same texels and
+            // weights as the twin's texel-by-texel walk; the sums in another order, so equal to
+            // rounding).
             int size = int(pc.virtual_size >> level);
             int ps = int(pc.page_size);
             int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));

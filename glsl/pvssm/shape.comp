@@ -106,9 +106,9 @@ ivec3 row_quads(Region r, int j) {
     return ivec3(q0, (base + r.b.x) >> 2, 4 * q0 - base);
 }
 
-// The receiver plane's depth over row j of the region's level, as an affine function of the
-// cell column i: plane(i) = x.x + x.y * (i + 0.5) (plane_depth's terms regrouped, rounding
-// aside), less `offset`.
+// The receiver plane's depth over row j of the region's level, less `offset`, as an affine
+// function of the cell column i: (p, s) with depth(i) = p + s * (i + 0.5) (plane_depth's terms
+// regrouped: equal to it but for rounding).
 vec2 row_plane(Region r, int j, Receiver rc, float lowres_texel, float offset) {
     float step = lowres_texel * r.cell;
     float y = rc.z + rc.dz.y * ((float(j) + 0.5) * step - rc.c.y) - rc.dz.x * rc.c.x - offset;
@@ -157,7 +157,8 @@ uvec3 row_blockers(Region r, int j, Receiver rc, float lowres_texel, inout vec2 
         vec4 d = uintBitsToFloat(texelFetch(lowres, q));
         vec4 col = float(k0 + r.a.x) + vec4(0.0, 1.0, 2.0, 3.0);
         uvec4 blocks = uvec4(lessThan(d, plane.x + plane.y * (col + 0.5)))
-                     & uvec4(greaterThanEqual(col, span.xxxx)) & uvec4(lessThanEqual(col, span.yyyy));
+                     & uvec4(greaterThanEqual(col, span.xxxx))
+                     & uvec4(lessThanEqual(col, span.yyyy));
         uint m = blocks.x | (blocks.y << 1u) | (blocks.z << 2u) | (blocks.w << 3u);
         if (m != 0u) {
             // Cells before a.x are never blocks (inside), so k0 < 0 shifts only zeros out.

@@ -377,8 +377,18 @@ mod tests {
 
     #[test]
     fn missed_is_the_word_the_shaders_read() {
-        // `C_MISSED` in raster_conservative.glsl and `RASTER_MISSED` in pvssm/shape.comp.
         assert_eq!(offset_of!(RasterCounters, missed), 4 * MISSED_WORD as usize);
+        // The raster writes it as `C_MISSED`, pvssm's shape pass reads it as `RASTER_MISSED`.
+        for (source, define) in [
+            (
+                include_str!("../../glsl/kernels/raster_conservative.glsl"),
+                "C_MISSED",
+            ),
+            (include_str!("../../glsl/pvssm/shape.comp"), "RASTER_MISSED"),
+        ] {
+            let line = format!("#define {define} {MISSED_WORD}\n");
+            assert!(source.contains(&line), "{define} is not word {MISSED_WORD}");
+        }
     }
 
     #[test]

@@ -6,7 +6,11 @@
 //! 1. `pvssm-lowres` — a conservative low-resolution light-view map in compute
 //!    ([`crate::kernels::raster`]): every texel a triangle touches keeps a depth no larger than
 //!    the triangle's there, so no occluder is ever missed (lavapipe has no conservative
-//!    rasterization extension; the paper used Hasselgren's enlarged triangles).
+//!    rasterization extension; the paper used Hasselgren's enlarged triangles). A caster it
+//!    cannot hold (crossing the light's plane) it counts
+//!    ([`crate::kernels::raster::RasterCounters::missed`], counter `lowres_missing`), and the
+//!    shape pass reads that count on the GPU: with any, finding no blocker proves nothing, and
+//!    such a sample takes its pixel's kernel for the pages to decide.
 //! 2. `pvssm-shape` — per view sample, the blocker search over the light's pyramid in that map
 //!    (z_avg, or "fully lit": then V = 1 and the sample is skipped from then on), searched again
 //!    over the kernel that z_avg predicts (`refine_search` times, default once: the light's

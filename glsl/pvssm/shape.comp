@@ -89,13 +89,12 @@ float plane_depth(Region r, int i, int j, Receiver rc, float lowres_texel) {
     return rc.z + dot(rc.dz, at - rc.c);
 }
 
-// The min depth of cell (i, j) of the region's level, and the receiver plane's depth at its
-// centre.
-vec2 cell_depths(Region r, int i, int j, Receiver rc, float lowres_texel) {
+// The min depth of cell (i, j) of the region's level.
+float cell_depth(Region r, int i, int j) {
     uint k = r.offset + uint(j * r.size + i);
     uvec4 q = texelFetch(lowres, int(k >> 2u));
     uint bits = (k & 2u) != 0u ? ((k & 1u) != 0u ? q.w : q.z) : ((k & 1u) != 0u ? q.y : q.x);
-    return vec2(uintBitsToFloat(bits), plane_depth(r, i, j, rc, lowres_texel));
+    return uintBitsToFloat(bits);
 }
 
 // The quads (texels of the RGBA32UI view) holding cells a.x..b.x of row j: the first and the
@@ -203,8 +202,7 @@ vec2 blocker_search(vec2 centre, vec2 half_low, float cells, Receiver rc, float 
 // pyramid's rule, bit for bit), so that a silhouette cell costs two reads, not three.
 float silhouette_distance(Region r, int i, int j, Receiver rc, float lowres_texel, out float d) {
     if (r.cell < 2.0) {
-        d = soft_light_distance(cell_depths(r, i, j, rc, lowres_texel).x, pc.near, pc.far,
-                                pc.perspective);
+        d = soft_light_distance(cell_depth(r, i, j), pc.near, pc.far, pc.perspective);
         return d;
     }
     Region c = r;

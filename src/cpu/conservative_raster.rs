@@ -40,7 +40,7 @@ pub struct ConservativeDepth {
     /// Triangles skipped (entirely behind the light or past the far plane, or a whole one with
     /// a non-finite projection).
     pub skipped: u32,
-    /// Of `skipped`, those entirely behind the light (every `w ≤ 0`).
+    /// Of `skipped`, those behind the light: every vertex at `w ≤ 0`, or without `clip` any.
     pub behind_light: u32,
     /// Triangles listed for the large pass: whole ones whose clamped texel range has more than
     /// `small` texels, and every clipped one.

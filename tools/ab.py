@@ -1,0 +1,78 @@
+#!/usr/bin/env python3
+"""Interleaved A/B timing of `penumbra render`: the README's "interleaved runs, medians".
+
+On a shared or CPU-rasterizer machine the speed of the whole machine drifts between runs (on the
+2-core VM this project is measured on, by up to 2x within minutes), so two binaries timed one
+after the other compare the machine's phases, not the code. This runs the variants in turn,
+round after round, and prints the median total GPU time (stats.json's `total_gpu_ms`, which
+leaves out the shared `view-samples` pass) and the median of each pass.
+
+A variant is a penumbra binary, optionally with knobs after `::` (comma-separated `key=value`):
+
+    python3 tools/ab.py scenes/teapot-rect.toml pvssm /tmp/pen_before target/release/penumbra
+    python3 tools/ab.py 'grid:800000@rect' pvssm target/release/penumbra \\
+        target/release/penumbra::page_raster=graphics --rounds 5 --pass cull --pass render
+
+Copy the binary before a change to a path of its own (`cp target/release/penumbra
+/tmp/pen_before`): the build overwrites target/release/penumbra.
+"""
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+
+
+def run(variant, scene, technique, frames, sets):
+    exe, _, extra = variant.partition("::")
+    knobs = [kv for kv in extra.split(",") if kv] + sets
+    with tempfile.TemporaryDirectory() as out:
+        cmd = [exe, "render", scene, "--technique", technique, "--no-validation",
+               "--frames", str(frames), "--out", out]
+        for kv in knobs:
+            cmd += ["--set", kv]
+        done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        if done.returncode != 0:
+            sys.exit(f"{variant}: render failed ({done.returncode}):\n{done.stderr}")
+        with open(os.path.join(out, "stats.json")) as f:
+            return json.load(f)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("scene")
+    p.add_argument("technique")
+    p.add_argument("variants", nargs="+", help="BINARY or BINARY::key=value,key=value")
+    p.add_argument("--rounds", type=int, default=4, help="runs of each variant (default 4)")
+    p.add_argument("--frames", type=int, default=3, help="timed frames a run (default 3)")
+    p.add_argument("--set", action="append", default=[], help="knob for every variant")
+    p.add_argument("--pass", dest="passes", action="append", default=[],
+                   help="report only passes whose name holds this (repeatable)")
+    a = p.parse_args()
+
+    def shown(name):
+        return not a.passes or any(s in name for s in a.passes)
+
+    totals = {v: [] for v in a.variants}
+    passes = {v: {} for v in a.variants}
+    for r in range(a.rounds):
+        for v in a.variants:
+            s = run(v, a.scene, a.technique, a.frames, a.set)
+            totals[v].append(s["total_gpu_ms"])
+            for ps in s["passes"]:
+                passes[v].setdefault(ps["name"], []).append(ps["gpu_ms"])
+            row = " ".join(f"{ps['name']}={ps['gpu_ms']:.1f}" for ps in s["passes"]
+                           if shown(ps["name"]))
+            print(f"round {r} {v}: {s['total_gpu_ms']:.1f} ms  {row}", flush=True)
+    for v in a.variants:
+        print(f"{v}: median total {statistics.median(totals[v]):.1f} ms")
+        for name, ms in passes[v].items():
+            if shown(name):
+                print(f"    {name:<28} {statistics.median(ms):8.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -2,9 +2,9 @@
 # Where lavapipe spends a shader's time: samples the JIT-compiled code of a running `penumbra
 # render` with perf, then disassembles the hottest region with gdb while the process still runs
 # (lavapipe's LLVM code has no symbols, and it is gone when the process exits), each instruction
-# with its sample count. How this project found GLSL's int(float) compiled to scalar code per SIMD
-# lane (glsl/include/small_int.glsl) and checked that izb-soft's test pass is vector code
-# throughout, bound by register spills rather than by one slow construct.
+# with its sample count. The method by which this project found GLSL's int(float) compiled to
+# scalar code per SIMD lane (glsl/include/small_int.glsl), as a script; with it, izb-soft's test
+# pass read as vector code throughout, bound by register spills rather than one slow construct.
 #
 # Needs perf and gdb (`apt-get install linux-perf gdb`) and the right to attach to the process
 # (kernel.yama.ptrace_scope 0, or root). Usage:
@@ -30,7 +30,8 @@ pid=$!
 trap 'kill "$pid" 2> /dev/null || true' EXIT
 sleep "${WARMUP:-14}"
 kill -0 "$pid" 2> /dev/null || { echo "jit-profile: the render ended before sampling (more --frames)" >&2; exit 1; }
-perf record -o "$out/perf.data" -F 4000 -p "$pid" -- sleep "${SECONDS_SAMPLED:-8}" > /dev/null 2>&1
+perf record -o "$out/perf.data" -F 4000 -p "$pid" -- sleep "${SECONDS_SAMPLED:-8}" \
+    > "$out/perf.log" 2>&1 || { echo "jit-profile: perf record failed: $out/perf.log" >&2; exit 1; }
 perf script -i "$out/perf.data" -F ip 2> /dev/null | awk '{print $1}' > "$out/ips.txt"
 # The hot region: the hottest code page, grown page by page on either side while the next page
 # holds at least 1 % of the samples (one shader's code is contiguous; others lie elsewhere).

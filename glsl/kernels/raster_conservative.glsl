@@ -14,9 +14,9 @@
 // without CLIP it is skipped (a vertex at w <= 0, or every vertex before the near plane) or
 // drawn whole with its depths clamped to 0 (some vertices before it), as before the clip
 // existed (pvssm, src/kernels/raster.rs says why); with CLIP it is clipped in clip space to the
-// guard cone |x|, |y| <= GUARD * w (what it drops projects
-// outside the map, and the cone holds no point at w <= 0: the light's own plane, behind which
-// nothing lies between a receiver and the light) and w >= 1e-6 of its largest w, then split at
+// guard cone |x|, |y| <= GUARD * w (what it drops projects outside the map, and the cone
+// holds no point at w <= 0: the light's own plane, behind which nothing lies between a
+// receiver and the light) and w >= 1e-6 of its largest w, then split at
 // z = 0 into a far piece (z >= 0, drawn with its plane: its vertices lie at w >= near, well
 // conditioned) and a near piece (z <= 0, drawn at depth 0, as every depth before the near plane
 // clamps to). So a caster crossing the light's plane still marks every texel it may cover, and

@@ -5,7 +5,6 @@
 #ifndef PENUMBRA_ATTY_GLSL
 #define PENUMBRA_ATTY_GLSL
 
-#include "when.glsl"
 #include "receiver_depth.glsl"
 
 layout(set = 0, binding = 2, std140) uniform Params {

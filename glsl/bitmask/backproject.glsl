@@ -110,9 +110,8 @@ void rect_bits(vec4 r, int g, inout uvec4 m0, inout uvec4 m1) {
         int y1 = y_base + i1.y * stride + g2;
         m0 |= texelFetch(tables, x1) & ~texelFetch(tables, x0) & texelFetch(tables, y1)
             & ~texelFetch(tables, y0);
-        // A second uvec4 only when the pattern has more than 128 samples (WHEN: lavapipe
-        // skips a loop no lane enters, not an if).
-        WHEN(bm.samples.x > 128) {
+        // A second uvec4 only when the pattern has more than 128 samples.
+        if (bm.samples.x > 128) {
             m1 |= texelFetch(tables, x1 + 1) & ~texelFetch(tables, x0 + 1)
                 & texelFetch(tables, y1 + 1) & ~texelFetch(tables, y0 + 1);
         }

@@ -4,7 +4,6 @@
 #ifndef PENUMBRA_BITMASK_GLSL
 #define PENUMBRA_BITMASK_GLSL
 
-#include "when.glsl"
 #include "receiver_depth.glsl"
 
 // A uniform block, not push constants or a storage buffer: lavapipe reads it with scalar loads

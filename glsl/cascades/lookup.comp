@@ -10,7 +10,6 @@
 // cascade's tile of one depth atlas. CPU twin: src/cpu/cascades.rs.
 #extension GL_GOOGLE_include_directive : require
 #include "shadow_map.glsl"
-#include "when.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -88,7 +87,7 @@ void main() {
                     w = (tile.w != 0 || params.band.x <= 0.0)
                         ? 1.0 : clamp(e / params.band.x, 0.0, 1.0);
                 }
-                WHEN(w > 0.0) {
+                if (w > 0.0) {
                     float vi;
                     if (params.sizes.y == 0) {
                         vi = tile_test(ivec2(floor(c.xy)), tile.xy, n, c.z);

@@ -84,8 +84,6 @@ layout(push_constant) uniform Push {
 // Soft footprints: relative margin on the depth factor k.
 #define K_MARGIN 1e-4
 
-#include "when.glsl"
-
 // Counter slots (src/techniques/izb.rs COUNTER_NAMES, same order).
 #define C_VIEW_SAMPLES 0
 #define C_BINNED 1

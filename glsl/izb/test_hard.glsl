@@ -41,9 +41,9 @@ void main() {
                 vec3 va = subgroupShuffle(la, i);
                 vec3 vb = subgroupShuffle(lb, i);
                 vec3 vc = subgroupShuffle(lc, i);
-                // Skipped by the whole SIMD group once every sample is shadowed (WHEN: an `if`
-                // would run the test under a mask anyway on lavapipe).
-                WHEN(!shadowed) {
+                // Skipped by the whole SIMD group once every sample is shadowed (Mesa 25's
+                // lavapipe skips an `if` no lane takes; src/techniques/izb.rs, "Branches").
+                if (!shadowed) {
                     vec4 w;
                     rays += 1u;
                     shadowed = hit_triangle(r, va, vb, vc, w);
@@ -58,7 +58,7 @@ void main() {
             vec3 vb = b.xyz;
             vec3 vc = c.xyz;
             // As above.
-            WHEN(!shadowed) {
+            if (!shadowed) {
                 vec4 w;
                 rays += 1u;
                 shadowed = hit_triangle(r, va, vb, vc, w);

@@ -105,26 +105,21 @@ void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec2 q0, vec
             m_behind |= mask;
             continue;  // behind the tangent plane: the resolve pass leaves it out
         }
-        if (band > 0.0) {
-            // Well outside the projected triangle: no ray can hit; well inside (and the
-            // triangle strictly between o and the light): every ray does.
-            vec3 dist = vec3(dot(n0, x - q0), dot(n1, x - q1), dot(n2, x - q2));
-            float nearest = min(dist.x, min(dist.y, dist.z));
-            if (nearest < -band) {
-                continue;
-            }
-            if (nearest > band) {
-                m_fresh |= mask;
-                continue;
-            }
+        // Well outside the projected triangle: no ray can hit; well inside (and the triangle
+        // strictly between o and the light): every ray does. The exact ray only in the band
+        // between, as an `if` rather than `continue`s: lavapipe skips it when no lane is in the
+        // band (this pass 15 % faster on bunny-rect than with the `continue`s).
+        vec3 dist = vec3(dot(n0, x - q0), dot(n1, x - q1), dot(n2, x - q2));
+        float nearest = min(dist.x, min(dist.y, dist.z));
+        bool blocked = band > 0.0 && nearest > band;
+        if (band == 0.0 || !(abs(nearest) > band)) {
+            precise vec3 d = ls - s_o;
+            Ray r = make_ray(s_o, d, 1.0);
+            vec4 w;
+            m_rays += 1u;
+            blocked = hit_triangle(r, va.xyz, vb.xyz, vc.xyz, w);
         }
-        precise vec3 d = ls - s_o;
-        Ray r = make_ray(s_o, d, 1.0);
-        vec4 w;
-        m_rays += 1u;
-        if (hit_triangle(r, va.xyz, vb.xyz, vc.xyz, w)) {
-            m_fresh |= mask;
-        }
+        m_fresh |= blocked ? mask : 0u;
     }
 }
 
@@ -151,7 +146,9 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
     vec2 n2 = vec2(0.0);
     float band = 0.0;
     // The projection when the triangle lies between o and the light's plane; otherwise
-    // (rarely) the half-planes, whose 4 boxes cost more than all the rest of this test.
+    // (rarely: 1 % of the bunny's tests) the half-planes, whose 4 boxes cost more than all the
+    // rest of this test — behind an `if`, which lavapipe skips when no lane takes it (as a loop
+    // of at most one pass, izb's old `WHEN`, this pass was 13 % slower on bunny-rect).
     bool between = zmin > 0.0 && zmax < 0.99 * s_origin.w;
     if (between) {
         q0 = project(s_o, va, s_origin.w, inv_uv);
@@ -180,7 +177,7 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
         if (uu == 0.0) { lo.x = 0.0; hi.x = 1.0; }
         if (vv == 0.0) { lo.y = 0.0; hi.y = 1.0; }
     }
-    WHEN(!between) {
+    if (!between) {
         // The light samples beyond the triangle's plane and inside its three edge
         // planes through o: the intersection of the four half-squares' boxes.
         vec3 beyond = side > 0.0 ? -normal : normal;
@@ -230,7 +227,7 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
     int last = c1.y * na + c1.x;
     for (int wi = first / 32; wi <= last / 32; ++wi) {
         uint word = s_base + uint(wi);
-        WHEN(word != m_word) {
+        if (word != m_word) {
             if (m_fresh != 0u) {
                 atomicOr(masks[m_word], m_fresh);
             }
@@ -382,10 +379,10 @@ void main() {
                 float zmin = min(va.w, min(vb.w, vc.w));
                 float zmax = max(va.w, max(vb.w, vc.w));
                 // A sample with one mask word whose every light sample is decided (blocked or
-                // behind its tangent plane: an umbra) skips the test; as a loop, so that a SIMD
-                // group whose samples are all decided skips it altogether.
+                // behind its tangent plane: an umbra) skips the test; a SIMD group whose samples
+                // are all decided skips it altogether.
                 bool open = !one_word || (m_bits | m_fresh | m_behind) != all_bits;
-                WHEN(open && (mine & (1u << i)) != 0u) {
+                if (open && (mine & (1u << i)) != 0u) {
                     test_triangle(va, vb, vc, normal, light_side, zmin, zmax);
                 }
             }
@@ -400,9 +397,9 @@ void main() {
             tests += reach ? 1u : 0u;
             float zmin = min(va.w, min(vb.w, vc.w));
             float zmax = max(va.w, max(vb.w, vc.w));
-            // As above: a decided sample skips the test, as a loop.
+            // As above: a decided sample skips the test.
             bool open = !one_word || (m_bits | m_fresh | m_behind) != all_bits;
-            WHEN(reach && open) {
+            if (reach && open) {
                 test_triangle(va, vb, vc, ts.normal, ts.light_side, zmin, zmax);
             }
         }

@@ -44,19 +44,15 @@ void main() {
     d.yzw = mix(d.xxx, d.yzw, bvec3(right, below, right && below));
     vec2 m = vec2(min(min(d.x, d.y), min(d.z, d.w)), max(max(d.x, d.y), max(d.z, d.w)));
 #else
-    vec2 m = fetch(c);
-    if (right) {
-        vec2 v = fetch(c + ivec2(1, 0));
-        m = vec2(min(m.x, v.x), max(m.y, v.y));
-    }
-    if (below) {
-        vec2 v = fetch(c + ivec2(0, 1));
-        m = vec2(min(m.x, v.x), max(m.y, v.y));
-    }
-    if (right && below) {
-        vec2 v = fetch(c + ivec2(1, 1));
-        m = vec2(min(m.x, v.x), max(m.y, v.y));
-    }
+    // All four children read (clamped to the level: a child past the edge reads child (0, 0)'s
+    // row or column, which moves neither the min nor the max), with no branch around the loads
+    // (nbuffer_build.glsl says why).
+    ivec2 c1 = min(c + 1, pc.src_size - 1);
+    vec2 a = fetch(c);
+    vec2 b = fetch(ivec2(c1.x, c.y));
+    vec2 e = fetch(ivec2(c.x, c1.y));
+    vec2 f = fetch(c1);
+    vec2 m = vec2(min(min(a.x, b.x), min(e.x, f.x)), max(max(a.y, b.y), max(e.y, f.y)));
 #endif
     imageStore(dst_min, p, vec4(m.x));
     imageStore(dst_max, p, vec4(m.y));

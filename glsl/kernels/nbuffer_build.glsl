@@ -9,7 +9,13 @@
 // once for two outputs (4.5 loads a texel instead of 8). Invocations along x are neighbouring
 // columns (one SIMD row on lavapipe, coalesced on a GPU). Measured on lavapipe (Mesa 25), 10
 // levels of 1024²: 179 -> 77-149 ms (the run-to-run range on a 2-core VM); neither the loads nor
-// the two R32F stores a texel dominate what is left (dropping one store saved ~15 %).
+// the two R32F stores a texel dominate what is left (dropping one store saved ~15 %). The loads
+// of a pair's right texel and of the row below sat under `if`s (inside the image or not); on
+// lavapipe a load under a branch is dearer (src/techniques/izb.rs records the same of storage
+// reads), so both are now read clamped to the image and dropped by a select, outside all control
+// flow but the chain's loop — alternating `penumbra bench --suite kernels --quick` runs
+// (2026-12-03): 10 levels of 1024² 57-114 ms (median of nine 97) -> 49-97 (median 54), 6 levels
+// of 4096² 508-1014 (median 580) -> 427-1069 (median 454).
 // CPU twin: src/cpu/nbuffer.rs `build`.
 
 layout(local_size_x = 64, local_size_y = 1) in;
@@ -43,14 +49,14 @@ layout(push_constant) uniform Push {
 // Output rows per invocation (src/kernels/nbuffer.rs NBUFFER_CHAIN).
 #define CHAIN 8
 
-// The (min, max) of the texels p and p + (d, 0) of the level read, the second only if inside.
+// The (min, max) of the texels p and p + (d, 0) of the level read, the second only if inside:
+// both read (the second clamped to the image) and the second dropped by a select, so the loads
+// sit outside all control flow.
 vec2 pair(ivec2 p, int d) {
     vec2 m = fetch(p);
-    if (p.x + d < pc.size.x) {
-        vec2 v = fetch(p + ivec2(d, 0));
-        m = vec2(min(m.x, v.x), max(m.y, v.y));
-    }
-    return m;
+    vec2 v = fetch(ivec2(min(p.x + d, pc.size.x - 1), p.y));
+    bool inside = p.x + d < pc.size.x;
+    return inside ? vec2(min(m.x, v.x), max(m.y, v.y)) : m;
 }
 
 void main() {
@@ -63,12 +69,12 @@ void main() {
         return;
     }
     vec2 upper = pair(ivec2(x, y), d);
+    int last = pc.size.y - 1;
     for (int k = 0; k < CHAIN && y < pc.size.y; ++k, y += d) {
         vec2 m = upper;
-        if (y + d < pc.size.y) {
-            upper = pair(ivec2(x, y + d), d);
-            m = vec2(min(m.x, upper.x), max(m.y, upper.y));
-        }
+        bool below = y + d < pc.size.y;
+        upper = pair(ivec2(x, min(y + d, last)), d);
+        m = below ? vec2(min(m.x, upper.x), max(m.y, upper.y)) : m;
         imageStore(dst_min, ivec2(x, y), vec4(m.x));
         imageStore(dst_max, ivec2(x, y), vec4(m.y));
     }

@@ -14,8 +14,9 @@
 // lavapipe a load under a branch is dearer (src/techniques/izb.rs records the same of storage
 // reads), so both are now read clamped to the image and dropped by a select, outside all control
 // flow but the chain's loop — alternating `penumbra bench --suite kernels --quick` runs
-// (2026-12-03): 10 levels of 1024² 57-114 ms (median of nine 97) -> 49-97 (median 54), 6 levels
-// of 4096² 508-1014 (median 580) -> 427-1069 (median 454).
+// (2026-12-03; both versions' times are bimodal on this VM, ~50 or ~100 ms): 10 levels of 1024²
+// 53-115 ms (median of twelve 96) -> 49-109 (median of fifteen 62), 6 levels of 4096² median
+// 583 -> 474 ms.
 // CPU twin: src/cpu/nbuffer.rs `build`.
 
 layout(local_size_x = 64, local_size_y = 1) in;

@@ -34,9 +34,9 @@ void main() {
         return;
     }
     ivec2 c = 2 * p;
+#ifdef MINMAX_FROM_SOURCE
     bool right = c.x + 1 < pc.src_size.x;
     bool below = c.y + 1 < pc.src_size.y;
-#ifdef MINMAX_FROM_SOURCE
     // The four children from one gather (gather_depths: on lavapipe a texelFetch is a call); a
     // child past the edge takes child (0, 0)'s value, which moves neither the min nor the max
     // (the sampler's border, 1.0, would move the max).

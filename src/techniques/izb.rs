@@ -81,14 +81,14 @@
 //! of the row loop: ~6 %; and with one word no mask-word loop around the strata at all (a
 //! loop of one pass still costs the SIMD group its mask bookkeeping on lavapipe): the test pass
 //! 205 → 151 ms on `bunny-rect` and 54 → 46 on `teapot-rect` (interleaved medians of five,
-//! 2026-12-03; the 32-sample default is one word). Tried then, not kept (interleaved A/Bs, no
-//! gain beyond the noise): the tangent-plane test of every stratum once per item instead of in
-//! the strata loop, `subgroupBroadcast` for the batch instead of `subgroupShuffle`, an `if`
-//! instead of the `WHEN` around a kept test (no gain then; 9 % with the others, **Branches**),
-//! and the footprint-check loop unrolled (the bunny's
-//! pass 15 % slower). Counted then on `teapot-rect` / `bunny-rect`: of the kept tests, 17 k / 25
-//! k are cut by the triangle's plane and 52 k / 122 k project off the light; 0.34 M / 1.34 M find
-//! every stratum of their box decided already. Then `perf` on the running process with the JIT
+//! 2026-12-03; the 32-sample default is one word). Tried then, not kept (interleaved A/Bs, no gain
+//! beyond the noise): the tangent-plane test of every stratum once per item instead of in the
+//! strata loop, `subgroupBroadcast` for the batch instead of `subgroupShuffle`, an `if` instead of
+//! the `WHEN` around a kept test (no gain then; 9 % with the others, **Branches**), and the
+//! footprint-check loop unrolled (the bunny's pass 15 % slower). Counted then on `teapot-rect` /
+//! `bunny-rect`: of the kept tests, 17 k / 25 k are cut by the triangle's plane and 52 k / 122 k
+//! project off the light; 0.34 M / 1.34 M find every stratum of their box decided already. Then
+//! `perf` on the running process with the JIT
 //! code disassembled by `gdb` (GALLIVM has no symbol map) showed the strata loop's
 //! `int((bit + ½) · 1/n_a)` as eight scalar conversions with compares and conditional moves (LLVM
 //! 15's split of the saturating `fptosi.sat`): `small_int` (`glsl/include/small_int.glsl`) for it
@@ -111,23 +111,23 @@
 //! passes for 3.5 M lane tests on `bunny-rect`): the same test-pass time in an interleaved A/B
 //! of six, not kept. With the check,
 //! the grid hardly changes the tests, so `izb-soft` defaults to 64 cells with a rect light.
-//! **Branches** (2026-12-03, Mesa 25): the `WHEN` loops of one pass, kept from Mesa 22.3, cost
-//! the SIMD group more than `if`s, which this lavapipe skips when no lane takes them. On
-//! `bunny-rect`, `izb-soft`'s test pass in interleaved medians of three (`tools/ab.py
-//! scenes/bunny-rect.toml izb-soft BEFORE AFTER --pass test`): the half-plane branch (1 % of the
-//! 3.59 M tests, counted) as an `if` 163.5 → 142.5 ms, the kept test as an `if` 144.0 → 131.5,
-//! and the exact ray test (93.8 k of them) as an `if` on the band instead of following two
-//! `continue`s 133.4 → 114.1; at 128 light samples 308 → 229 ms (one run each), with
-//! `triangle_batch = 0` 250 → 187. `izb`'s test pass: 11.0 → 8.9 ms (medians of five). The
-//! visibility is the same bit for bit (the `visibility.exr` of both scenes and both techniques,
-//! of 128 samples and of the unbatched pass). The tangent-plane `continue` as an `if` as well:
-//! no change over five rounds, not kept. Cut-down variants then (bunny, one A/B of three): with
-//! no test at all, the batch loop and the footprint checks take 35 of 112 ms; with everything
-//! but the strata loop, 51; without the exact rays, no change. So of the soft test ~60 ms is the
-//! strata loop (a light sample's jittered point and its tangent-plane and edge distances: ~180
-//! vector instructions to the tangent-plane test alone in the JIT code, `tools/jit-profile.sh`,
-//! no scalar code), ~35 the loops around the tests and ~17 the tests' set-up (the
-//! back-projection onto the light).
+//! **Branches** (2026-12-03, Mesa 25): the `WHEN` loops of one pass, kept from Mesa 22.3, cost the
+//! SIMD group more than `if`s, which this lavapipe skips when no lane takes them. On `bunny-rect`,
+//! `izb-soft`'s test pass in interleaved medians of three (`tools/ab.py scenes/bunny-rect.toml
+//! izb-soft BEFORE AFTER --pass test`): the half-plane branch (1 % of the 3.59 M tests, counted) as
+//! an `if` 163.5 → 142.5 ms, the kept test as an `if` 144.0 → 131.5, and the exact ray test (93.8 k
+//! of them) as an `if` on the band instead of following two `continue`s 133.4 → 114.1; at 128 light
+//! samples 308 → 229 ms (one run each), with `triangle_batch = 0` 250 → 187. `izb`'s test pass:
+//! 11.0 → 8.9 ms (medians of five). The visibility is the same bit for bit (the `visibility.exr` of
+//! both scenes and both techniques, of 128 samples and of the unbatched pass). The tangent-plane
+//! `continue` as an `if` as well: no change over five rounds, not kept. Cut-down variants then
+//! (bunny, A/Bs of three against the full pass): with no test at all, the batch loop and the
+//! footprint checks take 35 ms of 120 (29 of 111 in a second A/B, where dropping the kept-triangle
+//! loop too left 31: its shuffles cost nothing); with everything but the strata loop, 51 of 112;
+//! without the exact rays, no change. So of the soft test ~60 ms is the strata loop (a light
+//! sample's jittered point and its tangent-plane and edge distances: ~180 vector instructions to
+//! the tangent-plane test alone in the JIT code, `tools/jit-profile.sh`, no scalar code), ~35 the
+//! loops around the tests and ~17 the tests' set-up (the back-projection onto the light).
 //! 5. `resolve`: visibility from the masks.
 //!
 //! **izb** tests the ray from `o` to the light's centre (a rect light counts as a point at its

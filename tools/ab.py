@@ -4,8 +4,10 @@
 On a shared or CPU-rasterizer machine the speed of the whole machine drifts between runs (on the
 2-core VM this project is measured on, by up to 2x within minutes), so two binaries timed one
 after the other compare the machine's phases, not the code. This runs the variants in turn,
-round after round, and prints the median total GPU time (stats.json's `total_gpu_ms`, which
-leaves out the shared `view-samples` pass) and the median of each pass.
+round after round, and prints the total GPU time (stats.json's `total_gpu_ms`, which leaves out
+the shared `view-samples` pass) and each pass's as minimum / lower quartile / median over the
+rounds. The VM's disturbances only ever add time, so with many rounds the minimum and the lower
+quartile are the steadier figures; the median moves with the share of slow phases.
 
 A variant is a penumbra binary, optionally with knobs after `::` (comma-separated `key=value`):
 
@@ -67,11 +69,15 @@ def main():
             row = " ".join(f"{ps['name']}={ps['gpu_ms']:.1f}" for ps in s["passes"]
                            if shown(ps["name"]))
             print(f"round {r} {v}: {s['total_gpu_ms']:.1f} ms  {row}", flush=True)
+    def spread(ms):
+        ms = sorted(ms)
+        return f"{ms[0]:8.2f} {ms[len(ms) // 4]:8.2f} {statistics.median(ms):8.2f}"
+
     for v in a.variants:
-        print(f"{v}: median total {statistics.median(totals[v]):.1f} ms")
+        print(f"{v}: total min / q1 / median {spread(totals[v])} ms")
         for name, ms in passes[v].items():
             if shown(name):
-                print(f"    {name:<28} {statistics.median(ms):8.2f}")
+                print(f"    {name:<28} {spread(ms)}")
 
 
 if __name__ == "__main__":

@@ -65,6 +65,10 @@ float uu;
 float vv;
 int na;
 int nb;
+// The pattern's uniforms, read once (each uniform read carries a bounds check on lavapipe).
+float inv_na;
+vec2 inv_ab;
+bool jittered;
 // One mask word (n_a·n_b ≤ 32): a box's bits are its columns' bits times its rows' first bits.
 bool one_word;
 uint row_starts;
@@ -79,11 +83,11 @@ uint m_behind;
 
 // The light samples of `box` (bits lo_bit.. of the word in use) that no triangle has blocked
 // yet, decided one by one against the triangle (va, vb, vc), whose projection from the sample's
-// ray origin is q0 q1 q2 with inward edge normals n0 n1 n2 (`band` = 0: no projection
-// shortcut). A pass of the loop is a light sample to decide (none for a box blocked already: an
-// umbra, or the strata a neighbouring triangle covered).
-void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec2 q0, vec2 q1, vec2 q2,
-                   vec2 n0, vec2 n1, vec2 n2, float band) {
+// ray origin has the edges e0 e1 e2: inward signed distances e.x a + e.y b + e.z (`band` = 0: no
+// projection shortcut). A pass of the loop is a light sample to decide (none for a box blocked
+// already: an umbra, or the strata a neighbouring triangle covered).
+void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec3 e1, vec3 e2,
+                   float band) {
     uint todo = box & ~(m_bits | m_fresh | m_behind);
     while (todo != 0u) {
         int b = findLSB(todo);
@@ -93,26 +97,34 @@ void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec2 q0, vec
         // Row and column without an integer division (a scalar loop over the SIMD lanes
         // on a CPU driver) or a float-to-int conversion (small_int.glsl says why): bit + 1/2
         // lies mid-way between multiples of n_a, far from the f32 product's rounding.
-        int j = small_int((float(bit) + 0.5) * P.pattern_f.x);
+        int j = small_int((float(bit) + 0.5) * inv_na);
         int i = bit - j * na;
         // The reference's light sample, ray and tangent-plane test, to the bit.
-        vec2 x = light_cell_point(s_seed, i, j, na, P.pattern_f.xy, P.pattern.z != 0);
-        precise float sx = x.x - 0.5;
-        precise float sy = x.y - 0.5;
-        precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx + P.light_v.xyz * sy;
-        precise vec3 to_light = ls - s_p;
-        if (!s_all_front && dot3(s_n, to_light) <= 0.0) {
-            m_behind |= mask;
-            continue;  // behind the tangent plane: the resolve pass leaves it out
+        vec2 x = light_cell_point(s_seed, i, j, na, inv_ab, jittered);
+        // Behind the tangent plane: never blocked by anything (the resolve pass leaves it out).
+        // Only a sample whose light straddles the plane has such light samples; the others skip
+        // the test (and lavapipe the whole branch when no lane takes it).
+        bool behind = false;
+        if (!s_all_front) {
+            precise float sx = x.x - 0.5;
+            precise float sy = x.y - 0.5;
+            precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx + P.light_v.xyz * sy;
+            precise vec3 to_light = ls - s_p;
+            behind = dot3(s_n, to_light) <= 0.0;
         }
+        m_behind |= behind ? mask : 0u;
         // Well outside the projected triangle: no ray can hit; well inside (and the triangle
         // strictly between o and the light): every ray does. The exact ray only in the band
         // between, as an `if` rather than `continue`s: lavapipe skips it when no lane is in the
         // band (this pass 15 % faster on bunny-rect than with the `continue`s).
-        vec3 dist = vec3(dot(n0, x - q0), dot(n1, x - q1), dot(n2, x - q2));
+        vec3 dist = vec3(fma(e0.x, x.x, fma(e0.y, x.y, e0.z)), fma(e1.x, x.x, fma(e1.y, x.y, e1.z)),
+                         fma(e2.x, x.x, fma(e2.y, x.y, e2.z)));
         float nearest = min(dist.x, min(dist.y, dist.z));
-        bool blocked = band > 0.0 && nearest > band;
-        if (band == 0.0 || !(abs(nearest) > band)) {
+        bool blocked = !behind && band > 0.0 && nearest > band;
+        if (!behind && (band == 0.0 || !(abs(nearest) > band))) {
+            precise float sx = x.x - 0.5;
+            precise float sy = x.y - 0.5;
+            precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx + P.light_v.xyz * sy;
             precise vec3 d = ls - s_o;
             Ray r = make_ray(s_o, d, 1.0);
             vec4 w;
@@ -138,12 +150,9 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
     // The projected triangle's edges as signed distances (inside > 0), for deciding
     // light samples well inside or outside it without a ray; `band` = 0: no such
     // shortcut (every candidate takes the exact test).
-    vec2 q0 = vec2(0.0);
-    vec2 q1 = vec2(0.0);
-    vec2 q2 = vec2(0.0);
-    vec2 n0 = vec2(0.0);
-    vec2 n1 = vec2(0.0);
-    vec2 n2 = vec2(0.0);
+    vec3 e0 = vec3(0.0);
+    vec3 e1 = vec3(0.0);
+    vec3 e2 = vec3(0.0);
     float band = 0.0;
     // The projection when the triangle lies between o and the light's plane; otherwise
     // (rarely: 1 % of the bunny's tests) the half-planes, whose 4 boxes cost more than all the
@@ -151,9 +160,9 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
     // of at most one pass, izb's old `WHEN`, this pass was 13 % slower on bunny-rect).
     bool between = zmin > 0.0 && zmax < 0.99 * s_origin.w;
     if (between) {
-        q0 = project(s_o, va, s_origin.w, inv_uv);
-        q1 = project(s_o, vb, s_origin.w, inv_uv);
-        q2 = project(s_o, vc, s_origin.w, inv_uv);
+        vec2 q0 = project(s_o, va, s_origin.w, inv_uv);
+        vec2 q1 = project(s_o, vb, s_origin.w, inv_uv);
+        vec2 q2 = project(s_o, vc, s_origin.w, inv_uv);
         lo = min(q0, min(q1, q2));
         hi = max(q0, max(q1, q2));
         vec2 margin = 1e-3 * (1.0 + max(abs(lo), abs(hi)));
@@ -161,15 +170,21 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
         vec2 d1 = q2 - q1;
         vec2 d2 = q0 - q2;
         float area = d0.x * d2.y - d0.y * d2.x;
-        float l0 = length(d0);
-        float l1 = length(d1);
-        float l2 = length(d2);
+        // Each edge's distance scaled by its L1 length rather than its length: at most the
+        // distance, at least 1/sqrt(2) of it, so "beyond the band" stays a sure decision (a few
+        // more samples take the exact ray) and no square root is taken.
+        float l0 = abs(d0.x) + abs(d0.y);
+        float l1 = abs(d1.x) + abs(d1.y);
+        float l2 = abs(d2.x) + abs(d2.y);
         // A line light (uu or vv = 0) collapses an axis: no shortcut then.
         if (uu > 0.0 && vv > 0.0 && min(l0, min(l1, l2)) > 0.0 && area != 0.0) {
             float s = area > 0.0 ? -1.0 : 1.0;
-            n0 = s * vec2(-d0.y, d0.x) / l0;
-            n1 = s * vec2(-d1.y, d1.x) / l1;
-            n2 = s * vec2(-d2.y, d2.x) / l2;
+            vec2 n0 = s * vec2(-d0.y, d0.x) / l0;
+            vec2 n1 = s * vec2(-d1.y, d1.x) / l1;
+            vec2 n2 = s * vec2(-d2.y, d2.x) / l2;
+            e0 = vec3(n0, -dot(n0, q0));
+            e1 = vec3(n1, -dot(n1, q1));
+            e2 = vec3(n2, -dot(n2, q2));
             band = max(margin.x, margin.y);
         }
         lo -= margin;
@@ -217,7 +232,7 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
         // word loop for one word on teapot-rect and bunny-rect).
         uint cols = ((2u << uint(c1.x - c0.x)) - 1u) << uint(c0.x);
         uint rows = ((2u << uint(c1.y * na)) - 1u) & ~((1u << uint(c0.y * na)) - 1u);
-        decide_strata(cols * (row_starts & rows), 0, va, vb, vc, q0, q1, q2, n0, n1, n2, band);
+        decide_strata(cols * (row_starts & rows), 0, va, vb, vc, e0, e1, e2, band);
         return;
     }
     // Word by word of the mask: the box's bits in the word, read once and OR-ed back once
@@ -237,8 +252,8 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
             m_behind = 0u;
         }
         int lo_bit = wi * 32;
-        int row0 = small_int((float(lo_bit) + 0.5) * P.pattern_f.x);
-        int row1 = small_int((float(lo_bit + 31) + 0.5) * P.pattern_f.x);
+        int row0 = small_int((float(lo_bit) + 0.5) * inv_na);
+        int row1 = small_int((float(lo_bit + 31) + 0.5) * inv_na);
         uint box = 0u;
         for (int j = max(c0.y, row0); j <= min(c1.y, row1); ++j) {
             int b0 = max(j * na + c0.x, lo_bit) - lo_bit;
@@ -247,7 +262,7 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
                 box |= ((2u << uint(b1 - b0)) - 1u) << uint(b0);
             }
         }
-        decide_strata(box, lo_bit, va, vb, vc, q0, q1, q2, n0, n1, n2, band);
+        decide_strata(box, lo_bit, va, vb, vc, e0, e1, e2, band);
     }
 }
 
@@ -326,6 +341,9 @@ void main() {
         inv_uv = vec2(uu > 0.0 ? 1.0 / uu : 0.0, vv > 0.0 ? 1.0 / vv : 0.0);
         na = P.pattern.x;
         nb = P.pattern.y;
+        inv_ab = P.pattern_f.xy;
+        inv_na = inv_ab.x;
+        jittered = P.pattern.z != 0;
         s_seed = pcg(s_index);
         s_base = s_index * uint(P.pattern.w);
         // The first word now, outside all loops (with up to 32 light samples, the only one).

@@ -45,10 +45,16 @@ bool half_square_box(vec3 f, out vec2 lo, out vec2 hi) {
     return hi.x >= lo.x;
 }
 
+// The light's centre and half-axes, read once (each uniform read carries a bounds check on
+// lavapipe, and these are read in every test).
+vec3 L_C;
+vec3 L_U;
+vec3 L_V;
+
 // (a, b) of the point where the line from o through v meets the light's plane.
 vec2 project(vec3 o, vec4 v, float depth, vec2 inv_uv) {
-    vec3 x = o + (v.xyz - o) * (depth / (depth - v.w)) - P.light_c.xyz;
-    return vec2(dot(x, P.light_u.xyz) * inv_uv.x, dot(x, P.light_v.xyz) * inv_uv.y) + 0.5;
+    vec3 x = o + (v.xyz - o) * (depth / (depth - v.w)) - L_C;
+    return vec2(dot(x, L_U) * inv_uv.x, dot(x, L_V) * inv_uv.y) + 0.5;
 }
 
 // The sample's data, read once for all the item's triangles (private: per invocation).
@@ -108,7 +114,7 @@ void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec
         if (!s_all_front) {
             precise float sx = x.x - 0.5;
             precise float sy = x.y - 0.5;
-            precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx + P.light_v.xyz * sy;
+            precise vec3 ls = L_C + L_U * sx + L_V * sy;
             precise vec3 to_light = ls - s_p;
             behind = dot3(s_n, to_light) <= 0.0;
         }
@@ -124,7 +130,7 @@ void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec
         if (!behind && (band == 0.0 || !(abs(nearest) > band))) {
             precise float sx = x.x - 0.5;
             precise float sy = x.y - 0.5;
-            precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx + P.light_v.xyz * sy;
+            precise vec3 ls = L_C + L_U * sx + L_V * sy;
             precise vec3 d = ls - s_o;
             Ray r = make_ray(s_o, d, 1.0);
             vec4 w;
@@ -217,11 +223,11 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
             return;  // edge-on from o
         }
         float sg = orient > 0.0 ? 1.0 : -1.0;
-        vec3 c = P.light_c.xyz;
-        vec3 f0 = vec3(dot(beyond, c - va.xyz), dot(beyond, P.light_u.xyz), dot(beyond, P.light_v.xyz));
-        vec3 f1 = sg * vec3(dot(e0, c - s_o), dot(e0, P.light_u.xyz), dot(e0, P.light_v.xyz));
-        vec3 f2 = sg * vec3(dot(e1, c - s_o), dot(e1, P.light_u.xyz), dot(e1, P.light_v.xyz));
-        vec3 f3 = sg * vec3(dot(e2, c - s_o), dot(e2, P.light_u.xyz), dot(e2, P.light_v.xyz));
+        vec3 c = L_C;
+        vec3 f0 = vec3(dot(beyond, c - va.xyz), dot(beyond, L_U), dot(beyond, L_V));
+        vec3 f1 = sg * vec3(dot(e0, c - s_o), dot(e0, L_U), dot(e0, L_V));
+        vec3 f2 = sg * vec3(dot(e1, c - s_o), dot(e1, L_U), dot(e1, L_V));
+        vec3 f3 = sg * vec3(dot(e2, c - s_o), dot(e2, L_U), dot(e2, L_V));
         vec2 l1, h1, l2, h2, l3, h3;
         if (!half_square_box(f0, lo, hi) || !half_square_box(f1, l1, h1) ||
             !half_square_box(f2, l2, h2) || !half_square_box(f3, l3, h3)) {
@@ -306,8 +312,8 @@ struct TriSetup {
 TriSetup tri_setup(vec4 va, vec4 vb, vec4 vc) {
     TriSetup ts;
     ts.normal = cross(vb.xyz - va.xyz, vc.xyz - va.xyz);
-    float a = dot(ts.normal, P.light_c.xyz - va.xyz);
-    float spread = 0.5 * (abs(dot(ts.normal, P.light_u.xyz)) + abs(dot(ts.normal, P.light_v.xyz)));
+    float a = dot(ts.normal, L_C - va.xyz);
+    float spread = 0.5 * (abs(dot(ts.normal, L_U)) + abs(dot(ts.normal, L_V)));
     float tol = 1e-4 * (abs(a) + spread);
     ts.light_side = a - spread > tol ? 1.0 : (a + spread < -tol ? -1.0 : 0.0);
     vec3 qa = light_space(va.xyz);
@@ -333,10 +339,16 @@ bool s_every;
 vec2 s_g;
 float s_inv_z;
 
+// A rect light's half extents in grid cells per unit of 1/z, grown by K_MARGIN, and whether the
+// light is a rect: set once, as each uniform read is bounds-checked on lavapipe (this pass 10 %
+// faster on bunny-rect than with the reads in the check).
+vec2 s_spread;
+bool s_rect;
+
 bool reaches(vec4 box, float zmin, float inv_zmin, bool every) {
     vec2 grow = vec2(CELL_MARGIN);
-    if (P.view.w == KIND_RECT) {
-        grow += max(inv_zmin - s_inv_z, 0.0) * (1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw);
+    if (s_rect) {
+        grow += max(inv_zmin - s_inv_z, 0.0) * s_spread;
     }
     return every || s_every ||
            (zmin <= s_q.z * (1.0 + 1e-5) && all(greaterThanEqual(s_g, box.xy - grow)) &&
@@ -361,8 +373,11 @@ void main() {
             s_p = imageLoad(positions, pixel).xyz;
             s_n = imageLoad(normals, pixel).xyz;
         }
-        uu = dot(P.light_u.xyz, P.light_u.xyz);
-        vv = dot(P.light_v.xyz, P.light_v.xyz);
+        L_C = P.light_c.xyz;
+        L_U = P.light_u.xyz;
+        L_V = P.light_v.xyz;
+        uu = dot(L_U, L_U);
+        vv = dot(L_V, L_V);
         inv_uv = vec2(uu > 0.0 ? 1.0 / uu : 0.0, vv > 0.0 ? 1.0 / vv : 0.0);
         na = P.pattern.x;
         nb = P.pattern.y;
@@ -388,6 +403,8 @@ void main() {
         s_every = P.sizes.w != 0u && s_q.z <= P.light_half.z;
         s_g = s_every ? vec2(0.0) : grid_coord(s_q);
         s_inv_z = s_every ? 0.0 : 1.0 / s_q.z;
+        s_rect = P.view.w == KIND_RECT;
+        s_spread = (1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw);
         // Triangle–sample tests made (those the sample's own footprint check keeps).
         uint tests = 0u;
 #ifdef TRIANGLE_BATCH

@@ -157,6 +157,12 @@
 //! samples since): tests 3.59 M → 3.18 M on the bunny, 1.46 M → 1.31 M on the teapot, the same
 //! bits, but the test pass 97.6 → 105.8 ms minimum on the bunny (lower quartile 115.0 → 109.0)
 //! and 37.8 → 41.1 on the teapot, six rounds each: the tests it drops are the cheap ones. Not kept.
+//! Where the tests go (counted at the pass's end, bunny-rect): 3.51 M of the 3.59 M are made by
+//! samples that end with some light sample blocked or behind their plane (14.7 k of the 124 k
+//! view samples; the lit ones make 2 %), 0.40 M by the umbra's 8.5 k — so ~500 a penumbra
+//! sample, each against a triangle whose projection overlaps the light. Fewer of those needs
+//! triangles culled in groups (a group's projection against the open strata) or a one-sided
+//! test on closed meshes, not a cheaper per-sample check (teapot: 1.40 M of 1.46 M, umbra 0.59 M).
 //! 5. `resolve`: visibility from the masks.
 //!
 //! **izb** tests the ray from `o` to the light's centre (a rect light counts as a point at its

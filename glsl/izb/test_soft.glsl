@@ -51,6 +51,15 @@ vec3 L_C;
 vec3 L_U;
 vec3 L_V;
 
+// The light sample at x in the light's (a, b) square, in world space: the reference's
+// arithmetic, to the bit.
+vec3 light_point(vec2 x) {
+    precise float sx = x.x - 0.5;
+    precise float sy = x.y - 0.5;
+    precise vec3 ls = L_C + L_U * sx + L_V * sy;
+    return ls;
+}
+
 // (a, b) of the point where the line from o through v meets the light's plane.
 vec2 project(vec3 o, vec4 v, float depth, vec2 inv_uv) {
     vec3 x = o + (v.xyz - o) * (depth / (depth - v.w)) - L_C;
@@ -112,10 +121,7 @@ void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec
         // the test (and lavapipe the whole branch when no lane takes it).
         bool behind = false;
         if (!s_all_front) {
-            precise float sx = x.x - 0.5;
-            precise float sy = x.y - 0.5;
-            precise vec3 ls = L_C + L_U * sx + L_V * sy;
-            precise vec3 to_light = ls - s_p;
+            precise vec3 to_light = light_point(x) - s_p;
             behind = dot3(s_n, to_light) <= 0.0;
         }
         m_behind |= behind ? mask : 0u;
@@ -128,10 +134,7 @@ void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec
         float nearest = min(dist.x, min(dist.y, dist.z));
         bool blocked = !behind && band > 0.0 && nearest > band;
         if (!behind && (band == 0.0 || !(abs(nearest) > band))) {
-            precise float sx = x.x - 0.5;
-            precise float sy = x.y - 0.5;
-            precise vec3 ls = L_C + L_U * sx + L_V * sy;
-            precise vec3 d = ls - s_o;
+            precise vec3 d = light_point(x) - s_o;
             Ray r = make_ray(s_o, d, 1.0);
             vec4 w;
             m_rays += 1u;
@@ -141,9 +144,11 @@ void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec
     }
 }
 
-// The projected triangle q0 q1 q2's edges as affine inward distances (see test_triangle); false
-// (no shortcut) for a line light or a degenerate projection.
-bool projected_edges(vec2 q0, vec2 q1, vec2 q2, out vec3 e0, out vec3 e1, out vec3 e2) {
+// The projected triangle q0 q1 q2's edges as affine inward distances (see test_triangle), and
+// the band around them within which a light sample takes the exact ray: the projection's
+// margin, or 0 (no shortcut) for a line light or a degenerate projection.
+float projected_edges(vec2 q0, vec2 q1, vec2 q2, vec2 margin, out vec3 e0, out vec3 e1,
+                      out vec3 e2) {
     e0 = vec3(0.0);
     e1 = vec3(0.0);
     e2 = vec3(0.0);
@@ -166,9 +171,9 @@ bool projected_edges(vec2 q0, vec2 q1, vec2 q2, out vec3 e0, out vec3 e1, out ve
         e0 = vec3(n0, -dot(n0, q0));
         e1 = vec3(n1, -dot(n1, q1));
         e2 = vec3(n2, -dot(n2, q2));
-        return true;
+        return max(margin.x, margin.y);
     }
-    return false;
+    return 0.0;
 }
 
 // The sample's test against one triangle: the light samples it blocks go into the mask word
@@ -257,14 +262,14 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
         if ((box & ~(m_bits | m_fresh | m_behind)) == 0u) {
             return;
         }
-        if (between && projected_edges(q0, q1, q2, e0, e1, e2)) {
-            band = max(margin.x, margin.y);
+        if (between) {
+            band = projected_edges(q0, q1, q2, margin, e0, e1, e2);
         }
         decide_strata(box, 0, va, vb, vc, e0, e1, e2, band);
         return;
     }
-    if (between && projected_edges(q0, q1, q2, e0, e1, e2)) {
-        band = max(margin.x, margin.y);
+    if (between) {
+        band = projected_edges(q0, q1, q2, margin, e0, e1, e2);
     }
     // Word by word of the mask: the box's bits in the word, read once and OR-ed back once
     // when another word (or the end) comes; the mask's memory is touched once a triangle and

@@ -247,8 +247,20 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
     if (any(greaterThan(lo, vec2(1.0))) || any(lessThan(hi, vec2(0.0)))) {
         return;
     }
-    ivec2 c0 = min(small_int(lo * vec2(na, nb)), ivec2(na - 1, nb - 1));
-    ivec2 c1 = min(small_int(hi * vec2(na, nb)), ivec2(na - 1, nb - 1));
+    // The strata to decide: with jitter, those whose cell meets the box; without, those whose
+    // light sample (the cell's centre) lies in it: columns i with lo.x <= (i + 1/2) / n_a <=
+    // hi.x, rows likewise. A cell reaches into a triangle's box far more often than its light
+    // sample lies in it (a fifth of the bunny-rect candidates do): the same bits, fewer passes
+    // of the deciding loop (this pass 12 % faster at `jitter=0` on bunny-rect, minimum 106.6 ->
+    // 94.3 ms over eight interleaved rounds). A centre on the box's edge may be left out: the
+    // box carries the projection's margin, and no ray beyond the triangle's projection hits it.
+    vec2 n_ab = vec2(na, nb);
+    vec2 centre = jittered ? vec2(0.0) : vec2(0.5);
+    ivec2 c0 = min(small_int(lo * n_ab + centre), ivec2(na - 1, nb - 1));
+    ivec2 c1 = min(small_int(hi * n_ab + centre) - (jittered ? 0 : 1), ivec2(na - 1, nb - 1));
+    if (any(greaterThan(c0, c1))) {
+        return;  // no light sample in the box
+    }
     if (one_word) {
         // One mask word, never switched: the box's bits directly, its columns' bits times its
         // rows' first bits. No word loop: on a CPU driver each loop level, even of one pass,

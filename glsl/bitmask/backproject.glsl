@@ -28,6 +28,7 @@
 #include "bitmask.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
+#include "dealt_tile.glsl"
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D receivers;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
@@ -178,7 +179,7 @@ uint popcount(uvec4 a, uvec4 b) {
 void main() {
     invocation_counts_clear();
 
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 pixel = dealt_pixel();
     ivec2 map_size = ivec2(bm.sizes.z);
     BpView view = bm_view();
     if (all(lessThan(pixel, bm.sizes.xy))) {

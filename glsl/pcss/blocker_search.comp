@@ -16,6 +16,7 @@
 #include "pcss.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
+#include "dealt_tile.glsl"
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
 layout(set = 0, binding = 1) uniform sampler2D shadow_map;
@@ -185,7 +186,7 @@ void decide(ivec2 pixel, float v, int slot) {
 void main() {
     invocation_counts_clear();
 
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 pixel = dealt_pixel();
     ivec2 map_size = ivec2(pc.map_size);
     if (all(lessThan(pixel, pc.view_size))) {
         vec4 p = imageLoad(positions, pixel);

@@ -8,6 +8,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "shadow_map.glsl"
 #include "soft_light.glsl"
+#include "dealt_tile.glsl"
 
 // The pixel of this invocation in an 8 x 8 workgroup, laid out so that each run of eight
 // invocations (a SIMD group of lavapipe's, subgroup size 8) covers a 4 x 2 block instead of a
@@ -15,13 +16,14 @@
 // search and filter for lanes that needed neither. Interleaved A/Bs on 2026-12-03 (medians of
 // five to seven, the VM in a slow phase): teapot-rect's shape pass 66.0 -> 59.8 and 69.5 ->
 // 65.4 ms, its filter 35.6 -> 36.7 and 40.2 -> 37.2; bunny-rect's shape 48.8 -> 45.7, filter
-// 31.1 -> 30.0 — a few per cent, within the noise of single runs.
+// 31.1 -> 30.0 — a few per cent, within the noise of single runs. The workgroup's tile is dealt
+// (dealt_tile.glsl).
 ivec2 simd_block_pixel() {
     uint l = gl_LocalInvocationIndex;
     uint lane = l & 7u;
     uint group = l >> 3u;
     uvec2 local = uvec2((group & 1u) * 4u + (lane & 3u), (group >> 1u) * 2u + (lane >> 2u));
-    return ivec2(gl_WorkGroupID.xy * 8u + local);
+    return ivec2(dealt_tile() * 8u + local);
 }
 
 layout(push_constant) uniform Push {

@@ -14,6 +14,7 @@
 #include "atty.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
+#include "dealt_tile.glsl"
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D receivers;
 layout(set = 0, binding = 6) buffer Ssm { float ssm[]; };
@@ -43,7 +44,7 @@ vec2 layer_at(ivec2 t, float z) {
 void main() {
     invocation_counts_clear();
 
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 pixel = dealt_pixel();
     ivec2 map_size = ivec2(at.sizes.z);
     if (all(lessThan(pixel, at.sizes.xy))) {
         vec4 p = imageLoad(receivers, pixel);

@@ -17,6 +17,7 @@
 #include "shadow_map.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
+#include "dealt_tile.glsl"
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
@@ -56,7 +57,7 @@ bool behind_plane(vec3 p, vec3 n) {
 
 void main() {
     invocation_counts_clear();
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 pixel = dealt_pixel();
     if (all(lessThan(pixel, pc.view_size))) {
         vec4 p = imageLoad(positions, pixel);
         // The count so far; -1: no sample in front of the plane yet.

@@ -12,6 +12,7 @@
 #include "shadow_map.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
+#include "dealt_tile.glsl"
 
 #define MAX_CASCADES 8
 
@@ -63,7 +64,7 @@ float tile_bilinear(vec2 p, ivec2 origin, ivec2 n, float z) {
 void main() {
     invocation_counts_clear();
 
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 pixel = dealt_pixel();
     if (all(lessThan(pixel, params.view_size))) {
         vec4 p = imageLoad(positions, pixel);
         float v = 1.0;

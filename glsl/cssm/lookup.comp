@@ -17,6 +17,7 @@
 #include "soft_light.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
+#include "dealt_tile.glsl"
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D coords;
 layout(set = 0, binding = 1, rgba32f) uniform image2D state;
@@ -89,7 +90,7 @@ float distance_of(float z) {
 void main() {
     invocation_counts_clear();
 
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 pixel = dealt_pixel();
     bool filter_loop = (pc.flags & FLAG_FILTER) != 0;
     bool first = (pc.flags & FLAG_FIRST) != 0;
     bool last = (pc.flags & FLAG_LAST) != 0;

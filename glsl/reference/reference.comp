@@ -6,6 +6,7 @@
 #extension GL_GOOGLE_include_directive : require
 
 layout(local_size_x = 8, local_size_y = 8) in;
+#include "dealt_tile.glsl"
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
@@ -243,7 +244,7 @@ void main() {
     uint rays = 0u;
     uint centre_rays = 0u;
 
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 pixel = dealt_pixel();
     if (all(lessThan(pixel, pc.view_size))) {
         vec4 p = imageLoad(positions, pixel);
         float v = 1.0;

@@ -11,6 +11,7 @@
 #include "rmsm.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
+#include "dealt_tile.glsl"
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
@@ -38,7 +39,7 @@ void flag_chain(uint level, uvec2 page) {
 void main() {
     invocation_counts_clear();
 
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 pixel = dealt_pixel();
     if (all(lessThan(pixel, pc.view_size))) {
         uint target = NO_REFINE;
         vec4 p = imageLoad(positions, pixel);

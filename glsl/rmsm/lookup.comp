@@ -11,6 +11,7 @@
 #include "rmsm.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
+#include "dealt_tile.glsl"
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
@@ -29,7 +30,7 @@ layout(set = 0, binding = 8, r32ui) uniform readonly uimage2D refine_level;
 void main() {
     invocation_counts_clear();
 
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 pixel = dealt_pixel();
     if (all(lessThan(pixel, pc.view_size))) {
         vec4 p = imageLoad(positions, pixel);
         vec4 r = imageLoad(receivers, pixel);

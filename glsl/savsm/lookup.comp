@@ -12,6 +12,7 @@
 #include "savsm.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
+#include "dealt_tile.glsl"
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
 layout(set = 0, binding = 1, r32f) uniform writeonly image2D visibility;
@@ -107,7 +108,7 @@ float chebyshev(vec2 m, float d, float min_variance) {
 void main() {
     invocation_counts_clear();
 
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 pixel = dealt_pixel();
     if (all(lessThan(pixel, pc.view_size))) {
         vec4 p = imageLoad(positions, pixel);
         float v = 1.0;

@@ -405,6 +405,47 @@ pub struct IzbParams {
     pub sizes: [u32; 4],
 }
 
+/// The triangle list in the Morton order of the triangles' centroids (21 bits an axis over the
+/// vertices' bounds), stable for equal keys: the order izb's passes see the triangles in. The
+/// footprint pass fills each cell's triangle list in dispatch order, and the test passes take a
+/// list eight triangles at a time, each sample first keeping those of the eight its footprint
+/// reaches: neighbours in space make batches a sample keeps or drops together. On bunny-rect
+/// (whose file order is the scan's) `izb-soft`'s total 177.6 → 145.9 ms, its test pass
+/// 134.9 → 106.0 and footprint pass 23.4 → 21.1 (minimum of six interleaved rounds, the VM in a
+/// slow phase); the same visibility and test counts on six scenes. With 10 bits an axis the
+/// bunny shared its keys with the whole ground plane's extent and the test pass did not gain.
+pub fn spatial_order(positions: &[Vec3], indices: &[u32]) -> Vec<u32> {
+    let vertex = |i: u32| positions.get(i as usize).copied().unwrap_or(Vec3::ZERO);
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for &i in indices {
+        lo = lo.min(vertex(i));
+        hi = hi.max(vertex(i));
+    }
+    let extent = (hi - lo).max(Vec3::splat(1e-20));
+    // Bits 0..20 of v spread to every third bit of a u64 (21 bits an axis: a small mesh on a
+    // large ground plane still gets fine keys).
+    let spread = |v: u64| {
+        let mut x = v & 0x1f_ffff;
+        x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
+        x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
+        x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+        x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+        (x | (x << 2)) & 0x1249_2492_4924_9249
+    };
+    let scale = ((1u32 << 21) - 1) as f32;
+    let mut keyed: Vec<(u64, [u32; 3])> = indices
+        .chunks_exact(3)
+        .map(|t| {
+            let centroid = (vertex(t[0]) + vertex(t[1]) + vertex(t[2])) / 3.0;
+            let q = ((centroid - lo) / extent * scale).clamp(Vec3::ZERO, Vec3::splat(scale));
+            let key = spread(q.x as u64) | (spread(q.y as u64) << 1) | (spread(q.z as u64) << 2);
+            (key, [t[0], t[1], t[2]])
+        })
+        .collect();
+    keyed.sort_by_key(|k| k.0);
+    keyed.iter().flat_map(|k| k.1).collect()
+}
+
 /// `izb-soft`'s light-sample grid for `samples` samples: `(n_a, n_b)` with `n_b` the largest
 /// divisor not above the square root (32 → 8 × 4, 1024 → 32 × 32).
 pub fn sample_grid(samples: u32) -> (u32, u32) {
@@ -624,6 +665,11 @@ impl<'a> Izb<'a> {
         };
         let tri_list = texel_storage("izb pairs", 4 * capacity)?;
         let tri_verts = texel_storage("izb triangle vertices", 48 * tris)?;
+        let tri_indices = ctx.buffer_with(
+            "izb triangle indices (spatial order)",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            &spatial_order(setup.positions, setup.indices),
+        )?;
         // The test pass reads the triangles of a work item, the same for all its invocations,
         // through texel views: gathers, where storage-buffer reads in its loop would go lane
         // by lane on lavapipe (whose storage reads are scalar only outside control flow).
@@ -648,7 +694,7 @@ impl<'a> Izb<'a> {
             (1, Binding::Image(&setup.view.normals)),
             (2, Binding::Buffer(&params_buffer)),
             (3, Binding::Buffer(&setup.geometry.vertices)),
-            (4, Binding::Buffer(&setup.geometry.indices)),
+            (4, Binding::Buffer(&tri_indices)),
             (5, Binding::Buffer(&cell_count)),
             (6, Binding::Buffer(&cell_start)),
             (7, Binding::Buffer(&cell_depth)),
@@ -723,6 +769,7 @@ impl<'a> Izb<'a> {
                 large,
                 tri_list,
                 tri_verts,
+                tri_indices,
             ],
             _visibility: setup.visibility,
         })
@@ -850,6 +897,22 @@ mod tests {
         assert_eq!(offset_of!(IzbParams, pattern_f), 176);
         assert_eq!(offset_of!(IzbParams, sizes), 192);
         assert_eq!(size_of::<IzbParams>(), 208);
+    }
+
+    /// `spatial_order` reorders whole triangles and keeps each one's winding.
+    #[test]
+    fn spatial_order_permutes_whole_triangles() {
+        let positions: Vec<Vec3> = (0..30)
+            .map(|i| Vec3::new((i * 7 % 30) as f32, (i % 5) as f32, (i * 3 % 11) as f32))
+            .collect();
+        let indices: Vec<u32> = (0..30u32).rev().collect();
+        let ordered = spatial_order(&positions, &indices);
+        let mut before: Vec<[u32; 3]> = indices.chunks(3).map(|t| [t[0], t[1], t[2]]).collect();
+        let mut after: Vec<[u32; 3]> = ordered.chunks(3).map(|t| [t[0], t[1], t[2]]).collect();
+        assert_ne!(before, after, "the order changed");
+        before.sort();
+        after.sort();
+        assert_eq!(before, after, "the same triangles, each with its winding");
     }
 
     /// A work item of `izb-soft` stays within half of lavapipe's loop limiter (65 535 passes

@@ -9,7 +9,7 @@
 // every part of the image. A bijection of the dispatch's tiles for any count (no workgroup is
 // added or idle); a GPU schedules workgroups as they free up and is indifferent to the order.
 // Measured with izb's work items first (glsl/izb/izb.glsl), then the image passes that use it;
-// the README's design section has the figures.
+// the README's design section has the figures. CPU twin: src/cpu/dealt_tile.rs.
 
 #ifndef PENUMBRA_DEALT_TILE_GLSL
 #define PENUMBRA_DEALT_TILE_GLSL

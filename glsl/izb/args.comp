@@ -3,8 +3,8 @@
 // ITEM_SAMPLES samples times chunks of P.sizes.z triangles, so no work item's loops outgrow
 // lavapipe's loop limiter however long a grazing cell's lists get. Phase 1 (one invocation):
 // the pairs and work items from the prefix sums, and the test pass's indirect dispatch
-// arguments (one workgroup an item, dealt by rows; y carries what exceeds 65 535 groups).
-// Pairs beyond the capacity: no item runs and the host fails the frame.
+// arguments (one workgroup an item; y carries what exceeds 65 535 groups). Pairs beyond the
+// capacity: no item runs and the host fails the frame.
 #include "izb.glsl"
 
 layout(local_size_x = 64) in;
@@ -33,10 +33,8 @@ void main() {
         items = 0u;
     }
     counters[C_ITEMS] = items;
-    // The workgroups: the items dealt by rows (izb.glsl, work_item), whole rows of them.
-    uint groups = ITEM_DEAL * item_strips(items);
-    uint y = (groups + 65534u) / 65535u;
-    args[0] = groups == 0u ? 0u : (groups + y - 1u) / y;
+    uint y = (items + 65534u) / 65535u;
+    args[0] = items == 0u ? 0u : (items + y - 1u) / y;
     args[1] = y;
     args[2] = 1u;
 }

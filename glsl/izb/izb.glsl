@@ -194,20 +194,7 @@ uint batch_lane() {
 }
 #endif
 
-// Work items are dealt to the test pass's workgroups as a table of ITEM_DEAL rows: item
-// i = s * ITEM_DEAL + r (strip s, row r) goes to workgroup r * S + s, S = ceil(items /
-// ITEM_DEAL) strips (the dispatch has ITEM_DEAL * S workgroups; those past the last item do
-// nothing). A CPU driver splits a dispatch into one contiguous block of workgroups per thread
-// (lavapipe's lp_cs_tpool.c: iterations / threads, in order), and items in cell order put a
-// shadow's penumbra cells, which cost the most, in one block while the other thread idles; dealt
-// by rows, each of up to ITEM_DEAL threads takes the same rows of every strip, a share of every
-// part of the grid (bunny-rect: izb-soft's test pass 15 % faster, izb's 21 %). A GPU schedules
-// workgroups as they free up and is indifferent to the order.
-#define ITEM_DEAL 16u
-
-uint item_strips(uint items) {
-    return (items + ITEM_DEAL - 1u) / ITEM_DEAL;
-}
+#include "dealt_tile.glsl"
 
 // A work item of the test pass: samples [s0, s1) of cell_samples against triangles [t0, t1) of
 // tri_list, all of one cell.
@@ -218,20 +205,20 @@ struct Item {
     uint t1;
 };
 
-// This workgroup's work item (false past the last): the cell is the last one whose first item
-// is at or before the workgroup's index (a binary search of the items' prefix sum; cells
-// without items share the next one's start), then its sample chunk and triangle chunk.
+// This workgroup's work item (false past the last): the items are dealt to the workgroups
+// (dealt_tile.glsl: in cell order a shadow's penumbra cells, whose items cost the most, fell to
+// one of lavapipe's threads while the other idled; bunny-rect's izb-soft test pass 111.1 ->
+// 91.7 ms minimum, izb's 9.4 -> 8.9). The cell is the last one whose first item is at or before
+// the item's index (a binary search of the items' prefix sum; cells without items share the
+// next one's start), then its sample chunk and triangle chunk.
 bool work_item(out Item item) {
     uint g = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
     item = Item(0u, 0u, 0u, 0u);
     uint items = counters[C_ITEMS];
-    uint strips = item_strips(items);
-    uint row = g / max(strips, 1u);
-    uint w = (g - row * strips) * ITEM_DEAL + row;
-    // Past the table (the dispatch's x * y rounds up), or past the last item.
-    if (row >= ITEM_DEAL || w >= items) {
+    if (g >= items) {
         return false;
     }
+    uint w = dealt_index(g, items);
     uint lo = 0u;
     uint hi = overflow_cell() + 1u;
     while (hi - lo > 1u) {

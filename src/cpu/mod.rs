@@ -14,6 +14,7 @@ pub mod caster_cull;
 pub mod compact;
 pub mod conservative_raster;
 pub mod cssm;
+pub mod dealt_tile;
 pub mod essm;
 pub mod filtered;
 pub mod izb;

@@ -913,6 +913,26 @@ mod tests {
         before.sort();
         after.sort();
         assert_eq!(before, after, "the same triangles, each with its winding");
+        // Triangles along one axis, listed out of order, come back in order along it.
+        let line: Vec<Vec3> = (0..20)
+            .flat_map(|i| {
+                let x = ((i * 7) % 20) as f32;
+                [
+                    Vec3::new(x, 0.0, 0.0),
+                    Vec3::new(x + 0.5, 1.0, 0.0),
+                    Vec3::new(x, 0.0, 1.0),
+                ]
+            })
+            .collect();
+        let indices: Vec<u32> = (0..60).collect();
+        let xs: Vec<f32> = spatial_order(&line, &indices)
+            .chunks(3)
+            .map(|t| line[t[0] as usize].x)
+            .collect();
+        assert!(
+            xs.windows(2).all(|w| w[0] < w[1]),
+            "ordered along x: {xs:?}"
+        );
     }
 
     /// A work item of `izb-soft` stays within half of lavapipe's loop limiter (65 535 passes

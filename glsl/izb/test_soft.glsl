@@ -87,6 +87,14 @@ bool jittered;
 // One mask word (n_a·n_b ≤ 32): a box's bits are its columns' bits times its rows' first bits.
 bool one_word;
 uint row_starts;
+uint row_bits;
+// With one word and jitter: where in its cell each light sample lies, to a quarter of the cell
+// on each axis: bit k of q_x1 / q_x0 is the top / second bit of sample k's jitter in a (its
+// quarter 2 q_x1 + q_x0), likewise q_y1 / q_y0 in b. The hash's own bits, so exact.
+uint q_x1;
+uint q_x0;
+uint q_y1;
+uint q_y0;
 // The mask word in use, read once and OR-ed back once when another word (or the end) comes:
 // memory accesses are the expensive part of this loop on a CPU driver; and the rays traced.
 uint m_word;
@@ -98,11 +106,13 @@ uint m_behind;
 
 // The light samples of `box` (bits lo_bit.. of the word in use) that no triangle has blocked
 // yet, decided one by one against the triangle (va, vb, vc), whose projection from the sample's
-// ray origin has the edges e0 e1 e2: inward signed distances e.x a + e.y b + e.z (`band` = 0: no
+// ray origin has the edges e0 e1 e2: inward signed distances e.x a + e.y b + e.z, each times its
+// edge's L1 length, decided without a ray beyond `t` (the band times those lengths; 0: no
 // projection shortcut). A pass of the loop is a light sample to decide (none for a box blocked
 // already: an umbra, or the strata a neighbouring triangle covered).
 void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec3 e1, vec3 e2,
-                   float band) {
+                   vec3 t) {
+    bool shortcut = t.x > 0.0;
     uint todo = box & ~(m_bits | m_fresh | m_behind);
     while (todo != 0u) {
         int b = findLSB(todo);
@@ -131,9 +141,11 @@ void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec
         // band (this pass 15 % faster on bunny-rect than with the `continue`s).
         vec3 dist = vec3(fma(e0.x, x.x, fma(e0.y, x.y, e0.z)), fma(e1.x, x.x, fma(e1.y, x.y, e1.z)),
                          fma(e2.x, x.x, fma(e2.y, x.y, e2.z)));
-        float nearest = min(dist.x, min(dist.y, dist.z));
-        bool blocked = !behind && band > 0.0 && nearest > band;
-        if (!behind && (band == 0.0 || !(abs(nearest) > band))) {
+        // (A NaN distance decides nothing: the ray.)
+        bool inside = all(greaterThan(dist, t));
+        bool outside = any(lessThan(dist, -t));
+        bool blocked = !behind && shortcut && inside;
+        if (!behind && !(shortcut && (inside || outside))) {
             precise vec3 d = light_point(x) - s_o;
             Ray r = make_ray(s_o, d, 1.0);
             vec4 w;
@@ -144,11 +156,12 @@ void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec
     }
 }
 
-// The projected triangle q0 q1 q2's edges as affine inward distances (see test_triangle), and
-// the band around them within which a light sample takes the exact ray: the projection's
-// margin, or 0 (no shortcut) for a line light or a degenerate projection.
-float projected_edges(vec2 q0, vec2 q1, vec2 q2, vec2 margin, out vec3 e0, out vec3 e1,
-                      out vec3 e2) {
+// The projected triangle q0 q1 q2's edges as affine inward distances times each edge's L1
+// length (see test_triangle), and the band around them within which a light sample takes the
+// exact ray, times the same lengths: the projection's margin, or 0 (no shortcut) for a line
+// light or a degenerate projection. Scaled rather than divided: no division a test.
+vec3 projected_edges(vec2 q0, vec2 q1, vec2 q2, vec2 margin, out vec3 e0, out vec3 e1,
+                     out vec3 e2) {
     e0 = vec3(0.0);
     e1 = vec3(0.0);
     e2 = vec3(0.0);
@@ -165,15 +178,42 @@ float projected_edges(vec2 q0, vec2 q1, vec2 q2, vec2 margin, out vec3 e0, out v
     // A line light (uu or vv = 0) collapses an axis: no shortcut then.
     if (uu > 0.0 && vv > 0.0 && min(l0, min(l1, l2)) > 0.0 && area != 0.0) {
         float s = area > 0.0 ? -1.0 : 1.0;
-        vec2 n0 = s * vec2(-d0.y, d0.x) / l0;
-        vec2 n1 = s * vec2(-d1.y, d1.x) / l1;
-        vec2 n2 = s * vec2(-d2.y, d2.x) / l2;
+        vec2 n0 = s * vec2(-d0.y, d0.x);
+        vec2 n1 = s * vec2(-d1.y, d1.x);
+        vec2 n2 = s * vec2(-d2.y, d2.x);
         e0 = vec3(n0, -dot(n0, q0));
         e1 = vec3(n1, -dot(n1, q1));
         e2 = vec3(n2, -dot(n2, q2));
-        return max(margin.x, margin.y);
+        return max(margin.x, margin.y) * vec3(l0, l1, l2);
     }
-    return 0.0;
+    return vec3(0.0);
+}
+
+// The light samples whose quarter (2 p1 + p0) is at least q, or at most q.
+uint quarter_at_least(int q, uint p1, uint p0) {
+    return q <= 0 ? ~0u : (q == 1 ? p1 | p0 : (q == 2 ? p1 : p1 & p0));
+}
+uint quarter_at_most(int q, uint p1, uint p0) {
+    return q >= 3 ? ~0u : (q == 2 ? ~(p1 & p0) : (q == 1 ? ~p1 : ~(p1 | p0)));
+}
+
+// Of the strata c0..c1 the box [lo, hi] meets, the light samples that may lie in it: in the
+// first and last column (row) only those in the quarters of the cell the box reaches. A
+// light sample left out lies outside the box, which carries the projection's margin, so no ray
+// to it hits the triangle (the rounding of the quarters' bounds is far inside that margin).
+uint quarter_mask(vec2 lo, vec2 hi, ivec2 c0, ivec2 c1) {
+    vec2 n_ab = vec2(na, nb);
+    ivec2 qlo = small_int(min(4.0 * (lo * n_ab - vec2(c0)), vec2(3.5)));
+    ivec2 qhi = small_int(clamp(4.0 * (hi * n_ab - vec2(c1)), vec2(0.0), vec2(3.5)));
+    uint first_col = row_starts << uint(c0.x);
+    uint last_col = row_starts << uint(c1.x);
+    uint first_row = row_bits << uint(c0.y * na);
+    uint last_row = row_bits << uint(c1.y * na);
+    uint m = ~first_col | quarter_at_least(qlo.x, q_x1, q_x0);
+    m &= ~last_col | quarter_at_most(qhi.x, q_x1, q_x0);
+    m &= ~first_row | quarter_at_least(qlo.y, q_y1, q_y0);
+    m &= ~last_row | quarter_at_most(qhi.y, q_y1, q_y0);
+    return m;
 }
 
 // The sample's test against one triangle: the light samples it blocks go into the mask word
@@ -194,7 +234,7 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
     vec3 e0 = vec3(0.0);
     vec3 e1 = vec3(0.0);
     vec3 e2 = vec3(0.0);
-    float band = 0.0;
+    vec3 band = vec3(0.0);
     // The projection when the triangle lies between o and the light's plane; otherwise
     // (rarely: 1 % of the bunny's tests) the half-planes, whose 4 boxes cost more than all the
     // rest of this test — behind an `if`, which lavapipe skips when no lane takes it (as a loop
@@ -269,6 +309,9 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
         uint cols = ((2u << uint(c1.x - c0.x)) - 1u) << uint(c0.x);
         uint rows = ((2u << uint(c1.y * na)) - 1u) & ~((1u << uint(c0.y * na)) - 1u);
         uint box = cols * (row_starts & rows);
+        if (jittered) {
+            box &= quarter_mask(lo, hi, c0, c1);
+        }
         // The edges only for a box with light samples still open (a third of the bunny's
         // tests have none: blocked by earlier triangles).
         if ((box & ~(m_bits | m_fresh | m_behind)) == 0u) {
@@ -416,6 +459,21 @@ void main() {
         for (int j = 0; one_word && j < nb; ++j) {
             row_starts |= 1u << uint(j * na);
         }
+        row_bits = na >= 32 ? ~0u : (1u << uint(na)) - 1u;
+        // The light samples' quarters, from the reference's hash (light_samples.glsl): the
+        // top two bits of the 24 its jitter takes.
+        q_x1 = 0u;
+        q_x0 = 0u;
+        q_y1 = 0u;
+        q_y0 = 0u;
+        for (int k = 0; one_word && jittered && k < light_samples; ++k) {
+            uint hx = pcg(s_seed + 2u * uint(k));
+            uint hy = pcg(s_seed + 2u * uint(k) + 1u);
+            q_x1 |= (hx >> 31u) << uint(k);
+            q_x0 |= ((hx >> 30u) & 1u) << uint(k);
+            q_y1 |= (hy >> 31u) << uint(k);
+            q_y0 |= ((hy >> 30u) & 1u) << uint(k);
+        }
         uint all_bits = light_samples >= 32 ? 0xFFFFFFFFu : (1u << uint(light_samples)) - 1u;
         s_q = light_space(s_o);
         s_every = P.sizes.w != 0u && s_q.z <= P.light_half.z;
@@ -445,10 +503,17 @@ void main() {
             }
             mine = live ? mine : 0u;
             tests += uint(bitCount(mine));
-            uint keep = subgroupOr(mine);
-            while (keep != 0u) {
-                uint i = uint(findLSB(keep));
-                keep &= keep - 1u;
+            // Each lane walks its own kept triangles, in the list's order: a pass of the loop
+            // is a test for every lane that has one left (the shuffles take a lane's own
+            // index), so the SIMD group makes as many passes as its busiest lane keeps
+            // triangles rather than as many as all its lanes keep together. The count is
+            // uniform: every lane stays in the loop, as a shuffle reads only active lanes.
+            uint passes = subgroupMax(uint(bitCount(mine)));
+            uint rest = mine;
+            for (uint p = 0u; p < passes; ++p) {
+                bool has = rest != 0u;
+                uint i = has ? uint(findLSB(rest)) : 0u;
+                rest &= rest - 1u;
                 vec4 va = subgroupShuffle(la, i);
                 vec4 vb = subgroupShuffle(lb, i);
                 vec4 vc = subgroupShuffle(lc, i);
@@ -460,7 +525,7 @@ void main() {
                 // behind its tangent plane: an umbra) skips the test; a SIMD group whose samples
                 // are all decided skips it altogether.
                 bool open = !one_word || (m_bits | m_fresh | m_behind) != all_bits;
-                if (open && (mine & (1u << i)) != 0u) {
+                if (open && has) {
                     test_triangle(va, vb, vc, normal, light_side, zmin, zmax);
                 }
             }

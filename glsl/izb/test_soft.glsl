@@ -503,6 +503,9 @@ void main() {
             }
             mine = live ? mine : 0u;
             tests += uint(bitCount(mine));
+            // A sample with one mask word whose every light sample is decided (blocked or behind
+            // its tangent plane: an umbra) makes no pass of the loop below.
+            mine = !one_word || (m_bits | m_fresh | m_behind) != all_bits ? mine : 0u;
             // Each lane walks its own kept triangles, in the list's order: a pass of the loop
             // is a test for every lane that has one left (the shuffles take a lane's own
             // index), so the SIMD group makes as many passes as its busiest lane keeps
@@ -521,9 +524,8 @@ void main() {
                 float light_side = subgroupShuffle(ts.light_side, i);
                 float zmin = min(va.w, min(vb.w, vc.w));
                 float zmax = max(va.w, max(vb.w, vc.w));
-                // A sample with one mask word whose every light sample is decided (blocked or
-                // behind its tangent plane: an umbra) skips the test; a SIMD group whose samples
-                // are all decided skips it altogether.
+                // As above, for a sample decided during the batch; a SIMD group whose samples are
+                // all decided skips the test altogether.
                 bool open = !one_word || (m_bits | m_fresh | m_behind) != all_bits;
                 if (open && has) {
                     test_triangle(va, vb, vc, normal, light_side, zmin, zmax);

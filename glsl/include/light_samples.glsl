@@ -15,13 +15,20 @@ float unit_float(uint h) {
     return float(h >> 8u) * (1.0 / 16777216.0);
 }
 
+// The hashes of cell `cell`'s jitter in a and b (unit_float of each is the jitter); `seed` =
+// pcg(pixel index). izb-soft also reads their top bits (the quarter of the cell each lies in).
+uvec2 light_cell_hashes(uint seed, uint cell) {
+    return uvec2(pcg(seed + 2u * cell), pcg(seed + 2u * cell + 1u));
+}
+
 // The point of cell (i, j) in [0, 1)²; `inv` = (1 / n_a, 1 / n_b) as f32 from the host, `seed`
 // = pcg(pixel index). Cell index j · n_a + i keys the hash.
 vec2 light_cell_point(uint seed, int i, int j, int n_a, vec2 inv, bool jitter) {
     uint cell = uint(j * n_a + i);
     vec2 jit = vec2(0.5);
     if (jitter) {
-        jit = vec2(unit_float(pcg(seed + 2u * cell)), unit_float(pcg(seed + 2u * cell + 1u)));
+        uvec2 h = light_cell_hashes(seed, cell);
+        jit = vec2(unit_float(h.x), unit_float(h.y));
     }
     precise vec2 x = (vec2(float(i), float(j)) + jit) * inv;
     return x;

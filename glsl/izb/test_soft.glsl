@@ -467,12 +467,11 @@ void main() {
         q_y1 = 0u;
         q_y0 = 0u;
         for (int k = 0; one_word && jittered && k < light_samples; ++k) {
-            uint hx = pcg(s_seed + 2u * uint(k));
-            uint hy = pcg(s_seed + 2u * uint(k) + 1u);
-            q_x1 |= (hx >> 31u) << uint(k);
-            q_x0 |= ((hx >> 30u) & 1u) << uint(k);
-            q_y1 |= (hy >> 31u) << uint(k);
-            q_y0 |= ((hy >> 30u) & 1u) << uint(k);
+            uvec2 h = light_cell_hashes(s_seed, uint(k));
+            q_x1 |= (h.x >> 31u) << uint(k);
+            q_x0 |= ((h.x >> 30u) & 1u) << uint(k);
+            q_y1 |= (h.y >> 31u) << uint(k);
+            q_y0 |= ((h.y >> 30u) & 1u) << uint(k);
         }
         uint all_bits = light_samples >= 32 ? 0xFFFFFFFFu : (1u << uint(light_samples)) - 1u;
         s_q = light_space(s_o);

@@ -9,6 +9,10 @@ use std::ffi::c_void;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 use ash::vk;
+use penumbra::cpu;
+use penumbra::kernels::compact::Compact;
+use penumbra::kernels::sat::{source_image, Sat, SatLayout, SatPrecision};
+use penumbra::kernels::scan::{Scan, ScanKind, ScanVariant};
 use penumbra::scene::Scene;
 use penumbra::{Context, Engine};
 
@@ -43,6 +47,80 @@ fn small_scene() -> Scene {
 
 fn map_256() -> BTreeMap<String, String> {
     BTreeMap::from([("map_size".to_string(), "256".to_string())])
+}
+
+/// The serial scan, compaction and 32-bit summed-area tables where the device has no
+/// `shaderInt64`: their four-elements-an-access shaders (`scan_block_serial.comp`,
+/// `compact_serial.comp`, `sat_rows_u32.comp`, …), which a device with it never runs (it takes
+/// the eight-element `_wide` ones), against the CPU twins.
+fn serial_kernels_without_int64(ctx: &Context) {
+    // Several full blocks and a partial one; flags about 30 % set, with runs of each.
+    let n = 5 * 1024 + 37;
+    let mut state = 0x9E37_79B9u32;
+    let values: Vec<u32> = (0..n)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state
+        })
+        .collect();
+    let scan = Scan::with_variant(ctx, ScanVariant::Serial).expect("serial scan");
+    for (kind, inclusive) in [(ScanKind::Exclusive, false), (ScanKind::Inclusive, true)] {
+        let got = scan.run(&values, kind).expect("scan");
+        assert!(got == cpu::scan::scan(&values, inclusive), "{kind:?} scan");
+    }
+    let flags: Vec<u32> = values.iter().map(|&v| u32::from(v % 10 < 3)).collect();
+    let compact = Compact::with_variant(ctx, ScanVariant::Serial).expect("serial compaction");
+    let (got, count) = compact.run(&flags).expect("compact");
+    let expected = cpu::compact::compact(&flags);
+    assert_eq!(count as usize, expected.len());
+    assert!(got == expected, "compacted indices");
+
+    // 40 x 75 in bands of 32 rows: four entries an access, carried across the bands.
+    let (w, h) = (40, 75);
+    let texels = &values[..(w * h) as usize];
+    let floats: Vec<f32> = texels
+        .iter()
+        .map(|&v| (v >> 8) as f32 / 16_777_216.0)
+        .collect();
+    let usrc = source_image(
+        ctx,
+        "u32",
+        vk::Format::R32_UINT,
+        w,
+        h,
+        bytemuck::cast_slice(texels),
+    )
+    .expect("u32 source");
+    let fsrc = source_image(
+        ctx,
+        "f32",
+        vk::Format::R32_SFLOAT,
+        w,
+        h,
+        bytemuck::cast_slice(&floats),
+    )
+    .expect("f32 source");
+    let build = |src, precision| {
+        let sat = Sat::with_layout(ctx, src, precision, 32, SatLayout::Serial).expect("sat");
+        ctx.submit(None, |rec| sat.record(rec)).expect("sat build");
+        sat
+    };
+    let u32_table = build(&usrc, SatPrecision::U32).read::<u32>().expect("read");
+    assert!(u32_table == cpu::sat::build_u32(texels, w, h), "u32 table");
+    let fixed = build(&fsrc, SatPrecision::U32Fixed(16))
+        .read::<u32>()
+        .expect("read");
+    assert!(
+        fixed == cpu::sat::build_u32_fixed(&floats, w, h, 16),
+        "u32-fixed16 table"
+    );
+    let f32_table = build(&fsrc, SatPrecision::F32).read::<f32>().expect("read");
+    assert!(
+        f32_table == cpu::sat::build_f32(&floats, w, h, 0.0),
+        "f32 table"
+    );
 }
 
 #[test]
@@ -96,9 +174,10 @@ fn renders_on_a_device_the_host_owns() {
         }
         .expect("wrap the host's device");
         assert!(
-            !ctx.info().float64,
+            !ctx.info().float64 && !ctx.info().int64,
             "optional features are assumed off on a borrowed device"
         );
+        serial_kernels_without_int64(&ctx);
         let engine = Engine::from_context(ctx);
         let prepared = engine.prepare(&small_scene()).expect("prepare");
         let set = map_256();

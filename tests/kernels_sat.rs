@@ -219,8 +219,10 @@ fn tables_split_into_bands_match_cpu() {
     let ctx = common::context();
     // 1029 rows in bands of 150: seven bands, the last one short; float tables of a D32 image.
     every_precision_matches_cpu(&ctx, (37, 1029), vk::Format::D32_SFLOAT, 150, 5);
-    // 40 wide: the serial passes' four-entry accesses, carried across the bands.
+    // 40 wide: the serial passes' eight-entry accesses (32-bit entries on a device with
+    // shaderInt64; else four), carried across the bands; 44 wide: four-entry accesses there.
     every_precision_matches_cpu(&ctx, (40, 1029), vk::Format::D32_SFLOAT, 150, 6);
+    every_precision_matches_cpu(&ctx, (44, 1029), vk::Format::D32_SFLOAT, 150, 7);
     common::assert_clean(&ctx.validation());
 }
 

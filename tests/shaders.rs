@@ -272,7 +272,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
-            vec!["kernels/copy.comp"],
+            vec!["kernels/copy.comp", "kernels/copy_u64.comp"],
             twin!(penumbra::kernels::roofline::CopyPush {
                 count,
                 row,
@@ -610,7 +610,10 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             twin!(compact::CompactPush { n }),
         ),
         (
-            vec!["kernels/compact_serial.comp"],
+            vec![
+                "kernels/compact_serial.comp",
+                "kernels/compact_serial_wide.comp",
+            ],
             twin!(compact::CompactSerialPush { n, phase }),
         ),
         (
@@ -667,6 +670,9 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "kernels/sat_rows_u64.comp",
                 "kernels/sat_rows_u32_fixed.comp",
                 "kernels/sat_rows_u64_fixed.comp",
+                "kernels/sat_rows_f32_wide.comp",
+                "kernels/sat_rows_u32_wide.comp",
+                "kernels/sat_rows_u32_fixed_wide.comp",
                 "kernels/sat_rows_blocked_f32.comp",
                 "kernels/sat_rows_blocked_f64.comp",
                 "kernels/sat_rows_blocked_u32.comp",
@@ -688,6 +694,8 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "kernels/sat_cols_f64.comp",
                 "kernels/sat_cols_u32.comp",
                 "kernels/sat_cols_u64.comp",
+                "kernels/sat_cols_f32_wide.comp",
+                "kernels/sat_cols_u32_wide.comp",
             ],
             twin!(sat::SatColsPush { size, rows, first }),
         ),
@@ -729,6 +737,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "kernels/scan_block_shared.comp",
                 "kernels/scan_block_subgroup.comp",
                 "kernels/scan_block_serial.comp",
+                "kernels/scan_block_serial_wide.comp",
                 "kernels/scan_add.comp",
             ],
             twin!(scan::ScanPush {

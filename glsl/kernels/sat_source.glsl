@@ -14,6 +14,11 @@ layout(set = 0, binding = 1) writeonly buffer Band { SAT_T band[]; };
 // The same band four entries at a time (bound twice by the host).
 layout(set = 0, binding = 3) writeonly buffer Band4 { SAT_T4 band4[]; };
 #endif
+#ifdef SAT_WIDE
+// And eight 32-bit entries at a time (bound a third time; sat_wide.glsl).
+layout(set = 0, binding = 4) writeonly buffer Band8 { u64vec4 band8[]; };
+#include "sat_wide.glsl"
+#endif
 #if !defined(SAT_SRC_UINT) && !defined(SAT_FIXED)
 #define SAT_FLOAT
 // The centring offset (0 for a plain table), written by sat_mean.comp or filled by the host.

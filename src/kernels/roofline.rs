@@ -1,10 +1,12 @@
 //! The kernel bench's roofline: what moving bytes costs on this device, measured in the same run
 //! as the primitives, so each primitive's GB/s has something to be held against.
 //!
-//! Three rows per size, each verified by reading the result back: `copy-buffer`
+//! Three or four rows per size, each verified by reading the result back: `copy-buffer`
 //! (`vkCmdCopyBuffer`: the driver's own copy, read + write), `fill-buffer` (`vkCmdFillBuffer`:
 //! write only) and `compute-copy` (`glsl/kernels/copy.comp`: one `uvec4` per invocation, no
-//! control flow — the best a compute kernel that touches each byte once can do here).
+//! control flow — the best a compute kernel that touches each byte once can do here), and where
+//! the device has `shaderInt64` `compute-copy-u64` (`copy_u64.comp`: one `u64vec4`; on lavapipe,
+//! which loads and stores one channel at a time, half the time of `uvec4`).
 //! [`percent_of_copy`] puts every row against `copy-buffer` at the nearest size: a primitive's
 //! GB/s counts the bytes it reads and writes at least, as the copy's does, so 100 % would be a
 //! primitive as cheap as copying its data once.
@@ -37,7 +39,8 @@ pub struct CopyPush {
 /// run each), the per-workgroup set-up being paid twice as often.
 const ROW: u32 = 128 * 512;
 
-/// The three roofline rows for `n` u32 elements (a multiple of 4), timed over `runs`.
+/// The roofline rows for `n` u32 elements (a multiple of 4), timed over `runs`: three, and
+/// `compute-copy-u64` where the device has `shaderInt64` (and `n` is a multiple of 8).
 pub fn bench_size(ctx: &Context, n: usize, runs: usize) -> Result<Vec<KernelBenchRow>> {
     let values: Vec<u32> = (0..n as u32)
         .map(|i| i.wrapping_mul(2_654_435_761))
@@ -76,13 +79,46 @@ pub fn bench_size(ctx: &Context, n: usize, runs: usize) -> Result<Vec<KernelBenc
         .iter()
         .all(|&v| v == 0x5EED_5EED);
 
-    let pipeline = Pipeline::compute(ctx, "kernels/copy.comp")?;
+    let compute_ms = compute_copy_ms(ctx, "kernels/copy.comp", &src, &dst, n / 4, runs)?;
+    let computed = u32s(&ctx.read_buffer(&dst)?) == values;
+    let mut rows = vec![
+        row("copy-buffer".into(), n, copy_ms, 2 * bytes, copied),
+        row("fill-buffer".into(), n, fill_ms, bytes, filled),
+        row("compute-copy".into(), n, compute_ms, 2 * bytes, computed),
+    ];
+    if ctx.info().int64 && n % 8 == 0 {
+        rec_fill_zero(ctx, &dst)?;
+        let ms = compute_copy_ms(ctx, "kernels/copy_u64.comp", &src, &dst, n / 8, runs)?;
+        let ok = u32s(&ctx.read_buffer(&dst)?) == values;
+        rows.push(row("compute-copy-u64".into(), n, ms, 2 * bytes, ok));
+    }
+    Ok(rows)
+}
+
+/// Clears `dst`, so a copy that writes nothing is not verified by the one before it.
+fn rec_fill_zero(ctx: &Context, dst: &Buffer) -> Result<()> {
+    ctx.submit(None, |rec| {
+        rec.fill(dst, 0);
+        Ok(())
+    })
+}
+
+/// Median time of `shader` (copy.comp's interface) copying `count` of its elements.
+fn compute_copy_ms(
+    ctx: &Context,
+    shader: &str,
+    src: &Buffer,
+    dst: &Buffer,
+    count: usize,
+    runs: usize,
+) -> Result<Option<f64>> {
+    let pipeline = Pipeline::compute(ctx, shader)?;
     let set = DescriptorSet::new(
         ctx,
         &pipeline,
-        &[Binding::Buffer(&src), Binding::Buffer(&dst)],
+        &[Binding::Buffer(src), Binding::Buffer(dst)],
     )?;
-    let count = (n / 4) as u32;
+    let count = count as u32;
     let push = CopyPush {
         count,
         row: ROW,
@@ -92,20 +128,13 @@ pub fn bench_size(ctx: &Context, n: usize, runs: usize) -> Result<Vec<KernelBenc
     let threads = [count.min(ROW), count.div_ceil(ROW), 1];
     // Warm-up: lavapipe compiles the pipeline at its first dispatch.
     ctx.submit(None, |rec| rec.dispatch(&pipeline, &set, &push, threads))?;
-    let compute_ms = median_ms(
+    median_ms(
         ctx,
-        "compute-copy",
+        shader,
         runs,
         |_| Ok(()),
         |rec| rec.dispatch(&pipeline, &set, &push, threads),
-    )?;
-    let computed = u32s(&ctx.read_buffer(&dst)?) == values;
-
-    Ok(vec![
-        row("copy-buffer".into(), n, copy_ms, 2 * bytes, copied),
-        row("fill-buffer".into(), n, fill_ms, bytes, filled),
-        row("compute-copy".into(), n, compute_ms, 2 * bytes, computed),
-    ])
+    )
 }
 
 /// The roofline rows at 1M u32 elements (4 MiB) and 16M (64 MiB) — the sizes of the primitives'

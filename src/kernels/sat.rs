@@ -205,6 +205,8 @@ pub struct Sat<'a> {
     _chunks: Option<Buffer>,
     rows: Pipeline,
     cols: Pipeline,
+    // Serial 32-bit entries eight an access (the `_wide` shaders).
+    wide: bool,
     row_sets: Vec<DescriptorSet>,
     col_sets: Vec<DescriptorSet>,
     // Centred tables: row sums and the mean pass.
@@ -295,8 +297,12 @@ impl<'a> Sat<'a> {
         };
         let (row_suffix, suffix) = precision.shader_suffixes();
         let (row_stem, col_stem) = layout.shader_stems();
-        let rows = Pipeline::compute(ctx, &format!("kernels/{row_stem}_{row_suffix}.comp"))?;
-        let cols = Pipeline::compute(ctx, &format!("kernels/{col_stem}_{suffix}.comp"))?;
+        // Serial tables of 32-bit entries move eight an access where the device has 64-bit
+        // integers (the `_wide` shaders, sat_wide.glsl): half the buffer accesses of four.
+        let wide = layout == SatLayout::Serial && size == 4 && ctx.info().int64;
+        let w = if wide { "_wide" } else { "" };
+        let rows = Pipeline::compute(ctx, &format!("kernels/{row_stem}_{row_suffix}{w}.comp"))?;
+        let cols = Pipeline::compute(ctx, &format!("kernels/{col_stem}_{suffix}{w}.comp"))?;
         let sampler = Sampler::nearest_border_white(ctx, "sat source")?;
         let row_sets = bands
             .iter()
@@ -306,8 +312,12 @@ impl<'a> Sat<'a> {
                     b.push(Binding::Buffer(&offset));
                 }
                 if layout == SatLayout::Serial {
-                    // The serial pass stores four entries at a time through a second binding.
+                    // The serial pass stores four entries at a time through a second binding,
+                    // and wide eight through a third.
                     b.push(Binding::Buffer(band));
+                    if wide {
+                        b.push(Binding::Buffer(band));
+                    }
                 }
                 DescriptorSet::new(ctx, &rows, &b)
             })
@@ -318,8 +328,14 @@ impl<'a> Sat<'a> {
                 let mut b = vec![Binding::Buffer(band), Binding::Buffer(&carry)];
                 match &chunks {
                     Some(chunks) => b.push(Binding::Buffer(chunks)),
-                    // The serial pass reads the same two buffers four entries at a time too.
-                    None => b.extend([Binding::Buffer(band), Binding::Buffer(&carry)]),
+                    // The serial pass reads the same two buffers four entries at a time too,
+                    // and wide eight.
+                    None => {
+                        b.extend([Binding::Buffer(band), Binding::Buffer(&carry)]);
+                        if wide {
+                            b.extend([Binding::Buffer(band), Binding::Buffer(&carry)]);
+                        }
+                    }
                 }
                 DescriptorSet::new(ctx, &cols, &b)
             })
@@ -355,6 +371,7 @@ impl<'a> Sat<'a> {
             _chunks: chunks,
             rows,
             cols,
+            wide,
             row_sets,
             col_sets,
             mean,
@@ -396,8 +413,10 @@ impl<'a> Sat<'a> {
                     rows: rows as i32,
                     first,
                 };
-                // Four columns an invocation when they fit (sat_cols.glsl).
-                let columns = if self.width % 4 == 0 {
+                // Eight (wide) or four columns an invocation when they fit (sat_cols.glsl).
+                let columns = if self.wide && self.width % 8 == 0 {
+                    self.width / 8
+                } else if self.width % 4 == 0 {
                     self.width / 4
                 } else {
                     self.width

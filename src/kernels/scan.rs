@@ -17,8 +17,8 @@
 //! otherwise a shared-memory raking scan (4 barriers) that runs on any device. Both are compiled
 //! from one source (`glsl/kernels/scan_block.glsl` with `SUBGROUP_SCAN` 1 or 0). On a device
 //! whose type is CPU, [`Scan::new`] picks the serial variant instead
-//! (`glsl/kernels/scan_block_serial.comp`): one invocation scans a whole block in order, four
-//! elements an access, with no barrier — on lavapipe a barrier makes the shader a set of
+//! (`glsl/kernels/scan_block_serial.glsl`): one invocation scans a whole block in order, eight
+//! elements an access where the device has `shaderInt64` (else four), with no barrier — on lavapipe a barrier makes the shader a set of
 //! coroutines, and 1M elements scan in ~6 ms serially against ~10 ms with either workgroup scan
 //! (`penumbra bench --suite kernels`). All three give identical results over the same blocks;
 //! [`Scan::with_variant`] forces one (tests cover all three). No subgroup size is assumed:
@@ -82,9 +82,10 @@ pub enum ScanVariant {
     Subgroup,
     /// A raking scan in shared memory (8 serial segments of 8): runs on any device.
     SharedMemory,
-    /// One invocation per block, in order, four elements an access, no barrier
-    /// (`glsl/kernels/scan_block_serial.comp`): for devices that run a workgroup on one CPU
-    /// thread, where a barrier makes the shader a set of coroutines. Same blocks and results.
+    /// One invocation per block, in order, eight elements an access (four without
+    /// `shaderInt64`), no barrier (`glsl/kernels/scan_block_serial.glsl`): for devices that run
+    /// a workgroup on one CPU thread, where a barrier makes the shader a set of coroutines. Same
+    /// blocks and results.
     Serial,
 }
 
@@ -120,6 +121,18 @@ impl ScanVariant {
                 "subgroup arithmetic in compute shaders",
             ),
             ScanVariant::SharedMemory | ScanVariant::Serial => Ok(()),
+        }
+    }
+
+    /// The block pass's shader: `scan_block_{suffix}.comp`, or for the serial variant on a device
+    /// with `shaderInt64` `scan_block_serial_wide.comp` (eight elements an access instead of
+    /// four: on lavapipe each storage-buffer access is a loop over the SIMD lanes per channel,
+    /// and 64-bit channels halve them).
+    pub fn block_shader(self, ctx: &Context) -> String {
+        if self == ScanVariant::Serial && ctx.info().int64 {
+            "kernels/scan_block_serial_wide.comp".into()
+        } else {
+            format!("kernels/scan_block_{}.comp", self.suffix())
         }
     }
 
@@ -250,7 +263,7 @@ impl Scan {
     /// The pipelines of `variant`; fails with [`Error::Unsupported`] if the device lacks it.
     pub fn with_variant(ctx: &Context, variant: ScanVariant) -> Result<Scan> {
         variant.require(ctx)?;
-        let name = format!("kernels/scan_block_{}.comp", variant.suffix());
+        let name = variant.block_shader(ctx);
         Ok(Scan {
             ctx: ctx.clone(),
             variant,
@@ -426,6 +439,7 @@ mod tests {
             "kernels/scan_block_subgroup.comp",
             "kernels/scan_block_shared.comp",
             "kernels/scan_block_serial.comp",
+            "kernels/scan_block_serial_wide.comp",
             "kernels/scan_add.comp",
         ] {
             let declared = shader_interface(shader).expect("embedded shader").1;

@@ -1,0 +1,9 @@
+#version 460
+// Summed-area table column pass, uint entries, eight an access (see sat_cols.glsl and
+// sat_wide.glsl; devices with shaderInt64). Built by src/kernels/sat.rs.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_ARB_gpu_shader_int64 : require
+#define SAT_T uint
+#define SAT_T4 uvec4
+#define SAT_WIDE
+#include "sat_cols.glsl"

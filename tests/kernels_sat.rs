@@ -226,6 +226,53 @@ fn tables_split_into_bands_match_cpu() {
     common::assert_clean(&ctx.validation());
 }
 
+/// Fixed-point tables of texels the conversion must saturate or round: NaN, ±inf, negatives,
+/// ties, and values whose fixed point lies past 2^16 and past 2^32 (the shaders convert its high
+/// and low 16 bits separately, sat_source.glsl), in both layouts, at a width the serial passes
+/// take eight and one at a time: equal to the twin's saturating cast.
+#[test]
+fn fixed_point_tables_saturate_and_round_like_the_twin() {
+    let ctx = common::context();
+    let special = [
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        -1.0,
+        -0.0,
+        0.5 / 65536.0,
+        1.5 / 65536.0,
+        2.5 / 65536.0,
+        1.0,
+        0.75,
+        4.0e-6,
+        255.999_99,
+        12_345.678,
+        32_767.5,
+        65_535.0,
+        65_535.99,
+        65_536.0,
+        1.0e9,
+    ];
+    for (w, h) in [(16, 9), (13, 7)] {
+        let data: Vec<f32> = (0..w * h)
+            .map(|i| special[(i * 7) as usize % special.len()])
+            .collect();
+        let src = float_image(&ctx, vk::Format::R32_SFLOAT, w, h, &data);
+        for layout in SatLayout::ALL {
+            let what = format!("{} {w}x{h}", layout.name());
+            let sat = build_in(&ctx, &src, SatPrecision::U32Fixed(16), 4, layout);
+            let cpu = build_u32_fixed(&data, w, h, 16);
+            assert_eq!(sat.read::<u32>().expect("read"), cpu, "u32-fixed16 {what}");
+            if SatPrecision::U64Fixed(24).supported(ctx.info()) {
+                let sat = build_in(&ctx, &src, SatPrecision::U64Fixed(24), 4, layout);
+                let cpu = build_u64_fixed(&data, w, h, 24);
+                assert_eq!(sat.read::<u64>().expect("read"), cpu, "u64-fixed24 {what}");
+            }
+        }
+    }
+    common::assert_clean(&ctx.validation());
+}
+
 /// Random integer and fractional rectangles, some empty, some reaching past the edges.
 fn random_rects(rng: &mut Rng, w: u32, h: u32, count: usize) -> Vec<SatRect> {
     let mut rects: Vec<SatRect> = (0..count)

@@ -42,9 +42,18 @@ SAT_T sat_texel(int x, int y) {
 #elif defined(SAT_FIXED)
     // The product is exact (scale is a power of two), so rounding it half-to-even is
     // deterministic (v * scale + 0.5 would round twice). 4294967040: the largest float below
-    // 2^32.
+    // 2^32; NaN and negatives give 0, as the twin's saturating cast.
     float v = roundEven(texelFetch(source, ivec2(x, y), 0).r * pc.scale);
-    return SAT_T(uint(clamp(v, 0.0, 4294967040.0)));
+    v = v >= 0.0 ? min(v, 4294967040.0) : 0.0;
+    // To uint without a float-to-int conversion (lavapipe splits one into scalar code per SIMD
+    // lane: small_int.glsl): the high and low 16 bits of the whole number v, each a whole float
+    // below 2^23 and both exact (v's multiple of 2^16 is, and so is the remainder, which a float
+    // holds), shifted into the low mantissa bits by adding 2^23.
+    float high = floor(v * (1.0 / 65536.0));
+    float low = v - high * 65536.0;
+    uint h = uint(floatBitsToInt(high + 8388608.0) - 0x4B000000);
+    uint l = uint(floatBitsToInt(low + 8388608.0) - 0x4B000000);
+    return SAT_T((h << 16) | l);
 #else
     precise SAT_T v = SAT_T(texelFetch(source, ivec2(x, y), 0).r) - SAT_T(offset);
     return v;

@@ -19,6 +19,7 @@ layout(set = 0, binding = 2) readonly buffer Offsets { uint offsets[]; };
 layout(set = 0, binding = 3) writeonly buffer Indices { uint indices[]; };
 layout(set = 0, binding = 4) writeonly buffer Count { uint count; };
 #ifdef COMPACT_WIDE
+#include "wide_u32.glsl"
 layout(set = 0, binding = 5) readonly buffer Flags8 { u64vec4 flags8[]; };
 #else
 layout(set = 0, binding = 5) readonly buffer Flags4 { uvec4 flags4[]; };
@@ -71,8 +72,8 @@ void main() {
 #ifdef COMPACT_WIDE
             for (uint j = first / 8; j < last / 8; ++j) {
                 u64vec4 w = flags8[j];
-                kept += uvec4(notEqual(uvec4(unpackUint2x32(w.x), unpackUint2x32(w.y)), uvec4(0u)));
-                kept += uvec4(notEqual(uvec4(unpackUint2x32(w.z), unpackUint2x32(w.w)), uvec4(0u)));
+                kept += uvec4(notEqual(wide_low4(w), uvec4(0u)));
+                kept += uvec4(notEqual(wide_high4(w), uvec4(0u)));
             }
 #else
             for (uint j = first / 4; j < last / 4; ++j) {
@@ -90,25 +91,25 @@ void main() {
     uint at = offsets[b];
     uint end = at + counts[b];
     uint last_kept = 0u;
-    if (full && end > at) {
+    if (!full) {
+        for (uint i = first; i < last; ++i) {
+            if (flags[i] != 0u) {
+                indices[at++] = i;
+            }
+        }
+    } else if (end > at) {
 #ifdef COMPACT_WIDE
         for (uint j = first / 8; j < last / 8; ++j) {
             u64vec4 w = flags8[j];
             uint i = 8u * j;
-            write_kept(uvec4(unpackUint2x32(w.x), unpackUint2x32(w.y)), i, at, last_kept, end);
-            write_kept(uvec4(unpackUint2x32(w.z), unpackUint2x32(w.w)), i + 4u, at, last_kept, end);
+            write_kept(wide_low4(w), i, at, last_kept, end);
+            write_kept(wide_high4(w), i + 4u, at, last_kept, end);
         }
 #else
         for (uint j = first / 4; j < last / 4; ++j) {
             write_kept(flags4[j], 4u * j, at, last_kept, end);
         }
 #endif
-    } else if (!full) {
-        for (uint i = first; i < last; ++i) {
-            if (flags[i] != 0u) {
-                indices[at++] = i;
-            }
-        }
     }
     if (last == pc.n) {
         count = at;

@@ -6,10 +6,7 @@
 // a barrier makes the shader a set of coroutines. Full blocks move four elements a load and a
 // store, or eight with SCAN_WIDE (scan_block_serial_wide.comp, where the device has
 // shaderInt64: one u64vec4 an access); the last, partial block one at a time, so nothing past
-// `n` is touched. lavapipe loads and stores a storage buffer one channel at a time, each a loop
-// over the SIMD lanes, so 64-bit channels halve those loops (a copy kernel moving u64vec4 takes
-// about half the time of one moving uvec4: the kernel bench's compute-copy rows). src and dst may
-// be the same buffer: each element is read before it is written, by the same invocation.
+// `n` is touched (wide_u32.glsl says why eight). src and dst may be the same buffer: each element is read before it is written, by the same invocation.
 // `mode` (src/kernels/scan.rs fuses a multi-block scan with it): 0 as above; 1 only the block's
 // total; 2 the block's scan from its offset, block_sums[block] (the totals of mode 1, scanned
 // exclusively: 0 for block 0), so no add pass has to read and write the output again.
@@ -24,6 +21,7 @@ layout(set = 0, binding = 1) writeonly buffer Dst { uint dst[]; };
 layout(set = 0, binding = 2) buffer BlockSums { uint block_sums[]; };
 // src and dst again, four (eight) elements an access.
 #ifdef SCAN_WIDE
+#include "wide_u32.glsl"
 layout(set = 0, binding = 3) readonly buffer Src8 { u64vec4 src8[]; };
 layout(set = 0, binding = 4) writeonly buffer Dst8 { u64vec4 dst8[]; };
 #else
@@ -50,8 +48,8 @@ void main() {
 #ifdef SCAN_WIDE
         for (uint j = first / 8; j < last / 8; ++j) {
             u64vec4 w = src8[j];
-            uvec4 a = uvec4(unpackUint2x32(w.x), unpackUint2x32(w.y));
-            uvec4 b = uvec4(unpackUint2x32(w.z), unpackUint2x32(w.w));
+            uvec4 a = wide_low4(w);
+            uvec4 b = wide_high4(w);
             if (pc.flags != 0) {
                 a = uvec4(notEqual(a, uvec4(0u)));
                 b = uvec4(notEqual(b, uvec4(0u)));
@@ -62,8 +60,7 @@ void main() {
             if (pc.mode != 1) {
                 uvec4 oa = running + (pc.inclusive != 0 ? sa : sa - a);
                 uvec4 ob = running + (pc.inclusive != 0 ? sb : sb - b);
-                dst8[j] = u64vec4(packUint2x32(oa.xy), packUint2x32(oa.zw), packUint2x32(ob.xy),
-                                  packUint2x32(ob.zw));
+                dst8[j] = wide_pack8(oa, ob);
             }
             running += sb.w;
         }

@@ -87,7 +87,7 @@ pub fn bench_size(ctx: &Context, n: usize, runs: usize) -> Result<Vec<KernelBenc
         row("compute-copy".into(), n, compute_ms, 2 * bytes, computed),
     ];
     if ctx.info().int64 && n % 8 == 0 {
-        rec_fill_zero(ctx, &dst)?;
+        clear(ctx, &dst)?;
         let ms = compute_copy_ms(ctx, "kernels/copy_u64.comp", &src, &dst, n / 8, runs)?;
         let ok = u32s(&ctx.read_buffer(&dst)?) == values;
         rows.push(row("compute-copy-u64".into(), n, ms, 2 * bytes, ok));
@@ -96,7 +96,7 @@ pub fn bench_size(ctx: &Context, n: usize, runs: usize) -> Result<Vec<KernelBenc
 }
 
 /// Clears `dst`, so a copy that writes nothing is not verified by the one before it.
-fn rec_fill_zero(ctx: &Context, dst: &Buffer) -> Result<()> {
+fn clear(ctx: &Context, dst: &Buffer) -> Result<()> {
     ctx.submit(None, |rec| {
         rec.fill(dst, 0);
         Ok(())

@@ -18,10 +18,11 @@
 //! from one source (`glsl/kernels/scan_block.glsl` with `SUBGROUP_SCAN` 1 or 0). On a device
 //! whose type is CPU, [`Scan::new`] picks the serial variant instead
 //! (`glsl/kernels/scan_block_serial.glsl`): one invocation scans a whole block in order, eight
-//! elements an access where the device has `shaderInt64` (else four), with no barrier — on lavapipe a barrier makes the shader a set of
-//! coroutines, and 1M elements scan in 1.0–2.2 ms serially against 8–14 ms with either workgroup
-//! scan (`penumbra bench --suite kernels`, README). All three give identical results over the same blocks;
-//! [`Scan::with_variant`] forces one (tests cover all three). No subgroup size is assumed:
+//! elements an access where the device has `shaderInt64` (else four), with no barrier — on
+//! lavapipe a barrier makes the shader a set of coroutines, and 1M elements scan in 1.0–2.2 ms
+//! serially against 8–14 ms with either workgroup scan (`penumbra bench --suite kernels`,
+//! README). All three give identical results over the same blocks; [`Scan::with_variant`] forces
+//! one (tests cover all three). No subgroup size is assumed:
 //! lavapipe's is 8, most GPUs' 32 or 64.
 //!
 //! Arithmetic wraps around modulo 2^32 (GLSL `uint`): totals past `u32::MAX` wrap, and the

@@ -620,16 +620,19 @@ fn view_samples_from_a_depth_gbuffer_match_the_cpu_twin_and_the_raster_samples()
         let mut o = engine.renderer(&own, "pcf", &set).expect("renderer");
         o.render().expect("frame");
         let raster = o.read_visibility().expect("read");
+        // The two inputs differ by rounding, so `pcf`'s hard texel tests flip along shadow
+        // edges: at most 2 % of the pixels (on lavapipe under 1 %; on an NVIDIA H200 68 of the
+        // 6 144, 1.1 %, with positions interpolated by its rasterizer).
         let differing = from_depth
             .iter()
             .zip(&raster)
             .filter(|(a, b)| (*a - *b).abs() > 1e-3)
             .count();
-        if differing * 100 > from_depth.len() {
+        if differing * 50 > from_depth.len() {
             common::write_diff("from-depth", w, h, &raster, &from_depth);
         }
         assert!(
-            differing * 100 <= from_depth.len(),
+            differing * 50 <= from_depth.len(),
             "{format:?}: {differing} pixels differ"
         );
     }

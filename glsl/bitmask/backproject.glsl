@@ -26,6 +26,7 @@
 #include "soft_light.glsl"
 #include "backprojection.glsl"
 #include "bitmask.glsl"
+#include "share.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "dealt_tile.glsl"
@@ -292,9 +293,9 @@ void main() {
                 v = 0.0;
             } else if (bm.samples.w != 0) {
                 // Additive: the front fraction less the summed hidden area.
-                v = float(visible) / float(n) * max(1.0 - hidden, 0.0);
+                v = share(float(visible), float(n)) * max(1.0 - hidden, 0.0);
             } else {
-                v = float(visible) / float(n);
+                v = share(float(visible), float(n));
             }
             if (last_group()) {
                 imageStore(visibility, pixel, vec4(v));

@@ -6,6 +6,8 @@
 #ifndef PENUMBRA_CSSM_GLSL
 #define PENUMBRA_CSSM_GLSL
 
+#include "linear_depth.glsl"
+
 // flags: which loop this dispatch belongs to and where it sits in it.
 const int FLAG_FILTER = 1;
 const int FLAG_FIRST = 2;
@@ -40,11 +42,7 @@ layout(push_constant) uniform Push {
 // Linear depth in [0,1] between near and far: csm's and savsm's linearisation
 // (glsl/filtered/filtered.glsl, linear_depth), written without cancellation.
 float linear_depth(float ndc) {
-    float z = ndc;
-    if (pc.perspective != 0) {
-        z = pc.near * ndc / (pc.far * (1.0 - ndc) + pc.near * ndc);
-    }
-    return clamp(z, 0.0, 1.0);
+    return linear_depth_of(ndc, pc.near, pc.far, pc.perspective != 0);
 }
 
 // sin(pi x), cos(pi x) with x reduced to [-1, 1] first, as filtered.glsl does (GPU sin/cos are

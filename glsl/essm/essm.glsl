@@ -5,6 +5,8 @@
 #ifndef PENUMBRA_ESSM_GLSL
 #define PENUMBRA_ESSM_GLSL
 
+#include "linear_depth.glsl"
+
 layout(push_constant) uniform Push {
     mat4 light_view_proj;
     ivec2 view_size;
@@ -26,11 +28,7 @@ layout(push_constant) uniform Push {
 // The VSM/ESM modules' linearisation (glsl/filtered/filtered.glsl): z = (dist - near) /
 // (far - near) without cancellation; orthographic ndc is already linear.
 float linear_depth(float ndc) {
-    float z = ndc;
-    if (pc.perspective != 0) {
-        z = pc.near * ndc / (pc.far * (1.0 - ndc) + pc.near * ndc);
-    }
-    return clamp(z, 0.0, 1.0);
+    return linear_depth_of(ndc, pc.near, pc.far, pc.perspective != 0);
 }
 
 // The three channels of depth z, each the log of a positive quantity so that filtering is a

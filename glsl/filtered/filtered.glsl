@@ -6,6 +6,8 @@
 #ifndef PENUMBRA_FILTERED_GLSL
 #define PENUMBRA_FILTERED_GLSL
 
+#include "linear_depth.glsl"
+
 const int MODE_VSM = 0;
 const int MODE_ESM = 1;
 const int MODE_EVSM = 2;
@@ -69,11 +71,7 @@ layout(push_constant) uniform Push {
 // terms (1 - ndc is exact for ndc >= 0.5), a positive denominator for every ndc in [0,1], and
 // finite for near/far ratios down to 1e-8. Orthographic ndc is already linear.
 float linear_depth(float ndc) {
-    float z = ndc;
-    if (pc.perspective != 0) {
-        z = pc.near * ndc / (pc.far * (1.0 - ndc) + pc.near * ndc);
-    }
-    return clamp(z, 0.0, 1.0);
+    return linear_depth_of(ndc, pc.near, pc.far, pc.perspective != 0);
 }
 
 // sin(pi x) and cos(pi x) with x reduced to [-1, 1] first: GPU sin/cos are only specified on

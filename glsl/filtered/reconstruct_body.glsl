@@ -5,6 +5,7 @@
 // lit and counted, as in pcf.comp. CPU twin: src/cpu/filtered.rs (reconstruct and friends).
 #include "shadow_map.glsl"
 #include "filtered.glsl"
+#include "share.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -35,7 +36,7 @@ float chebyshev(vec2 m, float d, float min_variance) {
     if (diff <= 0.0) {
         return 1.0;
     }
-    return variance / max(variance + diff * diff, 1e-30);
+    return share(variance, max(variance + diff * diff, 1e-30));
 }
 
 // Hamburger 4MSM (Peters & Klein 2015, Algorithm 2; MJP's ComputeMSMHamburger): the sharpest

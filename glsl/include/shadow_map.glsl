@@ -8,14 +8,19 @@
 #ifndef PENUMBRA_SHADOW_MAP_GLSL
 #define PENUMBRA_SHADOW_MAP_GLSL
 
+#include "div_rn.glsl"
+
 // Light-clip-space position of a world point: xy in texels (continuous, texel centres at .5),
-// z the depth to compare, w > 0 when in front of the light.
+// z the depth to compare, w > 0 when in front of the light. `precise` and div_rn: the CPU
+// twin's f32 arithmetic on any device (src/cpu/shadow_map.rs), and a depth within rounding of
+// the rasterizer's for the same point (NVIDIA's fused products and approximate division put a
+// flat receiver more than the default depth bias behind its own texels).
 vec4 shadow_coord(mat4 light_view_proj, vec3 world, ivec2 map_size) {
-    vec4 clip = light_view_proj * vec4(world, 1.0);
+    precise vec4 clip = light_view_proj * vec4(world, 1.0);
     if (clip.w <= 0.0) {
         return vec4(-1.0, -1.0, 2.0, -1.0);
     }
-    vec3 ndc = clip.xyz / clip.w;
+    vec3 ndc = vec3(div_rn(clip.x, clip.w), div_rn(clip.y, clip.w), div_rn(clip.z, clip.w));
     vec2 uv = ndc.xy * 0.5 + 0.5;
     return vec4(uv * vec2(map_size), ndc.z, 1.0);
 }

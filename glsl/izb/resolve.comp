@@ -6,6 +6,7 @@
 #include "izb.glsl"
 #include "watertight.glsl"
 #include "light_samples.glsl"
+#include "share.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 19, r32f) uniform writeonly image2D visibility;
@@ -29,7 +30,7 @@ void main() {
                     }
                     uint total = uint(P.pattern.x * P.pattern.y);
                     v = blocked == 0u ? 1.0
-                        : (blocked == total ? 0.0 : float(total - blocked) / float(total));
+                        : (blocked == total ? 0.0 : share_count(total - blocked, total));
                 } else {
                     vec3 n = imageLoad(normals, pixel).xyz;
                     int na = P.pattern.x;
@@ -53,7 +54,7 @@ void main() {
                         }
                     }
                     v = visible == uint(total) ? 1.0
-                        : (visible == 0u ? 0.0 : float(visible) / float(total));
+                        : (visible == 0u ? 0.0 : share_count(visible, uint(total)));
                 }
             }
             count(v >= 1.0 ? C_LIT : (v <= 0.0 ? C_UMBRA : C_PENUMBRA), 1u);

@@ -7,6 +7,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "shadow_map.glsl"
 #include "receiver_plane.glsl"
+#include "share.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -75,7 +76,7 @@ void main() {
                         sum += bilinear_test(shadow_map, c.xy + offset, pc.map_size, z);
                     }
                 }
-                v = sum / float(pc.kernel * pc.kernel);
+                v = share(sum, float(pc.kernel * pc.kernel));
             }
             invocation_counts[v >= 1.0 ? 2 : (v <= 0.0 ? 3 : 4)] += 1;
         }

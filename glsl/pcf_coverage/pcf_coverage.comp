@@ -8,6 +8,7 @@
 #include "shadow_map.glsl"
 #include "receiver_plane.glsl"
 #include "coverage.glsl"
+#include "share.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -64,7 +65,7 @@ void main() {
                 }
                 vec2 sum = coverage_filter(shadow_map, pc.map_size, c.xy, vec2(pc.kernel), c.z,
                                            dz_duv);
-                v = sum.x / sum.y;
+                v = share(sum.x, sum.y);
             }
             invocation_counts[v >= 1.0 ? 2 : (v <= 0.0 ? 3 : 4)] += 1;
         }

@@ -8,6 +8,7 @@
 #include "shadow_map.glsl"
 #include "receiver_plane.glsl"
 #include "poisson_disk.glsl"
+#include "share.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -76,7 +77,7 @@ void main() {
                     }
                     sum += bilinear_test(shadow_map, c.xy + offset, pc.map_size, z);
                 }
-                v = sum / float(pc.taps);
+                v = share(sum, float(pc.taps));
             }
             invocation_counts[v >= 1.0 ? 2 : (v <= 0.0 ? 3 : 4)] += 1;
         }

@@ -8,6 +8,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "shadow_map.glsl"
 #include "coverage.glsl"
+#include "share.glsl"
 #include "pcss.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -49,7 +50,7 @@ void main() {
         float v;
         if (pc.filter_taps == 0 || max(size.x, size.y) <= float(pc.filter_taps)) {
             vec2 sum = coverage_filter(shadow_map, map_size, c.xy, size, c.z, g);
-            v = sum.x / sum.y;
+            v = share(sum.x, sum.y);
         } else {
             float n = float(pc.filter_taps);
             vec2 lo = c.xy - 0.5 * size;
@@ -61,7 +62,7 @@ void main() {
                     lit += bilinear_test(shadow_map, q, map_size, zq);
                 }
             }
-            v = lit / (n * n);
+            v = share(lit, n * n);
         }
         imageStore(visibility, pixel, vec4(v));
         invocation_counts[v >= 1.0 ? COUNT_LIT : (v <= 0.0 ? COUNT_UMBRA : COUNT_PENUMBRA)] += 1;

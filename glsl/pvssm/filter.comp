@@ -9,6 +9,7 @@
 #extension GL_GOOGLE_include_directive : require
 #define VIRTUAL_ATLAS
 #include "pvssm.glsl"
+#include "share.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -183,7 +184,7 @@ void main() {
                     texels += uint(adds.x) + uint(adds.y) + uint(adds.z) + uint(adds.w);
                 }
             }
-            float v = sum.y > 0.0 ? sum.x / sum.y : 1.0;
+            float v = sum.y > 0.0 ? share(sum.x, sum.y) : 1.0;
             imageStore(visibility, pixel, vec4(v));
             invocation_counts[v >= 1.0 ? C_LIT : (v <= 0.0 ? C_UMBRA : C_PENUMBRA)] += 1u;
             invocation_counts[C_FILTER_TEXELS] += texels;

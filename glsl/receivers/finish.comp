@@ -51,8 +51,12 @@ void main() {
         if (f > 0.0) {
             v = imageLoad(visibility, pixel).r;
             if (pc.scale != 0) {
+                // `precise`: no fused multiply-add, so the twin's separate roundings are this
+                // blend's on any device (NVIDIA's fusing left it 1 ulp off the twin).
                 float behind = min(f, v);
-                v = behind + (f * v - behind) * clamp((f - 0.5) * 10.0, 0.0, 1.0);
+                precise float t = clamp((f - 0.5) * 10.0, 0.0, 1.0);
+                precise float blended = behind + (f * v - behind) * t;
+                v = blended;
             }
         } else {
             invocation_counts[4] += 1;

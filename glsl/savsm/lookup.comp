@@ -10,6 +10,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "shadow_map.glsl"
 #include "savsm.glsl"
+#include "share.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "dealt_tile.glsl"
@@ -99,7 +100,7 @@ float chebyshev(vec2 m, float d, float min_variance) {
     if (diff <= 0.0) {
         return 1.0;
     }
-    return variance / max(variance + diff * diff, 1e-30);
+    return share(variance, max(variance + diff * diff, 1e-30));
 }
 
 #define INVOCATION_COUNTS 5

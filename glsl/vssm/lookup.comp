@@ -19,6 +19,7 @@
 #include "shadow_map.glsl"
 #include "soft_light.glsl"
 #include "vssm.glsl"
+#include "share.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "dealt_tile.glsl"
@@ -114,7 +115,7 @@ float chebyshev(vec2 m, float d) {
     if (diff <= 0.0) {
         return 1.0;
     }
-    return variance / max(variance + diff * diff, 1e-30);
+    return share(variance, max(variance + diff * diff, 1e-30));
 }
 
 // Linear depth of texel t, the far plane outside the map.
@@ -195,7 +196,7 @@ float filter_visibility(vec2 lo, vec2 hi, float d, inout bool subdivided) {
             acc += ms.x < d ? chebyshev(ms, d) : 1.0 - pcf_blockers(0.5 * (slo + shi), d).x;
         }
     }
-    return acc / float(n * n);
+    return share(acc, float(n * n));
 }
 
 // Exact (min, max) of z over the texels [lo, hi] touches; texels outside the map count as 1.

@@ -5,6 +5,8 @@
 #ifndef PENUMBRA_VSSM_GLSL
 #define PENUMBRA_VSSM_GLSL
 
+#include "linear_depth.glsl"
+
 layout(push_constant) uniform Push {
     mat4 light_view_proj;
     ivec2 view_size;
@@ -26,14 +28,9 @@ layout(push_constant) uniform Push {
     int pad1;
 } pc;
 
-// The VSM module's linearisation (glsl/filtered/filtered.glsl, linear_depth): z = (dist - near)
-// / (far - near), in a form with no cancellation; orthographic ndc is already linear.
+// The filtered techniques' linearisation (glsl/include/linear_depth.glsl).
 float linear_depth(float ndc) {
-    float z = ndc;
-    if (pc.perspective != 0) {
-        z = pc.near * ndc / (pc.far * (1.0 - ndc) + pc.near * ndc);
-    }
-    return clamp(z, 0.0, 1.0);
+    return linear_depth_of(ndc, pc.near, pc.far, pc.perspective != 0);
 }
 
 #endif

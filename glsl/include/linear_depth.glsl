@@ -1,0 +1,23 @@
+// The filtered techniques' depth linearisation (savsm, cssm, essm, vssm and the filtered
+// module share it; their CPU twins: src/cpu/filtered.rs `linear_depth`): z = (dist - near) /
+// (far - near) from a perspective map's ndc, in a form with no cancellation, clamped to [0, 1];
+// an orthographic ndc is already linear. `precise` and div_rn make it the twin's f32 arithmetic
+// on any device (NVIDIA fused and divided differently, and the result was not monotonic in ndc:
+// a ground texel 1.5 ulp behind its receiver read in front of it).
+
+#ifndef PENUMBRA_LINEAR_DEPTH_GLSL
+#define PENUMBRA_LINEAR_DEPTH_GLSL
+
+#include "div_rn.glsl"
+
+float linear_depth_of(float ndc, float near, float far, bool perspective) {
+    float z = ndc;
+    if (perspective) {
+        precise float num = near * ndc;
+        precise float den = far * (1.0 - ndc) + near * ndc;
+        z = div_rn(num, den);
+    }
+    return clamp(z, 0.0, 1.0);
+}
+
+#endif

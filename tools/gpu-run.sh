@@ -1,0 +1,135 @@
+#!/usr/bin/env bash
+# The checks and benches this project runs on a lent GPU machine (the workplace's `device` tool:
+# a bare x86-64 machine with an NVIDIA driver, no Rust, no Vulkan packages, no network), in one
+# call: the test suite under the validation layers, the kernel bench with its roofline, and the
+# technique benches whose lavapipe figures the README gives. Everything it runs is built here
+# first and travels as one archive (`tools/gpu-run.sh pack`, run on the build machine); on the
+# GPU machine, from the repository's root:
+#
+#     bash tools/gpu-run.sh run      # writes $OUT/gpu-results.tar.gz (or ./gpu-results)
+#     STEPS="tests benches" bash tools/gpu-run.sh run   # leave out the kernel bench
+#
+# `pack` builds the release binary and the release test binaries, strips them and packs them
+# with the machine's validation layer (Debian's vulkan-validationlayers) into
+# .devcarry/bundle.tar.xz (one xz stream with a large dictionary: the 47 test binaries share most
+# of their code, 230 MB pack into ~14 MB). The device tool carries it with the Vulkan loader's
+# packages in .gl/ (its README says how to fetch those). Each step has its own time limit, and
+# the results are packed again after every step, so a step that hangs costs only itself.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+here=$(pwd)
+
+pack() {
+    set -e
+    export PATH="$HOME/.cargo/bin:$PATH"
+    cargo build --release --bin penumbra
+    cargo test --release --no-run --message-format=json 2> /dev/null |
+        python3 -c '
+import json, sys
+for line in sys.stdin:
+    d = json.loads(line)
+    if d.get("reason") == "compiler-artifact" and d.get("executable") and d["target"]["kind"] == ["test"]:
+        print(d["executable"])' > /tmp/gpu-run-tests.txt
+    local stage=.devcarry/stage
+    rm -rf "$stage" && mkdir -p "$stage/tests" "$stage/bin" "$stage/layer"
+    # PACK_TESTS (default: every test binary) names the ones to take, e.g. "essm page_raster".
+    if [ -n "${PACK_TESTS:-}" ]; then
+        local keep
+        keep=$(printf '/%s-[0-9a-f]*$\n' $PACK_TESTS)
+        grep -f <(echo "$keep") /tmp/gpu-run-tests.txt > /tmp/gpu-run-tests-kept.txt
+        mv /tmp/gpu-run-tests-kept.txt /tmp/gpu-run-tests.txt
+    fi
+    xargs -a /tmp/gpu-run-tests.txt cp -t "$stage/tests"
+    cp target/release/penumbra "$stage/bin/"
+    strip "$stage"/tests/* "$stage"/bin/*
+    cp /usr/lib/x86_64-linux-gnu/libVkLayer_khronos_validation.so "$stage/layer/"
+    sed 's#"library_path": *"[^"]*"#"library_path": "./libVkLayer_khronos_validation.so"#' \
+        /usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json \
+        > "$stage/layer/VkLayer_khronos_validation.json"
+    tar -C "$stage" -cf - . | xz -9 --lzma2=preset=9,dict=192MiB -T1 > .devcarry/bundle.tar.xz
+    ls -la .devcarry/bundle.tar.xz
+}
+
+run() {
+    local t0=$SECONDS
+    local res=/tmp/gpu-results
+    local out=${OUT:-$here/gpu-results}
+    rm -rf "$res" && mkdir -p "$res" "$out"
+    save() { tar -C /tmp -czf "$out/gpu-results.tar.gz" gpu-results; }
+    step() {  # step NAME LIMIT_S COMMAND...: its output in NAME.log, its status in steps.txt
+        local name=$1 limit=$2
+        shift 2
+        local s=$SECONDS
+        timeout "$limit" "$@" > "$res/$name.log" 2>&1
+        local rc=$?
+        echo "$name rc=$rc ${limit}s-limit took=$((SECONDS - s))s at=$((SECONDS - t0))s" |
+            tee -a "$res/steps.txt"
+        save
+    }
+    for f in .gl/*.deb; do dpkg -x "$f" /; done
+    ldconfig
+    if [ -f /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json ]; then
+        export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+    fi
+    local b=/tmp/gpu-bundle
+    rm -rf "$b" && mkdir -p "$b" && xz -dc .devcarry/bundle.tar.xz | tar -C "$b" -xf -
+    export VK_LAYER_PATH=$b/layer
+    export PENUMBRA_CACHE_DIR=/tmp/gpu-cache
+    # The tests find the scenes and the CLI through the paths they were built at.
+    mkdir -p target/release && cp "$b/bin/penumbra" target/release/penumbra
+    if [ ! -e /work/main ]; then mkdir -p /work && ln -s "$here" /work/main; fi
+    local p=$here/target/release/penumbra
+    { date -u; pwd; nproc; nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.sm,clocks.mem \
+        --format=csv; } > "$res/machine.txt" 2>&1
+    # STEPS (default: all) picks the parts: kernels, tests, benches.
+    local steps=${STEPS:-kernels tests benches}
+    step devices 30 "$p" devices
+    if [[ " $steps " == *" kernels "* ]]; then
+        step kernels 120 "$p" bench --suite kernels --no-validation --out "$res/kernels"
+    fi
+    if [[ " $steps " == *" tests "* ]]; then
+        # Every test binary under validation (the tests enable it themselves), four at a time;
+        # the diff images the failing ones write come back too.
+        export -f run_test_binary
+        export res
+        step tests 170 bash -c "ls $b/tests/* | xargs -P 4 -I{} bash -c 'run_test_binary {}'"
+        cp -r target/tmp/diffs "$res/diffs" 2> /dev/null
+        save
+    fi
+    if [[ " $steps " != *" benches "* ]]; then
+        echo "total ${SECONDS}s" >> "$res/steps.txt"
+        save
+        cat "$res/steps.txt" "$res/tests.txt" 2> /dev/null
+        return
+    fi
+    step pvssm 60 "$p" bench --no-validation --scenes scenes/teapot-rect.toml,scenes/bunny-rect.toml \
+        --techniques pvssm,pcss,average-maps --set samples=64 --set map_size=1024 \
+        --set normal_offset=0 --set search_taps=0 --set antialias=1 --out "$res/pvssm"
+    step pvssm-800k 60 "$p" bench --no-validation --scenes 'grid:800000@rect' \
+        --techniques pvssm,pcss,average-maps --set samples=64 --set map_size=1024 --out "$res/pvssm-800k"
+    step izb 45 "$p" bench --no-validation --scenes \
+        scenes/teapot-rect.toml,scenes/bunny-rect.toml,scenes/spot-point.toml,thin-bars@point \
+        --techniques izb,izb-soft,hard --set map_size=2048 --out "$res/izb"
+    step pvssm-light 40 "$p" bench --no-validation --scenes scenes/teapot-rect.toml,scenes/bunny-rect.toml \
+        --techniques pvssm --light-scale 0,1,2,4 --out "$res/pvssm-light"
+    step bench-all 120 "$p" bench --no-validation --out "$res/bench-all"
+    echo "total ${SECONDS}s" >> "$res/steps.txt"
+    save
+    cat "$res/steps.txt"
+}
+
+run_test_binary() {
+    local t=$1 name
+    name=$(basename "$t" | sed 's/-[0-9a-f]*$//')
+    local s=$SECONDS
+    timeout 120 "$t" --test-threads 8 > "$res/test-$name.log" 2>&1
+    local rc=$?
+    echo "test $name rc=$rc took=$((SECONDS - s))s $(grep -E '^test result' "$res/test-$name.log" | tail -1)" \
+        >> "$res/tests.txt"
+}
+
+case "${1:-}" in
+    pack) pack ;;
+    run) run ;;
+    *) echo "usage: tools/gpu-run.sh pack|run" >&2; exit 2 ;;
+esac

@@ -3,24 +3,42 @@
 // multiplies by an approximate reciprocal: on an H200 a receiver's light-space depth came out
 // a few ulp off the rasterizer's for the same plane — more than the 1.5-ulp default depth bias,
 // so a flat ground shadowed itself in vssm — and a linear depth computed that way is not even
-// monotonic in its input. One Newton step brings the device's quotient within about half an ulp
-// (its residual exact by a fused multiply-add); then of it and its neighbour towards the true
-// quotient, the one with the smaller exact residual is the correctly rounded quotient (a
-// quotient of two floats is never a rounding midpoint, so there is no tie). On a device whose
-// division already rounds correctly (lavapipe) that is its own quotient, to the bit. For finite
-// a and b != 0 whose quotient is a normal float; anything else returns the device's quotient.
+// monotonic in its input. One Newton step brings the device's quotient within about half an ulp;
+// then of it and its neighbour towards a / b, the one with the smaller residual a - q b is the
+// quotient rounded to nearest. The residuals come from Dekker's exact product with `precise`
+// (only + - *): `fma()` need not fuse (lavapipe's does not: it rounds the product first). The
+// residual's own final rounding can pick the wrong one of two floats only for a quotient within
+// about 2^-22 ulp of a rounding midpoint. For finite a and b != 0 with a normal quotient and
+// |q b| < 8e34; anything else returns the device's quotient. tests/rounding.rs checks it from
+// quotients up to 3 ulp off.
 
 #ifndef PENUMBRA_DIV_RN_GLSL
 #define PENUMBRA_DIV_RN_GLSL
 
-float div_rn(float a, float b) {
-    float q0 = a / b;
-    if (isinf(q0) || isnan(q0) || abs(q0) < 1e-30) {
-        return q0;
-    }
-    precise float r0 = fma(-q0, b, a);
-    float q = fma(r0, 1.0 / b, q0);
-    precise float r = fma(-q, b, a);
+// x = hi + lo exactly, hi holding x's top 12 significant bits (Veltkamp's split).
+void split_float(float x, out float hi, out float lo) {
+    precise float c = 4097.0 * x;
+    precise float h = c - (c - x);
+    precise float l = x - h;
+    hi = h;
+    lo = l;
+}
+
+// a - q b for q within a few ulp of a / b: q b = p + e exactly (Dekker), a - p exactly
+// (Sterbenz: p lies within a factor 2 of a), then one rounding.
+float residual(float a, float q, float b) {
+    float qh, ql, bh, bl;
+    split_float(q, qh, ql);
+    split_float(b, bh, bl);
+    precise float p = q * b;
+    precise float e = ((qh * bh - p) + qh * bl + ql * bh) + ql * bl;
+    precise float r = (a - p) - e;
+    return r;
+}
+
+// Of q (within an ulp of a / b) and its neighbour towards a / b, the one nearer a / b.
+float nearest_of(float a, float b, float q) {
+    float r = residual(a, q, b);
     if (r == 0.0) {
         return q;
     }
@@ -29,8 +47,20 @@ float div_rn(float a, float b) {
     bool up = (r > 0.0) == (b > 0.0);
     uint bits = floatBitsToUint(q);
     float n = uintBitsToFloat((q > 0.0) == up ? bits + 1u : bits - 1u);
-    precise float rn = fma(-n, b, a);
-    return abs(rn) < abs(r) ? n : q;
+    return abs(residual(a, n, b)) < abs(r) ? n : q;
+}
+
+// div_rn from the device's quotient q0 (separate, so that a test can hand it quotients a few
+// ulp off, as an approximate divider's, on a device whose own division rounds correctly).
+float div_rn_from(float a, float b, float q0) {
+    if (isinf(q0) || isnan(q0) || abs(q0) < 1e-30) {
+        return q0;
+    }
+    return nearest_of(a, b, q0 + residual(a, q0, b) * (1.0 / b));
+}
+
+float div_rn(float a, float b) {
+    return div_rn_from(a, b, a / b);
 }
 
 #endif

@@ -9,6 +9,8 @@
 #ifndef PENUMBRA_SHARE_GLSL
 #define PENUMBRA_SHARE_GLSL
 
+#include "div_rn.glsl"
+
 float share(float part, float whole) {
     float q = part / whole;
     return part >= whole ? 1.0 : (q > 1.0 ? 1.0 : q);
@@ -16,16 +18,19 @@ float share(float part, float whole) {
 
 // part / whole for counts (whole at most 2^12: light samples), correctly rounded on any device,
 // so that a CPU twin's f32 division gives the same bits: one Newton step on the device's
-// quotient, its residual exact by a fused multiply-add. On an H200, izb-soft's 12 / 24 light
-// samples came out an ulp off the twin's (32 samples divide exactly either way). A quotient of
-// two such counts lies at least 2^-12 ulp from a rounding midpoint, far beyond the step's error,
-// so on a correctly rounding device (lavapipe) this is its quotient, unchanged.
-float share_count(uint part, uint whole) {
+// quotient with div_rn.glsl's exact residual. On an H200, izb-soft's 12 / 24 light samples came
+// out an ulp off the twin's (32 samples divide exactly either way). A quotient of two such counts
+// lies at least 2^-12 ulp from a rounding midpoint, far beyond the step's error, so this is the
+// quotient rounded to nearest on every device (tests/rounding.rs: every whole to 1024).
+// From the device's quotient q0 (a test hands it quotients a few ulp off).
+float share_count_from(uint part, uint whole, float q0) {
     float a = float(part);
     float b = float(whole);
-    float q = a / b;
-    precise float r = fma(-q, b, a);
-    return part >= whole ? 1.0 : fma(r, 1.0 / b, q);
+    return part >= whole ? 1.0 : q0 + residual(a, q0, b) * (1.0 / b);
+}
+
+float share_count(uint part, uint whole) {
+    return share_count_from(part, whole, float(part) / float(whole));
 }
 
 #endif

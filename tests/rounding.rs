@@ -1,0 +1,145 @@
+//! The rounding helpers the shadow-map code uses so that a GPU whose division is approximate
+//! (Vulkan allows 2.5 ulp; NVIDIA's multiplies by an approximate reciprocal) still computes its
+//! CPU twins' f32 bits: `div_rn` (glsl/include/div_rn.glsl) and `share_count`
+//! (glsl/include/share.glsl), run by `glsl/checks/rounding.comp` from quotients handed to them
+//! up to 3 ulp off the device's own — the error they correct — and compared bit for bit with
+//! Rust's correctly rounded f32 division. On lavapipe, whose division rounds correctly, this is
+//! the only way the correction runs at all; on an NVIDIA H200 their absence put a flat receiver
+//! behind its own shadow-map texels and izb-soft's 12 / 24 an ulp off its twin.
+
+mod common;
+
+use ash::vk;
+use penumbra::gpu::{u32s, Binding, Buffer, DescriptorSet, Pipeline};
+
+/// Runs the cases (a bits, b bits, ulps off, mode) on the GPU: each result's bits.
+fn run(ctx: &penumbra::Context, cases: &[[u32; 4]]) -> Vec<u32> {
+    let pipeline = Pipeline::compute(ctx, "checks/rounding.comp").expect("pipeline");
+    let input = ctx
+        .buffer_with(
+            "rounding cases",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            cases,
+        )
+        .expect("cases");
+    let output = Buffer::storage(ctx, "rounding results", 4 * cases.len() as u64).expect("out");
+    let set = DescriptorSet::new(
+        ctx,
+        &pipeline,
+        &[Binding::Buffer(&input), Binding::Buffer(&output)],
+    )
+    .expect("set");
+    ctx.submit(None, |rec| {
+        rec.dispatch(&pipeline, &set, &(), [cases.len() as u32, 1, 1])
+    })
+    .expect("dispatch");
+    u32s(&ctx.read_buffer(&output).expect("read"))
+}
+
+/// xorshift64*: the same cases every run.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    /// A float of random sign, mantissa and an exponent in [-20, 20).
+    fn float(&mut self) -> f32 {
+        let r = self.next();
+        let sign = ((r >> 63) as u32) << 31;
+        let exponent = (127 - 20 + (r >> 32) % 40) as u32;
+        f32::from_bits(sign | exponent << 23 | (r as u32 & 0x7F_FFFF))
+    }
+}
+
+const OFFSETS: [i32; 7] = [-3, -2, -1, 0, 1, 2, 3];
+
+#[test]
+fn div_rn_rounds_like_the_cpu_from_quotients_a_few_ulps_off() {
+    let ctx = common::context();
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let mut pairs: Vec<(f32, f32)> = (0..20_000).map(|_| (rng.float(), rng.float())).collect();
+    // The shadow-map code's own kind of quotient: a light-space depth z / w near 1, and the
+    // linear depth near*ndc / (far*(1 - ndc) + near*ndc) of an ndc near 1.
+    for i in 0..2_000 {
+        let w = 3.0 + i as f32 * 1e-3;
+        pairs.push((w * (1.0 - 1e-6 * i as f32), w));
+        let ndc = 1.0 - (i + 1) as f32 * 6e-8;
+        pairs.push((0.1 * ndc, 50.0 * (1.0 - ndc) + 0.1 * ndc));
+    }
+    // Exact quotients, where the correction must leave the result alone.
+    pairs.extend([
+        (1.0, 1.0),
+        (3.0, 1.5),
+        (-6.0, 2.0),
+        (0.75, -0.25),
+        (1.0, 3.0),
+    ]);
+    // div_rn from quotients up to 3 ulp off (mode 0), and its last step alone from quotients
+    // an ulp off (mode 2): after the Newton step that step rarely has anything to change.
+    let cases: Vec<[u32; 4]> = pairs
+        .iter()
+        .flat_map(|&(a, b)| {
+            let whole = OFFSETS.map(|k| [a.to_bits(), b.to_bits(), k as u32, 0]);
+            let last = [-1i32, 0, 1].map(|k| [a.to_bits(), b.to_bits(), k as u32, 2]);
+            whole.into_iter().chain(last)
+        })
+        .collect();
+    let got = run(&ctx, &cases);
+    let mut wrong = Vec::new();
+    for (c, &g) in cases.iter().zip(&got) {
+        let (a, b) = (f32::from_bits(c[0]), f32::from_bits(c[1]));
+        let expected = a / b;
+        if g != expected.to_bits() {
+            wrong.push((a, b, c[2] as i32, expected, f32::from_bits(g)));
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "{} of {} quotients not correctly rounded, e.g. {:?}",
+        wrong.len(),
+        cases.len(),
+        &wrong[..wrong.len().min(5)]
+    );
+    common::assert_clean(&ctx.validation());
+}
+
+#[test]
+fn share_count_rounds_like_the_cpu_for_every_count_up_to_1024() {
+    let ctx = common::context();
+    let mut cases = Vec::new();
+    for whole in 1..=1024u32 {
+        // Every part of the small wholes, a spread of parts for the rest (none of 0: the
+        // shaders decide an empty count without dividing).
+        let step = if whole <= 64 { 1 } else { 7 };
+        for part in (1..=whole).step_by(step) {
+            for k in OFFSETS {
+                cases.push([part, whole, k as u32, 1]);
+            }
+        }
+    }
+    let got = run(&ctx, &cases);
+    let mut wrong = Vec::new();
+    for (c, &g) in cases.iter().zip(&got) {
+        let expected = if c[0] >= c[1] {
+            1.0
+        } else {
+            c[0] as f32 / c[1] as f32
+        };
+        if g != expected.to_bits() {
+            wrong.push((c[0], c[1], c[2] as i32, expected, f32::from_bits(g)));
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "{} of {} shares not correctly rounded, e.g. {:?}",
+        wrong.len(),
+        cases.len(),
+        &wrong[..wrong.len().min(5)]
+    );
+    common::assert_clean(&ctx.validation());
+}

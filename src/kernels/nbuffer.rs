@@ -13,8 +13,8 @@
 //! layout (GPUs) the first four levels come from one dispatch instead of four: each workgroup
 //! builds them for a 16² tile in shared memory from one load of the source (31² texels,
 //! `glsl/kernels/nbuffer_tile.comp`); on lavapipe, where shared memory and barriers cost what
-//! they save, the walk alone is the best layout. Min and max are exact: both layouts give the
-//! same bits.
+//! they save, the walk alone is the best layout, and on a GPU too past [`TILED_MAX_TEXELS`].
+//! Min and max are exact: both layouts give the same bits.
 //!
 //! Memory is L × w × h × 8 bytes — 13 levels of a 4096² map are 1.6 GiB — so
 //! [`NBuffer::new`] takes the highest level wanted: queries on larger squares stay exact, they
@@ -73,12 +73,20 @@ pub enum NBufferLayout {
     Tiled,
 }
 
+/// Largest source (texels) the tiled layout builds on a GPU; larger ones are walked. Measured on
+/// an NVIDIA H200 (`penumbra bench --suite kernels`, README "On a real GPU"): at 1024² the tiled
+/// build was 1.24× faster than the walk, at 4096² the walk 1.44× faster and at 8192² 4.6× (the
+/// tiled pass reads 31² source texels a 16² tile, and past the caches that read costs more than
+/// the dispatches it saves). 2048², between them, is unmeasured.
+pub const TILED_MAX_TEXELS: u64 = 2048 * 2048;
+
 impl NBufferLayout {
-    /// [`NBufferLayout::Walk`] on a device that runs workgroups on CPU threads
-    /// ([`crate::gpu::DeviceInfo::runs_workgroups_on_cpu_threads`]), else
-    /// [`NBufferLayout::Tiled`].
-    pub fn best(ctx: &Context) -> NBufferLayout {
-        if ctx.info().runs_workgroups_on_cpu_threads() {
+    /// The layout for a `width × height` source: [`NBufferLayout::Walk`] on a device that runs
+    /// workgroups on CPU threads ([`crate::gpu::DeviceInfo::runs_workgroups_on_cpu_threads`])
+    /// or past [`TILED_MAX_TEXELS`], else [`NBufferLayout::Tiled`].
+    pub fn best(ctx: &Context, width: u32, height: u32) -> NBufferLayout {
+        let texels = u64::from(width) * u64::from(height);
+        if ctx.info().runs_workgroups_on_cpu_threads() || texels > TILED_MAX_TEXELS {
             NBufferLayout::Walk
         } else {
             NBufferLayout::Tiled
@@ -237,7 +245,8 @@ impl<'a> NBuffer<'a> {
     /// Creates levels 1 ..= `max_level` (`None`: every level a query can use, 1 + floor(log2 of
     /// the shorter side)) for `source`, a sampled R32F or D32 image.
     pub fn new(ctx: &Context, source: &'a Image, max_level: Option<u32>) -> Result<NBuffer<'a>> {
-        Self::with_layout(ctx, source, max_level, NBufferLayout::best(ctx))
+        let layout = NBufferLayout::best(ctx, source.desc.width, source.desc.height);
+        Self::with_layout(ctx, source, max_level, layout)
     }
 
     /// [`NBuffer::new`] in a given layout instead of the device's best (tests and the bench build

@@ -227,7 +227,7 @@ pub fn bench_rows(ctx: &Context, quick: bool) -> Result<Vec<KernelBenchRow>> {
         }
         // One N-buffer level of 8 bytes per texel per level; keep the levels within ~768 MiB.
         let budget = (768u64 << 20) / (size as u64 * size as u64 * 8);
-        let best = NBufferLayout::best(ctx);
+        let best = NBufferLayout::best(ctx, size, size);
         for layout in [best, best.other()] {
             let nb = NBuffer::with_layout(ctx, &float_src, Some(budget as u32), layout)?;
             let check = || {

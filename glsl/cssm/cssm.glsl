@@ -39,8 +39,8 @@ layout(push_constant) uniform Push {
     float max_width;
 } pc;
 
-// Linear depth in [0,1] between near and far: csm's and savsm's linearisation
-// (glsl/filtered/filtered.glsl, linear_depth), written without cancellation.
+// Linear depth in [0,1] between near and far: the filtered techniques' shared linearisation
+// (glsl/include/linear_depth.glsl).
 float linear_depth(float ndc) {
     return linear_depth_of(ndc, pc.near, pc.far, pc.perspective != 0);
 }

@@ -25,8 +25,8 @@ layout(push_constant) uniform Push {
     int pad[4];
 } pc;
 
-// The VSM/ESM modules' linearisation (glsl/filtered/filtered.glsl): z = (dist - near) /
-// (far - near) without cancellation; orthographic ndc is already linear.
+// z = (dist - near) / (far - near), the filtered techniques' shared linearisation
+// (glsl/include/linear_depth.glsl).
 float linear_depth(float ndc) {
     return linear_depth_of(ndc, pc.near, pc.far, pc.perspective != 0);
 }

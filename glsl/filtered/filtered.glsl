@@ -65,11 +65,7 @@ layout(push_constant) uniform Push {
     vec4 params;
 } pc;
 
-// Linear depth in [0,1] between the light's near and far planes. For a perspective map the
-// stored ndc = f(1 - n/dist)/(f - n); solving for dist and substituting into
-// (dist - n)/(f - n) gives n·ndc / (f·(1 - ndc) + n·ndc): no subtraction of nearly equal
-// terms (1 - ndc is exact for ndc >= 0.5), a positive denominator for every ndc in [0,1], and
-// finite for near/far ratios down to 1e-8. Orthographic ndc is already linear.
+// Linear depth in [0,1] between the light's near and far planes (glsl/include/linear_depth.glsl).
 float linear_depth(float ndc) {
     return linear_depth_of(ndc, pc.near, pc.far, pc.perspective != 0);
 }

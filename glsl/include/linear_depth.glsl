@@ -1,7 +1,10 @@
 // The filtered techniques' depth linearisation (savsm, cssm, essm, vssm and the filtered
-// module share it; their CPU twins: src/cpu/filtered.rs `linear_depth`): z = (dist - near) /
-// (far - near) from a perspective map's ndc, in a form with no cancellation, clamped to [0, 1];
-// an orthographic ndc is already linear. `precise` and div_rn make it the twin's f32 arithmetic
+// module share it; their CPU twins: src/cpu/filtered.rs `linear_depth` and the others'):
+// z = (dist - near) / (far - near), clamped to [0, 1]. A perspective map stores
+// ndc = f(1 - n/dist)/(f - n); solving for dist and substituting gives
+// n·ndc / (f·(1 - ndc) + n·ndc): no subtraction of nearly equal terms (1 - ndc is exact for
+// ndc >= 0.5), a positive denominator for every ndc in [0, 1], finite for near/far ratios down
+// to 1e-8. An orthographic ndc is already linear. `precise` and div_rn make it the twin's f32 arithmetic
 // on any device (NVIDIA fused and divided differently, and the result was not monotonic in ndc:
 // a ground texel 1.5 ulp behind its receiver read in front of it).
 

@@ -23,8 +23,8 @@ layout(push_constant) uniform Push {
     int pad1;
 } pc;
 
-// The VSM module's linearisation (glsl/filtered/filtered.glsl, linear_depth): z = (dist - near)
-// / (far - near), in a form with no cancellation; orthographic ndc is already linear.
+// z = (dist - near) / (far - near), the filtered techniques' shared linearisation
+// (glsl/include/linear_depth.glsl).
 float linear_depth(float ndc) {
     return linear_depth_of(ndc, pc.near, pc.far, pc.perspective != 0);
 }

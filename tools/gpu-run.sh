@@ -31,7 +31,8 @@ pack() {
 import json, sys
 for line in sys.stdin:
     d = json.loads(line)
-    if d.get("reason") == "compiler-artifact" and d.get("executable") and d["target"]["kind"] == ["test"]:
+    test = d.get("reason") == "compiler-artifact" and d["target"]["kind"] == ["test"]
+    if test and d.get("executable"):
         print(d["executable"])' > /tmp/gpu-run-tests.txt
     local stage=.devcarry/stage
     rm -rf "$stage" && mkdir -p "$stage/tests" "$stage/bin" "$stage/layer"
@@ -82,8 +83,9 @@ run() {
     mkdir -p target/release && cp "$b/bin/penumbra" target/release/penumbra
     if [ ! -e /work/main ]; then mkdir -p /work && ln -s "$here" /work/main; fi
     local p=$here/target/release/penumbra
-    { date -u; pwd; nproc; nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.sm,clocks.mem \
-        --format=csv; } > "$res/machine.txt" 2>&1
+    { date -u; pwd; nproc
+      nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.sm,clocks.mem --format=csv
+    } > "$res/machine.txt" 2>&1
     # STEPS (default: all) picks the parts: kernels, tests, benches.
     local steps=${STEPS:-kernels tests benches}
     step devices 30 "$p" devices
@@ -105,15 +107,17 @@ run() {
         cat "$res/steps.txt" "$res/tests.txt" 2> /dev/null
         return
     fi
-    step pvssm 60 "$p" bench --no-validation --scenes scenes/teapot-rect.toml,scenes/bunny-rect.toml \
+    local rect=scenes/teapot-rect.toml,scenes/bunny-rect.toml
+    step pvssm 60 "$p" bench --no-validation --scenes "$rect" \
         --techniques pvssm,pcss,average-maps --set samples=64 --set map_size=1024 \
         --set normal_offset=0 --set search_taps=0 --set antialias=1 --out "$res/pvssm"
     step pvssm-800k 60 "$p" bench --no-validation --scenes 'grid:800000@rect' \
-        --techniques pvssm,pcss,average-maps --set samples=64 --set map_size=1024 --out "$res/pvssm-800k"
+        --techniques pvssm,pcss,average-maps --set samples=64 --set map_size=1024 \
+        --out "$res/pvssm-800k"
     step izb 45 "$p" bench --no-validation --scenes \
         scenes/teapot-rect.toml,scenes/bunny-rect.toml,scenes/spot-point.toml,thin-bars@point \
         --techniques izb,izb-soft,hard --set map_size=2048 --out "$res/izb"
-    step pvssm-light 40 "$p" bench --no-validation --scenes scenes/teapot-rect.toml,scenes/bunny-rect.toml \
+    step pvssm-light 40 "$p" bench --no-validation --scenes "$rect" \
         --techniques pvssm --light-scale 0,1,2,4 --out "$res/pvssm-light"
     step bench-all 200 "$p" bench --no-validation --out "$res/bench-all"
     echo "total ${SECONDS}s" >> "$res/steps.txt"
@@ -127,8 +131,9 @@ run_test_binary() {
     local s=$SECONDS
     timeout 120 "$t" --test-threads 8 > "$res/test-$name.log" 2>&1
     local rc=$?
-    echo "test $name rc=$rc took=$((SECONDS - s))s $(grep -E '^test result' "$res/test-$name.log" | tail -1)" \
-        >> "$res/tests.txt"
+    local summary
+    summary=$(grep -E '^test result' "$res/test-$name.log" | tail -1)
+    echo "test $name rc=$rc took=$((SECONDS - s))s $summary" >> "$res/tests.txt"
 }
 
 case "${1:-}" in

@@ -621,18 +621,28 @@ fn view_samples_from_a_depth_gbuffer_match_the_cpu_twin_and_the_raster_samples()
         o.render().expect("frame");
         let raster = o.read_visibility().expect("read");
         // The two inputs differ by rounding, so `pcf`'s hard texel tests flip along shadow
-        // edges: at most 2 % of the pixels (on lavapipe under 1 %; on an NVIDIA H200 68 of the
-        // 6 144, 1.1 %, with positions interpolated by its rasterizer).
+        // edges: at most 1 % of the pixels on a CPU device (lavapipe: 9 of 6 144), 2 % on a GPU,
+        // whose rasterizer interpolates the raster samples its own way (an NVIDIA H200: 68 of
+        // the 6 144, 1.1 %).
+        let percent = if ctx.info().runs_workgroups_on_cpu_threads() {
+            1
+        } else {
+            2
+        };
         let differing = from_depth
             .iter()
             .zip(&raster)
             .filter(|(a, b)| (*a - *b).abs() > 1e-3)
             .count();
-        if differing * 50 > from_depth.len() {
+        eprintln!(
+            "{format:?}: {differing} of {} pixels differ",
+            from_depth.len()
+        );
+        if differing * 100 > from_depth.len() * percent {
             common::write_diff("from-depth", w, h, &raster, &from_depth);
         }
         assert!(
-            differing * 50 <= from_depth.len(),
+            differing * 100 <= from_depth.len() * percent,
             "{format:?}: {differing} pixels differ"
         );
     }

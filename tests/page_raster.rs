@@ -140,6 +140,7 @@ fn compute_pages_match_their_twin() {
 #[test]
 fn compute_pages_match_the_rasterizer() {
     let engine = common::engine();
+    let cpu_device = engine.context().info().runs_workgroups_on_cpu_threads();
     for (scene, technique) in [
         ("scenes/bunny-rect.toml", "pvssm"),
         ("scenes/teapot-rect.toml", "pvssm"),
@@ -168,9 +169,11 @@ fn compute_pages_match_the_rasterizer() {
             assert_eq!(sorted(&compute.bins), sorted(&graphics.bins), "{scene}");
             let covered = graphics.atlas.iter().filter(|&&z| z < 1.0).count();
             // The rasterizer snaps vertices to 1/256 texel: depths move by up to that times
-            // the slope, and centres that near an edge may fall on either side. At most 2 % of
-            // the covered texels (lavapipe's rasterizer: under 1 %; an NVIDIA H200's: 0.9 % on
-            // the bunny and 1.15 % on the teapot, mean |dV| under 1e-4).
+            // the slope, and centres that near an edge may fall on either side. At most 1 % of
+            // the covered texels against a CPU device's rasterizer (lavapipe's, the one the
+            // compute raster follows: under 0.1 % measured), 2 % against a GPU's (an NVIDIA
+            // H200's: 0.9 % on the bunny and 1.15 % on the teapot, mean |dV| under 1e-4).
+            let percent = if cpu_device { 1 } else { 2 };
             let off = differing(&graphics.atlas, &compute.atlas, 1e-4);
             let v_diff = mean_abs_diff(&graphics.frame.visibility, &compute.frame.visibility);
             eprintln!(
@@ -178,7 +181,7 @@ fn compute_pages_match_the_rasterizer() {
                  mean |dV| {v_diff:.2e}"
             );
             assert!(
-                off * 50 <= covered,
+                off * 100 <= covered * percent,
                 "{scene} split {split}: {off} of {covered} texels differ"
             );
             assert!(v_diff < 2e-3, "{scene} split {split}: mean |dV| {v_diff}");

@@ -36,6 +36,25 @@ fn run(ctx: &penumbra::Context, cases: &[[u32; 4]]) -> Vec<u32> {
     u32s(&ctx.read_buffer(&output).expect("read"))
 }
 
+/// Runs the cases and compares every result's bits with `expected` (the CPU's f32 arithmetic).
+fn check(ctx: &penumbra::Context, cases: &[[u32; 4]], expected: impl Fn(&[u32; 4]) -> f32) {
+    let got = run(ctx, cases);
+    let wrong: Vec<_> = cases
+        .iter()
+        .zip(&got)
+        .filter(|(c, &g)| g != expected(c).to_bits())
+        .map(|(c, &g)| (c, expected(c), f32::from_bits(g)))
+        .collect();
+    assert!(
+        wrong.is_empty(),
+        "{} of {} results not rounded like the CPU's (case, expected, got), e.g. {:?}",
+        wrong.len(),
+        cases.len(),
+        &wrong[..wrong.len().min(5)]
+    );
+    common::assert_clean(&ctx.validation());
+}
+
 /// xorshift64*: the same cases every run.
 struct Rng(u64);
 
@@ -89,23 +108,9 @@ fn div_rn_rounds_like_the_cpu_from_quotients_a_few_ulps_off() {
             whole.into_iter().chain(last)
         })
         .collect();
-    let got = run(&ctx, &cases);
-    let mut wrong = Vec::new();
-    for (c, &g) in cases.iter().zip(&got) {
-        let (a, b) = (f32::from_bits(c[0]), f32::from_bits(c[1]));
-        let expected = a / b;
-        if g != expected.to_bits() {
-            wrong.push((a, b, c[2] as i32, expected, f32::from_bits(g)));
-        }
-    }
-    assert!(
-        wrong.is_empty(),
-        "{} of {} quotients not correctly rounded, e.g. {:?}",
-        wrong.len(),
-        cases.len(),
-        &wrong[..wrong.len().min(5)]
-    );
-    common::assert_clean(&ctx.validation());
+    check(&ctx, &cases, |c| {
+        f32::from_bits(c[0]) / f32::from_bits(c[1])
+    });
 }
 
 #[test]
@@ -122,24 +127,11 @@ fn share_count_rounds_like_the_cpu_for_every_count_up_to_1024() {
             }
         }
     }
-    let got = run(&ctx, &cases);
-    let mut wrong = Vec::new();
-    for (c, &g) in cases.iter().zip(&got) {
-        let expected = if c[0] >= c[1] {
+    check(&ctx, &cases, |c| {
+        if c[0] >= c[1] {
             1.0
         } else {
             c[0] as f32 / c[1] as f32
-        };
-        if g != expected.to_bits() {
-            wrong.push((c[0], c[1], c[2] as i32, expected, f32::from_bits(g)));
         }
-    }
-    assert!(
-        wrong.is_empty(),
-        "{} of {} shares not correctly rounded, e.g. {:?}",
-        wrong.len(),
-        cases.len(),
-        &wrong[..wrong.len().min(5)]
-    );
-    common::assert_clean(&ctx.validation());
+    });
 }

@@ -1,11 +1,12 @@
 // Division rounded to nearest on any device, where the shadow-map code needs the bits a CPU
 // twin's f32 division gives. Vulkan lets a shader's `a / b` be off by 2.5 ulp, and NVIDIA's
-// multiplies by an approximate reciprocal: on an H200 a receiver's light-space depth came out
-// a few ulp off the rasterizer's for the same plane — more than the 1.5-ulp default depth bias,
-// so a flat ground shadowed itself in vssm — and a linear depth computed that way is not even
-// monotonic in its input. One Newton step brings the device's quotient within about half an ulp;
-// then of it and its neighbour towards a / b, the one with the smaller residual a - q b is the
-// quotient rounded to nearest. The residuals come from Dekker's exact product with `precise`
+// multiplies by an approximate reciprocal. On an H200, vssm's exact classification called a
+// flat ground beside a touching occluder umbra (1 414 of 1 496 samples) until the light-space
+// depth (shadow_map.glsl) and the linear depth (linear_depth.glsl) divided like this; which of
+// the two mattered was not separated. The reading: a few ulp of division error exceed the
+// 1.5-ulp default depth bias, and an approximate quotient need not be monotonic. One Newton
+// step brings the device's quotient within about half an ulp; then of it and its neighbour
+// towards a / b, the one with the smaller residual a - q b is the quotient rounded to nearest. The residuals come from Dekker's exact product with `precise`
 // (only + - *): `fma()` need not fuse (lavapipe's does not: it rounds the product first). The
 // residual's own final rounding can pick the wrong one of two floats only for a quotient within
 // about 2^-22 ulp of a rounding midpoint. For finite a and b != 0 with a normal quotient and

@@ -4,9 +4,9 @@
 // ndc = f(1 - n/dist)/(f - n); solving for dist and substituting gives
 // n·ndc / (f·(1 - ndc) + n·ndc): no subtraction of nearly equal terms (1 - ndc is exact for
 // ndc >= 0.5), a positive denominator for every ndc in [0, 1], finite for near/far ratios down
-// to 1e-8. An orthographic ndc is already linear. `precise` and div_rn make it the twin's f32 arithmetic
-// on any device (NVIDIA fused and divided differently, and the result was not monotonic in ndc:
-// a ground texel 1.5 ulp behind its receiver read in front of it).
+// to 1e-8. An orthographic ndc is already linear. `precise` and div_rn make it the twin's f32
+// arithmetic on any device, not NVIDIA's fused products and approximate division (div_rn.glsl
+// says what they did to vssm on an H200).
 
 #ifndef PENUMBRA_LINEAR_DEPTH_GLSL
 #define PENUMBRA_LINEAR_DEPTH_GLSL

@@ -12,9 +12,8 @@
 
 // Light-clip-space position of a world point: xy in texels (continuous, texel centres at .5),
 // z the depth to compare, w > 0 when in front of the light. `precise` and div_rn: the CPU
-// twin's f32 arithmetic on any device (src/cpu/shadow_map.rs), and a depth within rounding of
-// the rasterizer's for the same point (NVIDIA's fused products and approximate division put a
-// flat receiver more than the default depth bias behind its own texels).
+// twin's f32 arithmetic on any device (src/cpu/shadow_map.rs), not NVIDIA's fused products and
+// approximate division (div_rn.glsl says what they did to vssm on an H200).
 vec4 shadow_coord(mat4 light_view_proj, vec3 world, ivec2 map_size) {
     precise vec4 clip = light_view_proj * vec4(world, 1.0);
     if (clip.w <= 0.0) {

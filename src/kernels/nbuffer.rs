@@ -75,9 +75,9 @@ pub enum NBufferLayout {
 
 /// Largest source (texels) the tiled layout builds on a GPU; larger ones are walked. Measured on
 /// an NVIDIA H200 (`penumbra bench --suite kernels`, README "On a real GPU"): at 1024² the tiled
-/// build was 1.24× faster than the walk, at 4096² the walk 1.44× faster and at 8192² 4.6× (the
-/// tiled pass reads 31² source texels a 16² tile, and past the caches that read costs more than
-/// the dispatches it saves). 2048², between them, is unmeasured.
+/// build was 1.24× faster than the walk, at 4096² the walk 1.44× faster and at 8192² 4.6× (one
+/// run; not profiled — the tiled pass reads 31² source texels a 16² tile, which would cost more
+/// once the source outgrows the caches). 2048², between them, is unmeasured.
 pub const TILED_MAX_TEXELS: u64 = 2048 * 2048;
 
 impl NBufferLayout {

@@ -1,8 +1,11 @@
 #version 460
 // Caster culling: bins each triangle into the resident pages it touches, so a page draws only its
 // own casters. One invocation per triangle walks, level by level, the resident pages under its
-// bounding box (clamped to the level's resident rectangle) and tests the triangle against each
-// page's rectangle exactly (separating axes). Two ways to bin, by what draws the pages:
+// bounding box and tests the triangle against each page's rectangle exactly (separating axes) —
+// at the levels where its box holds a texel centre only: elsewhere it covers no texel, draws
+// nothing, and binning it would only cost the page raster a triangle (on an 800k-triangle grid
+// every triangle went to the root, 2.6 M pairs; now 0.6 M). Two ways to bin, by what draws the
+// pages:
 // - for the rasterizer (one draw per level, so a level's bins must be contiguous): mode 0
 //   counts per slot; after an exclusive scan of the counts, mode 1 writes (triangle, slot) pairs
 //   at the slot's offset. Both modes run the same test, so they agree;
@@ -13,7 +16,7 @@
 //   on lavapipe). A pair past the buffer's capacity flags its slot incomplete (bin_cursor[slot]),
 //   and draws.comp takes such pages out of the table, as it does the pages whose scanned bins
 //   run past the capacity in the other way.
-// CPU twin: triangle_overlaps_page() in src/cpu/rmsm.rs.
+// CPU twin: triangle_overlaps_page() in src/cpu/pages.rs.
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
 #include "pages_push.glsl"
@@ -44,6 +47,18 @@ vec4 clip_vertex(uint i) {
     return pc.light_view_proj * vec4(p, 1.0);
 }
 
+// Whether all four corners of the rectangle lo..hi lie strictly outside edge p->q, whose inside is
+// the side the triangle's third vertex is on (the sign of its signed doubled area).
+bool edge_separates(vec2 p, vec2 q, float area, vec2 lo, vec2 hi) {
+    vec2 d = q - p;
+    // Corner by corner, in the twin's order of operations (src/cpu/pages.rs).
+    float s0 = d.x * (lo.y - p.y) - d.y * (lo.x - p.x);
+    float s1 = d.x * (lo.y - p.y) - d.y * (hi.x - p.x);
+    float s2 = d.x * (hi.y - p.y) - d.y * (lo.x - p.x);
+    float s3 = d.x * (hi.y - p.y) - d.y * (hi.x - p.x);
+    return s0 * area < 0.0 && s1 * area < 0.0 && s2 * area < 0.0 && s3 * area < 0.0;
+}
+
 // Whether the 2D triangle (a, b, c) overlaps the rectangle lo..hi: bounding boxes overlap and no
 // edge has all four corners strictly outside. `area` is the signed doubled area (nonzero).
 bool overlaps(vec2 a, vec2 b, vec2 c, float area, vec2 lo, vec2 hi) {
@@ -52,24 +67,10 @@ bool overlaps(vec2 a, vec2 b, vec2 c, float area, vec2 lo, vec2 hi) {
     if (any(greaterThan(tmin, hi)) || any(lessThan(tmax, lo))) {
         return false;
     }
-    vec2 corners[4] = vec2[4](lo, vec2(hi.x, lo.y), vec2(lo.x, hi.y), hi);
-    vec2 v[3] = vec2[3](a, b, c);
-    for (int e = 0; e < 3; ++e) {
-        vec2 p = v[e];
-        vec2 q = v[(e + 1) % 3];
-        bool all_out = true;
-        for (int k = 0; k < 4; ++k) {
-            // Inside of edge p->q: the side the third vertex is on (sign of the area).
-            float s = (q.x - p.x) * (corners[k].y - p.y) - (q.y - p.y) * (corners[k].x - p.x);
-            if (s * area >= 0.0) {
-                all_out = false;
-            }
-        }
-        if (all_out) {
-            return false;
-        }
-    }
-    return true;
+    // Written out edge by edge, without arrays: a private array indexed in a loop is memory on
+    // lavapipe (a gather per lane), and this test runs for every (triangle, page) candidate.
+    return !edge_separates(a, b, area, lo, hi) && !edge_separates(b, c, area, lo, hi)
+        && !edge_separates(c, a, area, lo, hi);
 }
 
 // Conservative test for a triangle reaching behind the light: culled only when all three
@@ -139,72 +140,118 @@ void append(uint tri, uint slot, uint pos) {
     }
 }
 
+// What the walk does with a page the triangle overlaps (slot `slot`); counts it in `binned`.
+void visit(uint tri, uint slot, uint what, inout uint next, inout uint binned) {
+    if (what == WALK_COUNT) {
+        atomicAdd(bin_count[slot], 1u);
+    } else if (what == WALK_SCATTER) {
+        uint pos = bin_offset[slot] + atomicAdd(bin_cursor[slot], 1u);
+        if (pos < pc.capacity) {
+            entries[pos] = uvec2(tri, slot);
+        }
+    } else if (what == WALK_RECORD) {
+        if (slot == 0u) {
+            hit_root = true;
+        } else {
+            if (rest_hits < HITS) {
+                hits[rest_hits] = slot;
+            }
+            rest_hits += 1u;
+        }
+    } else if (slot != 0u) {
+        if (rest_hits >= HITS) {
+            append(tri, slot, next);
+            next += 1u;
+        }
+        rest_hits += 1u;
+    }
+    binned += 1u;
+}
+
+// The slot of page `page` of `level` if it is resident and of this round, else 0; plus one.
+uint resident_slot(uint level, ivec2 page, uint first_slot) {
+    uint s = table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level, uvec2(page))];
+    return s == 0u || s - 1u < first_slot ? 0u : s;
+}
+
+// The levels at which the triangle's box, widened by the walk's eps (1/64 of the level's texel),
+// holds a texel centre, as a bit mask. A triangle covers texels only at those: at the others
+// it draws nothing into any page, so no page there bins it — on a fine mesh, most triangles at
+// the coarse levels (the root took them all before). Straight-line arithmetic, no branch: on
+// lavapipe a branch in a loop costs more than the arithmetic it would skip.
+uint centre_levels(vec2 tmin, vec2 tmax) {
+    uint levels = 0u;
+    for (uint level = 0u; level < pc.levels; ++level) {
+        float scale = 1.0 / float(1u << level);
+        float eps = float(1u << level) / 64.0;
+        vec2 first = ceil((tmin - eps) * scale - 0.5);
+        vec2 last = floor((tmax + eps) * scale - 0.5);
+        levels |= uint(all(greaterThanEqual(last, first))) << level;
+    }
+    return levels;
+}
+
 // Walks the resident pages of this round under the triangle: returns how many it overlaps.
 uint walk(uint tri, Projected t, uint what, uint next) {
     uint binned = 0u;
-    float v = float(pc.virtual_size);
+    if (t.culled) {
+        return 0u;
+    }
     // Round 1 bins only its own pages: round 0's bins are in place.
     uint first_slot = ROUND_FIRST_SLOT(pc.round);
-    for (uint level = 0u; level < pc.levels && !t.culled; ++level) {
+    if (t.projected) {
+        vec2 tmin = min(t.p0, min(t.p1, t.p2));
+        vec2 tmax = max(t.p0, max(t.p1, t.p2));
+        uint levels = centre_levels(tmin, tmax);
+        while (levels != 0u) {
+            uint level = uint(findLSB(levels));
+            levels &= levels - 1u;
+            float texels = float(pc.page_size << level);
+            float eps = float(1u << level) / 64.0;
+            vec2 wmin = tmin - eps;
+            vec2 wmax = tmax + eps;
+            // The pages under the box, the table says which are resident; a box over more
+            // than 2 x 2 pages is narrowed to the level's resident rectangle first (reading
+            // that is a gather per lane on lavapipe, for nothing where the box is small).
+            int last = int(pages_per_side(pc.virtual_size, pc.page_size, level)) - 1;
+            ivec2 lo = max(ivec2(0), ivec2(floor(wmin / texels)));
+            ivec2 hi = min(ivec2(last), ivec2(floor(wmax / texels)));
+            if (any(greaterThan(hi - lo, ivec2(1)))) {
+                LevelInfo info = level_info[pc.round * pc.levels + level];
+                lo = max(lo, ivec2(~info.min_x_not, ~info.min_y_not));
+                hi = min(hi, ivec2(info.max_x, info.max_y));
+            }
+            for (int py = lo.y; py <= hi.y; ++py) {
+                for (int px = lo.x; px <= hi.x; ++px) {
+                    uint s = resident_slot(level, ivec2(px, py), first_slot);
+                    vec2 rlo = vec2(px, py) * texels;
+                    if (s != 0u && overlaps(t.p0, t.p1, t.p2, t.area, rlo - eps,
+                                            rlo + texels + eps)) {
+                        visit(tri, s - 1u, what, next, binned);
+                    }
+                }
+            }
+        }
+        return binned;
+    }
+    // A corner behind the light: no box in the map, so each level's resident rectangle, each
+    // page tested in clip space.
+    float v = float(pc.virtual_size);
+    for (uint level = 0u; level < pc.levels; ++level) {
         LevelInfo info = level_info[pc.round * pc.levels + level];
         if (info.end_slot == 0u) {
             continue;
         }
         float texels = float(pc.page_size << level);
-        float eps = float(1u << level) / 64.0;
-        // Resident rectangle of the level, narrowed to the triangle's bounding box.
-        ivec2 lo = ivec2(~info.min_x_not, ~info.min_y_not);
-        ivec2 hi = ivec2(info.max_x, info.max_y);
-        if (t.projected) {
-            vec2 tmin = min(t.p0, min(t.p1, t.p2)) - eps;
-            vec2 tmax = max(t.p0, max(t.p1, t.p2)) + eps;
-            lo = max(lo, ivec2(floor(tmin / texels)));
-            hi = min(hi, ivec2(floor(tmax / texels)));
-        }
-        for (int py = lo.y; py <= hi.y; ++py) {
-            for (int px = lo.x; px <= hi.x; ++px) {
-                uvec2 page = uvec2(px, py);
-                uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page);
-                uint s = table[e];
-                if (s == 0u || s - 1u < first_slot) {
-                    continue;
-                }
-                vec2 rlo = vec2(page) * texels;
+        for (int py = int(~info.min_y_not); py <= int(info.max_y); ++py) {
+            for (int px = int(~info.min_x_not); px <= int(info.max_x); ++px) {
+                uint s = resident_slot(level, ivec2(px, py), first_slot);
+                vec2 rlo = vec2(px, py) * texels;
                 vec2 rhi = rlo + texels;
-                bool hit;
-                if (t.projected) {
-                    hit = overlaps(t.p0, t.p1, t.p2, t.area, rlo - eps, rhi + eps);
-                } else {
-                    hit = overlaps_clip(t.a, t.b, t.c, rlo / v * 2.0 - 1.0, rhi / v * 2.0 - 1.0);
+                if (s != 0u && overlaps_clip(t.a, t.b, t.c, rlo / v * 2.0 - 1.0,
+                                             rhi / v * 2.0 - 1.0)) {
+                    visit(tri, s - 1u, what, next, binned);
                 }
-                if (!hit) {
-                    continue;
-                }
-                uint slot = s - 1u;
-                if (what == WALK_COUNT) {
-                    atomicAdd(bin_count[slot], 1u);
-                } else if (what == WALK_SCATTER) {
-                    uint pos = bin_offset[slot] + atomicAdd(bin_cursor[slot], 1u);
-                    if (pos < pc.capacity) {
-                        entries[pos] = uvec2(tri, slot);
-                    }
-                } else if (what == WALK_RECORD) {
-                    if (slot == 0u) {
-                        hit_root = true;
-                    } else {
-                        if (rest_hits < HITS) {
-                            hits[rest_hits] = slot;
-                        }
-                        rest_hits += 1u;
-                    }
-                } else if (slot != 0u) {
-                    if (rest_hits >= HITS) {
-                        append(tri, slot, next);
-                        next += 1u;
-                    }
-                    rest_hits += 1u;
-                }
-                binned += 1u;
             }
         }
     }

@@ -207,7 +207,10 @@ pub fn slot_origin(slot: u32, pool_pages: u32, page_size: u32) -> (u32, u32) {
 }
 
 /// The spec's caster-culling test: whether a triangle with light clip-space vertices `clip` may
-/// cover page `(level, px, py)` (conservative where a vertex lies behind the light).
+/// cover a texel centre of page `(level, px, py)` (conservative where a vertex lies behind the
+/// light): its box and the page's rectangle, both widened by 1/64 of the level's texel, overlap,
+/// no edge of the triangle separates them, and the widened box holds one of the level's texel
+/// centres.
 pub fn triangle_overlaps_page(
     clip: [Vec4; 3],
     layout: &PageLayout,
@@ -243,6 +246,13 @@ pub fn triangle_overlaps_page(
     let (r0, r1) = (Vec2::new(x0 - eps, y0 - eps), Vec2::new(x1 + eps, y1 + eps));
     let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
     if hi.x < r0.x || lo.x > r1.x || hi.y < r0.y || lo.y > r1.y {
+        return false;
+    }
+    // No texel centre of the level under the widened box: the triangle covers no texel there.
+    let scale = 1.0 / 2f32.powi(level as i32);
+    let first = ((lo - eps) * scale - 0.5).ceil();
+    let last = ((hi + eps) * scale - 0.5).floor();
+    if first.x > last.x || first.y > last.y {
         return false;
     }
     let cross = |a: Vec2, b: Vec2| a.x * b.y - a.y * b.x;
@@ -381,6 +391,16 @@ mod tests {
             clip_at(256.01, 200.0, v),
         ];
         assert!(triangle_overlaps_page(touching, &layout, 0, 1, 1));
+        // A triangle whose box holds no texel centre of a level covers no texel there: this one
+        // holds none at level 0 (centres at x.5) or 1 (odd x), but (150, 150) at level 2.
+        let tiny = [
+            clip_at(149.9, 149.9, v),
+            clip_at(150.2, 149.9, v),
+            clip_at(149.9, 150.2, v),
+        ];
+        assert!(!triangle_overlaps_page(tiny, &layout, 0, 1, 1));
+        assert!(!triangle_overlaps_page(tiny, &layout, 1, 0, 0));
+        assert!(triangle_overlaps_page(tiny, &layout, 2, 0, 0));
         // Degenerate.
         let line = [inside[0], inside[1], inside[0]];
         assert!(!triangle_overlaps_page(line, &layout, 0, 1, 1));

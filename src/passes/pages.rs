@@ -14,7 +14,8 @@
 //!    slot 0. A technique that marks each page's ancestors too (rmsm does) makes every fallback
 //!    one level at a time. Overflows are counted (`overflow_pages`), never dropped silently;
 //! 3. **cull** (`<name>-cull`): every triangle is tested against the resident pages under its
-//!    bounding box (an exact separating-axis test in the light's texel grid) and binned as
+//!    bounding box (an exact separating-axis test in the light's texel grid), at the levels
+//!    where that box holds a texel centre (elsewhere the triangle covers no texel), and binned as
 //!    (triangle, slot) pairs: for the rasterizer counted, scanned and scattered, then one
 //!    indirect draw per level written from the bins; for the compute raster, which takes the
 //!    pairs in any order, appended in one walk (the root's in a region of their own), which halves

@@ -44,15 +44,30 @@ bool texel_inside(ivec2 t, uint virtual_size, uint level) {
     return all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, ivec2(size)));
 }
 
+// log2 of the page size (a power of two): pages are found by shifts and masks. An integer
+// division by a value the compiler cannot see is one scalar division per SIMD lane on lavapipe.
+uint page_shift(uint page_size) {
+    return uint(findMSB(page_size));
+}
+
 // The page holding level-l texel t (t inside the level).
 uvec2 texel_page(ivec2 t, uint page_size) {
-    return uvec2(t) / page_size;
+    return uvec2(t) >> page_shift(page_size);
+}
+
+// (slot % atlas_cols, slot / atlas_cols): the slot's column and row in the atlas, by a float
+// quotient. Exact while slot < 2^22 (PagesDesc's checks bound the pool so): (slot + 0.5) / cols
+// lies at least 0.5 / cols from an integer, a relative distance of more than 2^-23, and a
+// division a few ulp off (a GPU's) cannot cross it.
+uvec2 slot_cell(uint slot, uint atlas_cols) {
+    uint row = uint((float(slot) + 0.5) / float(atlas_cols));
+    return uvec2(slot - row * atlas_cols, row);
 }
 
 // Atlas texel of level-l texel t on slot `slot`.
 ivec2 atlas_texel(uint slot, ivec2 t, uint page_size, uint atlas_cols) {
-    uvec2 origin = uvec2(slot % atlas_cols, slot / atlas_cols) * page_size;
-    return ivec2(origin + uvec2(t) % page_size);
+    uvec2 origin = slot_cell(slot, atlas_cols) * page_size;
+    return ivec2(origin + (uvec2(t) & (page_size - 1u)));
 }
 
 #endif

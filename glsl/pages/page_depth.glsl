@@ -91,7 +91,7 @@ void main() {
     vec2 page_lo = vec2(info.yz) * page_ndc - 1.0;
     uint rows = (pc.pool_pages + pc.atlas_cols - 1u) / pc.atlas_cols;
     vec2 slot_ndc = 2.0 / vec2(pc.atlas_cols, rows);
-    vec2 slot_lo = vec2(entry.y % pc.atlas_cols, entry.y / pc.atlas_cols) * slot_ndc - 1.0;
+    vec2 slot_lo = vec2(slot_cell(entry.y, pc.atlas_cols)) * slot_ndc - 1.0;
     vec2 scale = slot_ndc / page_ndc;
     vec2 xy = clip.xy * scale + clip.w * (slot_lo - page_lo * scale);
     gl_Position = vec4(xy, clip.zw);

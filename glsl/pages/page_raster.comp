@@ -157,7 +157,7 @@ Entry load_entry(uint k) {
     Entry en;
     en.lo = ivec2(info.yz) * ps;
     ivec2 hi = en.lo + ps - 1;
-    en.origin = ivec2(int(bin.y % pc.atlas_cols), int(bin.y / pc.atlas_cols)) * ps;
+    en.origin = ivec2(slot_cell(bin.y, pc.atlas_cols)) * ps;
     en.count = 0;
     float level_size = float(pc.virtual_size >> level);
 

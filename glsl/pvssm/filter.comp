@@ -36,8 +36,8 @@ bool kernel_covered(ivec4 box, uint level) {
     if (any(greaterThan(a, b))) {
         return true;
     }
-    ivec2 pa = a / int(pc.page_size);
-    ivec2 pb = b / int(pc.page_size);
+    ivec2 pa = a >> int(page_shift(pc.page_size));
+    ivec2 pb = b >> int(page_shift(pc.page_size));
     for (int py = pa.y; py <= pb.y; ++py) {
         for (int px = pa.x; px <= pb.x; ++px) {
             uvec2 page = uvec2(px, py);
@@ -96,6 +96,7 @@ void main() {
             // rounding).
             int size = int(pc.virtual_size >> level);
             int ps = int(pc.page_size);
+            int shift = int(page_shift(pc.page_size));
             int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
             uint base = level_offset(pc.levels, level);
             vec2 sum = vec2(0.0);
@@ -134,7 +135,7 @@ void main() {
                 int j_last = max(j1.x, j1.y);
                 // The level is an even number of columns: both or neither inside.
                 bool column_inside = i >= 0 && i < size;
-                int px = column_inside ? i / ps : 0;
+                int px = column_inside ? i >> shift : 0;
                 // First row past the current page, the current page's slot + 1 (0: not
                 // resident) and the atlas texel of the page's texel (0, 0) shifted to level
                 // coordinates; row 0 always starts a new page.
@@ -156,13 +157,13 @@ void main() {
                     vec4 lit = vec4(1.0);
                     if (column_inside && j >= 0 && j < size) {
                         if (j >= page_end) {
-                            int py = j / ps;
+                            int py = j >> shift;
                             page_end = (py + 1) * ps;
                             slot = table[base + uint(py * n_side + px)];
                             if (slot != 0u) {
                                 uint s0 = slot - 1u;
-                                origin = ivec2(int(s0 % pc.atlas_cols) - px,
-                                               int(s0 / pc.atlas_cols) - py) * ps;
+                                origin = (ivec2(slot_cell(s0, pc.atlas_cols)) -
+                                          ivec2(px, py)) * ps;
                             }
                         }
                         if (slot != 0u) {

@@ -401,8 +401,10 @@ void main() {
                 // panel approximation's rounding), and their ancestors.
                 ivec4 box = kernel_texels(c.xy, u_h, v_h, level);
                 int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
-                ivec2 pa = clamp((box.xy - 1) / int(pc.page_size), ivec2(0), ivec2(n_side - 1));
-                ivec2 pb = clamp((box.zw + 1) / int(pc.page_size), ivec2(0), ivec2(n_side - 1));
+                // (A shift floors where a division truncates: the same after the clamp to 0.)
+                int shift = int(page_shift(pc.page_size));
+                ivec2 pa = clamp((box.xy - 1) >> shift, ivec2(0), ivec2(n_side - 1));
+                ivec2 pb = clamp((box.zw + 1) >> shift, ivec2(0), ivec2(n_side - 1));
                 uint marks = 0u;
                 for (int py = pa.y; py <= pb.y; ++py) {
                     for (int px = pa.x; px <= pb.x; ++px) {

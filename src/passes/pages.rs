@@ -63,6 +63,10 @@ use crate::shader_types::PagesPush;
 /// Most mip levels of a virtual map (`glsl/include/pages.glsl`'s `MAX_PAGE_LEVELS`).
 pub const MAX_PAGE_LEVELS: u32 = 16;
 
+/// Most page slots in the atlas (4 Mi), where the shaders' float quotient for a slot's atlas
+/// cell stays exact.
+pub const MAX_POOL_PAGES: u32 = 1 << 22;
+
 /// Most page-table entries (4 Mi: a 16 MiB table), which bounds `virtual_size / page_size`.
 pub const MAX_PAGE_ENTRIES: u32 = 1 << 22;
 
@@ -212,6 +216,14 @@ impl PagesDesc {
         }
         if self.pool_pages == 0 || self.bin_factor == 0 {
             return bad("pool_pages and bin_factor must be at least 1".into());
+        }
+        // The shaders find a slot's atlas cell by a float quotient, exact below 2^22 slots
+        // (`slot_cell` in glsl/include/pages.glsl).
+        if self.pool_pages > MAX_POOL_PAGES {
+            return bad(format!(
+                "pool_pages {} is more than {MAX_POOL_PAGES}",
+                self.pool_pages
+            ));
         }
         let (w, h) = self.atlas_size();
         let max = ctx.info().max_image_dimension_2d;

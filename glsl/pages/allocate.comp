@@ -57,4 +57,5 @@ void main() {
     atomicMax(level_info[li].min_y_not, ~page.y);
     atomicMax(level_info[li].max_x, page.x);
     atomicMax(level_info[li].max_y, page.y);
+    atomicOr(level_info[pc.round * pc.levels].levels_mask, 1u << level);
 }

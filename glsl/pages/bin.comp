@@ -174,14 +174,16 @@ uint resident_slot(uint level, ivec2 page, uint first_slot) {
     return s == 0u || s - 1u < first_slot ? 0u : s;
 }
 
-// The levels at which the triangle's box, widened by the walk's eps (1/64 of the level's texel),
-// holds a texel centre, as a bit mask. A triangle covers texels only at those: at the others
+// The levels among `resident` at which the triangle's box, widened by the walk's eps (1/64 of
+// the level's texel), holds a texel centre, as a bit mask. A triangle covers texels only at those: at the others
 // it draws nothing into any page, so no page there bins it — on a fine mesh, most triangles at
 // the coarse levels (the root took them all before). Straight-line arithmetic, no branch: on
 // lavapipe a branch in a loop costs more than the arithmetic it would skip.
-uint centre_levels(vec2 tmin, vec2 tmax) {
+uint centre_levels(vec2 tmin, vec2 tmax, uint resident) {
     uint levels = 0u;
-    for (uint level = 0u; level < pc.levels; ++level) {
+    // The resident levels only (the same for every lane: a pvssm frame has a few).
+    for (uint left = resident; left != 0u; left &= left - 1u) {
+        uint level = uint(findLSB(left));
         float scale = 1.0 / float(1u << level);
         float eps = float(1u << level) / 64.0;
         vec2 first = ceil((tmin - eps) * scale - 0.5);
@@ -202,7 +204,9 @@ uint walk(uint tri, Projected t, uint what, uint next) {
     if (t.projected) {
         vec2 tmin = min(t.p0, min(t.p1, t.p2));
         vec2 tmax = max(t.p0, max(t.p1, t.p2));
-        uint levels = centre_levels(tmin, tmax);
+        // The levels with a resident page of this round: one word, the same for every lane.
+        uint resident = level_info[pc.round * pc.levels].levels_mask;
+        uint levels = centre_levels(tmin, tmax, resident);
         while (levels != 0u) {
             uint level = uint(findLSB(levels));
             levels &= levels - 1u;

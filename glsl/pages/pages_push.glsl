@@ -34,7 +34,9 @@ struct LevelInfo {
     uint min_y_not;
     uint max_x;
     uint max_y;
-    uint pad0;
+    // In each round's level-0 entry only: bit l set when level l has a resident page of the
+    // round (so bin.comp reads one word, not a level's bookkeeping per level).
+    uint levels_mask;
     uint pad1;
 };
 

@@ -7,7 +7,7 @@
 # GPU machine, from the repository's root:
 #
 #     bash tools/gpu-run.sh run      # writes $OUT/gpu-results.tar.gz (or ./gpu-results)
-#     STEPS="tests benches" bash tools/gpu-run.sh run   # leave out the kernel bench
+#     STEPS="tests benches" bash tools/gpu-run.sh run   # leave out the kernel and whole benches
 #
 # `pack` builds the release binary and the release test binaries, strips them and packs them
 # with the machine's validation layer (Debian's vulkan-validationlayers) into
@@ -89,8 +89,9 @@ run() {
     { date -u; pwd; nproc
       nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.sm,clocks.mem --format=csv
     } > "$res/machine.txt" 2>&1
-    # STEPS (default: all) picks the parts: kernels, tests, benches.
-    local steps=${STEPS:-kernels tests benches}
+    # STEPS (default: all) picks the parts: kernels, tests, benches (the technique benches),
+    # bench-all (the whole default bench, ~2 minutes on an H200).
+    local steps=${STEPS:-kernels tests benches bench-all}
     step devices 30 "$p" devices
     if [[ " $steps " == *" kernels "* ]]; then
         step kernels 120 "$p" bench --suite kernels --no-validation --out "$res/kernels"
@@ -122,7 +123,9 @@ run() {
         --techniques izb,izb-soft,hard --set map_size=2048 --out "$res/izb"
     step pvssm-light 40 "$p" bench --no-validation --scenes "$rect" \
         --techniques pvssm --light-scale 0,1,2,4 --out "$res/pvssm-light"
-    step bench-all 200 "$p" bench --no-validation --out "$res/bench-all"
+    if [[ " $steps " == *" bench-all "* ]]; then
+        step bench-all 200 "$p" bench --no-validation --out "$res/bench-all"
+    fi
     echo "total ${SECONDS}s" >> "$res/steps.txt"
     save
     cat "$res/steps.txt"

@@ -5,7 +5,9 @@
 // on a device whose division rounds correctly already (lavapipe).
 // Case i: (a bits, b bits, ulps as int, mode); mode 0: div_rn of floats a / b; mode 1:
 // share_count of counts a / b; mode 2: div_rn's last step alone (nearest_of), which the Newton
-// step before it leaves little to do. Result: the float's bits.
+// step before it leaves little to do, from the quotient whose bits the case's third word holds
+// (the CPU's, an ulp off: the device's own may be further, and that step corrects one ulp).
+// Result: the float's bits.
 #extension GL_GOOGLE_include_directive : require
 #include "div_rn.glsl"
 #include "share.glsl"
@@ -37,7 +39,7 @@ void main() {
     } else {
         float a = uintBitsToFloat(c.x);
         float b = uintBitsToFloat(c.y);
-        r = nearest_of(a, b, off_by(a / b, k));
+        r = nearest_of(a, b, uintBitsToFloat(c.z));
     }
     results[i] = floatBitsToUint(r);
 }

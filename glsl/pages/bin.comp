@@ -11,11 +11,12 @@
 //   at the slot's offset. Both modes run the same test, so they agree;
 // - for the compute page raster (mode 2, which takes the entries in any order): one walk, the
 //   pairs appended — the root's (slot 0: at most every triangle once) to entries [0, triangles),
-//   the others' after them — at one atomic per triangle and region. Why: walking every triangle
-//   twice, with an atomic per pair each time, was the pass's cost (800k triangles: ~80 ms a walk
-//   on lavapipe). A pair past the buffer's capacity flags its slot incomplete (bin_cursor[slot]),
-//   and draws.comp takes such pages out of the table, as it does the pages whose scanned bins
-//   run past the capacity in the other way.
+//   the others' after them, each at an atomic on its region's cursor (the root's once per
+//   triangle). Why one walk: walking every triangle twice was the pass's cost (800k triangles:
+//   ~80 ms a walk on lavapipe); draws.comp counts the pairs from the cursors. A pair past the
+//   buffer's capacity flags its slot incomplete (bin_cursor[slot]), and draws.comp takes such
+//   pages out of the table, as it does the pages whose scanned bins run past the capacity in the
+//   other way.
 // CPU twin: triangle_overlaps_page() in src/cpu/pages.rs.
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
@@ -34,12 +35,8 @@ layout(set = 0, binding = 6) buffer BinCursor { uint bin_cursor[]; };
 layout(set = 0, binding = 7) writeonly buffer Entries { uvec2 entries[]; };
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
 
-// What a walk in mode 2 found: the root (round 0's slot 0) or not, and the other slots, the
-// first HITS of them kept (a triangle with more walks again to write the rest).
-const uint HITS = 16u;
+// Whether a walk in mode 2 found the root (round 0's slot 0), whose pair is appended last.
 bool hit_root = false;
-uint rest_hits = 0u;
-uint hits[HITS];
 
 vec4 clip_vertex(uint i) {
     uint v = indices[i];
@@ -126,8 +123,7 @@ Projected project(uint tri) {
 // What a walk does with each page the triangle overlaps.
 const uint WALK_COUNT = 0u;    // mode 0: count the slot's bin
 const uint WALK_SCATTER = 1u;  // mode 1: write the pair at the slot's offset
-const uint WALK_RECORD = 2u;   // mode 2: keep the slot in hits[]
-const uint WALK_APPEND = 3u;   // mode 2: write the pairs past the first HITS from `next` on
+const uint WALK_APPEND = 2u;   // mode 2: append the pair (the root's: note it)
 
 // Writes mode 2's pair (tri, slot) at `pos` of the non-root entries, or flags the slot
 // incomplete when that is past the capacity.
@@ -141,7 +137,7 @@ void append(uint tri, uint slot, uint pos) {
 }
 
 // What the walk does with a page the triangle overlaps (slot `slot`); counts it in `binned`.
-void visit(uint tri, uint slot, uint what, inout uint next, inout uint binned) {
+void visit(uint tri, uint slot, uint what, inout uint binned) {
     if (what == WALK_COUNT) {
         atomicAdd(bin_count[slot], 1u);
     } else if (what == WALK_SCATTER) {
@@ -149,21 +145,13 @@ void visit(uint tri, uint slot, uint what, inout uint next, inout uint binned) {
         if (pos < pc.capacity) {
             entries[pos] = uvec2(tri, slot);
         }
-    } else if (what == WALK_RECORD) {
-        if (slot == 0u) {
-            hit_root = true;
-        } else {
-            if (rest_hits < HITS) {
-                hits[rest_hits] = slot;
-            }
-            rest_hits += 1u;
-        }
-    } else if (slot != 0u) {
-        if (rest_hits >= HITS) {
-            append(tri, slot, next);
-            next += 1u;
-        }
-        rest_hits += 1u;
+    } else if (slot == 0u) {
+        hit_root = true;
+    } else {
+        // An atomic per pair: a fine mesh's triangle has about one pair (0.76 on an
+        // 800k-triangle grid), and keeping the slots for one atomic per triangle took a private
+        // array, which lavapipe keeps in memory (a per-lane scatter a write).
+        append(tri, slot, pc.triangles + atomicAdd(bin_cursor[pc.pool_pages + APPEND_REST], 1u));
     }
     binned += 1u;
 }
@@ -174,27 +162,8 @@ uint resident_slot(uint level, ivec2 page, uint first_slot) {
     return s == 0u || s - 1u < first_slot ? 0u : s;
 }
 
-// The levels among `resident` at which the triangle's box, widened by the walk's eps (1/64 of
-// the level's texel), holds a texel centre, as a bit mask. A triangle covers texels only at those: at the others
-// it draws nothing into any page, so no page there bins it — on a fine mesh, most triangles at
-// the coarse levels (the root took them all before). Straight-line arithmetic, no branch: on
-// lavapipe a branch in a loop costs more than the arithmetic it would skip.
-uint centre_levels(vec2 tmin, vec2 tmax, uint resident) {
-    uint levels = 0u;
-    // The resident levels only (the same for every lane: a pvssm frame has a few).
-    for (uint left = resident; left != 0u; left &= left - 1u) {
-        uint level = uint(findLSB(left));
-        float scale = 1.0 / float(1u << level);
-        float eps = float(1u << level) / 64.0;
-        vec2 first = ceil((tmin - eps) * scale - 0.5);
-        vec2 last = floor((tmax + eps) * scale - 0.5);
-        levels |= uint(all(greaterThanEqual(last, first))) << level;
-    }
-    return levels;
-}
-
 // Walks the resident pages of this round under the triangle: returns how many it overlaps.
-uint walk(uint tri, Projected t, uint what, uint next) {
+uint walk(uint tri, Projected t, uint what) {
     uint binned = 0u;
     if (t.culled) {
         return 0u;
@@ -204,22 +173,37 @@ uint walk(uint tri, Projected t, uint what, uint next) {
     if (t.projected) {
         vec2 tmin = min(t.p0, min(t.p1, t.p2));
         vec2 tmax = max(t.p0, max(t.p1, t.p2));
-        // The levels with a resident page of this round: one word, the same for every lane.
+        // The levels with a resident page of this round: one word, the same for every lane, so
+        // the loop is the same for all (a pvssm frame has a few such levels).
         uint resident = level_info[pc.round * pc.levels].levels_mask;
-        uint levels = centre_levels(tmin, tmax, resident);
-        while (levels != 0u) {
-            uint level = uint(findLSB(levels));
-            levels &= levels - 1u;
-            float texels = float(pc.page_size << level);
+        for (uint left = resident; left != 0u; left &= left - 1u) {
+            uint level = uint(findLSB(left));
+            float scale = 1.0 / float(1u << level);
             float eps = float(1u << level) / 64.0;
             vec2 wmin = tmin - eps;
             vec2 wmax = tmax + eps;
-            // The pages under the box, the table says which are resident; a box over more
-            // than 2 x 2 pages is narrowed to the level's resident rectangle first (reading
-            // that is a gather per lane on lavapipe, for nothing where the box is small).
+            // A triangle whose widened box holds no texel centre of the level covers none of
+            // its texels: it draws nothing into the level's pages, so none bins it — on a fine
+            // mesh, most triangles at the coarse levels (the root took them all before).
+            if (any(greaterThan(ceil(wmin * scale - 0.5), floor(wmax * scale - 0.5)))) {
+                continue;
+            }
+            float texels = float(pc.page_size << level);
             int last = int(pages_per_side(pc.virtual_size, pc.page_size, level)) - 1;
             ivec2 lo = max(ivec2(0), ivec2(floor(wmin / texels)));
             ivec2 hi = min(ivec2(last), ivec2(floor(wmax / texels)));
+            if (lo == hi) {
+                // The widened box within one page: so is the triangle, which then overlaps
+                // the page's widened rectangle (what the test below would find, for less).
+                uint s = resident_slot(level, lo, first_slot);
+                if (s != 0u) {
+                    visit(tri, s - 1u, what, binned);
+                }
+                continue;
+            }
+            // The pages under the box, the table says which are resident; a box over more
+            // than 2 x 2 pages is narrowed to the level's resident rectangle first (reading
+            // that is a gather per lane on lavapipe, for nothing where the box is small).
             if (any(greaterThan(hi - lo, ivec2(1)))) {
                 LevelInfo info = level_info[pc.round * pc.levels + level];
                 lo = max(lo, ivec2(~info.min_x_not, ~info.min_y_not));
@@ -231,7 +215,7 @@ uint walk(uint tri, Projected t, uint what, uint next) {
                     vec2 rlo = vec2(px, py) * texels;
                     if (s != 0u && overlaps(t.p0, t.p1, t.p2, t.area, rlo - eps,
                                             rlo + texels + eps)) {
-                        visit(tri, s - 1u, what, next, binned);
+                        visit(tri, s - 1u, what, binned);
                     }
                 }
             }
@@ -254,7 +238,7 @@ uint walk(uint tri, Projected t, uint what, uint next) {
                 vec2 rhi = rlo + texels;
                 if (s != 0u && overlaps_clip(t.a, t.b, t.c, rlo / v * 2.0 - 1.0,
                                              rhi / v * 2.0 - 1.0)) {
-                    visit(tri, s - 1u, what, next, binned);
+                    visit(tri, s - 1u, what, binned);
                 }
             }
         }
@@ -270,29 +254,18 @@ void main() {
         return;
     }
     Projected t = project(tri);
-    uint binned = walk(tri, t, pc.mode == 2u ? WALK_RECORD : pc.mode, 0u);
+    uint binned = walk(tri, t, pc.mode);
     if (binned == 0u) {
         return;
     }
     if (pc.mode == 0u) {
         atomicAdd(counters[C_BINNED], binned);
     } else if (pc.mode == 2u) {
-        atomicAdd(counters[C_BINNED], binned);
+        // (The pairs are counted from the cursors by draws.comp: an atomic less per triangle.)
         uint cursors = pc.pool_pages;
         if (hit_root) {
             entries[atomicAdd(bin_cursor[cursors + APPEND_ROOT], 1u)] = uvec2(tri, 0u);
             bin_count[0] = 1u;
-        }
-        if (rest_hits > 0u) {
-            uint next = pc.triangles + atomicAdd(bin_cursor[cursors + APPEND_REST], rest_hits);
-            uint kept = min(rest_hits, HITS);
-            for (uint h = 0u; h < kept; ++h) {
-                append(tri, hits[h], next + h);
-            }
-            if (rest_hits > HITS) {
-                rest_hits = 0u;
-                walk(tri, t, WALK_APPEND, next + HITS);
-            }
         }
     }
 }

@@ -64,6 +64,9 @@ void main() {
             uint room = pc.capacity - pc.triangles;
             rest_start = pc.triangles + min(rest_first, room);
             rest_end = pc.triangles + min(rest, room);
+            // The cursors count every pair the walk found, written or not: bin.comp leaves
+            // `triangles_binned` to this.
+            atomicAdd(counters[C_BINNED], end + rest - rest_first);
         } else if (end_slot > first_slot) {
             start = bin_offset[first_slot];
             end = max(start, min(bin_end(end_slot - 1u), pc.capacity));

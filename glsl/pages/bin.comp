@@ -156,7 +156,7 @@ void visit(uint tri, uint slot, uint what, inout uint binned) {
     binned += 1u;
 }
 
-// The slot of page `page` of `level` if it is resident and of this round, else 0; plus one.
+// Slot + 1 of page `page` of `level` if it is resident and of this round, else 0.
 uint resident_slot(uint level, ivec2 page, uint first_slot) {
     uint s = table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level, uvec2(page))];
     return s == 0u || s - 1u < first_slot ? 0u : s;
@@ -189,18 +189,27 @@ uint walk(uint tri, Projected t, uint what) {
                 continue;
             }
             float texels = float(pc.page_size << level);
+            // The box's pages, clamped in float to one page beyond the level on each side
+            // before the conversion (a corner near the light's plane projects far out, and
+            // converting a float past int's range is undefined).
             int last = int(pages_per_side(pc.virtual_size, pc.page_size, level)) - 1;
-            ivec2 lo = max(ivec2(0), ivec2(floor(wmin / texels)));
-            ivec2 hi = min(ivec2(last), ivec2(floor(wmax / texels)));
+            vec2 beyond = vec2(float(last) + 1.0);
+            ivec2 lo = ivec2(clamp(floor(wmin / texels), vec2(-1.0), beyond));
+            ivec2 hi = ivec2(clamp(floor(wmax / texels), vec2(-1.0), beyond));
             if (lo == hi) {
-                // The widened box within one page: so is the triangle, which then overlaps
-                // the page's widened rectangle (what the test below would find, for less).
-                uint s = resident_slot(level, lo, first_slot);
-                if (s != 0u) {
-                    visit(tri, s - 1u, what, binned);
+                // The widened box within one page of the level: so is the triangle, which then
+                // overlaps the page's widened rectangle (what the test below would find, for
+                // less); a box within a page past the level's edge touches none.
+                if (all(greaterThanEqual(lo, ivec2(0))) && all(lessThanEqual(lo, ivec2(last)))) {
+                    uint s = resident_slot(level, lo, first_slot);
+                    if (s != 0u) {
+                        visit(tri, s - 1u, what, binned);
+                    }
                 }
                 continue;
             }
+            lo = max(lo, ivec2(0));
+            hi = min(hi, ivec2(last));
             // The pages under the box, the table says which are resident; a box over more
             // than 2 x 2 pages is narrowed to the level's resident rectangle first (reading
             // that is a gather per lane on lavapipe, for nothing where the box is small).

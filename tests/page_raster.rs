@@ -265,3 +265,35 @@ fn an_atlas_past_one_storage_buffer_is_refused_for_compute_and_drawn_by_auto() {
     }
     common::assert_clean(&engine.context().validation());
 }
+
+/// A pool past `MAX_POOL_PAGES` is refused before anything is made: the shaders find a slot's
+/// atlas cell by a float quotient that is exact only below it. (The `pool_pages` knob stops far
+/// below; this is the library's own check, for a caller who builds a `PagesDesc`.)
+#[test]
+fn a_pool_past_the_exact_slot_quotient_is_refused() {
+    use penumbra::passes::pages::{PageRaster, PagesDesc, MAX_POOL_PAGES};
+    use penumbra::passes::DepthBias;
+    let ctx = common::context();
+    let desc = |pool_pages| PagesDesc {
+        virtual_size: 4096,
+        page_size: 16,
+        pool_pages,
+        bin_factor: 1,
+        bias: DepthBias {
+            constant: 1.5,
+            slope: 2.0,
+            clamp: 0.0,
+        },
+        raster: PageRaster::Graphics,
+        ancestors_on_overflow: false,
+        raster_split: 64,
+    };
+    match desc(MAX_POOL_PAGES + 1).check(&ctx, "test") {
+        Err(penumbra::Error::Parameter { message, .. }) => {
+            assert!(message.contains("pool_pages"), "{message}")
+        }
+        other => panic!("expected a parameter error, got {other:?}"),
+    }
+    assert!(desc(1024).check(&ctx, "test").is_ok());
+    common::assert_clean(&ctx.validation());
+}

@@ -5,7 +5,7 @@
 // lit and counted, as in pcf.comp. CPU twin: src/cpu/filtered.rs (reconstruct and friends).
 #include "shadow_map.glsl"
 #include "filtered.glsl"
-#include "share.glsl"
+#include "chebyshev.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -27,16 +27,6 @@ float safe_div(float a, float b) {
 
 float linstep(float lo, float hi, float v) {
     return clamp((v - lo) / (hi - lo), 0.0, 1.0);
-}
-
-// Chebyshev's one-sided bound Pr(z >= d) <= var / (var + (d - mean)^2) for d > mean.
-float chebyshev(vec2 m, float d, float min_variance) {
-    float variance = max(m.y - m.x * m.x, min_variance);
-    float diff = d - m.x;
-    if (diff <= 0.0) {
-        return 1.0;
-    }
-    return share(variance, max(variance + diff * diff, 1e-30));
 }
 
 // Hamburger 4MSM (Peters & Klein 2015, Algorithm 2; MJP's ComputeMSMHamburger): the sharpest

@@ -13,10 +13,14 @@
 // loop bound small and fixed.
 #define MAX_PAGE_LEVELS 16
 
+// log2 of the page size (a power of two): pages are found by shifts and masks. An integer
+// division by a value the compiler cannot see is one scalar division per SIMD lane on lavapipe.
+uint page_shift(uint page_size) {
+    return uint(findMSB(page_size));
+}
+
 uint pages_per_side(uint virtual_size, uint page_size, uint level) {
-    // Both sizes are powers of two (PagesDesc's checks), so a shift: an integer division by a
-    // value the compiler cannot see is eight scalar divisions on lavapipe's 8-lane SIMD.
-    return virtual_size >> (uint(findMSB(page_size)) + level);
+    return virtual_size >> (page_shift(page_size) + level);
 }
 
 // Entries of the levels coarser than `level`: sum over k > level of 4^(L-1-k) = (4^(L-1-level) - 1) / 3.
@@ -44,21 +48,15 @@ bool texel_inside(ivec2 t, uint virtual_size, uint level) {
     return all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, ivec2(size)));
 }
 
-// log2 of the page size (a power of two): pages are found by shifts and masks. An integer
-// division by a value the compiler cannot see is one scalar division per SIMD lane on lavapipe.
-uint page_shift(uint page_size) {
-    return uint(findMSB(page_size));
-}
-
 // The page holding level-l texel t (t inside the level).
 uvec2 texel_page(ivec2 t, uint page_size) {
     return uvec2(t) >> page_shift(page_size);
 }
 
 // (slot % atlas_cols, slot / atlas_cols): the slot's column and row in the atlas, by a float
-// quotient. Exact while slot < 2^22 (PagesDesc's checks bound the pool so): (slot + 0.5) / cols
-// lies at least 0.5 / cols from an integer, a relative distance of more than 2^-23, and a
-// division a few ulp off (a GPU's) cannot cross it.
+// quotient. Exact while slot < 2^20 (PagesDesc's checks bound the pool so): slot + 0.5 is exact,
+// and (slot + 0.5) / cols lies 0.5 / cols or more from an integer, a relative distance above
+// 2^-21 = 4 * 2^-23, wider than the 2.5 ulp (at most 2.5 * 2^-23) Vulkan lets a division be off.
 uvec2 slot_cell(uint slot, uint atlas_cols) {
     uint row = uint((float(slot) + 0.5) / float(atlas_cols));
     return uvec2(slot - row * atlas_cols, row);

@@ -10,7 +10,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "shadow_map.glsl"
 #include "savsm.glsl"
-#include "share.glsl"
+#include "chebyshev.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "dealt_tile.glsl"
@@ -91,16 +91,6 @@ float window_mean(vec2 p) {
 
 float linstep(float lo, float hi, float v) {
     return clamp((v - lo) / (hi - lo), 0.0, 1.0);
-}
-
-// Chebyshev's one-sided bound, as glsl/filtered/reconstruct.comp.
-float chebyshev(vec2 m, float d, float min_variance) {
-    float variance = max(m.y - m.x * m.x, min_variance);
-    float diff = d - m.x;
-    if (diff <= 0.0) {
-        return 1.0;
-    }
-    return share(variance, max(variance + diff * diff, 1e-30));
 }
 
 #define INVOCATION_COUNTS 5

@@ -20,6 +20,7 @@
 #include "soft_light.glsl"
 #include "vssm.glsl"
 #include "share.glsl"
+#include "chebyshev.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "dealt_tile.glsl"
@@ -108,16 +109,6 @@ vec2 moments(vec2 lo, vec2 hi) {
     return vec2(m1, box_mean(lo, hi));
 }
 
-// Chebyshev's one-sided bound on the fraction at or behind d (1 when the mean is not in front).
-float chebyshev(vec2 m, float d) {
-    float variance = max(m.y - m.x * m.x, pc.min_variance);
-    float diff = d - m.x;
-    if (diff <= 0.0) {
-        return 1.0;
-    }
-    return share(variance, max(variance + diff * diff, 1e-30));
-}
-
 // Linear depth of texel t, the far plane outside the map.
 float texel_z(ivec2 t) {
     if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(pc.map_size)))) {
@@ -149,7 +140,7 @@ vec2 pcf_blockers(vec2 p, float d) {
 // Eq. 6.11 as (blocker fraction, fraction x average blocker depth): the non-blockers (fraction
 // p) are taken at the receiver's depth d, so n_occ z_avg = n mean - (n - n_occ) d.
 vec2 chebyshev_blockers(vec2 m, float d) {
-    float p = chebyshev(m, d);
+    float p = chebyshev(m, d, pc.min_variance);
     return vec2(1.0 - p, m.x - p * d);
 }
 
@@ -184,7 +175,7 @@ float filter_visibility(vec2 lo, vec2 hi, float d, inout bool subdivided) {
     vec2 m = moments(lo, hi);
     int n = pc.subdivision;
     if (m.x < d || n <= 1) {
-        return chebyshev(m, d);
+        return chebyshev(m, d, pc.min_variance);
     }
     subdivided = true;
     float acc = 0.0;
@@ -193,7 +184,7 @@ float filter_visibility(vec2 lo, vec2 hi, float d, inout bool subdivided) {
             vec2 slo, shi;
             sub_region(lo, hi, i, j, n, slo, shi);
             vec2 ms = moments(slo, shi);
-            acc += ms.x < d ? chebyshev(ms, d) : 1.0 - pcf_blockers(0.5 * (slo + shi), d).x;
+            acc += ms.x < d ? chebyshev(ms, d, pc.min_variance) : 1.0 - pcf_blockers(0.5 * (slo + shi), d).x;
         }
     }
     return share(acc, float(n * n));

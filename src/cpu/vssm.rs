@@ -14,6 +14,7 @@
 
 use glam::{IVec2, Vec2, Vec4};
 
+use super::filtered::chebyshev;
 use super::nbuffer::{build as build_nbuffer, combine, NBufferLevels};
 use super::sat::{build_u32_fixed, SatTable};
 use super::shadow_map::{inside_map, shadow_coord};
@@ -118,17 +119,6 @@ pub fn footprint(pc: &VssmPush, receiver: f32, blocker: f32) -> Vec2 {
         receiver - blocker
     };
     pc.light_size * s.max(0.0)
-}
-
-/// Chebyshev's one-sided bound on the fraction of depths at or behind `d` (1 when the mean is
-/// not in front of `d`).
-pub fn chebyshev(m1: f32, m2: f32, d: f32, min_variance: f32) -> f32 {
-    let variance = (m2 - m1 * m1).max(min_variance);
-    let diff = d - m1;
-    if diff <= 0.0 {
-        return 1.0;
-    }
-    variance / (variance + diff * diff).max(1e-30)
 }
 
 /// Eq. 6.11: (blocker fraction 1 − p, that fraction × the average blocker depth), the

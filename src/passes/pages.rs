@@ -63,9 +63,9 @@ use crate::shader_types::PagesPush;
 /// Most mip levels of a virtual map (`glsl/include/pages.glsl`'s `MAX_PAGE_LEVELS`).
 pub const MAX_PAGE_LEVELS: u32 = 16;
 
-/// Most page slots in the atlas (4 Mi), where the shaders' float quotient for a slot's atlas
-/// cell stays exact.
-pub const MAX_POOL_PAGES: u32 = 1 << 22;
+/// Most page slots in the atlas (1 Mi), where the shaders' float quotient for a slot's atlas
+/// cell stays exact on any device (`slot_cell` in glsl/include/pages.glsl).
+pub const MAX_POOL_PAGES: u32 = 1 << 20;
 
 /// Most page-table entries (4 Mi: a 16 MiB table), which bounds `virtual_size / page_size`.
 pub const MAX_PAGE_ENTRIES: u32 = 1 << 22;
@@ -186,7 +186,9 @@ impl PagesDesc {
         4 * u64::from(w) * u64::from(h)
     }
 
-    fn check(&self, ctx: &Context, technique: &str) -> Result<()> {
+    /// Checks the description against the rules above and `ctx`'s limits; `technique` names it
+    /// in the error. [`VirtualPages::new`] runs it first.
+    pub fn check(&self, ctx: &Context, technique: &str) -> Result<()> {
         let bad = |message: String| {
             Err(Error::Parameter {
                 technique: technique.to_string(),
@@ -217,8 +219,7 @@ impl PagesDesc {
         if self.pool_pages == 0 || self.bin_factor == 0 {
             return bad("pool_pages and bin_factor must be at least 1".into());
         }
-        // The shaders find a slot's atlas cell by a float quotient, exact below 2^22 slots
-        // (`slot_cell` in glsl/include/pages.glsl).
+        // The shaders find a slot's atlas cell by a float quotient (MAX_POOL_PAGES).
         if self.pool_pages > MAX_POOL_PAGES {
             return bad(format!(
                 "pool_pages {} is more than {MAX_POOL_PAGES}",

@@ -7,8 +7,11 @@
 // every triangle went to the root, 2.6 M pairs; now 0.6 M). Two ways to bin, by what draws the
 // pages:
 // - for the rasterizer (one draw per level, so a level's bins must be contiguous): mode 0
-//   counts per slot; after an exclusive scan of the counts, mode 1 writes (triangle, slot) pairs
-//   at the slot's offset. Both modes run the same test, so they agree;
+//   counts per slot and notes each triangle's first two slots (its memo); after an exclusive
+//   scan of the counts, mode 1 writes (triangle, slot) pairs at the slot's offset — from the
+//   memo, walking again only a triangle of more than two pairs (the second walk was half the
+//   pass: 800k-triangle grid, ~25 ms of ~60 on lavapipe). The memo and the walk come from the
+//   same test, so the modes agree;
 // - for the compute page raster (mode 2, which takes the entries in any order): one walk, the
 //   pairs appended — the root's (slot 0: at most every triangle once) to entries [0, triangles),
 //   the others' after them, each at an atomic on its region's cursor (the root's once per
@@ -34,9 +37,18 @@ layout(set = 0, binding = 5) readonly buffer BinOffset { uint bin_offset[]; };
 layout(set = 0, binding = 6) buffer BinCursor { uint bin_cursor[]; };
 layout(set = 0, binding = 7) writeonly buffer Entries { uvec2 entries[]; };
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
+// Per triangle, mode 0's memo for mode 1: its first two slots + 1 (0: none), the second
+// MEMO_MORE when it has more than two.
+layout(set = 0, binding = 9) buffer Memo { uvec2 memo[]; };
+
+const uint MEMO_MORE = 0xffffffffu;
 
 // Whether a walk in mode 2 found the root (round 0's slot 0), whose pair is appended last.
 bool hit_root = false;
+// Mode 0's memo of the walk: first and second slot + 1, and whether there were more.
+uint memo_first = 0u;
+uint memo_second = 0u;
+bool memo_more = false;
 
 vec4 clip_vertex(uint i) {
     uint v = indices[i];
@@ -136,15 +148,27 @@ void append(uint tri, uint slot, uint pos) {
     }
 }
 
+// Mode 1: writes the pair (tri, slot) at the slot's offset, if it fits.
+void scatter(uint tri, uint slot) {
+    uint pos = bin_offset[slot] + atomicAdd(bin_cursor[slot], 1u);
+    if (pos < pc.capacity) {
+        entries[pos] = uvec2(tri, slot);
+    }
+}
+
 // What the walk does with a page the triangle overlaps (slot `slot`); counts it in `binned`.
 void visit(uint tri, uint slot, uint what, inout uint binned) {
     if (what == WALK_COUNT) {
         atomicAdd(bin_count[slot], 1u);
-    } else if (what == WALK_SCATTER) {
-        uint pos = bin_offset[slot] + atomicAdd(bin_cursor[slot], 1u);
-        if (pos < pc.capacity) {
-            entries[pos] = uvec2(tri, slot);
+        if (binned == 0u) {
+            memo_first = slot + 1u;
+        } else if (binned == 1u) {
+            memo_second = slot + 1u;
+        } else {
+            memo_more = true;
         }
+    } else if (what == WALK_SCATTER) {
+        scatter(tri, slot);
     } else if (slot == 0u) {
         hit_root = true;
     } else {
@@ -177,54 +201,57 @@ uint walk(uint tri, Projected t, uint what) {
         // the loop is the same for all (a pvssm frame has a few such levels).
         uint resident = level_info[pc.round * pc.levels].levels_mask;
         for (uint left = resident; left != 0u; left &= left - 1u) {
+            // No `continue` in this loop: a divergent one makes the level a per-lane value to
+            // the compiler, and the level's bookkeeping below a gather per lane on lavapipe
+            // instead of one load.
             uint level = uint(findLSB(left));
+            LevelInfo info = level_info[pc.round * pc.levels + level];
             float scale = 1.0 / float(1u << level);
             float eps = float(1u << level) / 64.0;
+            float texels = float(pc.page_size << level);
             vec2 wmin = tmin - eps;
             vec2 wmax = tmax + eps;
             // A triangle whose widened box holds no texel centre of the level covers none of
             // its texels: it draws nothing into the level's pages, so none bins it — on a fine
-            // mesh, most triangles at the coarse levels (the root took them all before).
-            if (any(greaterThan(ceil(wmin * scale - 0.5), floor(wmax * scale - 0.5)))) {
-                continue;
-            }
-            float texels = float(pc.page_size << level);
-            // The box's pages, clamped in float to one page beyond the level on each side
-            // before the conversion (a corner near the light's plane projects far out, and
-            // converting a float past int's range is undefined).
-            int last = int(pages_per_side(pc.virtual_size, pc.page_size, level)) - 1;
-            vec2 beyond = vec2(float(last) + 1.0);
-            ivec2 lo = ivec2(clamp(floor(wmin / texels), vec2(-1.0), beyond));
-            ivec2 hi = ivec2(clamp(floor(wmax / texels), vec2(-1.0), beyond));
-            if (lo == hi) {
-                // The widened box within one page of the level: so is the triangle, which then
-                // overlaps the page's widened rectangle (what the test below would find, for
-                // less); a box within a page past the level's edge touches none.
-                if (all(greaterThanEqual(lo, ivec2(0))) && all(lessThanEqual(lo, ivec2(last)))) {
-                    uint s = resident_slot(level, lo, first_slot);
-                    if (s != 0u) {
-                        visit(tri, s - 1u, what, binned);
+            // mesh, most triangles at the coarse levels (the root took them all before). Nor
+            // does one whose widened box misses the level's resident rectangle (at the fine
+            // levels, pages only around the penumbrae: most triangles), which saves the table.
+            bool centre = all(lessThanEqual(ceil(wmin * scale - 0.5), floor(wmax * scale - 0.5)));
+            vec2 rect_lo = vec2(~info.min_x_not, ~info.min_y_not) * texels;
+            vec2 rect_hi = (vec2(info.max_x, info.max_y) + 1.0) * texels;
+            bool near = all(lessThanEqual(wmin, rect_hi)) && all(greaterThanEqual(wmax, rect_lo));
+            if (centre && near) {
+                // The box's pages, clamped in float to one page beyond the level on each side
+                // before the conversion (a corner near the light's plane projects far out, and
+                // converting a float past int's range is undefined).
+                int last = int(pages_per_side(pc.virtual_size, pc.page_size, level)) - 1;
+                vec2 beyond = vec2(float(last) + 1.0);
+                ivec2 lo = ivec2(clamp(floor(wmin / texels), vec2(-1.0), beyond));
+                ivec2 hi = ivec2(clamp(floor(wmax / texels), vec2(-1.0), beyond));
+                if (lo == hi) {
+                    // The widened box within one page of the level: so is the triangle, which
+                    // then overlaps the page's widened rectangle (what the test below would
+                    // find, for less); a box within a page past the level's edge touches none.
+                    if (all(greaterThanEqual(lo, ivec2(0))) && all(lessThanEqual(lo, ivec2(last)))) {
+                        uint s = resident_slot(level, lo, first_slot);
+                        if (s != 0u) {
+                            visit(tri, s - 1u, what, binned);
+                        }
                     }
-                }
-                continue;
-            }
-            lo = max(lo, ivec2(0));
-            hi = min(hi, ivec2(last));
-            // The pages under the box, the table says which are resident; a box over more
-            // than 2 x 2 pages is narrowed to the level's resident rectangle first (reading
-            // that is a gather per lane on lavapipe, for nothing where the box is small).
-            if (any(greaterThan(hi - lo, ivec2(1)))) {
-                LevelInfo info = level_info[pc.round * pc.levels + level];
-                lo = max(lo, ivec2(~info.min_x_not, ~info.min_y_not));
-                hi = min(hi, ivec2(info.max_x, info.max_y));
-            }
-            for (int py = lo.y; py <= hi.y; ++py) {
-                for (int px = lo.x; px <= hi.x; ++px) {
-                    uint s = resident_slot(level, ivec2(px, py), first_slot);
-                    vec2 rlo = vec2(px, py) * texels;
-                    if (s != 0u && overlaps(t.p0, t.p1, t.p2, t.area, rlo - eps,
-                                            rlo + texels + eps)) {
-                        visit(tri, s - 1u, what, binned);
+                } else {
+                    // The pages under the box within the level's resident rectangle; the
+                    // table says which are resident.
+                    lo = max(lo, max(ivec2(0), ivec2(~info.min_x_not, ~info.min_y_not)));
+                    hi = min(hi, min(ivec2(last), ivec2(info.max_x, info.max_y)));
+                    for (int py = lo.y; py <= hi.y; ++py) {
+                        for (int px = lo.x; px <= hi.x; ++px) {
+                            uint s = resident_slot(level, ivec2(px, py), first_slot);
+                            vec2 rlo = vec2(px, py) * texels;
+                            if (s != 0u && overlaps(t.p0, t.p1, t.p2, t.area, rlo - eps,
+                                                    rlo + texels + eps)) {
+                                visit(tri, s - 1u, what, binned);
+                            }
+                        }
                     }
                 }
             }
@@ -262,8 +289,23 @@ void main() {
     if (tri >= pc.triangles) {
         return;
     }
+    if (pc.mode == 1u) {
+        uvec2 m = memo[tri];
+        if (m.y != MEMO_MORE) {
+            if (m.x != 0u) {
+                scatter(tri, m.x - 1u);
+            }
+            if (m.y != 0u) {
+                scatter(tri, m.y - 1u);
+            }
+            return;
+        }
+    }
     Projected t = project(tri);
     uint binned = walk(tri, t, pc.mode);
+    if (pc.mode == 0u) {
+        memo[tri] = uvec2(memo_first, memo_more ? MEMO_MORE : memo_second);
+    }
     if (binned == 0u) {
         return;
     }

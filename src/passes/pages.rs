@@ -276,6 +276,8 @@ pub struct VirtualPages<'a> {
     bin_count: Buffer,
     // Read through the bin and draw sets.
     _bin_offset: Buffer,
+    // bin.comp mode 0's per-triangle memo of slots for mode 1 (bound in the bin set).
+    _bin_memo: Buffer,
     bin_cursor: Buffer,
     entries: Buffer,
     draws: Buffer,
@@ -368,6 +370,13 @@ impl<'a> VirtualPages<'a> {
             4 * (u64::from(pool) + APPEND_CURSORS as u64),
         )?;
         let bins = storage("page bins", 8 * u64::from(capacity))?;
+        // bin.comp mode 0's memo for mode 1, per triangle (the rasterizer's way of binning only;
+        // appending walks once and needs none).
+        let memo_size = match desc.raster {
+            PageRaster::Graphics => 8 * u64::from(triangles.max(1)),
+            PageRaster::Compute => 8,
+        };
+        let bin_memo = storage("page bin memo", memo_size)?;
         let draws = Buffer::new(
             ctx,
             "page draws",
@@ -462,6 +471,7 @@ impl<'a> VirtualPages<'a> {
                 Binding::Buffer(&bin_cursor),
                 Binding::Buffer(&bins),
                 Binding::Buffer(&counters),
+                Binding::Buffer(&bin_memo),
             ],
         )?;
         let draw_args = with_set(
@@ -577,6 +587,7 @@ impl<'a> VirtualPages<'a> {
             level_info,
             bin_count,
             _bin_offset: bin_offset,
+            _bin_memo: bin_memo,
             bin_cursor,
             entries: bins,
             draws,

@@ -295,6 +295,36 @@ fn skipping_changes_the_work_not_the_output() {
     common::assert_clean(&engine.context().validation());
 }
 
+/// The kernel's own proof (`kernel_proof`): after the refined search a sample whose kernel's
+/// reach (its box and a texel of its level around it: what the exact filter reads) holds no
+/// blocker in the conservative map is decided lit in the shape pass — what the filter would
+/// have found, so the work changes and the output does not, but where the filter's tangent
+/// plane over the kernel rises past the search's (bounded here, as the flag above is).
+#[test]
+fn kernel_proof_changes_the_work_not_the_output() {
+    let engine = common::engine();
+    for scene in ["scenes/teapot-rect.toml", "scenes/bunny-rect.toml"] {
+        let prepared = engine.prepare(&common::small(scene)).expect("prepare");
+        let on = render(&engine, &prepared, &[]);
+        let off = render(&engine, &prepared, &[("kernel_proof", "0")]);
+        let (differing, worst) =
+            penumbra::metrics::bitwise_difference(&on.visibility, &off.visibility);
+        let proved = counter(&on, "kernel_lit");
+        eprintln!("{scene}: {proved} samples proved lit by their kernel; {differing} pixels differ (max {worst})");
+        assert!(proved > 50, "{scene}: {:?}", on.stats.counters);
+        assert_eq!(counter(&off, "kernel_lit"), 0);
+        assert!(
+            counter(&on, "filter_texels") < counter(&off, "filter_texels"),
+            "{scene}: the proof filtered no fewer texels"
+        );
+        assert!(
+            differing * 1000 <= on.visibility.len(),
+            "{scene}: {differing} pixels changed (max {worst})"
+        );
+    }
+    common::assert_clean(&engine.context().validation());
+}
+
 /// Larger lights need fewer texels across a kernel in screen terms: fewer pages (the paper's
 /// Fig. 10 behaviour).
 #[test]

@@ -58,6 +58,9 @@ layout(push_constant) uniform Push {
 #define OPT_COARSE_SKIP 8u
 // blocker_depth = silhouette: the refined search averages the silhouette cells (shape.comp).
 #define OPT_SILHOUETTE 16u
+// kernel_proof: a sample whose kernel's reach holds no blocker in the conservative map is
+// decided lit in the shape pass (shape.comp).
+#define OPT_KERNEL_PROOF 32u
 // Of the predicted z_avg's distance to the receiver, the least a silhouette cell's may have
 // (0.1-0.5 measured: penumbra MAE teapot-rect 0.0152-0.0159, bunny-rect 0.0295-0.0307).
 #define SILHOUETTE_GAP 0.25
@@ -83,7 +86,9 @@ layout(push_constant) uniform Push {
 #define C_FILTER_CUT 10
 // Samples the coarse look (`skip`) decided lit without the full blocker search.
 #define C_SKIPPED_LIT 11
-#define COUNTERS 12
+// Samples the kernel's own reach proved lit after the refined search (`kernel_proof`).
+#define C_KERNEL_LIT 12
+#define COUNTERS 13
 
 // A shape that needs no filtering: the shape pass decided V.
 #define DECIDED -1.0

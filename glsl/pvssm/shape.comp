@@ -371,12 +371,17 @@ void main() {
                 float d_avg = sum.y > 0.0 ? sum.x / sum.y : dr;
                 vec2 w = soft_light_footprint(pc.light_size, pc.perspective, dr, d_avg);
                 bool silhouette = (pc.options & OPT_SILHOUETTE) != 0u;
+                bool continue_kernel = true;
+                // Whether the last refined search found blockers over (about) the kernel: then
+                // its reach holds some, and the proof below is not tried.
+                bool refined_found = false;
                 for (uint k = 0u; k < refinements; ++k) {
                     vec2 half2 = (0.5 * w + abs(u_phi) + abs(v_phi)) / lowres_texel;
                     half2 = min(half2, half_low);
                     vec2 sum2 = silhouette
                         ? silhouette_search(centre, half2, cells, rc, lowres_texel, dr, d_avg)
                         : blocker_search(centre, half2, cells, rc, lowres_texel);
+                    refined_found = sum2.y > 0.0;
                     if (sum2.y > 0.0) {
                         d_avg = sum2.x / sum2.y;
                         w = soft_light_footprint(pc.light_size, pc.perspective, dr, d_avg);
@@ -396,6 +401,20 @@ void main() {
                 if (fixed_plus1 != 0u) {
                     level = min(fixed_plus1 - 1u, pc.levels - 1u);
                 }
+                // The kernel's own reach (its box and a texel of its level on every side: the
+                // texels the exact filter reads) holding no blocker in the conservative map proves
+                // V = 1 as the filter would find it: the sample is decided lit without pages.
+                float reach_texel = float(1u << level);
+                vec2 reach = vec2(u_h.x, abs(u_h.y) + v_h.y) + reach_texel;
+                if (lit_proof && (pc.options & OPT_KERNEL_PROOF) != 0u && !refined_found
+                    && !may_have_blocker(centre, reach / lowres_texel, first_cells, rc,
+                                         lowres_texel)) {
+                    count(C_KERNEL_LIT, 1u);
+                    count(C_LIT, 1u);
+                    decide(pixel, 1.0);
+                    continue_kernel = false;
+                }
+                if (continue_kernel) {
                 imageStore(shape, pixel, vec4(u_h, v_h.y, float(level)));
                 // Every page of that level under the kernel's box (one texel of margin for the
                 // panel approximation's rounding), and their ancestors.
@@ -418,6 +437,7 @@ void main() {
                     }
                 }
                 count(C_REQUESTED, marks);
+                }
             }
         }
     }

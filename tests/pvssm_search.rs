@@ -7,7 +7,8 @@ mod common;
 /// The blocker search against its CPU twin (`src/cpu/pvssm_search.rs`) reading the GPU's own
 /// conservative low-resolution map and pyramid (whose levels above the map must equal the
 /// twin's `min_levels`, bit for bit): every sample the shape pass decides fully lit the twin
-/// finds unblocked, and every other sample's kernel widths (without anti-aliasing, half the
+/// finds unblocked or proves lit by its kernel's reach (`kernel_proof`, with the twin's level
+/// prediction), and every other sample's kernel widths (without anti-aliasing, half the
 /// light's footprint through the final z_avg) agree to relative 1e-3 (the twin's module note
 /// says why not tighter) — both z_avg choices, on both rect scenes, receivers flat
 /// (`tangent_plane = 0`), every sample evaluated (`horizon_skip = 0`), with the silhouette's
@@ -18,8 +19,11 @@ mod common;
 #[test]
 fn blocker_search_matches_cpu() {
     use glam::{IVec2, Vec2};
+    use penumbra::cpu::pages::PageLayout;
     use penumbra::cpu::pcss::PcssSetup;
-    use penumbra::cpu::pvssm::{pixel_axes, MIN_HALF};
+    use penumbra::cpu::pvssm::{
+        pixel_axes, predicted_level, required_texel, screen_sizes, Rho, MIN_HALF,
+    };
     use penumbra::cpu::pvssm_search::{blocker_distance, min_levels, MinPyramid, SearchParams};
     use penumbra::cpu::shadow_map::{inside_map, shadow_coord};
     let engine = common::engine();
@@ -72,7 +76,9 @@ fn blocker_search_matches_cpu() {
                 coarse_skip: true,
                 lit_proof: true,
                 silhouette: depth == "silhouette",
+                kernel_proof: true,
             };
+            let levels = PageLayout::new(v_size, 64).expect("layout").levels;
             let (mut searched, mut lit, mut off, mut moved) = (0usize, 0usize, 0usize, 0usize);
             for (k, p) in positions.iter().enumerate() {
                 let c = shadow_coord(m, p.truncate(), IVec2::splat(v_size as i32));
@@ -80,15 +86,25 @@ fn blocker_search_matches_cpu() {
                     continue;
                 }
                 let pixel = ((k % width) as u32, (k / width) as u32);
-                let (u_phi, v_phi) = pixel_axes(
+                let axes = pixel_axes(
                     &prepared.camera,
                     pixel,
                     p.truncate(),
                     normals[k].truncate(),
                     m,
                     v_size,
-                )
-                .unwrap_or((Vec2::ZERO, Vec2::ZERO));
+                );
+                let (u_phi, v_phi) = axes.unwrap_or((Vec2::ZERO, Vec2::ZERO));
+                // The texels the filter would read for light kernel w (no anti-aliasing here):
+                // its box and a texel of the level the metric predicts for it.
+                let reach = |w: Vec2| {
+                    let u_h = Vec2::new((0.5 * w.x).max(MIN_HALF), 0.0);
+                    let v_h = Vec2::new(0.0, (0.5 * w.y).max(MIN_HALF));
+                    let n = screen_sizes(axes, u_h, v_h);
+                    let r = required_texel(u_h, v_h, n, Rho::Dynamic, 1.0);
+                    let level = predicted_level(r, levels);
+                    Vec2::new(u_h.x, u_h.y.abs() + v_h.y) + (1u32 << level) as f32
+                };
                 let dr = setup.distance(c.z);
                 let twin = |params: &SearchParams| {
                     blocker_distance(
@@ -101,6 +117,7 @@ fn blocker_search_matches_cpu() {
                         v_phi,
                         &|d| setup.footprint(dr, d),
                         &|z| setup.distance(z),
+                        &reach,
                     )
                 };
                 let cpu = twin(&params);

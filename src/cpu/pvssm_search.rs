@@ -66,6 +66,9 @@ pub struct SearchParams {
     pub lit_proof: bool,
     /// Average the silhouette's cells in the refined searches (`blocker_depth = silhouette`).
     pub silhouette: bool,
+    /// After refined searches that found no blocker, look over the kernel's own reach at the
+    /// first search's cells; none there proves the sample lit (`kernel_proof`).
+    pub kernel_proof: bool,
 }
 
 /// The shader's `SILHOUETTE_GAP`: of the predicted z_avg's distance to the receiver, the least a
@@ -213,7 +216,9 @@ fn silhouette_distance(
 /// the pixel's footprint half-axes `u_phi`, `v_phi` (zero where undefined): the final z_avg's
 /// distance and the kernel width it gives, or `None` where the sample is fully lit. `footprint`
 /// is `soft_light_footprint` for this sample's receiver distance; `distance` maps depth to
-/// distance.
+/// distance; `reach` the half-extents (level-0 texels) of the texels the filter reads for the
+/// light kernel of width `w` (its sheared box and a texel of its predicted level around it),
+/// for the kernel's proof.
 #[allow(clippy::too_many_arguments)]
 pub fn blocker_distance(
     pyramid: &MinPyramid,
@@ -225,6 +230,7 @@ pub fn blocker_distance(
     v_phi: Vec2,
     footprint: &dyn Fn(f32) -> Vec2,
     distance: &dyn Fn(f32) -> f32,
+    reach: &dyn Fn(Vec2) -> Vec2,
 ) -> Option<(f32, Vec2)> {
     let pixel = u_phi.abs() + v_phi.abs();
     let centre = c / params.lowres_texel;
@@ -256,15 +262,27 @@ pub fn blocker_distance(
     let dr = distance(z);
     let mut d_avg = if first.y > 0.0 { first.x / first.y } else { dr };
     let mut w = footprint(d_avg);
+    let mut refined_found = false;
     for _ in 0..params.refinements {
         let half2 = ((0.5 * w + pixel) / params.lowres_texel).min(half);
         let far_enough = params
             .silhouette
             .then_some(dr - SILHOUETTE_GAP * (dr - d_avg));
         let sum = region_search(pyramid, centre, half2, cells, z, bias, far_enough, distance);
+        refined_found = sum.y > 0.0;
         if sum.y > 0.0 {
             d_avg = sum.x / sum.y;
             w = footprint(d_avg);
+        }
+    }
+    if params.kernel_proof && params.lit_proof && !refined_found {
+        // The coarse look's test (a cell's minimum against the receiver's depth), over the
+        // kernel's reach: nothing there, nothing the filter reads blocks.
+        let r = region(pyramid, centre, reach(w) / params.lowres_texel, first_cells);
+        let any =
+            (r.a.y..=r.b.y).any(|j| (r.a.x..=r.b.x).any(|i| blocks(pyramid, &r, i, j, z, bias)));
+        if !any {
+            return None;
         }
     }
     Some((d_avg, w))
@@ -288,7 +306,13 @@ mod tests {
             coarse_skip: true,
             lit_proof: true,
             silhouette,
+            kernel_proof: true,
         }
+    }
+
+    /// The filter's reach in these tests: the kernel's half-width and one texel.
+    fn reach(w: Vec2) -> Vec2 {
+        0.5 * w + Vec2::ONE
     }
 
     /// A pyramid of `size`² over `depth(i, j)` in `lowres_mip.comp`'s layout: the minima of
@@ -319,6 +343,7 @@ mod tests {
                 Vec2::ZERO,
                 &footprint,
                 &linear,
+                &reach,
             )
         };
         let run = |p: &MinPyramid, silhouette| run_with(p, &params(silhouette));
@@ -340,6 +365,39 @@ mod tests {
             let (d, _) = run(&p, silhouette).expect("blocked");
             assert!((d - 1.3).abs() < 1e-6, "{silhouette}: {d}");
         }
+    }
+
+    /// A blocker inside the light's pyramid but far outside the kernel the searches predict:
+    /// the kernel's own reach holds none, and the proof decides the sample lit; without it the
+    /// sample goes on with its kernel.
+    #[test]
+    fn a_kernel_clear_of_blockers_proves_the_sample_lit() {
+        let far = pyramid(64, |i, _| if i < 12 { 0.3 } else { 1.0 });
+        let p = MinPyramid {
+            depths: &far,
+            size: 64,
+        };
+        let footprint = |_: f32| Vec2::splat(4.0);
+        let run = |kernel_proof| {
+            blocker_distance(
+                &p,
+                &SearchParams {
+                    kernel_proof,
+                    ..params(true)
+                },
+                Vec2::splat(32.0),
+                0.8,
+                Vec2::splat(48.0),
+                Vec2::ZERO,
+                Vec2::ZERO,
+                &footprint,
+                &linear,
+                &reach,
+            )
+        };
+        assert_eq!(run(true), None);
+        let (d, w) = run(false).expect("a kernel without the proof");
+        assert!((d - 1.3).abs() < 1e-6 && w == Vec2::splat(4.0), "{d} {w}");
     }
 
     /// A rounded caster (a dome, nearest at its centre) over the sample's side: the plain average
@@ -371,6 +429,7 @@ mod tests {
                 Vec2::ZERO,
                 &footprint,
                 &linear,
+                &reach,
             )
             .expect("blocked")
             .0

@@ -8,7 +8,7 @@ mod common;
 use std::collections::BTreeMap;
 
 use penumbra::cpu::page_raster::{rasterize_pages, PageRasterDesc};
-use penumbra::cpu::pages::atlas_columns;
+use penumbra::cpu::pages::{atlas_columns, triangle_overlaps_page, PageLayout};
 use penumbra::gpu::f32s;
 use penumbra::{Engine, Frame, PreparedScene};
 
@@ -110,14 +110,41 @@ fn compute_pages_match_their_twin() {
         .iter()
         .flat_map(|p| p.to_array())
         .collect();
-    let twin = rasterize_pages(
-        &desc,
-        prepared.light_view.view_proj,
-        &vertices,
-        &prepared.indices,
-        &gpu.bins,
-        &gpu.slots,
+    // The walk covers a tiny triangle's page itself and bins only the rest (bin.comp's
+    // cover_here), so the twin takes every pair from the binning's twin: the GPU's bins must be
+    // among them, and with the pairs it counts as covered, all of them.
+    let m = prepared.light_view.view_proj;
+    let layout = PageLayout::new(virtual_size, page).expect("layout");
+    let mut pairs = Vec::new();
+    for (tri, t) in prepared.indices.chunks_exact(3).enumerate() {
+        let clip = [0, 1, 2].map(|k| m * prepared.positions[t[k] as usize].extend(1.0));
+        for (slot, info) in gpu.slots.iter().enumerate() {
+            if triangle_overlaps_page(clip, &layout, info[0], info[1], info[2]) {
+                pairs.push((tri as u32, slot as u32));
+            }
+        }
+    }
+    let all: std::collections::BTreeSet<(u32, u32)> = pairs.iter().copied().collect();
+    let stray = gpu.bins.iter().filter(|b| !all.contains(b)).count();
+    let covered_pairs = gpu.frame.stats.counters["walk_covered_pairs"];
+    eprintln!(
+        "{} pairs by the twin: {} binned, {covered_pairs} covered in the walk, {stray} binned that \
+         the twin culls",
+        pairs.len(),
+        gpu.bins.len()
     );
+    assert!(covered_pairs > 0, "the walk covered nothing");
+    assert!(
+        stray * 1000 <= pairs.len(),
+        "{stray} binned pairs the twin culls"
+    );
+    let accounted = gpu.bins.len() as i64 + covered_pairs as i64;
+    assert!(
+        (accounted - pairs.len() as i64).abs() * 1000 <= pairs.len() as i64,
+        "{accounted} pairs binned or covered, the twin's {}",
+        pairs.len()
+    );
+    let twin = rasterize_pages(&desc, m, &vertices, &prepared.indices, &pairs, &gpu.slots);
     let covered = twin.iter().filter(|&&z| z < 1.0).count();
     // Depths within rounding; a texel centre within rounding of an edge may be covered on one
     // side only: at most 0.1 % of the covered texels.
@@ -160,13 +187,29 @@ fn compute_pages_match_the_rasterizer() {
             // The same pages in the same slots with the same casters.
             assert_eq!(compute.slots, graphics.slots, "{scene}");
             // Binned alike: appended in one walk for the compute raster, counted and
-            // scattered for the rasterizer's per-level draws.
-            let sorted = |bins: &[(u32, u32)]| {
-                let mut bins = bins.to_vec();
-                bins.sort_unstable();
-                bins
-            };
-            assert_eq!(sorted(&compute.bins), sorted(&graphics.bins), "{scene}");
+            // scattered for the rasterizer's per-level draws — but the compute walk covers a
+            // tiny triangle's page itself (bin.comp's cover_here) and bins only the rest, so its
+            // bins are the rasterizer's less the pairs it counts as covered.
+            let all: std::collections::BTreeSet<(u32, u32)> =
+                graphics.bins.iter().copied().collect();
+            assert_eq!(
+                all.len(),
+                graphics.bins.len(),
+                "{scene}: a pair binned twice"
+            );
+            let stray = compute.bins.iter().filter(|b| !all.contains(b)).count();
+            assert_eq!(
+                stray, 0,
+                "{scene}: compute pairs the rasterizer's bins lack"
+            );
+            let covered_pairs = compute.frame.stats.counters["walk_covered_pairs"];
+            assert_eq!(
+                compute.bins.len() as u64 + covered_pairs,
+                all.len() as u64,
+                "{scene} split {split}: {} binned + {covered_pairs} covered in the walk",
+                compute.bins.len()
+            );
+            assert!(covered_pairs > 0, "{scene}: the walk covered nothing");
             let covered = graphics.atlas.iter().filter(|&&z| z < 1.0).count();
             // The rasterizer snaps vertices to 1/256 texel: depths move by up to that times
             // the slope, and centres that near an edge may fall on either side. At most 1 % of

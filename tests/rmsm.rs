@@ -310,9 +310,10 @@ fn small_pool_falls_back_and_counts_overflow() {
 fn bins_hold_exactly_the_triangles_that_touch_each_page() {
     let engine = common::engine();
     let prepared = prepare(&engine, "scenes/spot-point.toml");
-    // Both ways of binning: appended in one walk (the compute raster's), and counted, scanned
-    // and scattered from the count's memo (the rasterizer's; a triangle of more than two pages
-    // walks again).
+    // Both ways of binning: appended in one walk (the compute raster's; `raster_split = 0`, so
+    // the walk covers no page itself and the bins hold every pair), and counted, scanned and
+    // scattered from the count's memo (the rasterizer's; a triangle of more than two pages walks
+    // again).
     for drawer in ["graphics", "compute"] {
         check_bins(&engine, &prepared, drawer);
     }
@@ -327,6 +328,7 @@ fn check_bins(engine: &Engine, prepared: &PreparedScene, drawer: &str) {
             ("virtual_size", "2048"),
             ("page_size", "64"),
             ("page_raster", drawer),
+            ("raster_split", "0"),
         ],
     );
     let layout = PageLayout::new(2048, 64).expect("layout");

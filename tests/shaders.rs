@@ -445,6 +445,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "pages/allocate.comp",
                 "pages/ancestors.comp",
                 "pages/bin.comp",
+                "pages/bin_lanes.comp",
                 "pages/draws.comp",
                 "pages/page_depth.vert",
                 "pages/page_depth_listed.vert",

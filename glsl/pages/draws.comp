@@ -4,7 +4,7 @@
 // out of the page table, so their lookups fall back to a coarser page instead of reading a page
 // with missing casters. Offsets grow with the slot, so the slots that fit are a prefix: the root
 // (slot 0, at most every triangle once, and the capacity holds that) always fits. After bin.comp's
-// mode 2 (pc.mode = 2: appended, unordered) the slots out are those it flagged incomplete, the
+// mode 2 (pc.mode's low byte 2: appended, unordered) the slots out are those it flagged incomplete, the
 // root's pairs have their own region, and only the compute raster's arguments are written.
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
@@ -37,7 +37,7 @@ void main() {
     // This round's slots: [first, end).
     uint first_slot = ROUND_FIRST_SLOT(pc.round);
     uint end_slot = first_slot + counters[(pc.round == 0u ? 0u : C_ROUND1) + C_ALLOCATED];
-    bool appended = pc.mode == 2u;
+    bool appended = (pc.mode & 0xffu) == 2u;
     if (i >= first_slot && i < end_slot) {
         if (appended ? bin_cursor[i] != 0u : bin_end(i) > pc.capacity) {
             table[slot_info[i].w] = 0u;

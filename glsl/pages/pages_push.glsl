@@ -11,7 +11,8 @@ layout(push_constant) uniform Push {
     uint triangles;
     // Bin entries that fit in the bin buffer.
     uint capacity;
-    // bin.comp: 0 counts, 1 scatters, 2 appends; draws.comp: 2 after appending, else after the
+    // bin.comp: 0 counts, 1 scatters, 2 appends (covering the pages of triangles of at most
+    // mode >> 8 texels in the walk); draws.comp: 2 after appending, else after the
     // scan; page_raster.comp: boxes of more texels go to the rasterizer.
     uint mode;
     // 0: the requests' round; 1: the refinement round, which allocates after round 0's slots,
@@ -49,6 +50,8 @@ struct LevelInfo {
 #define C_RENDERED 4
 #define C_BIN_OVERFLOW 5
 #define C_ROUND1 6
+// Pairs the walk covered itself (bin.comp's cover_here), both rounds: not in the bins.
+#define C_WALK_COVERED 9
 
 // Append mode's cursors (bin.comp mode 2), in bin_cursor after the pool's slots: root pairs
 // written, other pairs written (from entry `triangles` on), the latter when round 1 began.

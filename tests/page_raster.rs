@@ -5,7 +5,7 @@
 
 mod common;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use penumbra::cpu::page_raster::{rasterize_pages, PageRasterDesc};
 use penumbra::cpu::pages::{atlas_columns, triangle_overlaps_page, PageLayout};
@@ -124,7 +124,7 @@ fn compute_pages_match_their_twin() {
             }
         }
     }
-    let all: std::collections::BTreeSet<(u32, u32)> = pairs.iter().copied().collect();
+    let all: BTreeSet<(u32, u32)> = pairs.iter().copied().collect();
     let stray = gpu.bins.iter().filter(|b| !all.contains(b)).count();
     let covered_pairs = gpu.frame.stats.counters["walk_covered_pairs"];
     eprintln!(
@@ -134,6 +134,9 @@ fn compute_pages_match_their_twin() {
         gpu.bins.len()
     );
     assert!(covered_pairs > 0, "the walk covered nothing");
+    // The walk's test and the twin's may part where a triangle grazes a page within rounding
+    // (a GPU that fuses may): 0.1 % allowed, 0 measured on lavapipe (11 948 binned, 14 574
+    // covered, 26 522 by the twin).
     assert!(
         stray * 1000 <= pairs.len(),
         "{stray} binned pairs the twin culls"
@@ -190,8 +193,7 @@ fn compute_pages_match_the_rasterizer() {
             // scattered for the rasterizer's per-level draws — but the compute walk covers a
             // tiny triangle's page itself (bin.comp's cover_here) and bins only the rest, so its
             // bins are the rasterizer's less the pairs it counts as covered.
-            let all: std::collections::BTreeSet<(u32, u32)> =
-                graphics.bins.iter().copied().collect();
+            let all: BTreeSet<(u32, u32)> = graphics.bins.iter().copied().collect();
             assert_eq!(
                 all.len(),
                 graphics.bins.len(),

@@ -292,6 +292,29 @@ void decide(ivec2 pixel, float v) {
     imageStore(shape, pixel, vec4(0.0, 0.0, 0.0, DECIDED));
 }
 
+// Marks every page of `level` under the kernel's box (one texel of margin for the panel
+// approximation's rounding), and their ancestors when asked for; counts the marks.
+void request_pages(vec2 c, vec2 u_h, vec2 v_h, uint level) {
+    ivec4 box = kernel_texels(c, u_h, v_h, level);
+    int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
+    // (A shift floors where a division truncates: the same after the clamp to 0.)
+    int shift = int(page_shift(pc.page_size));
+    ivec2 pa = clamp((box.xy - 1) >> shift, ivec2(0), ivec2(n_side - 1));
+    ivec2 pb = clamp((box.zw + 1) >> shift, ivec2(0), ivec2(n_side - 1));
+    uint marks = 0u;
+    for (int py = pa.y; py <= pb.y; ++py) {
+        for (int px = pa.x; px <= pb.x; ++px) {
+            uvec2 page = uvec2(px, py);
+            table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page)] = 1u;
+            if ((pc.options & OPT_ANCESTORS) != 0u) {
+                mark_ancestors(level, page);
+            }
+            marks += 1u;
+        }
+    }
+    count(C_REQUESTED, marks);
+}
+
 void main() {
     invocation_counts_clear();
 
@@ -371,7 +394,6 @@ void main() {
                 float d_avg = sum.y > 0.0 ? sum.x / sum.y : dr;
                 vec2 w = soft_light_footprint(pc.light_size, pc.perspective, dr, d_avg);
                 bool silhouette = (pc.options & OPT_SILHOUETTE) != 0u;
-                bool continue_kernel = true;
                 // Whether the last refined search found blockers over (about) the kernel: then
                 // its reach holds some, and the proof below is not tried.
                 bool refined_found = false;
@@ -403,7 +425,8 @@ void main() {
                 }
                 // The kernel's own reach (its box and a texel of its level on every side: the
                 // texels the exact filter reads) holding no blocker in the conservative map proves
-                // V = 1 as the filter would find it: the sample is decided lit without pages.
+                // V = 1 as the filter would find it, in the search's terms (its receiver plane and
+                // bias, the same gap the fully-lit flag above has): decided lit, without pages.
                 float reach_texel = float(1u << level);
                 vec2 reach = vec2(u_h.x, abs(u_h.y) + v_h.y) + reach_texel;
                 if (lit_proof && (pc.options & OPT_KERNEL_PROOF) != 0u && !refined_found
@@ -412,31 +435,9 @@ void main() {
                     count(C_KERNEL_LIT, 1u);
                     count(C_LIT, 1u);
                     decide(pixel, 1.0);
-                    continue_kernel = false;
-                }
-                if (continue_kernel) {
-                imageStore(shape, pixel, vec4(u_h, v_h.y, float(level)));
-                // Every page of that level under the kernel's box (one texel of margin for the
-                // panel approximation's rounding), and their ancestors.
-                ivec4 box = kernel_texels(c.xy, u_h, v_h, level);
-                int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
-                // (A shift floors where a division truncates: the same after the clamp to 0.)
-                int shift = int(page_shift(pc.page_size));
-                ivec2 pa = clamp((box.xy - 1) >> shift, ivec2(0), ivec2(n_side - 1));
-                ivec2 pb = clamp((box.zw + 1) >> shift, ivec2(0), ivec2(n_side - 1));
-                uint marks = 0u;
-                for (int py = pa.y; py <= pb.y; ++py) {
-                    for (int px = pa.x; px <= pb.x; ++px) {
-                        uvec2 page = uvec2(px, py);
-                        table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level,
-                                         page)] = 1u;
-                        if ((pc.options & OPT_ANCESTORS) != 0u) {
-                            mark_ancestors(level, page);
-                        }
-                        marks += 1u;
-                    }
-                }
-                count(C_REQUESTED, marks);
+                } else {
+                    imageStore(shape, pixel, vec4(u_h, v_h.y, float(level)));
+                    request_pages(c.xy, u_h, v_h, level);
                 }
             }
         }

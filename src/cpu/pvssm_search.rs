@@ -324,6 +324,22 @@ mod tests {
         min_levels(&source, size)
     }
 
+    /// The search at `c` (depth 0.8, no pixel footprint) with the light's pyramid `search`
+    /// wide at the near plane: what the tests vary is the map, the knobs and the footprint.
+    fn search_at(
+        p: &MinPyramid,
+        params: &SearchParams,
+        c: Vec2,
+        search: f32,
+        footprint: &dyn Fn(f32) -> Vec2,
+    ) -> Option<(f32, Vec2)> {
+        let (u_phi, v_phi) = (Vec2::ZERO, Vec2::ZERO);
+        let search = Vec2::splat(search);
+        blocker_distance(
+            p, params, c, 0.8, search, u_phi, v_phi, footprint, &linear, &reach,
+        )
+    }
+
     #[test]
     fn a_clear_map_is_fully_lit_and_a_flat_blocker_gives_its_distance() {
         let clear = pyramid(64, |_, _| 1.0);
@@ -333,18 +349,7 @@ mod tests {
         };
         let footprint = |_: f32| Vec2::splat(4.0);
         let run_with = |p: &MinPyramid, params: &SearchParams| {
-            blocker_distance(
-                p,
-                params,
-                Vec2::splat(32.0),
-                0.8,
-                Vec2::splat(16.0),
-                Vec2::ZERO,
-                Vec2::ZERO,
-                &footprint,
-                &linear,
-                &reach,
-            )
+            search_at(p, params, Vec2::splat(32.0), 16.0, &footprint)
         };
         let run = |p: &MinPyramid, silhouette| run_with(p, &params(silhouette));
         assert_eq!(run(&p, true), None);
@@ -379,21 +384,11 @@ mod tests {
         };
         let footprint = |_: f32| Vec2::splat(4.0);
         let run = |kernel_proof| {
-            blocker_distance(
-                &p,
-                &SearchParams {
-                    kernel_proof,
-                    ..params(true)
-                },
-                Vec2::splat(32.0),
-                0.8,
-                Vec2::splat(48.0),
-                Vec2::ZERO,
-                Vec2::ZERO,
-                &footprint,
-                &linear,
-                &reach,
-            )
+            let params = SearchParams {
+                kernel_proof,
+                ..params(true)
+            };
+            search_at(&p, &params, Vec2::splat(32.0), 48.0, &footprint)
         };
         assert_eq!(run(true), None);
         let (d, w) = run(false).expect("a kernel without the proof");
@@ -419,17 +414,12 @@ mod tests {
         };
         let footprint = |d: f32| Vec2::splat(200.0 * (1.0 / d - 1.0 / 1.8));
         let run = |silhouette| {
-            blocker_distance(
+            search_at(
                 &p,
                 &params(silhouette),
                 Vec2::new(34.0, 32.0),
-                0.8,
-                Vec2::splat(48.0),
-                Vec2::ZERO,
-                Vec2::ZERO,
+                48.0,
                 &footprint,
-                &linear,
-                &reach,
             )
             .expect("blocked")
             .0

@@ -24,9 +24,10 @@
 //!    the near plane), whose page the walk covers itself with the compute raster's rules and
 //!    arithmetic (`glsl/pages/page_cover.glsl`; counted, `walk_covered_pairs`): 586k of the 800k
 //!    grid's 617k pairs, its cull + page render 85 → 70 ms on lavapipe. For the rasterizer the
-//!    count keeps each triangle's first two slots, and the scatter writes from them. A page whose bins would run past the bin buffer's
-//!    capacity (`bin_factor` entries per triangle or per pool slot, whichever is more: a scene of a
-//!    few large triangles puts most of them in every page) is taken out of the page table, so
+//!    count keeps each triangle's first two slots, and the scatter writes from them. A page
+//!    whose bins would run past the bin buffer's capacity (`bin_factor` entries per triangle or
+//!    per pool slot, whichever is more: a scene of a few large triangles puts most of them in
+//!    every page) is taken out of the page table, so
 //!    lookups fall back instead of reading a page with missing casters (`bin_overflow_pages`);
 //!    the root always fits;
 //! 4. **render** (`<name>-render`): the atlas is cleared and each level's bins are drawn with
@@ -718,8 +719,10 @@ impl<'a> VirtualPages<'a> {
         let (draw_pipeline, draw_set) = &self.draw_args;
         let threads = self.desc.pool_pages.max(self.push.levels);
         if let PageDrawer::Compute(drawer) = &self.render {
-            // The walk covers tiny triangles' pages itself (bin.comp's cover_here), so the
-            // depths are made ready before it: cleared for round 0, the atlas's for round 1
+            // Appended unordered (the compute raster takes them so), and a tiny triangle's page
+            // covered by the walk itself (bin.comp's cover_here) for a triangle of at most this
+            // many of its texels, never one the page raster would leave to the rasterizer. The
+            // depths are made ready before the walk: cleared for round 0, the atlas's for round 1
             // (which holds the earlier round's listed triangles too, which the copy back after
             // the page raster would otherwise overwrite).
             if push.round == 0 {
@@ -727,10 +730,6 @@ impl<'a> VirtualPages<'a> {
             } else {
                 rec.copy_image_to_buffer(&self.atlas, &drawer.depth_bits);
             }
-        }
-        if self.appends() {
-            // The walk covers a page itself for a triangle of at most this many of its texels
-            // (bin.comp's cover_here), never one the page raster would leave to the rasterizer.
             let cover = WALK_COVER_TEXELS.min(self.desc.raster_split);
             let append = PagesPush {
                 mode: 2 | (cover << 8),
@@ -770,9 +769,8 @@ impl<'a> VirtualPages<'a> {
                     listed_set,
                     ..
                 } = drawer.as_ref();
-                // (The depths were cleared or taken from the atlas before the walk:
-                // record_bins.)
-                let _ = clear;
+                // (The depths were cleared or taken from the atlas before the walk, which
+                // writes them too: record_bins.)
                 // The round's 12 words of `raster_args`: dispatch and entry range, then (word 8)
                 // the listed entries' draw.
                 let offset = 48 * u64::from(push.round);

@@ -33,7 +33,8 @@
 //!    Before requesting, a sample whose refined search found no blocker has its kernel's own
 //!    reach (h's box and a texel of its level around it: every texel the filter would read)
 //!    looked at in the conservative map (`kernel_proof`): none there proves V = 1 as the
-//!    filter would find it, and the sample is decided lit without pages or filtering (counter
+//!    filter would find it, in the search's terms (its receiver plane and bias: the fully-lit
+//!    flag's gap), and the sample is decided lit without pages or filtering (counter
 //!    `kernel_lit`). The first search's region is the light's pyramid at the near plane, wider
 //!    than most kernels: on `grid:800000@rect` (a wavy sheet whose own crests sit in every
 //!    pyramid) 45.7k of 146k samples are decided so, filtered texels 11.2 M → 4.6 M and
@@ -56,10 +57,11 @@
 //! `search_cells` (the search's cost bound: cells per side of the min-pyramid level it reads; with
 //! `refine_search` the first search, which only sizes the refined one, reads a quarter as many),
 //! `refine_search`, `blocker_depth` (`average` | `silhouette`), `kernel_proof`, `ancestors`
-//! (render each requested page's coarser ancestors too, so a pool overflow falls back one level at a time: 1 always, 2 —
-//! the default — only when the requests overflow the pool (without an overflow no lookup falls
-//! back, and the ancestors are a fifth of the frame on `grid:800000@rect`), 0 never (an overflow
-//! falls back to the first coarser resident level, the root at worst)), `fixed_level` (-1:
+//! (render each requested page's coarser ancestors too, so a pool overflow falls back one level
+//! at a time: 1 always, 2 — the default — only when the requests overflow the pool (without an
+//! overflow no lookup falls back, and the ancestors are a fifth of the frame on
+//! `grid:800000@rect`), 0 never (an overflow falls back to the first coarser resident level, the
+//! root at worst)), `fixed_level` (-1:
 //! predicted; k: one whole map at level k for every kernel — level 0 of a 4096 virtual map is the
 //! paper's Table 2 baseline), `search_bias`, `tangent_plane`, `bin_factor`, and the depth bias of a
 //! level-0 page.

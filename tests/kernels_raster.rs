@@ -211,6 +211,35 @@ fn random_triangles_match_the_twin_and_are_conservative() {
         );
         check_conservative(&what, (&positions, &indices), vp, n, &gpu);
     }
+    // The unclipped shader for devices without subgroup arithmetic (each invocation counts its
+    // own texels) draws the same map and counts the same: bit for bit against the default one,
+    // and within the twin's bracket.
+    let lanes = ConservativeRaster::with_subgroup_count(&ctx, false).expect("pipeline");
+    let (gpu, counters) = raster
+        .run(&positions, &indices, vp, 256, false)
+        .expect("run");
+    let (lanes_gpu, lanes_counters) = lanes
+        .run(&positions, &indices, vp, 256, false)
+        .expect("run");
+    assert_eq!(
+        counters, lanes_counters,
+        "the counters differ between the two shaders"
+    );
+    let differ = gpu
+        .iter()
+        .zip(&lanes_gpu)
+        .filter(|(a, b)| a.to_bits() != b.to_bits())
+        .count();
+    assert_eq!(differ, 0, "{differ} texels differ between the two shaders");
+    check_against_twin(
+        "random-256-lanes",
+        (&positions, &indices),
+        vp,
+        256,
+        &lanes_gpu,
+        &lanes_counters,
+        false,
+    );
     common::assert_clean(&ctx.validation());
 }
 

@@ -640,6 +640,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
         (
             vec![
                 "kernels/raster_conservative.comp",
+                "kernels/raster_conservative_lanes.comp",
                 "kernels/raster_conservative_clip.comp",
             ],
             twin!(raster::RasterPush {

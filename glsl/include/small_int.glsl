@@ -19,4 +19,17 @@ ivec2 small_int(vec2 x) {
     return ivec2(small_int(x.x), small_int(x.y));
 }
 
+// `floor_int(x)`: int(floor(x)) for |x| < 2^22 without the conversion, x clamped to that range
+// first (so the result is floor(x) clamped to [-2^22, 2^22 - 1]; NaN gives an unspecified
+// value in that range). Adding 1.5 * 2^23 puts any whole number of the range in the float's low
+// mantissa bits under one exponent, exactly.
+int floor_int(float x) {
+    float k = floor(clamp(x, -4194304.0, 4194303.0));
+    return floatBitsToInt(k + 12582912.0) - 0x4B400000;
+}
+
+ivec2 floor_int(vec2 x) {
+    return ivec2(floor_int(x.x), floor_int(x.y));
+}
+
 #endif

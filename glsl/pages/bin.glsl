@@ -270,8 +270,8 @@ uint walk(uint tri, Projected t, uint what) {
                 // converting a float past int's range is undefined).
                 int last = int(pages_per_side(pc.virtual_size, pc.page_size, level)) - 1;
                 vec2 beyond = vec2(float(last) + 1.0);
-                ivec2 lo = ivec2(clamp(floor(wmin / texels), vec2(-1.0), beyond));
-                ivec2 hi = ivec2(clamp(floor(wmax / texels), vec2(-1.0), beyond));
+                ivec2 lo = small_int(clamp(floor(wmin / texels), vec2(-1.0), beyond) + 1.0) - 1;
+                ivec2 hi = small_int(clamp(floor(wmax / texels), vec2(-1.0), beyond) + 1.0) - 1;
                 if (lo == hi) {
                     // The widened box within one page of the level: so is the triangle, which
                     // then overlaps the page's widened rectangle (what the test below would

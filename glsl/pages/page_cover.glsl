@@ -6,6 +6,8 @@
 #ifndef PENUMBRA_PAGE_COVER_GLSL
 #define PENUMBRA_PAGE_COVER_GLSL
 
+#include "small_int.glsl"
+
 // Edge a -> b's function at p: positive on the inside of a counter-clockwise triangle.
 float edge(vec2 a, vec2 b, vec2 p) {
     return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
@@ -83,9 +85,11 @@ Tri setup(vec3 s0, vec3 s1, vec3 s2, ivec2 lo, ivec2 hi, uint level) {
     t.bias = page_depth_bias(t.dzdx, t.dzdy, max(t.za, max(zb, zc)), level);
     vec2 tmin = min(t.a, min(t.b, t.c));
     vec2 tmax = max(t.a, max(t.b, t.c));
-    // Texels whose centres (i + 0.5) may lie in the box.
-    t.i0 = max(lo, ivec2(ceil(tmin - 0.5)));
-    t.i1 = min(hi, ivec2(floor(tmax - 0.5)));
+    // Texels whose centres (i + 0.5) may lie in the box (lo >= 0, so a box starting left of 0
+    // starts at lo, and one ending left of 0 is empty: no float-to-int conversion, small_int).
+    t.i0 = max(lo, small_int(ceil(tmin - 0.5)));
+    vec2 last = floor(tmax - 0.5);
+    t.i1 = min(hi, ivec2(last.x < 0.0 ? -1 : small_int(last.x), last.y < 0.0 ? -1 : small_int(last.y)));
     return t;
 }
 

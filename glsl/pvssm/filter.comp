@@ -84,8 +84,8 @@ void main() {
             // Columns of the kernel's x range [centre.x - u.x, centre.x + u.x].
             float x_lo = centre.x - u.x;
             float x_hi = centre.x + u.x;
-            int i0 = int(floor(x_lo));
-            int i1 = int(ceil(x_hi)) - 1;
+            int i0 = floor_int(x_lo);
+            int i1 = -floor_int(-x_hi) - 1;
             bool cut = i1 > i0 + MAX_SPAN - 1;
             i1 = min(i1, i0 + MAX_SPAN - 1);
             float slope = u.y / u.x;
@@ -123,8 +123,8 @@ void main() {
                 vec2 yc = centre.y + (0.5 * (x0 + x1) - centre.x) * slope;
                 vec2 y_lo = yc - vy;
                 vec2 y_hi = yc + vy;
-                ivec2 j0 = ivec2(floor(y_lo));
-                ivec2 j1 = ivec2(ceil(y_hi)) - 1;
+                ivec2 j0 = floor_int(y_lo);
+                ivec2 j1 = -floor_int(-y_hi) - 1;
                 cut = cut || (in_kernel.x && j1.x > j0.x + MAX_SPAN - 1)
                     || (in_kernel.y && j1.y > j0.y + MAX_SPAN - 1);
                 j1 = min(j1, j0 + MAX_SPAN - 1);

@@ -8,6 +8,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "shadow_map.glsl"
 #include "soft_light.glsl"
+#include "small_int.glsl"
 #include "dealt_tile.glsl"
 
 // The pixel of this invocation in an 8 x 8 workgroup, laid out so that each run of eight
@@ -148,7 +149,7 @@ uint predicted_level(vec2 u_h, vec2 v_h, vec2 n) {
     if (!(r > 1.0)) {
         return 0u;
     }
-    return min(uint(floor(log2(r))), pc.levels - 1u);
+    return min(uint(small_int(log2(r))), pc.levels - 1u);
 }
 
 // The kernel's bounding box at `level`, in that level's texels: (lo, hi) inclusive.
@@ -156,5 +157,5 @@ ivec4 kernel_texels(vec2 c, vec2 u_h, vec2 v_h, uint level) {
     float s = float(1u << level);
     vec2 half_ext = vec2(u_h.x, abs(u_h.y) + v_h.y) / s;
     vec2 centre = c / s;
-    return ivec4(ivec2(floor(centre - half_ext)), ivec2(ceil(centre + half_ext)) - 1);
+    return ivec4(floor_int(centre - half_ext), -floor_int(-(centre + half_ext)) - 1);
 }

@@ -76,8 +76,8 @@ Region search_region(vec2 centre, vec2 half_low, float cells, Receiver rc, float
     r.hi = (centre + half_low) / r.cell;
     r.size = int(pc.lowres_size >> level);
     r.offset = mip_offset(level);
-    r.a = max(ivec2(floor(r.lo)), ivec2(0));
-    r.b = min(ivec2(ceil(r.hi)) - 1, ivec2(r.size - 1));
+    r.a = max(floor_int(r.lo), ivec2(0));
+    r.b = min(-floor_int(-r.hi) - 1, ivec2(r.size - 1));
     vec2 g = rc.dz * (lowres_texel * r.cell);
     r.plane_spread = 0.5 * (abs(g.x) + abs(g.y));
     return r;

@@ -348,30 +348,43 @@ ivec2 polygon_row(vec3 p[MAXV], int n, Setup s, int y) {
 }
 #endif
 
-// Whether every corner of the square is strictly outside edge p -> q (sgn: the triangle's
-// orientation).
-bool all_outside(vec2 p, vec2 q, float sgn, vec2 corners[4]) {
-    vec2 d = q - p;
-    bool outside = true;
-    for (int k = 0; k < 4; ++k) {
-        outside = outside && (d.x * (corners[k].y - p.y) - d.y * (corners[k].x - p.x)) * sgn < 0.0;
-    }
-    return outside;
+// The separating-axis test of a whole triangle against texel t (bounding boxes overlap, no edge
+// with every expanded corner strictly outside): the same coverage as the row extents, for
+// triangles of a few texels, where a row's set-up costs more than testing its texels. An edge has
+// every corner outside when the corner most inside is: the float edge function grows with each
+// corner coordinate in a direction fixed by the edge (its rounding is monotone too), so that
+// corner's value is the largest of the four as computed, and the test is the four-corner one
+// bit for bit at a quarter of the evaluations (edge_corner picks it once a triangle).
+struct TinyEdge {
+    vec2 p;
+    vec2 d;
+    // Offsets from the texel's integer corner to the chosen corner: -EPS or 1 + EPS.
+    vec2 off;
+};
+
+TinyEdge edge_corner(vec2 p, vec2 q, float sgn) {
+    TinyEdge e;
+    e.p = p;
+    e.d = q - p;
+    // sgn * (d.x * (y - p.y) - d.y * (x - p.x)) grows with y when sgn * d.x > 0 and with x when
+    // sgn * d.y < 0 (either corner when 0: the same value).
+    e.off = vec2(sgn * e.d.y < 0.0 ? 1.0 + EPS : -EPS, sgn * e.d.x > 0.0 ? 1.0 + EPS : -EPS);
+    return e;
 }
 
-// The same coverage as the row extents, as the separating-axis test of a whole triangle against
-// texel t (bounding boxes overlap, no edge with every expanded corner strictly outside): for
-// triangles of a few texels, where a row's set-up costs more than testing its texels.
-bool covers_texel(vec3 p[3], float sgn, vec2 tmin, vec2 tmax, ivec2 t) {
+bool outside(TinyEdge e, float sgn, ivec2 t) {
+    vec2 corner = vec2(t) + e.off;
+    return (e.d.x * (corner.y - e.p.y) - e.d.y * (corner.x - e.p.x)) * sgn < 0.0;
+}
+
+bool covers_texel(TinyEdge e0, TinyEdge e1, TinyEdge e2, float sgn, vec2 tmin, vec2 tmax,
+                  ivec2 t) {
     vec2 lo = vec2(t) - EPS;
     vec2 hi = vec2(t) + (1.0 + EPS);
     if (any(greaterThan(tmin, hi)) || any(lessThan(tmax, lo))) {
         return false;
     }
-    vec2 corners[4] = vec2[4](lo, vec2(hi.x, lo.y), vec2(lo.x, hi.y), hi);
-    return !(all_outside(p[0].xy, p[1].xy, sgn, corners)
-             || all_outside(p[1].xy, p[2].xy, sgn, corners)
-             || all_outside(p[2].xy, p[0].xy, sgn, corners));
+    return !(outside(e0, sgn, t) || outside(e1, sgn, t) || outside(e2, sgn, t));
 }
 
 // Lowers texel (x, y)'s depth to the piece's conservative depth there.
@@ -487,9 +500,12 @@ void main() {
                         float sgn = area > 0.0 ? 1.0 : -1.0;
                         vec2 tmin = min(p[0].xy, min(p[1].xy, p[2].xy));
                         vec2 tmax = max(p[0].xy, max(p[1].xy, p[2].xy));
+                        TinyEdge e0 = edge_corner(p[0].xy, p[1].xy, sgn);
+                        TinyEdge e1 = edge_corner(p[1].xy, p[2].xy, sgn);
+                        TinyEdge e2 = edge_corner(p[2].xy, p[0].xy, sgn);
                         for (int j = s.lo.y; j <= s.hi.y; ++j) {
                             for (int i = s.lo.x; i <= s.hi.x; ++i) {
-                                if (covers_texel(p, sgn, tmin, tmax, ivec2(i, j))) {
+                                if (covers_texel(e0, e1, e2, sgn, tmin, tmax, ivec2(i, j))) {
                                     write_texel(s, i, j);
                                     written += 1u;
                                 }

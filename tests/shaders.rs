@@ -264,7 +264,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
-            vec!["receivers/finish.comp"],
+            vec!["receivers/finish.comp", "receivers/finish_lanes.comp"],
             twin!(ReceiversFinishPush {
                 view_size,
                 scale,

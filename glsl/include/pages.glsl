@@ -9,6 +9,8 @@
 #ifndef PENUMBRA_PAGES_GLSL
 #define PENUMBRA_PAGES_GLSL
 
+#include "small_int.glsl"
+
 // Most levels a map may have (virtual_size / page_size <= 2^15): keeps every level offset and
 // loop bound small and fixed.
 #define MAX_PAGE_LEVELS 16
@@ -58,7 +60,8 @@ uvec2 texel_page(ivec2 t, uint page_size) {
 // and (slot + 0.5) / cols lies 0.5 / cols or more from an integer, a relative distance above
 // 2^-21 = 4 * 2^-23, wider than the 2.5 ulp (at most 2.5 * 2^-23) Vulkan lets a division be off.
 uvec2 slot_cell(uint slot, uint atlas_cols) {
-    uint row = uint((float(slot) + 0.5) / float(atlas_cols));
+    // (small_int: the quotient is below 2^20, and lavapipe runs uint(float) as per-lane code.)
+    uint row = uint(small_int((float(slot) + 0.5) / float(atlas_cols)));
     return uvec2(slot - row * atlas_cols, row);
 }
 

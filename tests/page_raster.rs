@@ -41,6 +41,23 @@ fn render(
             atlas_size = (e.width, e.height);
             bins = pages.read_bins()?;
             slots = pages.read_slots()?;
+            // Only the allocated slots are this frame's: the compute raster clears and draws
+            // those alone (slot_clear.comp), and nothing reads the rest. Those read as empty
+            // here, as the twin's and the rasterizer's (which clears the whole atlas) do.
+            let (page, cols) = (pages.desc().page_size, pages.desc().atlas_cols());
+            let width = e.width as usize;
+            let mut mine = vec![false; atlas.len()];
+            for slot in 0..slots.len() as u32 {
+                let (x0, y0) = ((slot % cols * page) as usize, (slot / cols * page) as usize);
+                for y in y0..y0 + page as usize {
+                    mine[y * width + x0..y * width + x0 + page as usize].fill(true);
+                }
+            }
+            for (z, &m) in atlas.iter_mut().zip(&mine) {
+                if !m {
+                    *z = 1.0;
+                }
+            }
             Ok(())
         })
         .expect("render");

@@ -450,6 +450,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "pages/page_depth.vert",
                 "pages/page_depth_listed.vert",
                 "pages/page_raster.comp",
+                "pages/slot_clear.comp",
             ],
             twin!(PagesPush {
                 light_view_proj,

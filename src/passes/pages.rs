@@ -330,9 +330,14 @@ enum PageDrawer {
 }
 
 /// [`PageRaster::Compute`]'s resources.
+/// Invocations of a `slot_clear.comp` workgroup (one workgroup a slot).
+const SLOT_CLEAR_GROUP: u32 = 64;
+
 struct ComputeDrawer {
     pipeline: Pipeline,
     set: DescriptorSet,
+    /// `pages/slot_clear.comp`: empties the round's allocated slots of `depth_bits`.
+    clear: (Pipeline, DescriptorSet),
     /// The atlas's depths as float bits, `atomicMin`-combined, copied into the atlas.
     depth_bits: Buffer,
     /// The rasterizer's draw of the entries whose boxes hold more than `raster_split` texels,
@@ -572,9 +577,14 @@ impl<'a> VirtualPages<'a> {
                         Binding::Buffer(&large_list),
                     ],
                 )?;
+                let clear = with_set(
+                    "pages/slot_clear.comp",
+                    &[Binding::Buffer(&depth_bits), Binding::Buffer(&counters)],
+                )?;
                 let drawer = ComputeDrawer {
                     pipeline,
                     set,
+                    clear,
                     depth_bits,
                     listed,
                     listed_set,
@@ -722,14 +732,16 @@ impl<'a> VirtualPages<'a> {
             // Appended unordered (the compute raster takes them so), and a tiny triangle's page
             // covered by the walk itself (bin.comp's cover_here) for a triangle of at most this
             // many of its texels, never one the page raster would leave to the rasterizer. The
-            // depths are made ready before the walk: cleared for round 0, the atlas's for round 1
-            // (which holds the earlier round's listed triangles too, which the copy back after
-            // the page raster would otherwise overwrite).
-            if push.round == 0 {
-                rec.fill(&drawer.depth_bits, crate::kernels::raster::EMPTY_DEPTH_BITS);
-            } else {
+            // depths are made ready before the walk: the round's slots cleared (slot_clear.comp:
+            // only those, not the pool), after, for round 1, the atlas's (which holds the
+            // earlier round's listed triangles too, which the copy back after the page raster
+            // would otherwise overwrite).
+            if push.round == 1 {
                 rec.copy_image_to_buffer(&self.atlas, &drawer.depth_bits);
             }
+            let (clear_pipeline, clear_set) = &drawer.clear;
+            let slots = self.desc.pool_pages * SLOT_CLEAR_GROUP;
+            rec.dispatch(clear_pipeline, clear_set, push, [slots, 1, 1])?;
             let cover = WALK_COVER_TEXELS.min(self.desc.raster_split);
             let append = PagesPush {
                 mode: 2 | (cover << 8),

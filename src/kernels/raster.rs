@@ -24,8 +24,8 @@
 //! the light's centre is drawn as the segment it projects to, at its smallest depth (from the
 //! rest of an area light it is not edge-on).
 //!
-//! Design: one invocation per triangle sets it up and rasterizes it when its clamped texel range
-//! has at most [`SMALL_TEXELS`] (1024) texels (nearly every triangle of a scene at these
+//! Design: one invocation per triangle (four in turn, `TRIS_PER_INVOCATION`: a SIMD group's
+//! fixed cost shared) sets it up and rasterizes it when its clamped texel range has at most [`SMALL_TEXELS`] (1024) texels (nearly every triangle of a scene at these
 //! resolutions), row by row; bigger ones, and every clipped piece, are appended to a list, which
 //! [`LARGE_GROUPS`] workgroups then grid-stride over, each of the group's eight runs of eight
 //! invocations taking every eighth row and its eight invocations the row's covered texels (only
@@ -81,6 +81,10 @@ pub const MAX_MAP_SIZE: u32 = 1024;
 
 /// Invocations per workgroup of `raster_conservative.comp`.
 const WG: u32 = 64;
+
+/// Triangles each invocation of the per-triangle pass takes (the shader's
+/// `TRIS_PER_INVOCATION`).
+const TRIS_PER_INVOCATION: u32 = 4;
 
 /// The float bits of depth 1.0: "nothing covers this texel".
 pub const EMPTY_DEPTH_BITS: u32 = 0x3F80_0000;
@@ -338,7 +342,7 @@ impl ConservativeRaster {
             (&self.pipeline, &binding.set)
         };
         // With no triangle one invocation still runs the limiter guard.
-        let threads = binding.triangles.max(1);
+        let threads = binding.triangles.div_ceil(TRIS_PER_INVOCATION).max(1);
         rec.dispatch(pipeline, set, &push, [threads, 1, 1])?;
         push.phase = 1;
         rec.dispatch(pipeline, set, &push, [LARGE_GROUPS * WG, 1, 1])
@@ -411,6 +415,14 @@ mod tests {
             let line = format!("#define {define} {MISSED_WORD}\n");
             assert!(source.contains(&line), "{define} is not word {MISSED_WORD}");
         }
+    }
+
+    #[test]
+    fn the_dispatch_covers_every_triangle() {
+        // record() dispatches triangles / TRIS_PER_INVOCATION invocations: the shader must take
+        // as many each.
+        let line = format!("#define TRIS_PER_INVOCATION {TRIS_PER_INVOCATION}u\n");
+        assert!(include_str!("../../glsl/kernels/raster_conservative.glsl").contains(&line));
     }
 
     #[test]

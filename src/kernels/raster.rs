@@ -25,8 +25,9 @@
 //! rest of an area light it is not edge-on).
 //!
 //! Design: one invocation per triangle (four in turn, `TRIS_PER_INVOCATION`: a SIMD group's
-//! fixed cost shared) sets it up and rasterizes it when its clamped texel range has at most [`SMALL_TEXELS`] (1024) texels (nearly every triangle of a scene at these
-//! resolutions), row by row; bigger ones, and every clipped piece, are appended to a list, which
+//! fixed cost shared) sets it up and rasterizes it when its clamped texel range has at most
+//! [`SMALL_TEXELS`] (1024) texels (nearly every triangle of a scene at these resolutions), row
+//! by row; bigger ones, and every clipped piece, are appended to a list, which
 //! [`LARGE_GROUPS`] workgroups then grid-stride over, each of the group's eight runs of eight
 //! invocations taking every eighth row and its eight invocations the row's covered texels (only
 //! those: the row's extent comes from the polygon's edges, where the first version tested every

@@ -336,7 +336,15 @@ impl<'a> Pvssm<'a> {
             u64::from(offset + 1).next_multiple_of(4) - u64::from(lowres_size * lowres_size),
         )?;
         let mip_pipeline = Pipeline::compute(ctx, "pvssm/lowres_mip.comp")?;
-        let mip_set = DescriptorSet::new(ctx, &mip_pipeline, &[Binding::Buffer(lowres.depth())])?;
+        // The same buffer read as quads and written as pairs (lowres_mip.comp).
+        let mip_set = DescriptorSet::new(
+            ctx,
+            &mip_pipeline,
+            &[
+                Binding::Buffer(lowres.depth()),
+                Binding::Buffer(lowres.depth()),
+            ],
+        )?;
         // The searches read the pyramid four texels a fetch (shape.comp says why).
         let lowres_texels = lowres
             .depth()
@@ -459,7 +467,9 @@ impl Pvssm<'_> {
             .record(rec, &self.lowres, self.push.light_view_proj, false)?;
         let (pipeline, set) = &self.mip;
         for level in &self.mip_levels {
-            rec.dispatch(pipeline, set, level, [level.dst_size, level.dst_size, 1])?;
+            // Two texels of a row an invocation.
+            let pairs = (level.dst_size / 2).max(1);
+            rec.dispatch(pipeline, set, level, [pairs, level.dst_size, 1])?;
         }
         Ok(())
     }

@@ -20,19 +20,19 @@ layout(set = 0, binding = 1) readonly buffer Counters { uint counters[]; };
 const uint EMPTY_DEPTH_BITS = 0x3F800000u;
 
 void main() {
-    uint k = gl_WorkGroupID.x;
     uint allocated = pc.round == 0u ? counters[C_ALLOCATED] : counters[C_ROUND1 + C_ALLOCATED];
-    if (k >= allocated) {
-        return;
-    }
-    uint slot = ROUND_FIRST_SLOT(pc.round) + k;
-    uvec2 origin = slot_cell(slot, pc.atlas_cols) * pc.page_size;
     uint row_quads = pc.page_size >> 2u;
     uint row_shift = page_shift(pc.page_size) - 2u;
     uint width_quads = (pc.atlas_cols * pc.page_size) >> 2u;
-    uint first = origin.y * width_quads + (origin.x >> 2u);
-    for (uint q = gl_LocalInvocationID.x; q < pc.page_size * row_quads; q += 64u) {
-        depth4[first + (q >> row_shift) * width_quads + (q & (row_quads - 1u))] =
-            uvec4(EMPTY_DEPTH_BITS);
+    // Slot k of the round, k from the workgroup on by the dispatch's size (the host dispatches
+    // one workgroup a pool slot, at most 65 535: a dispatch's guaranteed limit).
+    for (uint k = gl_WorkGroupID.x; k < allocated; k += gl_NumWorkGroups.x) {
+        uint slot = ROUND_FIRST_SLOT(pc.round) + k;
+        uvec2 origin = slot_cell(slot, pc.atlas_cols) * pc.page_size;
+        uint first = origin.y * width_quads + (origin.x >> 2u);
+        for (uint q = gl_LocalInvocationID.x; q < pc.page_size * row_quads; q += 64u) {
+            depth4[first + (q >> row_shift) * width_quads + (q & (row_quads - 1u))] =
+                uvec4(EMPTY_DEPTH_BITS);
+        }
     }
 }

@@ -740,7 +740,8 @@ impl<'a> VirtualPages<'a> {
                 rec.copy_image_to_buffer(&self.atlas, &drawer.depth_bits);
             }
             let (clear_pipeline, clear_set) = &drawer.clear;
-            let slots = self.desc.pool_pages * SLOT_CLEAR_GROUP;
+            // A workgroup a slot, within a dispatch's guaranteed 65 535 (the shader strides on).
+            let slots = self.desc.pool_pages.min(65_535) * SLOT_CLEAR_GROUP;
             rec.dispatch(clear_pipeline, clear_set, push, [slots, 1, 1])?;
             let cover = WALK_COVER_TEXELS.min(self.desc.raster_split);
             let append = PagesPush {

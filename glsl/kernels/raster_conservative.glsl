@@ -99,6 +99,7 @@ layout(set = 0, binding = 2) buffer Depth { uint depth[]; };
 // 2 * triangles entries: a clipped triangle may list two pieces.
 layout(set = 0, binding = 3) buffer Large { uint large[]; };
 layout(set = 0, binding = 4) buffer Counters { uint counters[]; };
+#include "counter_sum.glsl"
 
 layout(push_constant) uniform Push {
     // World -> light clip space (Vulkan clip, depth 0..1).
@@ -458,6 +459,69 @@ uint raster_rows_polygon(vec3 p[MAXV], int n, Setup s, int first, int step, int 
 
 #endif
 
+// Phase 0's work on triangle `tri`: skipped (counted), rasterized here, or listed for phase 1.
+// Returns the texels it wrote.
+uint raster_triangle(uint tri) {
+    uint written = 0u;
+    vec4 a = clip_vertex(3u * tri);
+    vec4 b = clip_vertex(3u * tri + 1u);
+    vec4 c = clip_vertex(3u * tri + 2u);
+    bool behind = a.w <= 0.0 && b.w <= 0.0 && c.w <= 0.0;
+    bool past_far = a.w > 0.0 && b.w > 0.0 && c.w > 0.0 && a.z > a.w && b.z > b.w && c.z > c.w;
+    bool front = a.w > 0.0 && b.w > 0.0 && c.w > 0.0;
+    bool whole = front && (CLIP_MODE ? a.z >= 0.0 && b.z >= 0.0 && c.z >= 0.0
+                                     : !(a.z < 0.0 && b.z < 0.0 && c.z < 0.0));
+    if (behind || past_far || (!CLIP_MODE && !whole)) {
+        atomicAdd(counters[C_SKIPPED], 1u);
+        if (behind || (!CLIP_MODE && !front)) {
+            atomicAdd(counters[C_BEHIND], 1u);
+        }
+        if (!behind && !past_far) {
+            atomicAdd(counters[C_MISSED], 1u);
+        }
+    } else if (whole) {
+        vec3 p[3];
+        Setup s;
+        if (!whole_piece(a, b, c, p, s)) {
+            atomicAdd(counters[C_SKIPPED], 1u);
+            atomicAdd(counters[C_MISSED], 1u);
+        } else {
+            uint count = texel_count(s);
+            vec2 e1 = p[1].xy - p[0].xy;
+            vec2 e2 = p[2].xy - p[0].xy;
+            float area = e1.x * e2.y - e1.y * e2.x;
+            if (count > SMALL) {
+                list_piece(tri, PIECE_WHOLE, count);
+            } else if (count <= TINY && area != 0.0) {
+                // A flat loop over the box, not rows (see covers_texel).
+                float sgn = area > 0.0 ? 1.0 : -1.0;
+                vec2 tmin = min(p[0].xy, min(p[1].xy, p[2].xy));
+                vec2 tmax = max(p[0].xy, max(p[1].xy, p[2].xy));
+                TinyEdge e0 = edge_corner(p[0].xy, p[1].xy, sgn);
+                TinyEdge e1 = edge_corner(p[1].xy, p[2].xy, sgn);
+                TinyEdge e2 = edge_corner(p[2].xy, p[0].xy, sgn);
+                for (int j = s.lo.y; j <= s.hi.y; ++j) {
+                    for (int i = s.lo.x; i <= s.hi.x; ++i) {
+                        if (covers_texel(e0, e1, e2, sgn, tmin, tmax, ivec2(i, j))) {
+                            write_texel(s, i, j);
+                            written += 1u;
+                        }
+                    }
+                }
+            } else {
+                written += raster_rows_triangle(p, s, 0, 1, 0, 1);
+            }
+        }
+    } else {
+        // Rare, and set up in phase 1 only: the clip's arrays here cost every invocation of this
+        // pass (measured: a third more time on grid:800000@rect). Only with CLIP (without it
+        // such triangles were skipped above).
+        atomicAdd(counters[C_CLIPPED], 1u);
+        list_piece(tri, PIECE_CLIPPED, HUGE + 1u);
+    }
+    return written;
+}
+
 void main() {
     // No barrier() anywhere (include/invocation_counts.glsl says why).
     uint written = 0u;
@@ -467,66 +531,10 @@ void main() {
             atomicAdd(counters[C_TRIANGLES], pc.triangles);
         }
         for (uint k = 0u; k < TRIS_PER_INVOCATION; ++k) {
-        uint tri = gl_GlobalInvocationID.x * TRIS_PER_INVOCATION + k;
-        if (tri < pc.triangles) {
-            vec4 a = clip_vertex(3u * tri);
-            vec4 b = clip_vertex(3u * tri + 1u);
-            vec4 c = clip_vertex(3u * tri + 2u);
-            bool behind = a.w <= 0.0 && b.w <= 0.0 && c.w <= 0.0;
-            bool past_far = a.w > 0.0 && b.w > 0.0 && c.w > 0.0 && a.z > a.w && b.z > b.w
-                && c.z > c.w;
-            bool front = a.w > 0.0 && b.w > 0.0 && c.w > 0.0;
-            bool whole = front && (CLIP_MODE ? a.z >= 0.0 && b.z >= 0.0 && c.z >= 0.0
-                                             : !(a.z < 0.0 && b.z < 0.0 && c.z < 0.0));
-            if (behind || past_far || (!CLIP_MODE && !whole)) {
-                atomicAdd(counters[C_SKIPPED], 1u);
-                if (behind || (!CLIP_MODE && !front)) {
-                    atomicAdd(counters[C_BEHIND], 1u);
-                }
-                if (!behind && !past_far) {
-                    atomicAdd(counters[C_MISSED], 1u);
-                }
-            } else if (whole) {
-                vec3 p[3];
-                Setup s;
-                if (!whole_piece(a, b, c, p, s)) {
-                    atomicAdd(counters[C_SKIPPED], 1u);
-                    atomicAdd(counters[C_MISSED], 1u);
-                } else {
-                    uint count = texel_count(s);
-                    vec2 e1 = p[1].xy - p[0].xy;
-                    vec2 e2 = p[2].xy - p[0].xy;
-                    float area = e1.x * e2.y - e1.y * e2.x;
-                    if (count > SMALL) {
-                        list_piece(tri, PIECE_WHOLE, count);
-                    } else if (count <= TINY && area != 0.0) {
-                        // A flat loop over the box, not rows (see covers_texel).
-                        float sgn = area > 0.0 ? 1.0 : -1.0;
-                        vec2 tmin = min(p[0].xy, min(p[1].xy, p[2].xy));
-                        vec2 tmax = max(p[0].xy, max(p[1].xy, p[2].xy));
-                        TinyEdge e0 = edge_corner(p[0].xy, p[1].xy, sgn);
-                        TinyEdge e1 = edge_corner(p[1].xy, p[2].xy, sgn);
-                        TinyEdge e2 = edge_corner(p[2].xy, p[0].xy, sgn);
-                        for (int j = s.lo.y; j <= s.hi.y; ++j) {
-                            for (int i = s.lo.x; i <= s.hi.x; ++i) {
-                                if (covers_texel(e0, e1, e2, sgn, tmin, tmax, ivec2(i, j))) {
-                                    write_texel(s, i, j);
-                                    written += 1u;
-                                }
-                            }
-                        }
-                    } else {
-                        written += raster_rows_triangle(p, s, 0, 1, 0, 1);
-                    }
-                }
-            } else {
-                // Rare, and set up in phase 1 only: the clip's arrays here cost every invocation
-                // of this pass (measured: a third more time on grid:800000@rect). Only with CLIP
-                // (without it such triangles were skipped above).
-                atomicAdd(counters[C_CLIPPED], 1u);
-                list_piece(tri, PIECE_CLIPPED, HUGE + 1u);
+            uint tri = gl_GlobalInvocationID.x * TRIS_PER_INVOCATION + k;
+            if (tri < pc.triangles) {
+                written += raster_triangle(tri);
             }
-        }
         }
     } else {
         uint front = counters[C_FRONT];
@@ -566,18 +574,10 @@ void main() {
             }
         }
     }
-#ifdef SUBGROUP_COUNT
-    // One atomic a subgroup: one an invocation (each of the 800k grid's triangles writes some
-    // texel) cost pvssm-lowres on grid:800000@rect 39.6 -> 32.7 ms on lavapipe.
-    uint written_here = subgroupAdd(written);
-    if (subgroupElect() && written_here > 0u) {
-        atomicAdd(counters[C_TEXELS], written_here);
-    }
-#else
-    if (written > 0u) {
-        atomicAdd(counters[C_TEXELS], written);
-    }
-#endif
+    // One atomic a subgroup where the device has subgroup arithmetic (counter_sum.glsl): one an
+    // invocation (each of the 800k grid's triangles writes some texel) cost pvssm-lowres on
+    // grid:800000@rect 39.6 -> 32.7 ms on lavapipe.
+    add_summed(C_TEXELS, written);
     // Two passes unless lavapipe's loop limiter ran out above (map_size >= 1).
     int passes = 0;
     for (int i = 0; i < min(int(pc.map_size), 1) + 1; ++i) {

@@ -1,5 +1,5 @@
 // The body of bin.comp (subgroup arithmetic: the walk's covered pairs counted a subgroup at a
-// time) and bin_lanes.comp (devices without it: an atomic an invocation).
+// time, counter_sum.glsl) and bin_lanes.comp (devices without it: an atomic an invocation).
 // Caster culling: bins each triangle into the resident pages it touches, so a page draws only its
 // own casters. One invocation per triangle walks, level by level, the resident pages under its
 // bounding box and tests the triangle against each page's rectangle exactly (separating axes) —
@@ -41,6 +41,7 @@ layout(set = 0, binding = 5) readonly buffer BinOffset { uint bin_offset[]; };
 layout(set = 0, binding = 6) buffer BinCursor { uint bin_cursor[]; };
 layout(set = 0, binding = 7) writeonly buffer Entries { uvec2 entries[]; };
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
+#include "counter_sum.glsl"
 // Per triangle, mode 0's memo for mode 1: its first two slots + 1 (0: none), the second
 // MEMO_MORE when it has more than two.
 layout(set = 0, binding = 9) buffer Memo { uvec2 memo[]; };
@@ -354,17 +355,7 @@ void main() {
     if (bin_mode() == 0u) {
         memo[tri] = uvec2(memo_first, memo_more ? MEMO_MORE : memo_second);
     }
-#ifdef SUBGROUP_COUNT
-    // One atomic a subgroup: one an invocation cost the 800k grid's walk ~9 ms on lavapipe.
-    uint covered_here = subgroupAdd(covered);
-    if (subgroupElect() && covered_here > 0u) {
-        atomicAdd(counters[C_WALK_COVERED], covered_here);
-    }
-#else
-    if (covered > 0u) {
-        atomicAdd(counters[C_WALK_COVERED], covered);
-    }
-#endif
+    add_summed(C_WALK_COVERED, covered);
     if (binned == 0u) {
         return;
     }

@@ -4,8 +4,9 @@
 // out of the page table, so their lookups fall back to a coarser page instead of reading a page
 // with missing casters. Offsets grow with the slot, so the slots that fit are a prefix: the root
 // (slot 0, at most every triangle once, and the capacity holds that) always fits. After bin.comp's
-// mode 2 (pc.mode's low byte 2: appended, unordered) the slots out are those it flagged incomplete, the
-// root's pairs have their own region, and only the compute raster's arguments are written.
+// mode 2 (pc.mode's low byte 2: appended, unordered) the slots out are those it flagged
+// incomplete, the root's pairs have their own region, and only the compute raster's arguments are
+// written.
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
 #include "pages_push.glsl"

@@ -329,10 +329,10 @@ enum PageDrawer {
     Compute(Box<ComputeDrawer>),
 }
 
-/// [`PageRaster::Compute`]'s resources.
 /// Invocations of a `slot_clear.comp` workgroup (one workgroup a slot).
 const SLOT_CLEAR_GROUP: u32 = 64;
 
+/// [`PageRaster::Compute`]'s resources.
 struct ComputeDrawer {
     pipeline: Pipeline,
     set: DescriptorSet,
@@ -740,8 +740,9 @@ impl<'a> VirtualPages<'a> {
                 rec.copy_image_to_buffer(&self.atlas, &drawer.depth_bits);
             }
             let (clear_pipeline, clear_set) = &drawer.clear;
-            // A workgroup a slot, within a dispatch's guaranteed 65 535 (the shader strides on).
-            let slots = self.desc.pool_pages.min(65_535) * SLOT_CLEAR_GROUP;
+            // A workgroup a slot, within a dispatch's guaranteed count (the shader strides on).
+            let groups = self.desc.pool_pages.min(crate::kernels::scan::MAX_GROUPS);
+            let slots = groups * SLOT_CLEAR_GROUP;
             rec.dispatch(clear_pipeline, clear_set, push, [slots, 1, 1])?;
             let cover = WALK_COVER_TEXELS.min(self.desc.raster_split);
             let append = PagesPush {

@@ -446,6 +446,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "pages/ancestors.comp",
                 "pages/bin.comp",
                 "pages/bin_lanes.comp",
+                "pages/cluster_levels.comp",
                 "pages/draws.comp",
                 "pages/page_depth.vert",
                 "pages/page_depth_listed.vert",

@@ -50,6 +50,10 @@ const uint MEMO_MORE = 0xffffffffu;
 // The compute page raster's depths (pages.rs binds the drawer's buffer, or one word when the
 // rasterizer draws the pages): mode 2 covers a tiny triangle's one page here, in the walk.
 layout(set = 0, binding = 10) buffer Atlas { uint atlas_bits[]; };
+// Per cluster (this workgroup's CLUSTER_TRIANGLES = 64 triangles): the levels its box may bin
+// into (cluster_levels.comp), read once a workgroup, so the level loop stays the same for every
+// lane and skips the levels none of them can reach.
+layout(set = 0, binding = 11) readonly buffer ClusterMask { uint cluster_mask[]; };
 
 #include "page_bias.glsl"
 #include "page_cover.glsl"
@@ -242,9 +246,12 @@ uint walk(uint tri, Projected t, uint what) {
     if (t.projected) {
         vec2 tmin = min(t.p0, min(t.p1, t.p2));
         vec2 tmax = max(t.p0, max(t.p1, t.p2));
-        // The levels with a resident page of this round: one word, the same for every lane, so
-        // the loop is the same for all (a pvssm frame has a few such levels).
-        uint resident = level_info[pc.round * pc.levels].levels_mask;
+        // The levels with a resident page of this round under the cluster's box: two words,
+        // the same for every lane (the cluster is the workgroup), so the loop is the same for
+        // all (a pvssm frame has a few such levels; a cluster far from the finest levels' pages
+        // skips those).
+        uint resident = level_info[pc.round * pc.levels].levels_mask
+                      & cluster_mask[gl_WorkGroupID.x];
         for (uint left = resident; left != 0u; left &= left - 1u) {
             // No `continue` in this loop: a divergent one makes the level a per-lane value to
             // the compiler, and the level's bookkeeping below a gather per lane on lavapipe

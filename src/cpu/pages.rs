@@ -1,11 +1,12 @@
 //! CPU twin of the page machinery (`src/passes/pages.rs`, `glsl/pages/`): the page-table
 //! layout (coarsest level first, the root is entry 0), allocation from a fixed pool (coarse
 //! first, and the refinement round's after round 0's slots), the atlas placement of a slot, and
-//! the caster-culling test of a triangle against a page. Written from the same specification as
-//! the shaders, with its own code; exact against the GPU except the culling test within float
-//! rounding of its `eps` margin.
+//! the caster-culling test of a triangle against a page, and the levels a cluster of triangles
+//! may reach. Written from the same specification as the shaders, with its own code; exact
+//! against the GPU except the culling test within float rounding of its `eps` margin (and the
+//! cluster's levels within the rounding of its projected box).
 
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 
 /// Largest `V / p` accepted: the entry count `E < 4/3 · (V/p)²` must fit a `u32`.
 const MAX_PAGES_PER_SIDE: u32 = 1 << 15;
@@ -271,6 +272,87 @@ pub fn triangle_overlaps_page(
     });
     !separated
 }
+
+/// Most pages of one level [`cluster_level_mask`] looks up; past it the level is kept unlooked.
+const CLUSTER_MAX_LOOKUPS: f32 = 64.0;
+
+/// The levels (bit l for level l) the triangles inside the world box `lo..hi` may bin into, of
+/// the round's resident pages `resident` (level, page x, page y), seen through `view_proj`
+/// (world to light clip space) — twin of `glsl/pages/cluster_levels.comp`: no level when all
+/// eight corners lie before the near or past the far plane, every resident level when one lies
+/// behind the light, else each level with a resident page under the projected box widened by
+/// 1/64 of the level's texel and a margin of `2 + 1e-4 V` level-0 texels (looked up within the
+/// level's resident rectangle; a range of more than 64 pages keeps the level unlooked).
+pub fn cluster_level_mask(
+    lo: Vec3,
+    hi: Vec3,
+    view_proj: Mat4,
+    layout: &PageLayout,
+    resident: &[(u32, u32, u32)],
+) -> u32 {
+    let all_levels = resident.iter().fold(0u32, |m, &(l, _, _)| m | (1 << l));
+    let v = layout.virtual_size as f32;
+    let corners: Vec<Vec4> = (0..8)
+        .map(|k| {
+            let pick = |bit: u32, a: f32, b: f32| if k & bit != 0 { b } else { a };
+            let p = Vec3::new(
+                pick(1, lo.x, hi.x),
+                pick(2, lo.y, hi.y),
+                pick(4, lo.z, hi.z),
+            );
+            view_proj * p.extend(1.0)
+        })
+        .collect();
+    if corners.iter().all(|q| q.z < 0.0) || corners.iter().all(|q| q.z > q.w) {
+        return 0;
+    }
+    if !corners.iter().all(|q| q.w > 0.0) {
+        return all_levels;
+    }
+    let projected = corners
+        .iter()
+        .map(|q| (Vec2::new(q.x, q.y) / q.w * 0.5 + 0.5) * v);
+    let (pmin, pmax) = projected.fold(
+        (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY)),
+        |(a, b), p| (a.min(p), b.max(p)),
+    );
+    let margin = 2.0 + 1e-4 * v;
+    let mut mask = 0;
+    for level in (0..layout.levels).filter(|l| all_levels & (1 << l) != 0) {
+        let pages: Vec<(u32, u32)> = resident
+            .iter()
+            .filter(|p| p.0 == level)
+            .map(|p| (p.1, p.2))
+            .collect();
+        let rect_lo = pages.iter().fold(Vec2::splat(f32::INFINITY), |m, p| {
+            m.min(Vec2::new(p.0 as f32, p.1 as f32))
+        });
+        let rect_hi = pages.iter().fold(Vec2::splat(f32::NEG_INFINITY), |m, p| {
+            m.max(Vec2::new(p.0 as f32, p.1 as f32))
+        });
+        let texels = (layout.page_size << level) as f32;
+        let widen = 2f32.powi(level as i32) / 64.0 + margin;
+        let last = Vec2::splat((layout.pages_per_side(level) - 1) as f32);
+        let a = ((pmin - widen) / texels)
+            .floor()
+            .max(rect_lo.max(Vec2::ZERO));
+        let b = ((pmax + widen) / texels).floor().min(rect_hi.min(last));
+        if a.x > b.x || a.y > b.y {
+            continue;
+        }
+        let under = |p: &&(u32, u32)| {
+            let q = Vec2::new(p.0 as f32, p.1 as f32);
+            q.x >= a.x && q.x <= b.x && q.y >= a.y && q.y <= b.y
+        };
+        if (b.x - a.x + 1.0) * (b.y - a.y + 1.0) > CLUSTER_MAX_LOOKUPS
+            || pages.iter().any(|p| under(&p))
+        {
+            mask |= 1 << level;
+        }
+    }
+    mask
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

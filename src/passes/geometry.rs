@@ -1,4 +1,7 @@
-//! The scene's triangles on the GPU: one position stream and one index list for all meshes.
+//! The scene's triangles on the GPU: one position stream and one index list for all meshes,
+//! and the world boxes of consecutive runs of [`CLUSTER_TRIANGLES`] triangles (clusters), made
+//! once here on the CPU, which the virtual pages' culling walk projects to skip the levels a
+//! whole cluster cannot reach (`glsl/pages/cluster_levels.comp`).
 
 use ash::vk;
 use glam::Vec3;
@@ -6,6 +9,10 @@ use glam::Vec3;
 use crate::error::{Error, Result};
 use crate::gpu::{Buffer, Context};
 use crate::scene::Scene;
+
+/// Triangles of a cluster: consecutive in the index list, one workgroup of the culling walk
+/// (`glsl/pages/bin.glsl`, `cluster_levels.comp`).
+pub const CLUSTER_TRIANGLES: u32 = 64;
 
 /// Vertex and index buffers of a whole scene.
 pub struct SceneGeometry {
@@ -17,6 +24,9 @@ pub struct SceneGeometry {
     pub index_count: u32,
     /// Number of vertices.
     pub vertex_count: u32,
+    /// Per cluster, its triangles' world-space box: minimum then maximum corner, each a `vec4`
+    /// (w = 0).
+    pub cluster_boxes: Buffer,
 }
 
 impl SceneGeometry {
@@ -59,6 +69,12 @@ impl SceneGeometry {
         let index_count = u32::try_from(indices.len())
             .map_err(|_| Error::input("scene", None, "more than 2^32 indices".to_string()))?;
         let flat: Vec<f32> = positions.iter().flat_map(|p| p.to_array()).collect();
+        let boxes = cluster_boxes(positions, indices);
+        let cluster_boxes = ctx.buffer_with(
+            "scene cluster boxes",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            &boxes,
+        )?;
         let vertices = ctx.buffer_with(
             "scene vertices",
             vk::BufferUsageFlags::VERTEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
@@ -74,6 +90,26 @@ impl SceneGeometry {
             indices,
             index_count,
             vertex_count: positions.len() as u32,
+            cluster_boxes,
         })
     }
+}
+
+/// The world box of each run of [`CLUSTER_TRIANGLES`] triangles of `indices` (the last run may
+/// be shorter), as `[min.x, min.y, min.z, 0, max.x, max.y, max.z, 0]` per cluster. The indices
+/// must be in range (checked by the caller).
+pub fn cluster_boxes(positions: &[Vec3], indices: &[u32]) -> Vec<f32> {
+    indices
+        .chunks(3 * CLUSTER_TRIANGLES as usize)
+        .flat_map(|run| {
+            let (lo, hi) = run.iter().fold(
+                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                |(lo, hi), &i| {
+                    let p = positions[i as usize];
+                    (lo.min(p), hi.max(p))
+                },
+            );
+            [lo.x, lo.y, lo.z, 0.0, hi.x, hi.y, hi.z, 0.0]
+        })
+        .collect()
 }

@@ -16,7 +16,7 @@ pub mod receivers;
 mod view_samples;
 mod visibility_checks;
 
-pub use geometry::SceneGeometry;
+pub use geometry::{cluster_boxes, SceneGeometry, CLUSTER_TRIANGLES};
 pub use light_depth::{
     depth_pipeline, DepthBias, MapLayer, ShadowMap, ShadowMapDesc, SHADOW_MAP_FORMAT,
 };

@@ -303,6 +303,9 @@ pub struct VirtualPages<'a> {
     // [`PagesDesc::ancestors_on_overflow`]'s marking pass.
     ancestors: Option<(Pipeline, DescriptorSet)>,
     bin: (Pipeline, DescriptorSet),
+    // `pages/cluster_levels.comp`: each cluster's levels for the walk, before it, each round.
+    cluster_levels: (Pipeline, DescriptorSet),
+    cluster_mask: Buffer,
     draw_args: (Pipeline, DescriptorSet),
     // The compute raster's dispatch and entry range per round (written by draws.comp).
     raster_args: Buffer,
@@ -485,6 +488,18 @@ impl<'a> VirtualPages<'a> {
         } else {
             None
         };
+        let clusters = triangles.div_ceil(crate::passes::CLUSTER_TRIANGLES);
+        let cluster_mask = storage("page cluster levels", 4 * u64::from(clusters.max(1)))?;
+        let cluster_levels = with_set(
+            "pages/cluster_levels.comp",
+            &[
+                Binding::Buffer(&geometry.cluster_boxes),
+                Binding::Buffer(&table),
+                Binding::Buffer(&level_info),
+                Binding::Buffer(&counters),
+                Binding::Buffer(&cluster_mask),
+            ],
+        )?;
         let bin = with_set(
             if ctx.info().subgroup_arithmetic {
                 "pages/bin.comp"
@@ -503,6 +518,7 @@ impl<'a> VirtualPages<'a> {
                 Binding::Buffer(&counters),
                 Binding::Buffer(&bin_memo),
                 Binding::Buffer(&depth_bits),
+                Binding::Buffer(&cluster_mask),
             ],
         )?;
         let draw_args = with_set(
@@ -640,6 +656,8 @@ impl<'a> VirtualPages<'a> {
             allocate,
             ancestors,
             bin,
+            cluster_levels,
+            cluster_mask,
             draw_args,
             raster_args,
             render,
@@ -725,6 +743,9 @@ impl<'a> VirtualPages<'a> {
     /// per-level draws.
     fn record_bins(&self, rec: &mut Recorder<'_>, push: &PagesPush) -> Result<()> {
         let triangles = self.push.triangles;
+        let (cluster_pipeline, cluster_set) = &self.cluster_levels;
+        let clusters = triangles.div_ceil(crate::passes::CLUSTER_TRIANGLES);
+        rec.dispatch(cluster_pipeline, cluster_set, push, [clusters, 1, 1])?;
         let (pipeline, set) = &self.bin;
         let (draw_pipeline, draw_set) = &self.draw_args;
         let threads = self.desc.pool_pages.max(self.push.levels);
@@ -875,6 +896,17 @@ impl<'a> VirtualPages<'a> {
         let mut list = crate::gpu::u32s(&self.ctx.read_buffer(&self.refine_list)?);
         list.truncate(n);
         Ok(list)
+    }
+
+    /// The last walk's level mask per cluster (`glsl/pages/cluster_levels.comp`): for tests.
+    pub fn read_cluster_masks(&self) -> Result<Vec<u32>> {
+        let clusters = self
+            .push
+            .triangles
+            .div_ceil(crate::passes::CLUSTER_TRIANGLES) as usize;
+        let mut masks = crate::gpu::u32s(&self.ctx.read_buffer(&self.cluster_mask)?);
+        masks.truncate(clusters);
+        Ok(masks)
     }
 
     /// The page table after the last frame (slot + 1 or 0 per entry): for tests.

@@ -281,8 +281,9 @@ const CLUSTER_MAX_LOOKUPS: f32 = 64.0;
 /// (world to light clip space) — twin of `glsl/pages/cluster_levels.comp`: no level when all
 /// eight corners lie before the near or past the far plane, every resident level when one lies
 /// behind the light, else each level with a resident page under the projected box widened by
-/// 1/64 of the level's texel and a margin of `2 + 1e-4 V` level-0 texels (looked up within the
-/// level's resident rectangle; a range of more than 64 pages keeps the level unlooked).
+/// 1/64 of the level's texel and a margin of `2 + 1e-4 V` level-0 texels that holds one of the
+/// level's texel centres (looked up within the level's resident rectangle; a range of more than
+/// 64 pages keeps the level unlooked).
 pub fn cluster_level_mask(
     lo: Vec3,
     hi: Vec3,
@@ -337,7 +338,11 @@ pub fn cluster_level_mask(
             .floor()
             .max(rect_lo.max(Vec2::ZERO));
         let b = ((pmax + widen) / texels).floor().min(rect_hi.min(last));
-        if a.x > b.x || a.y > b.y {
+        // No texel centre of the level under the widened box: no triangle of the box holds one.
+        let scale = 1.0 / 2f32.powi(level as i32);
+        let first = ((pmin - widen) * scale - 0.5).ceil();
+        let last_centre = ((pmax + widen) * scale - 0.5).floor();
+        if first.x > last_centre.x || first.y > last_centre.y || a.x > b.x || a.y > b.y {
             continue;
         }
         let under = |p: &&(u32, u32)| {

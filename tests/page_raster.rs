@@ -233,6 +233,47 @@ fn check_cluster_levels(
     assert!(skipping > 0, "no cluster skipped a level");
 }
 
+/// The cluster masks only skip work: with `cluster_skip` off every triangle visits every level,
+/// and the atlas, the bins and the visibility are the same bit for bit; on, the spared visits
+/// are counted (`walk_levels_skipped`), off none are.
+#[test]
+fn cluster_skip_changes_the_work_not_the_pages() {
+    let engine = common::engine();
+    let prepared = engine
+        .prepare(&common::small("scenes/bunny-rect.toml"))
+        .expect("prepare");
+    let set = [("virtual_size", "4096"), ("pool_pages", "256")];
+    let on = render(
+        &engine,
+        &prepared,
+        "pvssm",
+        &[set[0], set[1], ("cluster_skip", "1")],
+    );
+    let off = render(
+        &engine,
+        &prepared,
+        "pvssm",
+        &[set[0], set[1], ("cluster_skip", "0")],
+    );
+    let skipped = |p: &Pages| p.frame.stats.counters["walk_levels_skipped"];
+    eprintln!(
+        "walk visits skipped: {} on, {} off",
+        skipped(&on),
+        skipped(&off)
+    );
+    assert!(skipped(&on) > 0, "the masks skipped nothing");
+    assert_eq!(skipped(&off), 0);
+    assert!(off.cluster_masks.iter().all(|&m| m == u32::MAX));
+    assert_eq!(on.bins, off.bins);
+    assert_eq!(on.slots, off.slots);
+    assert!(on.atlas == off.atlas, "the atlas differs");
+    assert!(
+        on.frame.visibility == off.frame.visibility,
+        "the visibility differs"
+    );
+    common::assert_clean(&engine.context().validation());
+}
+
 #[test]
 fn compute_pages_match_the_rasterizer() {
     let engine = common::engine();
@@ -398,6 +439,7 @@ fn a_pool_past_the_exact_slot_quotient_is_refused() {
         raster: PageRaster::Graphics,
         ancestors_on_overflow: false,
         raster_split: 64,
+        cluster_skip: true,
     };
     match desc(MAX_POOL_PAGES + 1).check(&ctx, "test") {
         Err(penumbra::Error::Parameter { message, .. }) => {

@@ -30,7 +30,7 @@ layout(local_size_x = 64) in;
 layout(set = 0, binding = 0) readonly buffer Boxes { vec4 boxes[]; };
 layout(set = 0, binding = 1) readonly buffer Table { uint table[]; };
 layout(set = 0, binding = 2) readonly buffer Levels { LevelInfo level_info[]; };
-layout(set = 0, binding = 3) readonly buffer Counters { uint counters[]; };
+layout(set = 0, binding = 3) buffer Counters { uint counters[]; };
 layout(set = 0, binding = 4) writeonly buffer Masks { uint cluster_mask[]; };
 
 // Triangles of a cluster: the walk's workgroup (bin.glsl's local_size_x).
@@ -113,4 +113,12 @@ void main() {
         }
     }
     cluster_mask[cluster] = mask;
+    // The walk's visits spared: each skipped level, for each of the cluster's triangles (not
+    // for a cluster wholly before the near or past the far plane: the walk drops those
+    // triangles before its level loop anyway).
+    uint members = min(CLUSTER_TRIANGLES, pc.triangles - cluster * CLUSTER_TRIANGLES);
+    uint skipped = all_near || all_far ? 0u : uint(bitCount(resident & ~mask)) * members;
+    if (skipped != 0u) {
+        atomicAdd(counters[C_CLUSTER_SKIPPED], skipped);
+    }
 }

@@ -52,6 +52,8 @@ struct LevelInfo {
 #define C_ROUND1 6
 // Pairs the walk covered itself (bin.comp's cover_here), both rounds: not in the bins.
 #define C_WALK_COVERED 9
+// Triangle x level visits the cluster masks spared the walk (cluster_levels.comp), both rounds.
+#define C_CLUSTER_SKIPPED 10
 
 // Append mode's cursors (bin.comp mode 2), in bin_cursor after the pool's slots: root pairs
 // written, other pairs written (from entry `triangles` on), the latter when round 1 began.

@@ -78,7 +78,7 @@ pub const MAX_PAGE_ENTRIES: u32 = 1 << 22;
 
 /// Counter names of the page machinery, in the order of its counters buffer
 /// (`glsl/pages/pages_push.glsl`'s `C_*`).
-pub const PAGE_COUNTER_NAMES: [&str; 10] = [
+pub const PAGE_COUNTER_NAMES: [&str; 11] = [
     "unique_pages",
     "allocated_pages",
     "overflow_pages",
@@ -89,6 +89,7 @@ pub const PAGE_COUNTER_NAMES: [&str; 10] = [
     "refine_allocated_pages",
     "refine_overflow_pages",
     "walk_covered_pairs",
+    "walk_levels_skipped",
 ];
 
 /// How the pages' casters are drawn into the atlas.
@@ -153,6 +154,10 @@ pub struct PagesDesc {
     /// are left to the rasterizer (one invocation looping over a large box holds its SIMD group
     /// as long); `page_size²` or more rasterizes every triangle in compute.
     pub raster_split: u32,
+    /// The culling walk skips, per cluster of [`crate::passes::CLUSTER_TRIANGLES`] triangles,
+    /// the levels whose resident pages lie nowhere under the cluster's box
+    /// (`glsl/pages/cluster_levels.comp`); off, every triangle visits every resident level.
+    pub cluster_skip: bool,
 }
 
 impl PagesDesc {
@@ -743,9 +748,13 @@ impl<'a> VirtualPages<'a> {
     /// per-level draws.
     fn record_bins(&self, rec: &mut Recorder<'_>, push: &PagesPush) -> Result<()> {
         let triangles = self.push.triangles;
-        let (cluster_pipeline, cluster_set) = &self.cluster_levels;
-        let clusters = triangles.div_ceil(crate::passes::CLUSTER_TRIANGLES);
-        rec.dispatch(cluster_pipeline, cluster_set, push, [clusters, 1, 1])?;
+        if self.desc.cluster_skip {
+            let (cluster_pipeline, cluster_set) = &self.cluster_levels;
+            let clusters = triangles.div_ceil(crate::passes::CLUSTER_TRIANGLES);
+            rec.dispatch(cluster_pipeline, cluster_set, push, [clusters, 1, 1])?;
+        } else {
+            rec.fill(&self.cluster_mask, u32::MAX);
+        }
         let (pipeline, set) = &self.bin;
         let (draw_pipeline, draw_set) = &self.draw_args;
         let threads = self.desc.pool_pages.max(self.push.levels);

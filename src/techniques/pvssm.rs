@@ -107,9 +107,9 @@ pub const COUNTER_NAMES: [&str; 13] = [
     "kernel_lit",
 ];
 
-const PAGE_KNOBS: [Knob; 6] = virtual_map::page_knobs(16384.0);
+const PAGE_KNOBS: [Knob; 7] = virtual_map::page_knobs(16384.0);
 
-const KNOBS: [Knob; 23] = [
+const KNOBS: [Knob; 24] = [
     Knob::int(
         "lowres_size",
         "conservative low-resolution map for the blocker search, texels per side",
@@ -220,6 +220,7 @@ const KNOBS: [Knob; 23] = [
     PAGE_KNOBS[3],
     PAGE_KNOBS[4],
     PAGE_KNOBS[5],
+    PAGE_KNOBS[6],
     super::SHADOW_MAP_KNOBS[1],
     super::SHADOW_MAP_KNOBS[2],
     super::SHADOW_MAP_KNOBS[3],

@@ -11,8 +11,8 @@ use crate::passes::pages::{PageRaster, PagesDesc};
 use crate::passes::DepthBias;
 
 /// `virtual_size` (with the technique's default), `page_size`, `pool_pages`, `bin_factor`,
-/// `page_raster` and `raster_split`.
-pub const fn page_knobs(virtual_size: f64) -> [Knob; 6] {
+/// `page_raster`, `raster_split` and `cluster_skip`.
+pub const fn page_knobs(virtual_size: f64) -> [Knob; 7] {
     [
         Knob::int(
             "virtual_size",
@@ -61,6 +61,15 @@ pub const fn page_knobs(virtual_size: f64) -> [Knob; 6] {
             0.0,
             1_048_576.0,
         ),
+        Knob::int(
+            "cluster_skip",
+            "1: the culling walk skips, per cluster of 64 triangles, the levels whose resident \
+             pages lie nowhere under the cluster's box (exact; counted as walk_levels_skipped); \
+             0: every triangle visits every level (to measure the skip)",
+            1.0,
+            0.0,
+            1.0,
+        ),
     ]
 }
 
@@ -91,6 +100,7 @@ pub fn pages_desc(ctx: &Context, params: &Params) -> Result<PagesDesc> {
         ancestors_on_overflow: false,
         raster: PageRaster::Graphics,
         raster_split: params.u32("raster_split")?,
+        cluster_skip: params.u32("cluster_skip")? == 1,
     };
     desc.raster = PageRaster::from_knob(ctx, params.u32("page_raster")?, desc.atlas_bytes());
     if desc.bias.clamp != 0.0 {

@@ -7,8 +7,9 @@
 //! overwritten with their 0), `skip = off` where the technique has its own classification
 //! (pcss's min/max pyramid or N-buffer, atty's and bitmask's N-buffer, pvssm's coarse look),
 //! `pack_channels = 0` on the filtered maps (their unused basis channels stored and filtered
-//! too) and `caster_skip = 0` (where the engine proved that nothing can cast into the view,
-//! skipping on renders no map at all: [`penumbra::passes::caster_cull`]).
+//! too), `caster_skip = 0` (where the engine proved that nothing can cast into the view,
+//! skipping on renders no map at all: [`penumbra::passes::caster_cull`]) and `cluster_skip = 0`
+//! on the virtual maps (every triangle's culling walk visits every resident level).
 //! Skips that are part of how a technique works and have no switch (izb's triangle culling and
 //! tangent-plane rejection, the virtual maps' page culling, cascades left empty, vssm's and
 //! cssm's classification) are reported from the counters only: `skipped_samples` sums the
@@ -59,8 +60,9 @@ const SAMPLE_SKIPS: [&str; 4] = [
 ];
 
 /// Counters of other skipped work (not in samples), listed by name in the `other_skips` column.
-const OTHER_SKIPS: [&str; 5] = [
+const OTHER_SKIPS: [&str; 6] = [
     "caster_skip",
+    "walk_levels_skipped",
     "skipped_channels",
     "triangles_culled",
     "behind_tangent_plane",
@@ -217,6 +219,9 @@ fn off_switches(technique: &str) -> anyhow::Result<Vec<(String, String)>> {
     }
     if knobs.iter().any(|k| k.name == "caster_skip") {
         off.push(("caster_skip".to_string(), "0".to_string()));
+    }
+    if knobs.iter().any(|k| k.name == "cluster_skip") {
+        off.push(("cluster_skip".to_string(), "0".to_string()));
     }
     Ok(off)
 }

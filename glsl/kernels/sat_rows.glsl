@@ -1,36 +1,61 @@
 // Summed-area table, pass 1 of 2 (serial layout): the inclusive prefix sum of each row of one
-// band, one invocation per row, left to right. Serial rows keep the order of additions fixed
-// (float tables are deterministic and equal to the CPU twin's loop, src/cpu/sat.rs) and need no
-// shared memory, so any width works. Four entries a store where the width allows, eight with
-// SAT_WIDE (sat_wide.glsl). Defines: see sat_source.glsl.
+// band, left to right. Serial rows keep the order of additions fixed (float tables are
+// deterministic and equal to the CPU twin's loop, src/cpu/sat.rs) and need no shared memory, so
+// any width works. One invocation makes two rows (the band's rows 2i and 2i + 1), reading them
+// a 2x2 block a gather where the width is a multiple of four (a quarter of the texel reads: on
+// lavapipe each is a call per SIMD lane; each row still adds its texels in order, so the same
+// bits). Four entries a store where the width allows, eight with SAT_WIDE (sat_wide.glsl).
+// Defines: see sat_source.glsl.
 
 layout(local_size_x = 64) in;
 
 #include "sat_source.glsl"
 
 void main() {
-    int r = int(gl_GlobalInvocationID.x);
+    int r = 2 * int(gl_GlobalInvocationID.x);
     if (r >= pc.rows) {
         return;
     }
+    // Whether the band holds the second row (its last invocation may make only one).
+    bool two = r + 1 < pc.rows;
     int y = pc.row0 + r;
     uint base = uint(r) * uint(pc.size.x);
+    uint base_lower = base + uint(pc.size.x);
+    vec2 inv_size = 1.0 / vec2(pc.size);
     precise SAT_T acc = SAT_T(0);
+    precise SAT_T acc_lower = SAT_T(0);
 #ifdef SAT_WIDE
     if (pc.size.x % 8 == 0) {
-        // Eight prefixes a store (sat_wide.glsl).
+        // Eight prefixes a store (sat_wide.glsl), each row's eight texels from four gathers.
         uint base8 = base / 8u;
+        uint lower8 = base_lower / 8u;
         for (int x = 0; x < pc.size.x; x += 8) {
-            precise SAT_T a0 = acc + sat_texel(x, y);
-            precise SAT_T a1 = a0 + sat_texel(x + 1, y);
-            precise SAT_T a2 = a1 + sat_texel(x + 2, y);
-            precise SAT_T a3 = a2 + sat_texel(x + 3, y);
-            precise SAT_T a4 = a3 + sat_texel(x + 4, y);
-            precise SAT_T a5 = a4 + sat_texel(x + 5, y);
-            precise SAT_T a6 = a5 + sat_texel(x + 6, y);
-            acc = a6 + sat_texel(x + 7, y);
+            SAT_RAW4 q0 = sat_block(x, y, inv_size);
+            SAT_RAW4 q1 = sat_block(x + 2, y, inv_size);
+            SAT_RAW4 q2 = sat_block(x + 4, y, inv_size);
+            SAT_RAW4 q3 = sat_block(x + 6, y, inv_size);
+            precise SAT_T a0 = acc + sat_convert(q0.x);
+            precise SAT_T a1 = a0 + sat_convert(q0.y);
+            precise SAT_T a2 = a1 + sat_convert(q1.x);
+            precise SAT_T a3 = a2 + sat_convert(q1.y);
+            precise SAT_T a4 = a3 + sat_convert(q2.x);
+            precise SAT_T a5 = a4 + sat_convert(q2.y);
+            precise SAT_T a6 = a5 + sat_convert(q3.x);
+            acc = a6 + sat_convert(q3.y);
             band8[base8 + uint(x / 8)] =
                 sat_pack8(SAT_T4(a0, a1, a2, a3), SAT_T4(a4, a5, a6, acc));
+            if (two) {
+                precise SAT_T b0 = acc_lower + sat_convert(q0.z);
+                precise SAT_T b1 = b0 + sat_convert(q0.w);
+                precise SAT_T b2 = b1 + sat_convert(q1.z);
+                precise SAT_T b3 = b2 + sat_convert(q1.w);
+                precise SAT_T b4 = b3 + sat_convert(q2.z);
+                precise SAT_T b5 = b4 + sat_convert(q2.w);
+                precise SAT_T b6 = b5 + sat_convert(q3.z);
+                acc_lower = b6 + sat_convert(q3.w);
+                band8[lower8 + uint(x / 8)] =
+                    sat_pack8(SAT_T4(b0, b1, b2, b3), SAT_T4(b4, b5, b6, acc_lower));
+            }
         }
         return;
     }
@@ -38,17 +63,31 @@ void main() {
     if (pc.size.x % 4 == 0) {
         // Four prefixes a store (see sat_cols.glsl: one buffer access for four entries).
         uint base4 = base / 4u;
+        uint lower4 = base_lower / 4u;
         for (int x = 0; x < pc.size.x; x += 4) {
-            precise SAT_T a0 = acc + sat_texel(x, y);
-            precise SAT_T a1 = a0 + sat_texel(x + 1, y);
-            precise SAT_T a2 = a1 + sat_texel(x + 2, y);
-            acc = a2 + sat_texel(x + 3, y);
+            SAT_RAW4 q0 = sat_block(x, y, inv_size);
+            SAT_RAW4 q1 = sat_block(x + 2, y, inv_size);
+            precise SAT_T a0 = acc + sat_convert(q0.x);
+            precise SAT_T a1 = a0 + sat_convert(q0.y);
+            precise SAT_T a2 = a1 + sat_convert(q1.x);
+            acc = a2 + sat_convert(q1.y);
             band4[base4 + uint(x / 4)] = SAT_T4(a0, a1, a2, acc);
+            if (two) {
+                precise SAT_T b0 = acc_lower + sat_convert(q0.z);
+                precise SAT_T b1 = b0 + sat_convert(q0.w);
+                precise SAT_T b2 = b1 + sat_convert(q1.z);
+                acc_lower = b2 + sat_convert(q1.w);
+                band4[lower4 + uint(x / 4)] = SAT_T4(b0, b1, b2, acc_lower);
+            }
         }
         return;
     }
     for (int x = 0; x < pc.size.x; ++x) {
         acc += sat_texel(x, y);
         band[base + uint(x)] = acc;
+        if (two) {
+            acc_lower += sat_texel(x, y + 1);
+            band[base_lower + uint(x)] = acc_lower;
+        }
     }
 }

@@ -35,15 +35,23 @@ layout(push_constant) uniform Push {
     int pad;
 } pc;
 
-// Texel (x, y) as the table sums it.
-SAT_T sat_texel(int x, int y) {
+#ifdef SAT_SRC_UINT
+#define SAT_RAW uint
+#define SAT_RAW4 uvec4
+#else
+#define SAT_RAW float
+#define SAT_RAW4 vec4
+#endif
+
+// A source texel's value as the table sums it.
+SAT_T sat_convert(SAT_RAW raw) {
 #if defined(SAT_SRC_UINT)
-    return SAT_T(texelFetch(source, ivec2(x, y), 0).r);
+    return SAT_T(raw);
 #elif defined(SAT_FIXED)
     // The product is exact (scale is a power of two), so rounding it half-to-even is
     // deterministic (v * scale + 0.5 would round twice). 4294967040: the largest float below
     // 2^32; NaN and negatives give 0, as the twin's saturating cast.
-    float v = roundEven(texelFetch(source, ivec2(x, y), 0).r * pc.scale);
+    float v = roundEven(raw * pc.scale);
     v = v >= 0.0 ? min(v, 4294967040.0) : 0.0;
     // To uint without a float-to-int conversion (lavapipe splits one into scalar code per SIMD
     // lane: small_int.glsl): the high and low 16 bits of the whole number v, each a whole float
@@ -55,7 +63,20 @@ SAT_T sat_texel(int x, int y) {
     uint l = uint(floatBitsToInt(low + 8388608.0) - 0x4B000000);
     return SAT_T((h << 16) | l);
 #else
-    precise SAT_T v = SAT_T(texelFetch(source, ivec2(x, y), 0).r) - SAT_T(offset);
+    precise SAT_T v = SAT_T(raw) - SAT_T(offset);
     return v;
 #endif
+}
+
+// Texel (x, y) as the table sums it.
+SAT_T sat_texel(int x, int y) {
+    return sat_convert(texelFetch(source, ivec2(x, y), 0).r);
+}
+
+// The source's 2x2 block at (x, y) — texels (x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1) — by
+// one gather (on lavapipe a texel read is a call per SIMD lane whatever it returns), unconverted.
+// `inv_size`: 1 / the image's size. Texels past the image read the sampler's border.
+SAT_RAW4 sat_block(int x, int y, vec2 inv_size) {
+    // textureGather returns (x, y+1), (x+1, y+1), (x+1, y), (x, y).
+    return textureGather(source, (vec2(x, y) + 1.0) * inv_size).wzxy;
 }

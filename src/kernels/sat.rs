@@ -384,7 +384,13 @@ impl<'a> Sat<'a> {
     pub fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
         let size = [self.width as i32, self.height as i32];
         if let Some((_, p1, s1, p2, s2)) = &self.mean {
-            rec.dispatch(p1, s1, &SatSizePush { size }, [self.height, 1, 1])?;
+            // One invocation per pair of rows (sat_row_sums.comp).
+            rec.dispatch(
+                p1,
+                s1,
+                &SatSizePush { size },
+                [self.height.div_ceil(2), 1, 1],
+            )?;
             rec.dispatch(p2, s2, &SatSizePush { size }, [64, 1, 1])?;
         } else if !self.precision.integer() {
             rec.fill(&self.offset, 0);
@@ -399,7 +405,7 @@ impl<'a> Sat<'a> {
                 pad: 0,
             };
             let threads = match self.layout {
-                SatLayout::Serial => rows,
+                SatLayout::Serial => rows.div_ceil(2),
                 SatLayout::Blocked => rows * BLOCKED_GROUP,
             };
             rec.dispatch(&self.rows, set, &push, [threads, 1, 1])?;

@@ -60,12 +60,6 @@ vec3 light_point(vec2 x) {
     return ls;
 }
 
-// (a, b) of the point where the line from o through v meets the light's plane.
-vec2 project(vec3 o, vec4 v, float depth, vec2 inv_uv) {
-    vec3 x = o + (v.xyz - o) * (depth / (depth - v.w)) - L_C;
-    return vec2(dot(x, L_U) * inv_uv.x, dot(x, L_V) * inv_uv.y) + 0.5;
-}
-
 // The sample's data, read once for all the item's triangles (private: per invocation).
 uint s_index;
 bool s_all_front;
@@ -76,6 +70,7 @@ vec3 s_n;
 uint s_seed;
 uint s_base;
 vec2 inv_uv;
+vec2 s_ab;  // the sample's o in the light's coordinates (light_ab)
 float uu;
 float vv;
 int na;
@@ -103,6 +98,24 @@ uint m_fresh;
 uint m_rays;
 // Light samples of the word found behind the tangent plane: never to be tested again.
 uint m_behind;
+
+// The light's affine coordinates (a, b) of a world point: dot(x - c, u) / |u|² + 1/2 and likewise
+// for v, the light's square [0, 1]² on its plane. Affine, so the point where the line from o
+// through v meets the light's plane (depth 0) has the coordinates a(o) + (a(v) - a(o)) k with
+// k = z_o / (z_o - z_v): a triangle's vertices are taken to these coordinates once a batch (each
+// lane its own triangle), and a test projects them with two subtractions, a division and two
+// fmas each instead of a world-space point and two dot products. The same conditioning as the
+// world-space form (the difference a(v) - a(o) carries what v - o carried).
+vec2 light_ab(vec3 w) {
+    vec3 x = w - L_C;
+    return vec2(dot(x, L_U) * inv_uv.x, dot(x, L_V) * inv_uv.y) + 0.5;
+}
+
+// (a, b) of the point where the line from the sample's o through a vertex (its light
+// coordinates ab and depth z) meets the light's plane.
+vec2 project(vec2 ab, float z) {
+    return fma(ab - s_ab, vec2(s_origin.w / (s_origin.w - z)), s_ab);
+}
 
 // The light samples of `box` (bits lo_bit.. of the word in use) that no triangle has blocked
 // yet, decided one by one against the triangle (va, vb, vc), whose projection from the sample's
@@ -220,8 +233,8 @@ uint quarter_mask(vec2 lo, vec2 hi, ivec2 c0, ivec2 c1) {
 // state. A function, so that its early exits are returns: a `continue` of the triangle loop
 // under a per-sample condition makes that loop divergent to the compiler, which then loads each
 // triangle per invocation (a scalar loop over the SIMD lanes) instead of once for all.
-void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, float zmin,
-                   float zmax) {
+void test_triangle(vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2, vec3 normal,
+                   float light_side, float zmin, float zmax) {
     float side = dot(normal, s_o - va.xyz);
     if (side == 0.0 || side * light_side > 0.0) {
         return;  // o in the triangle's plane, or on the light's side of it
@@ -245,9 +258,9 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec3 normal, float light_side, flo
     vec2 q2 = vec2(0.0);
     vec2 margin = vec2(0.0);
     if (between) {
-        q0 = project(s_o, va, s_origin.w, inv_uv);
-        q1 = project(s_o, vb, s_origin.w, inv_uv);
-        q2 = project(s_o, vc, s_origin.w, inv_uv);
+        q0 = project(ab01.xy, va.w);
+        q1 = project(ab01.zw, vb.w);
+        q2 = project(ab2, vc.w);
         lo = min(q0, min(q1, q2));
         hi = max(q0, max(q1, q2));
         margin = 1e-3 * (1.0 + max(abs(lo), abs(hi)));
@@ -474,6 +487,7 @@ void main() {
             q_y0 |= ((h.y >> 30u) & 1u) << uint(k);
         }
         uint all_bits = light_samples >= 32 ? 0xFFFFFFFFu : (1u << uint(light_samples)) - 1u;
+        s_ab = light_ab(s_o);
         s_q = light_space(s_o);
         s_every = P.sizes.w != 0u && s_q.z <= P.light_half.z;
         s_g = s_every ? vec2(0.0) : grid_coord(s_q);
@@ -493,6 +507,8 @@ void main() {
             vec4 la, lb, lc;
             item_triangle(min(k0 + lane, item.t1 - 1u), la, lb, lc);
             TriSetup ts = tri_setup(la, lb, lc);
+            vec4 l_ab01 = vec4(light_ab(la.xyz), light_ab(lb.xyz));
+            vec2 l_ab2 = light_ab(lc.xyz);
             uint n = min(ITEM_SAMPLES, item.t1 - k0);
             uint mine = 0u;
             for (uint i = 0u; i < n; ++i) {
@@ -519,6 +535,8 @@ void main() {
                 vec4 va = subgroupShuffle(la, i);
                 vec4 vb = subgroupShuffle(lb, i);
                 vec4 vc = subgroupShuffle(lc, i);
+                vec4 ab01 = subgroupShuffle(l_ab01, i);
+                vec2 ab2 = subgroupShuffle(l_ab2, i);
                 vec3 normal = subgroupShuffle(ts.normal, i);
                 float light_side = subgroupShuffle(ts.light_side, i);
                 float zmin = min(va.w, min(vb.w, vc.w));
@@ -527,7 +545,7 @@ void main() {
                 // all decided skips the test altogether.
                 bool open = !one_word || (m_bits | m_fresh | m_behind) != all_bits;
                 if (open && has) {
-                    test_triangle(va, vb, vc, normal, light_side, zmin, zmax);
+                    test_triangle(va, vb, vc, ab01, ab2, normal, light_side, zmin, zmax);
                 }
             }
         }
@@ -544,7 +562,8 @@ void main() {
             // As above: a decided sample skips the test.
             bool open = !one_word || (m_bits | m_fresh | m_behind) != all_bits;
             if (reach && open) {
-                test_triangle(va, vb, vc, ts.normal, ts.light_side, zmin, zmax);
+                test_triangle(va, vb, vc, vec4(light_ab(va.xyz), light_ab(vb.xyz)),
+                              light_ab(vc.xyz), ts.normal, ts.light_side, zmin, zmax);
             }
         }
 #endif

@@ -170,9 +170,21 @@ ivec2 row_span(Tri tri, int y) {
     return ivec2(max(x0, tri.lo.x), min(x1, tri.hi.x));
 }
 
+// A triangle whose cell range fits RANGE_BOX x RANGE_BOX cells: its count records which cells
+// it keeps as bits of a 64-bit mask, and the write emits those instead of walking the range
+// again (no setup, no cell reads, no footprint tests: on bunny-rect the write was as costly as
+// the count).
+#define RANGE_BOX 8
+
+bool boxed(Tri tri) {
+    ivec2 span = tri.hi - tri.lo + 1;
+    return !tri.full && all(greaterThan(span, ivec2(0))) && all(lessThanEqual(span, ivec2(RANGE_BOX)));
+}
+
 // Visits the cells of rows y = first, first + stride, ... of the triangle's range: counts their
-// pairs (write = false) or writes them; returns the pairs.
-uint visit_rows(uint t, Tri tri, uint first, uint stride, bool write) {
+// pairs (write = false) or writes them; returns the pairs. With `boxed`, the kept cells' bits go
+// into `kept` (bit (y - lo.y) * RANGE_BOX + x - lo.x).
+uint visit_rows(uint t, Tri tri, uint first, uint stride, bool write, bool boxed, inout uvec2 kept) {
     uint total = 0u;
     uint rows = uint(max(tri.hi.y - tri.lo.y + 1, 0));
     for (uint r = first; r < rows; r += stride) {
@@ -183,6 +195,10 @@ uint visit_rows(uint t, Tri tri, uint first, uint stride, bool write) {
             if (visit(tri, xy) != 0u) {
                 emit(t, uint(xy.y * grid_size() + xy.x), write);
                 total += 1u;
+                if (boxed) {
+                    uint b = uint((y - tri.lo.y) * RANGE_BOX + x - tri.lo.x);
+                    kept |= b < 32u ? uvec2(1u << b, 0u) : uvec2(0u, 1u << (b - 32u));
+                }
             }
         }
     }
@@ -197,6 +213,26 @@ void small_pass(bool write) {
     if (write && tri_cells[t] == 0u) {
         atomicAdd(counters[C_CULLED], 1u);
         return;
+    }
+    if (write) {
+        uvec4 range = tri_range[t];
+        if (range.w != 0u) {
+            // The cells the count kept, in its order (rows, then columns).
+            if (cell_count[overflow_cell()] > 0u) {
+                emit(t, overflow_cell(), true);
+            }
+            ivec2 lo = ivec2(range.z & 0xFFFFu, range.z >> 16u);
+            for (uint w = 0u; w < 2u; ++w) {
+                uint bits = w == 0u ? range.x : range.y;
+                while (bits != 0u) {
+                    int b = findLSB(bits) + int(32u * w);
+                    bits &= bits - 1u;
+                    ivec2 xy = lo + ivec2(b & (RANGE_BOX - 1), b / RANGE_BOX);
+                    emit(t, uint(xy.y * grid_size() + xy.x), true);
+                }
+            }
+            return;
+        }
     }
     Tri tri = setup(t, !write);
     uint cells = range_cells(tri);
@@ -214,18 +250,23 @@ void small_pass(bool write) {
                 large[atomicAdd(counters[C_LARGE], 1u)] = t;
             }
             atomicAdd(tri_cells[t], total);
+            tri_range[t] = uvec4(0u);
         }
         return;
     }
-    total += visit_rows(t, tri, 0u, 1u, write);
+    bool box = !write && boxed(tri);
+    uvec2 kept = uvec2(0u);
+    total += visit_rows(t, tri, 0u, 1u, write, box, kept);
     if (!write) {
         atomicAdd(tri_cells[t], total);
+        tri_range[t] = uvec4(kept, uint(tri.lo.x) | uint(tri.lo.y) << 16u, box ? 1u : 0u);
     }
 }
 
 // Rows first, first + stride, ... of a listed triangle.
 uint large_rows(uint t, uint first, uint stride, bool write) {
-    return visit_rows(t, setup(t, false), first, stride, write);
+    uvec2 kept = uvec2(0u);
+    return visit_rows(t, setup(t, false), first, stride, write, false, kept);
 }
 
 // Listed triangles of up to HUGE_CELLS cells in range: one workgroup each, its invocations

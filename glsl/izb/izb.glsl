@@ -56,6 +56,10 @@ layout(set = 0, binding = 17) buffer Counters { uint counters[]; };
 layout(set = 0, binding = 18) buffer Args { uint args[]; };
 // Per triangle, written by the footprint pass: its vertices (world xyz, light-space depth).
 layout(set = 0, binding = 20) buffer TriVerts { vec4 tri_verts[]; };
+// Per triangle whose cell range fits 8 x 8, written by the footprint pass's count: the cells it
+// keeps as bits y * 8 + x of that box (x, y from the range's corner), the corner (x | y << 16),
+// and 1 (0: the write walks the cells again).
+layout(set = 0, binding = 26) buffer TriRange { uvec4 tri_range[]; };
 
 layout(push_constant) uniform Push {
     uint phase;

@@ -13,7 +13,11 @@
 //!    of view samples per cell (the book's count → scan → scatter).
 //! 3. `footprint`: per triangle, the cells whose samples it may shadow (below), as
 //!    (triangle, cell) pairs in per-cell triangle lists — counted per cell, scanned, and
-//!    written at the cell's offset plus a cursor. Footprints of more than 256 cells go to a
+//!    written at the cell's offset plus a cursor. A footprint whose cell range fits 8 × 8
+//!    cells keeps, from the count, a 64-bit mask of the cells it reaches, and the write emits
+//!    those instead of walking the range again (2026-12-05: footprint pass 7.45 → 6.55 ms
+//!    minimum on bunny-rect for `izb`, 10.8 → 8.6 for `izb-soft`, 64 → 52 and 129 → 90 on
+//!    `grid:1000000@rect`; pairs, lists and visibility the same). Footprints of more than 256 cells go to a
 //!    second pass of 1024 workgroups: one workgroup a triangle up to 16 384 cells, and every
 //!    workgroup a share of each larger one's (a full-screen triangle), so no loop outgrows
 //!    lavapipe's loop limiter. Each cell's *work items* follow: chunks of [`ITEM_SAMPLES`]
@@ -678,6 +682,8 @@ impl<'a> Izb<'a> {
         let cell_items = storage("izb cell items", 4 * cells)?;
         let item_start = storage("izb item starts", 4 * cells)?;
         let large = storage("izb large triangles", 4 * tris)?;
+        // The cells each small footprint keeps, recorded by the count for the write.
+        let tri_range = storage("izb triangle ranges", 16 * tris.max(1))?;
         // Read by the test pass through texel views (below).
         let texel_storage = |label: &str, bytes: u64| {
             // At least one texel: a view of an empty scene's triangles still needs one.
@@ -742,6 +748,7 @@ impl<'a> Izb<'a> {
             (23, Binding::Buffer(&item_start)),
             (24, Binding::Texels(&views[0])),
             (25, Binding::Texels(&views[1])),
+            (26, Binding::Buffer(&tri_range)),
         ];
         let pass = |shader: &str| -> Result<(Pipeline, DescriptorSet)> {
             let p = Pipeline::compute(ctx, shader)?;
@@ -796,6 +803,7 @@ impl<'a> Izb<'a> {
                 tri_list,
                 tri_verts,
                 tri_indices,
+                tri_range,
             ],
             _visibility: setup.visibility,
         })

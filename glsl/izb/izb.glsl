@@ -155,6 +155,25 @@ void count(uint slot, uint value) {
 // Adds the invocation's sums to the global counters (64-bit for the test counts, max for the
 // depth).
 void invocation_counters_flush() {
+#ifdef SUBGROUP_COUNTERS
+    // The subgroup's sums, added by one lane: on lavapipe an atomic is a loop over the SIMD
+    // lanes, all on the same few addresses from both threads (the bin pass spent half its time
+    // in this flush). Every invocation reaches this in uniform control flow.
+    for (uint i = 0u; i < COUNTERS; ++i) {
+        uint v = invocation_counters[i];
+        uint s = i == C_MAX_DEPTH ? subgroupMax(v) : subgroupAdd(v);
+        if (subgroupElect() && s != 0u) {
+            if (i == C_SAMPLE_TESTS || i == C_RAY_TESTS) {
+                add64(i, s);
+            } else if (i == C_MAX_DEPTH) {
+                atomicMax(counters[i], s);
+            } else if (i != C_SAMPLE_TESTS + 1u && i != C_RAY_TESTS + 1u) {
+                atomicAdd(counters[i], s);
+            }
+        }
+    }
+    return;
+#endif
     for (uint i = 0u; i < COUNTERS; ++i) {
         uint v = invocation_counters[i];
         if (v == 0u) {

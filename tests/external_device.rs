@@ -11,6 +11,8 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use ash::vk;
 use penumbra::cpu;
 use penumbra::kernels::compact::Compact;
+use penumbra::kernels::minmax::MinMaxPyramid;
+use penumbra::kernels::nbuffer::{NBuffer, NBufferLayout};
 use penumbra::kernels::sat::{source_image, Sat, SatLayout, SatPrecision};
 use penumbra::kernels::scan::{Scan, ScanKind, ScanVariant};
 use penumbra::scene::Scene;
@@ -121,6 +123,31 @@ fn serial_kernels_without_int64(ctx: &Context) {
         f32_table == cpu::sat::build_f32(&floats, w, h, 0.0),
         "f32 table"
     );
+
+    // Without shaderStorageImageExtendedFormats the min/max levels are RGBA32F (the `_rgba`
+    // build shaders); the same values as the CPU twins, in both N-buffer layouts.
+    assert!(!ctx.info().storage_image_extended_formats);
+    for layout in [NBufferLayout::Walk, NBufferLayout::Tiled] {
+        let nb = NBuffer::with_layout(ctx, &fsrc, None, layout).expect("nbuffer");
+        ctx.submit(None, |rec| nb.record(rec))
+            .expect("nbuffer build");
+        let cpu_levels = cpu::nbuffer::build(&floats, w, h, nb.max_level);
+        for l in 1..=nb.max_level {
+            assert!(
+                nb.read_level(l).expect("read") == cpu_levels.levels[l as usize],
+                "{layout:?} N-buffer level {l}"
+            );
+        }
+    }
+    let pyramid = MinMaxPyramid::new(ctx, &fsrc).expect("pyramid");
+    ctx.submit(None, |rec| pyramid.record(rec))
+        .expect("pyramid build");
+    for (l, level) in cpu::minmax::build(&floats, w, h).iter().enumerate().skip(1) {
+        assert!(
+            pyramid.read_level(l as u32).expect("read") == level.data,
+            "pyramid level {l}"
+        );
+    }
 }
 
 #[test]

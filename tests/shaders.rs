@@ -620,15 +620,28 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             twin!(compact::CompactSerialPush { n, phase }),
         ),
         (
-            vec!["kernels/minmax_first.comp", "kernels/minmax_next.comp"],
+            vec![
+                "kernels/minmax_first.comp",
+                "kernels/minmax_next.comp",
+                "kernels/minmax_first_rgba.comp",
+                "kernels/minmax_next_rgba.comp",
+            ],
             twin!(minmax::MinMaxPush { src_size, dst_size }),
         ),
         (
-            vec!["kernels/nbuffer_first.comp", "kernels/nbuffer_next.comp"],
+            vec![
+                "kernels/nbuffer_first.comp",
+                "kernels/nbuffer_next.comp",
+                "kernels/nbuffer_first_rgba.comp",
+                "kernels/nbuffer_next_rgba.comp",
+            ],
             twin!(nbuffer::NBufferBuildPush { size, step, pad }),
         ),
         (
-            vec!["kernels/nbuffer_tile.comp"],
+            vec![
+                "kernels/nbuffer_tile.comp",
+                "kernels/nbuffer_tile_rgba.comp",
+            ],
             twin!(nbuffer::NBufferTilePush { size, levels, pad }),
         ),
         (

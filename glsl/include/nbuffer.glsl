@@ -8,8 +8,10 @@
 //   NBUFFER_MAX_LEVEL  an int expression: the highest level available
 // and implement `vec2 nbuffer_fetch(int level, ivec2 p)` (p inside the image) anywhere in the
 // shader, or define NBUFFER_LEVELS_BINDING to get the source at that binding (a sampler2D) and
-// levels 1..14 as r32f storage images, min of level l at binding NBUFFER_LEVELS_BINDING + 2l - 1
-// and max at + 2l (the layout src/kernels/nbuffer.rs binds).
+// levels 1..14 as sampled images, level l at binding NBUFFER_LEVELS_BINDING + l, its (min, max)
+// in the first two channels (RG32F, or RGBA32F on a device without two-channel storage images;
+// read by texelFetch, so the reader does not depend on which: the layout src/kernels/nbuffer.rs
+// binds).
 
 #ifndef NBUFFER_GLSL
 #define NBUFFER_GLSL
@@ -27,10 +29,7 @@ vec2 nbuffer_combine(vec2 a, vec2 b) {
 
 #ifdef NBUFFER_LEVELS_BINDING
 #define NBUFFER_LEVEL(l)                                                                           \
-    layout(set = 0, binding = NBUFFER_LEVELS_BINDING + 2 * l - 1, r32f)                            \
-        uniform readonly image2D nbuffer_min##l;                                                   \
-    layout(set = 0, binding = NBUFFER_LEVELS_BINDING + 2 * l, r32f)                                \
-        uniform readonly image2D nbuffer_max##l;
+    layout(set = 0, binding = NBUFFER_LEVELS_BINDING + l) uniform sampler2D nbuffer_level##l;
 layout(set = 0, binding = NBUFFER_LEVELS_BINDING) uniform sampler2D nbuffer_source;
 NBUFFER_LEVEL(1)
 NBUFFER_LEVEL(2)
@@ -50,7 +49,7 @@ NBUFFER_LEVEL(14)
 
 #define NBUFFER_CASE(l)                                                                            \
     case l:                                                                                        \
-        return vec2(imageLoad(nbuffer_min##l, p).r, imageLoad(nbuffer_max##l, p).r);
+        return texelFetch(nbuffer_level##l, p, 0).rg;
 
 vec2 nbuffer_fetch(int level, ivec2 p) {
     switch (level) {

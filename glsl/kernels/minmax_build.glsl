@@ -5,20 +5,19 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
+#include "minmax_level.glsl"
+
 #ifdef MINMAX_FROM_SOURCE
 #include "shadow_map.glsl"
 
 layout(set = 0, binding = 0) uniform sampler2D source;
-layout(set = 0, binding = 1, r32f) uniform writeonly image2D dst_min;
-layout(set = 0, binding = 2, r32f) uniform writeonly image2D dst_max;
+layout(set = 0, binding = 1, MINMAX_LEVEL_FORMAT) uniform writeonly image2D dst;
 #else
-layout(set = 0, binding = 0, r32f) uniform readonly image2D src_min;
-layout(set = 0, binding = 1, r32f) uniform readonly image2D src_max;
-layout(set = 0, binding = 2, r32f) uniform writeonly image2D dst_min;
-layout(set = 0, binding = 3, r32f) uniform writeonly image2D dst_max;
+layout(set = 0, binding = 0, MINMAX_LEVEL_FORMAT) uniform readonly image2D src;
+layout(set = 0, binding = 1, MINMAX_LEVEL_FORMAT) uniform writeonly image2D dst;
 
 vec2 fetch(ivec2 p) {
-    return vec2(imageLoad(src_min, p).r, imageLoad(src_max, p).r);
+    return imageLoad(src, p).rg;
 }
 #endif
 
@@ -54,6 +53,5 @@ void main() {
     vec2 f = fetch(c1);
     vec2 m = vec2(min(min(a.x, b.x), min(e.x, f.x)), max(max(a.y, b.y), max(e.y, f.y)));
 #endif
-    imageStore(dst_min, p, vec4(m.x));
-    imageStore(dst_max, p, vec4(m.y));
+    imageStore(dst, p, vec4(m, 0.0, 0.0));
 }

@@ -21,22 +21,21 @@
 
 layout(local_size_x = 64, local_size_y = 1) in;
 
+#include "minmax_level.glsl"
+
 #ifdef NBUFFER_FROM_SOURCE
 layout(set = 0, binding = 0) uniform sampler2D source;
-layout(set = 0, binding = 1, r32f) uniform writeonly image2D dst_min;
-layout(set = 0, binding = 2, r32f) uniform writeonly image2D dst_max;
+layout(set = 0, binding = 1, MINMAX_LEVEL_FORMAT) uniform writeonly image2D dst;
 
 vec2 fetch(ivec2 p) {
     return vec2(texelFetch(source, p, 0).r);
 }
 #else
-layout(set = 0, binding = 0, r32f) uniform readonly image2D src_min;
-layout(set = 0, binding = 1, r32f) uniform readonly image2D src_max;
-layout(set = 0, binding = 2, r32f) uniform writeonly image2D dst_min;
-layout(set = 0, binding = 3, r32f) uniform writeonly image2D dst_max;
+layout(set = 0, binding = 0, MINMAX_LEVEL_FORMAT) uniform readonly image2D src;
+layout(set = 0, binding = 1, MINMAX_LEVEL_FORMAT) uniform writeonly image2D dst;
 
 vec2 fetch(ivec2 p) {
-    return vec2(imageLoad(src_min, p).r, imageLoad(src_max, p).r);
+    return imageLoad(src, p).rg;
 }
 #endif
 
@@ -76,7 +75,6 @@ void main() {
         bool below = y + d < pc.size.y;
         upper = pair(ivec2(x, min(y + d, last)), d);
         m = below ? vec2(min(m.x, upper.x), max(m.y, upper.y)) : m;
-        imageStore(dst_min, ivec2(x, y), vec4(m.x));
-        imageStore(dst_max, ivec2(x, y), vec4(m.y));
+        imageStore(dst, ivec2(x, y), vec4(m, 0.0, 0.0));
     }
 }

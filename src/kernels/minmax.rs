@@ -3,12 +3,13 @@
 //! at level l − 1, partial children at odd sizes included. CPU twin: [`crate::cpu::minmax`].
 //!
 //! Level 0 is the source (a D32 shadow map or an R32F image, read by `textureGather`); levels
-//! 1 .. down to 1 × 1 are pairs of R32F storage images (min, max) — see [`super::nbuffer`] for
-//! why not RG32F — built by one dispatch per level, each reading the level below.
+//! 1 .. down to 1 × 1 are one image each, (min, max) in its first two channels (RG32F, or RGBA32F
+//! on a device without two-channel storage images — see [`super::nbuffer`]), built by one
+//! dispatch per level, each reading the level below.
 
 use bytemuck::{Pod, Zeroable};
 
-use super::nbuffer::{chain_sets, check_source, minmax_images, read_minmax};
+use super::nbuffer::{chain_sets, check_source, level_shader, minmax_image, read_minmax};
 use crate::cpu::minmax::level_sizes;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, DescriptorSet, Image, Pipeline, Recorder, Sampler};
@@ -28,7 +29,7 @@ pub struct MinMaxPyramid<'a> {
     ctx: Context,
     /// Size of every level, level 0 (the source) first, down to 1 × 1.
     pub sizes: Vec<(u32, u32)>,
-    levels: Vec<(Image, Image)>,
+    levels: Vec<Image>,
     first: Pipeline,
     next: Pipeline,
     sets: Vec<DescriptorSet>,
@@ -44,10 +45,10 @@ impl<'a> MinMaxPyramid<'a> {
         let levels = sizes[1..]
             .iter()
             .enumerate()
-            .map(|(i, &(w, h))| minmax_images(ctx, &format!("minmax level {}", i + 1), w, h))
+            .map(|(i, &(w, h))| minmax_image(ctx, &format!("minmax level {}", i + 1), w, h))
             .collect::<Result<Vec<_>>>()?;
-        let first = Pipeline::compute(ctx, "kernels/minmax_first.comp")?;
-        let next = Pipeline::compute(ctx, "kernels/minmax_next.comp")?;
+        let first = Pipeline::compute(ctx, &level_shader(ctx, "minmax_first"))?;
+        let next = Pipeline::compute(ctx, &level_shader(ctx, "minmax_next"))?;
         let sampler = Sampler::nearest_border_white(ctx, "minmax source")?;
         let sets = chain_sets(ctx, &first, &next, source, &sampler, &levels)?;
         Ok(MinMaxPyramid {
@@ -77,18 +78,18 @@ impl<'a> MinMaxPyramid<'a> {
         Ok(())
     }
 
-    /// The (min, max) images of level `l` ≥ 1.
-    pub fn level(&self, l: u32) -> Option<&(Image, Image)> {
+    /// The image of level `l` ≥ 1: (min, max) in its first two channels.
+    pub fn level(&self, l: u32) -> Option<&Image> {
         self.levels.get((l as usize).wrapping_sub(1))
     }
 
     /// Reads level `l` ≥ 1 back as (min, max) pairs, row-major.
     pub fn read_level(&self, l: u32) -> Result<Vec<[f32; 2]>> {
-        let images = self.level(l).ok_or_else(|| Error::Parameter {
+        let image = self.level(l).ok_or_else(|| Error::Parameter {
             technique: "minmax".into(),
             message: format!("no level {l} (levels 1..{})", self.sizes.len()),
         })?;
-        read_minmax(&self.ctx, images)
+        read_minmax(&self.ctx, image)
     }
 
     /// Bytes the build reads and writes at least: level 1 reads the source (4 B/texel), later

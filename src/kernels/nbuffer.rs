@@ -4,9 +4,14 @@
 //! Level l holds, at every texel p, (min, max) over the 2^l × 2^l window with top-left texel p,
 //! clipped to the image: full resolution at every level. Level 0 is the source itself (a D32
 //! shadow map or an R32F image, read with `texelFetch`), so it is not copied; levels 1 ..= L
-//! are pairs of R32F storage images (min, max). R32F rather than one RG32F image because RG32F
-//! storage needs `shaderStorageImageExtendedFormats`; images rather than buffers because a
-//! level of a 8192² map (512 MiB) exceeds one buffer binding. Level l + 1 combines four level-l
+//! are one image each, (min, max) in its first two channels: RG32F where the device has
+//! `shaderStorageImageExtendedFormats` and RG32F storage, else RGBA32F (core; the `_rgba`
+//! shaders, `glsl/include/minmax_level.glsl`). One image rather than an R32F pair (the layout
+//! before 2026-12-05): a texel is one load and one store instead of two, each a call on
+//! lavapipe — alternating quick kernel runs, 10 levels of 1024² 81–89 → 68–72 ms and 6 of 4096²
+//! 652–658 → 607 ms. Readers take the levels as sampled images (`glsl/include/nbuffer.glsl`),
+//! so they do not depend on the format. Images rather than buffers because a level of a 8192²
+//! map (512 MiB) exceeds one buffer binding. Level l + 1 combines four level-l
 //! windows d = 2^l apart (one dispatch per level, reading the level below: ping-pong); each
 //! invocation walks a column down a chain of rows d apart, so every horizontal pair it reads
 //! serves two outputs (`glsl/kernels/nbuffer_build.glsl`). In the [`NBufferLayout::Tiled`]
@@ -122,47 +127,67 @@ pub struct NBufferQueryPush {
     pub count: i32,
 }
 
-/// A pair of R32F images (min, max) the size of `width × height`, written by compute shaders.
-pub(crate) fn minmax_images(
-    ctx: &Context,
-    name: &str,
-    width: u32,
-    height: u32,
-) -> Result<(Image, Image)> {
+/// Whether min/max levels on this device are RG32F (else RGBA32F, and the `_rgba` shaders).
+pub(crate) fn two_channel_levels(ctx: &Context) -> bool {
+    let info = ctx.info();
+    info.storage_image_extended_formats && info.rg32f_storage
+}
+
+/// The build shader `name` (`kernels/NAME.comp`) for this device's level format.
+pub(crate) fn level_shader(ctx: &Context, name: &str) -> String {
+    if two_channel_levels(ctx) {
+        format!("kernels/{name}.comp")
+    } else {
+        format!("kernels/{name}_rgba.comp")
+    }
+}
+
+/// A min/max level the size of `width × height`, (min, max) in its first two channels (RG32F or
+/// RGBA32F: [`two_channel_levels`]), written by compute shaders and read as a sampled image.
+pub(crate) fn minmax_image(ctx: &Context, name: &str, width: u32, height: u32) -> Result<Image> {
     let usage = vk::ImageUsageFlags::STORAGE
         | vk::ImageUsageFlags::SAMPLED
         | vk::ImageUsageFlags::TRANSFER_SRC;
-    let desc = ImageDesc::new_2d(vk::Format::R32_SFLOAT, width, height, usage);
-    Ok((
-        Image::new(ctx, &format!("{name} min"), desc)?,
-        Image::new(ctx, &format!("{name} max"), desc)?,
-    ))
+    let format = if two_channel_levels(ctx) {
+        vk::Format::R32G32_SFLOAT
+    } else {
+        vk::Format::R32G32B32A32_SFLOAT
+    };
+    Image::new(ctx, name, ImageDesc::new_2d(format, width, height, usage))
 }
 
-/// Bindings for levels 1 ..= [`MAX_LEVEL`] in `glsl/include/nbuffer.glsl`'s layout (min, max per
-/// level) from the levels built (`levels[l - 1]` is level l, an N-buffer's or a pyramid's).
-/// Levels above the highest built are bound to the highest (never read: queries stop at
-/// `NBUFFER_MAX_LEVEL`), and to `unused` when nothing is built.
+/// Bindings for levels 1 ..= [`MAX_LEVEL`] in `glsl/include/nbuffer.glsl`'s layout (one sampled
+/// image a level, read by `texelFetch` through `sampler`) from the levels built (`levels[l - 1]`
+/// is level l, an N-buffer's or a pyramid's). Levels above the highest built are bound to the
+/// highest (never read: queries stop at `NBUFFER_MAX_LEVEL`), and to `unused` when nothing is
+/// built.
 pub(crate) fn level_bindings<'b>(
-    levels: &[&'b (Image, Image)],
-    unused: &'b (Image, Image),
+    levels: &[&'b Image],
+    unused: &'b Image,
+    sampler: &'b Sampler,
 ) -> Vec<Binding<'b>> {
     (1..=MAX_LEVEL as usize)
-        .flat_map(|l| {
-            let (min, max) = levels
+        .map(|l| {
+            let level = levels
                 .get(l.min(levels.len()).wrapping_sub(1))
                 .copied()
                 .unwrap_or(unused);
-            [Binding::Image(min), Binding::Image(max)]
+            Binding::Sampled(level, sampler)
         })
         .collect()
 }
 
-/// Reads a (min, max) image pair back as pairs.
-pub(crate) fn read_minmax(ctx: &Context, images: &(Image, Image)) -> Result<Vec<[f32; 2]>> {
-    let min = f32s(&ctx.read_image(&images.0)?);
-    let max = f32s(&ctx.read_image(&images.1)?);
-    Ok(min.into_iter().zip(max).map(|(a, b)| [a, b]).collect())
+/// Reads a min/max level back as (min, max) pairs.
+pub(crate) fn read_minmax(ctx: &Context, image: &Image) -> Result<Vec<[f32; 2]>> {
+    let channels = if image.desc.format == vk::Format::R32G32_SFLOAT {
+        2
+    } else {
+        4
+    };
+    Ok(f32s(&ctx.read_image(image)?)
+        .chunks_exact(channels)
+        .map(|t| [t[0], t[1]])
+        .collect())
 }
 
 /// The descriptor sets of a chain of min/max levels: level 0 reads `source` through `first`,
@@ -174,34 +199,21 @@ pub(crate) fn chain_sets(
     next: &Pipeline,
     source: &Image,
     sampler: &Sampler,
-    levels: &[(Image, Image)],
+    levels: &[Image],
 ) -> Result<Vec<DescriptorSet>> {
     levels
         .iter()
         .enumerate()
-        .map(
-            |(i, (min, max))| match i.checked_sub(1).map(|p| &levels[p]) {
-                None => DescriptorSet::new(
-                    ctx,
-                    first,
-                    &[
-                        Binding::Sampled(source, sampler),
-                        Binding::Image(min),
-                        Binding::Image(max),
-                    ],
-                ),
-                Some((pmin, pmax)) => DescriptorSet::new(
-                    ctx,
-                    next,
-                    &[
-                        Binding::Image(pmin),
-                        Binding::Image(pmax),
-                        Binding::Image(min),
-                        Binding::Image(max),
-                    ],
-                ),
-            },
-        )
+        .map(|(i, level)| match i.checked_sub(1).map(|p| &levels[p]) {
+            None => DescriptorSet::new(
+                ctx,
+                first,
+                &[Binding::Sampled(source, sampler), Binding::Image(level)],
+            ),
+            Some(below) => {
+                DescriptorSet::new(ctx, next, &[Binding::Image(below), Binding::Image(level)])
+            }
+        })
         .collect()
 }
 
@@ -231,7 +243,7 @@ pub struct NBuffer<'a> {
     pub max_level: u32,
     /// How the levels are built.
     pub layout: NBufferLayout,
-    levels: Vec<(Image, Image)>,
+    levels: Vec<Image>,
     first: Pipeline,
     next: Pipeline,
     sets: Vec<DescriptorSet>,
@@ -268,20 +280,19 @@ impl<'a> NBuffer<'a> {
             });
         }
         let levels = (1..=max_level)
-            .map(|l| minmax_images(ctx, &format!("nbuffer level {l}"), width, height))
+            .map(|l| minmax_image(ctx, &format!("nbuffer level {l}"), width, height))
             .collect::<Result<Vec<_>>>()?;
-        let first = Pipeline::compute(ctx, "kernels/nbuffer_first.comp")?;
-        let next = Pipeline::compute(ctx, "kernels/nbuffer_next.comp")?;
+        let first = Pipeline::compute(ctx, &level_shader(ctx, "nbuffer_first"))?;
+        let next = Pipeline::compute(ctx, &level_shader(ctx, "nbuffer_next"))?;
         let sampler = Sampler::nearest_border_white(ctx, "nbuffer source")?;
         let sets = chain_sets(ctx, &first, &next, source, &sampler, &levels)?;
         let tile = match (layout, levels.last()) {
             (NBufferLayout::Tiled, Some(top)) => {
-                let pipeline = Pipeline::compute(ctx, "kernels/nbuffer_tile.comp")?;
+                let pipeline = Pipeline::compute(ctx, &level_shader(ctx, "nbuffer_tile"))?;
                 // Levels past the highest built repeat it (the shader does not write them).
                 let level = |l: usize| levels.get(l).unwrap_or(top);
                 let mut bindings = vec![Binding::Sampled(source, &sampler)];
-                bindings.extend((0..TILE_LEVELS as usize).map(|l| Binding::Image(&level(l).0)));
-                bindings.extend((0..TILE_LEVELS as usize).map(|l| Binding::Image(&level(l).1)));
+                bindings.extend((0..TILE_LEVELS as usize).map(|l| Binding::Image(level(l))));
                 let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
                 Some((pipeline, set))
             }
@@ -341,18 +352,18 @@ impl<'a> NBuffer<'a> {
         Ok(())
     }
 
-    /// The (min, max) images of level `l` in 1 ..= max_level.
-    pub fn level(&self, l: u32) -> Option<&(Image, Image)> {
+    /// The image of level `l` in 1 ..= max_level: (min, max) in its first two channels.
+    pub fn level(&self, l: u32) -> Option<&Image> {
         self.levels.get((l as usize).wrapping_sub(1))
     }
 
     /// Reads level `l` ≥ 1 back as (min, max) pairs, row-major.
     pub fn read_level(&self, l: u32) -> Result<Vec<[f32; 2]>> {
-        let images = self.level(l).ok_or_else(|| Error::Parameter {
+        let image = self.level(l).ok_or_else(|| Error::Parameter {
             technique: "nbuffer".into(),
             message: format!("no level {l} (levels 1..={})", self.max_level),
         })?;
-        read_minmax(&self.ctx, images)
+        read_minmax(&self.ctx, image)
     }
 
     /// Bytes the build reads and writes at least: level 1 reads the source (4 B/texel), later
@@ -390,7 +401,7 @@ impl<'a> NBuffer<'a> {
         let results = Buffer::storage(ctx, "nbuffer results", squares.len() as u64 * 8)?;
         // Unbuilt levels are never read (the query caps its level), but must be bound.
         let dummy = if self.levels.is_empty() {
-            Some(minmax_images(ctx, "nbuffer unused", 1, 1)?)
+            Some(minmax_image(ctx, "nbuffer unused", 1, 1)?)
         } else {
             None
         };
@@ -398,9 +409,9 @@ impl<'a> NBuffer<'a> {
             Some(d) => d,
             None => &self.levels[0],
         };
-        let built: Vec<&(Image, Image)> = self.levels.iter().collect();
+        let built: Vec<&Image> = self.levels.iter().collect();
         let mut bindings = vec![Binding::Sampled(self.source, &self.sampler)];
-        bindings.extend(level_bindings(&built, filler));
+        bindings.extend(level_bindings(&built, filler, &self.sampler));
         bindings.extend([Binding::Buffer(&input), Binding::Buffer(&results)]);
         let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
         let push = NBufferQueryPush {
@@ -443,7 +454,7 @@ mod tests {
         }
         let (_, tile) = shader_interface("kernels/nbuffer_tile.comp").expect("reflect");
         assert_eq!(tile.local_size, [TILE, TILE, 1]);
-        // The source and a (min, max) pair per tiled level.
-        assert_eq!(tile.bindings.len(), 1 + 2 * TILE_LEVELS as usize);
+        // The source and an image per tiled level.
+        assert_eq!(tile.bindings.len(), 1 + TILE_LEVELS as usize);
     }
 }

@@ -178,7 +178,7 @@ struct Atty<'a> {
     receiver_map: Buffer,
     counters: Buffer,
     _buffers: [Buffer; 2],
-    _unused_levels: (Image, Image),
+    _unused_levels: Image,
     view_size: [u32; 2],
     map_size: u32,
     geometry: &'a SceneGeometry,
@@ -270,8 +270,7 @@ impl<'a> Atty<'a> {
         let receiver_map = Buffer::storage(ctx, "atty receivers' map", 16 * texels)?;
         let ssm = Buffer::storage(ctx, "atty soft shadow map", 8 * texels)?;
         let counters = Buffer::storage(ctx, "atty counters", (COUNTER_NAMES.len() * 4) as u64)?;
-        let unused_levels =
-            crate::kernels::nbuffer::minmax_images(ctx, "atty unused levels", 1, 1)?;
+        let unused_levels = crate::kernels::nbuffer::minmax_image(ctx, "atty unused levels", 1, 1)?;
         let back = back_map.as_deref().unwrap_or(&shadow_map);
         let mut all = vec![
             (0, Binding::Image(setup.receivers)),
@@ -285,7 +284,7 @@ impl<'a> Atty<'a> {
             (8, Binding::Image(setup.visibility)),
             (9, Binding::Sampled(&shadow_map.depth, &shadow_map.sampler)),
         ];
-        for (i, b) in level_bindings(&levels, &unused_levels)
+        for (i, b) in level_bindings(&levels, &unused_levels, &shadow_map.sampler)
             .into_iter()
             .enumerate()
         {

@@ -390,7 +390,7 @@ struct Bitmask<'a> {
     /// 256-sample groups: one dispatch each.
     groups: u32,
     _buffers: [Buffer; 4],
-    _unused_levels: (Image, Image),
+    _unused_levels: Image,
     view_size: [u32; 2],
     geometry: &'a SceneGeometry,
     shadow_map: Box<ShadowMap>,
@@ -509,7 +509,7 @@ impl<'a> Bitmask<'a> {
             },
         )?;
         let unused_levels =
-            crate::kernels::nbuffer::minmax_images(ctx, "bitmask unused levels", 1, 1)?;
+            crate::kernels::nbuffer::minmax_image(ctx, "bitmask unused levels", 1, 1)?;
         let mut bindings = vec![
             Binding::Image(setup.receivers),
             Binding::Image(&setup.view.normals),
@@ -522,7 +522,7 @@ impl<'a> Bitmask<'a> {
             Binding::Image(&setup.view.positions),
             Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
         ];
-        bindings.extend(level_bindings(&levels, &unused_levels));
+        bindings.extend(level_bindings(&levels, &unused_levels, &shadow_map.sampler));
         bindings.push(Binding::Buffer(&running));
         let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
         Ok(Bitmask {
@@ -591,7 +591,7 @@ pub(crate) fn skip_nbuffer<'a>(
 
 /// The levels of a skip N-buffer above its source, level 1 first (none without one): what
 /// [`level_bindings`] binds.
-pub(crate) fn nbuffer_levels<'b>(nbuffer: &'b Option<NBuffer<'_>>) -> Vec<&'b (Image, Image)> {
+pub(crate) fn nbuffer_levels<'b>(nbuffer: &'b Option<NBuffer<'_>>) -> Vec<&'b Image> {
     nbuffer.as_ref().map_or(Vec::new(), |nb| {
         (1..=nb.max_level).filter_map(|l| nb.level(l)).collect()
     })

@@ -220,7 +220,7 @@ enum MinMax<'a> {
 
 impl MinMax<'_> {
     /// The images of the levels built above the source, level 1 first.
-    fn levels(&self) -> Vec<&(Image, Image)> {
+    fn levels(&self) -> Vec<&Image> {
         match self {
             MinMax::Off => Vec::new(),
             MinMax::NBuffer(n) => (1..=n.max_level).filter_map(|l| n.level(l)).collect(),
@@ -250,7 +250,7 @@ struct Pcss<'a> {
     filter: Pipeline,
     counters: Buffer,
     _blocker: Image,
-    _unused_levels: (Image, Image),
+    _unused_levels: Image,
     push: PcssPush,
     geometry: &'a SceneGeometry,
     /// The knobs it was built with (what [`Technique::retune`] compares against).
@@ -357,8 +357,7 @@ impl<'a> Pcss<'a> {
                 "{built} min/max levels, at most {MAX_LEVEL}"
             )));
         }
-        let unused_levels =
-            crate::kernels::nbuffer::minmax_images(ctx, "pcss unused levels", 1, 1)?;
+        let unused_levels = crate::kernels::nbuffer::minmax_image(ctx, "pcss unused levels", 1, 1)?;
         let mut bindings = vec![
             Binding::Image(setup.receivers),
             Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
@@ -368,7 +367,7 @@ impl<'a> Pcss<'a> {
             Binding::Image(&setup.view.normals),
             Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
         ];
-        bindings.extend(level_bindings(&levels, &unused_levels));
+        bindings.extend(level_bindings(&levels, &unused_levels, &shadow_map.sampler));
         let search_set = DescriptorSet::new(ctx, &search, &bindings)?;
         let filter_set = DescriptorSet::new(ctx, &filter, &bindings[..6])?;
         let push = PcssPush {

@@ -242,7 +242,7 @@ impl<'a> Vssm<'a> {
             bindings.extend(sat.band_bindings());
         }
         bindings.push(Binding::Sampled(z, &sampler));
-        let built: Vec<&(Image, Image)> = (1..=nbuffer.max_level)
+        let built: Vec<&Image> = (1..=nbuffer.max_level)
             .filter_map(|l| nbuffer.level(l))
             .collect();
         let first = *built
@@ -251,7 +251,7 @@ impl<'a> Vssm<'a> {
                 technique: "vssm".into(),
                 message: "the N-buffer has no level 1".into(),
             })?;
-        bindings.extend(level_bindings(&built, first));
+        bindings.extend(level_bindings(&built, first, &sampler));
         let lookup_set = DescriptorSet::new(ctx, &lookup, &bindings)?;
         Ok(Vssm {
             ctx: ctx.clone(),

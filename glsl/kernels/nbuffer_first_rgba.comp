@@ -1,0 +1,6 @@
+#version 460
+// RGBA32F levels (minmax_level.glsl): nbuffer_first.comp for devices without RG32F storage.
+#extension GL_GOOGLE_include_directive : require
+#define MINMAX_LEVEL_RGBA
+#define NBUFFER_FROM_SOURCE
+#include "nbuffer_build.glsl"

@@ -9,7 +9,8 @@
 // once for two outputs (4.5 loads a texel instead of 8). Invocations along x are neighbouring
 // columns (one SIMD row on lavapipe, coalesced on a GPU). Measured on lavapipe (Mesa 25), 10
 // levels of 1024²: 179 -> 77-149 ms (the run-to-run range on a 2-core VM); neither the loads nor
-// the two R32F stores a texel dominate what is left (dropping one store saved ~15 %). The loads
+// the stores dominate what is left (with min and max in two R32F images, dropping one store saved
+// ~15 %; one RG32F image a level since 2026-12-05, minmax_level.glsl). The loads
 // of a pair's right texel and of the row below sat under `if`s (inside the image or not); on
 // lavapipe a load under a branch is dearer (src/techniques/izb.rs records the same of storage
 // reads), so both are now read clamped to the image and dropped by a select, outside all control

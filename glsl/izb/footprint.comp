@@ -41,7 +41,7 @@ Tri setup(uint t, bool keep) {
     tri.lo = ivec2(0);
     tri.hi = ivec2(last);
     if (tri.full) {
-        if (keep) {
+        if (keep && P.view.w == KIND_RECT) {
             const float inf = uintBitsToFloat(0x7F800000u);
             tri_bounds[t] = vec4(-inf, -inf, inf, inf);
         }
@@ -52,13 +52,10 @@ Tri setup(uint t, bool keep) {
     }
     vec2 bmin = min(tri.g[0], min(tri.g[1], tri.g[2]));
     vec2 bmax = max(tri.g[0], max(tri.g[1], tri.g[2]));
-    if (keep) {
+    if (keep && P.view.w == KIND_RECT) {
         // Twice the per-sample check's margins, and a relative one for the rounding of a
         // large reach (a triangle near the light's plane).
-        vec2 reach = vec2(0.0);
-        if (P.view.w == KIND_RECT) {
-            reach = (1.0 / tri.zmin) * ((1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw));
-        }
+        vec2 reach = (1.0 / tri.zmin) * ((1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw));
         reach = reach * (1.0 + 1e-5) + 2.0 * CELL_MARGIN;
         tri_bounds[t] = vec4(bmin - reach, bmax + reach);
     }

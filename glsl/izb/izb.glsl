@@ -60,7 +60,7 @@ layout(set = 0, binding = 20) buffer TriVerts { vec4 tri_verts[]; };
 // keeps as bits y * 8 + x of that box (x, y from the range's corner), the corner (x | y << 16),
 // and 1 (0: the write walks the cells again).
 layout(set = 0, binding = 26) buffer TriRange { uvec4 tri_range[]; };
-// Per triangle, written by the footprint pass's count for izb-soft's test: its grid box grown by
+// Per triangle, written by the footprint pass's count for izb-soft's test (rect lights only): its grid box grown by
 // twice CELL_MARGIN and by the rect light's spread times 1/z_min, (lo.xy, hi.xy); a work item
 // whose deepest sample has 1/z = w finds the triangle's soft footprint for it by shrinking
 // this by w times the spread (izb.rs, "Item bounds"). Infinite for a triangle that reaches

@@ -713,7 +713,11 @@ impl<'a> Izb<'a> {
         };
         let tri_list = texel_storage("izb pairs", 4 * capacity)?;
         let tri_verts = texel_storage("izb triangle vertices", 48 * tris)?;
-        let tri_bounds = texel_storage("izb triangle bounds", 16 * tris)?;
+        // Only the soft test reads them (one texel otherwise).
+        let tri_bounds = texel_storage(
+            "izb triangle bounds",
+            16 * if kind == KIND_RECT { tris } else { 1 },
+        )?;
         let tri_indices = ctx.buffer_with(
             "izb triangle indices (spatial order)",
             vk::BufferUsageFlags::STORAGE_BUFFER,

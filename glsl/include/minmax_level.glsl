@@ -2,8 +2,8 @@
 // two channels. RG32F, or with MINMAX_LEVEL_RGBA (the `_rgba` shaders: a device without
 // `shaderStorageImageExtendedFormats` or RG32F storage) RGBA32F, whose storage is core. One
 // image rather than an R32F pair: a level's texel is one load and one store instead of two —
-// on lavapipe each a call — and the 10-level 1024² N-buffer built 17-20 % faster (src/kernels/
-// nbuffer.rs). Readers take the levels as sampled images (glsl/include/nbuffer.glsl), whatever
+// on lavapipe each a call — and the 10-level 1024² N-buffer built 7-10 % faster in alternating
+// runs (src/kernels/nbuffer.rs). Readers take the levels as sampled images (glsl/include/nbuffer.glsl), whatever
 // the format.
 #ifndef PENUMBRA_MINMAX_LEVEL_GLSL
 #define PENUMBRA_MINMAX_LEVEL_GLSL

@@ -60,8 +60,9 @@ layout(set = 0, binding = 20) buffer TriVerts { vec4 tri_verts[]; };
 // keeps as bits y * 8 + x of that box (x, y from the range's corner), the corner (x | y << 16),
 // and 1 (0: the write walks the cells again).
 layout(set = 0, binding = 26) buffer TriRange { uvec4 tri_range[]; };
-// Per triangle, written by the footprint pass's count for izb-soft's test (rect lights only): its grid box grown by
-// twice CELL_MARGIN and by the rect light's spread times 1/z_min, (lo.xy, hi.xy); a work item
+// Per triangle, written by the footprint pass's count for izb-soft's test (rect lights only):
+// its grid box grown by twice CELL_MARGIN and by the rect light's spread times 1/z_min,
+// (lo.xy, hi.xy); a work item
 // whose deepest sample has 1/z = w finds the triangle's soft footprint for it by shrinking
 // this by w times the spread (izb.rs, "Item bounds"). Infinite for a triangle that reaches
 // every sample.
@@ -158,8 +159,22 @@ void count(uint slot, uint value) {
 
 #include "counter64.glsl"
 
-// Adds the invocation's sums to the global counters (64-bit for the test counts, max for the
-// depth).
+// Adds `v` to counter slot i: 64-bit for the test counts, max for the depth (nothing for 0 or
+// a 64-bit count's high word).
+void add_counter(uint i, uint v) {
+    if (v == 0u) {
+        return;
+    }
+    if (i == C_SAMPLE_TESTS || i == C_RAY_TESTS) {
+        add64(i, v);
+    } else if (i == C_MAX_DEPTH) {
+        atomicMax(counters[i], v);
+    } else if (i != C_SAMPLE_TESTS + 1u && i != C_RAY_TESTS + 1u) {
+        atomicAdd(counters[i], v);
+    }
+}
+
+// Adds the invocation's sums to the global counters.
 void invocation_counters_flush() {
 #ifdef SUBGROUP_COUNTERS
     // The subgroup's sums, added by one lane: on lavapipe an atomic is a loop over the SIMD
@@ -168,30 +183,14 @@ void invocation_counters_flush() {
     for (uint i = 0u; i < COUNTERS; ++i) {
         uint v = invocation_counters[i];
         uint s = i == C_MAX_DEPTH ? subgroupMax(v) : subgroupAdd(v);
-        if (subgroupElect() && s != 0u) {
-            if (i == C_SAMPLE_TESTS || i == C_RAY_TESTS) {
-                add64(i, s);
-            } else if (i == C_MAX_DEPTH) {
-                atomicMax(counters[i], s);
-            } else if (i != C_SAMPLE_TESTS + 1u && i != C_RAY_TESTS + 1u) {
-                atomicAdd(counters[i], s);
-            }
+        if (subgroupElect()) {
+            add_counter(i, s);
         }
     }
     return;
 #endif
     for (uint i = 0u; i < COUNTERS; ++i) {
-        uint v = invocation_counters[i];
-        if (v == 0u) {
-            continue;
-        }
-        if (i == C_SAMPLE_TESTS || i == C_RAY_TESTS) {
-            add64(i, v);
-        } else if (i == C_MAX_DEPTH) {
-            atomicMax(counters[i], v);
-        } else if (i != C_SAMPLE_TESTS + 1u && i != C_RAY_TESTS + 1u) {
-            atomicAdd(counters[i], v);
-        }
+        add_counter(i, invocation_counters[i]);
     }
 }
 

@@ -11,6 +11,17 @@ layout(local_size_x = 64) in;
 
 #include "sat_source.glsl"
 
+// The four prefixes of a row's texels p0.x, p0.y, p1.x, p1.y (one row's half of two 2x2 blocks)
+// after `acc`, added in that order; `acc` becomes the last.
+SAT_T4 prefix4(inout SAT_T acc, SAT_RAW2 p0, SAT_RAW2 p1) {
+    precise SAT_T a0 = acc + sat_convert(p0.x);
+    precise SAT_T a1 = a0 + sat_convert(p0.y);
+    precise SAT_T a2 = a1 + sat_convert(p1.x);
+    precise SAT_T a3 = a2 + sat_convert(p1.y);
+    acc = a3;
+    return SAT_T4(a0, a1, a2, a3);
+}
+
 void main() {
     int r = 2 * int(gl_GlobalInvocationID.x);
     if (r >= pc.rows) {
@@ -34,27 +45,13 @@ void main() {
             SAT_RAW4 q1 = sat_block(x + 2, y, inv_size);
             SAT_RAW4 q2 = sat_block(x + 4, y, inv_size);
             SAT_RAW4 q3 = sat_block(x + 6, y, inv_size);
-            precise SAT_T a0 = acc + sat_convert(q0.x);
-            precise SAT_T a1 = a0 + sat_convert(q0.y);
-            precise SAT_T a2 = a1 + sat_convert(q1.x);
-            precise SAT_T a3 = a2 + sat_convert(q1.y);
-            precise SAT_T a4 = a3 + sat_convert(q2.x);
-            precise SAT_T a5 = a4 + sat_convert(q2.y);
-            precise SAT_T a6 = a5 + sat_convert(q3.x);
-            acc = a6 + sat_convert(q3.y);
-            band8[base8 + uint(x / 8)] =
-                sat_pack8(SAT_T4(a0, a1, a2, a3), SAT_T4(a4, a5, a6, acc));
+            SAT_T4 a0 = prefix4(acc, q0.xy, q1.xy);
+            SAT_T4 a1 = prefix4(acc, q2.xy, q3.xy);
+            band8[base8 + uint(x / 8)] = sat_pack8(a0, a1);
             if (two) {
-                precise SAT_T b0 = acc_lower + sat_convert(q0.z);
-                precise SAT_T b1 = b0 + sat_convert(q0.w);
-                precise SAT_T b2 = b1 + sat_convert(q1.z);
-                precise SAT_T b3 = b2 + sat_convert(q1.w);
-                precise SAT_T b4 = b3 + sat_convert(q2.z);
-                precise SAT_T b5 = b4 + sat_convert(q2.w);
-                precise SAT_T b6 = b5 + sat_convert(q3.z);
-                acc_lower = b6 + sat_convert(q3.w);
-                band8[lower8 + uint(x / 8)] =
-                    sat_pack8(SAT_T4(b0, b1, b2, b3), SAT_T4(b4, b5, b6, acc_lower));
+                SAT_T4 b0 = prefix4(acc_lower, q0.zw, q1.zw);
+                SAT_T4 b1 = prefix4(acc_lower, q2.zw, q3.zw);
+                band8[lower8 + uint(x / 8)] = sat_pack8(b0, b1);
             }
         }
         return;
@@ -67,17 +64,9 @@ void main() {
         for (int x = 0; x < pc.size.x; x += 4) {
             SAT_RAW4 q0 = sat_block(x, y, inv_size);
             SAT_RAW4 q1 = sat_block(x + 2, y, inv_size);
-            precise SAT_T a0 = acc + sat_convert(q0.x);
-            precise SAT_T a1 = a0 + sat_convert(q0.y);
-            precise SAT_T a2 = a1 + sat_convert(q1.x);
-            acc = a2 + sat_convert(q1.y);
-            band4[base4 + uint(x / 4)] = SAT_T4(a0, a1, a2, acc);
+            band4[base4 + uint(x / 4)] = prefix4(acc, q0.xy, q1.xy);
             if (two) {
-                precise SAT_T b0 = acc_lower + sat_convert(q0.z);
-                precise SAT_T b1 = b0 + sat_convert(q0.w);
-                precise SAT_T b2 = b1 + sat_convert(q1.z);
-                acc_lower = b2 + sat_convert(q1.w);
-                band4[lower4 + uint(x / 4)] = SAT_T4(b0, b1, b2, acc_lower);
+                band4[lower4 + uint(x / 4)] = prefix4(acc_lower, q0.zw, q1.zw);
             }
         }
         return;

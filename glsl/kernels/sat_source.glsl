@@ -37,9 +37,11 @@ layout(push_constant) uniform Push {
 
 #ifdef SAT_SRC_UINT
 #define SAT_RAW uint
+#define SAT_RAW2 uvec2
 #define SAT_RAW4 uvec4
 #else
 #define SAT_RAW float
+#define SAT_RAW2 vec2
 #define SAT_RAW4 vec4
 #endif
 

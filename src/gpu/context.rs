@@ -82,8 +82,9 @@ pub struct DeviceInfo {
     pub subgroup_size: u32,
     /// Subgroup arithmetic operations in compute shaders.
     pub subgroup_arithmetic: bool,
-    /// Subgroup basic, vote and shuffle operations in compute shaders (`izb`'s test passes read
-    /// triangles eight at a time and hand them round by shuffles when present).
+    /// Subgroup basic, vote, ballot and shuffle operations in compute shaders (`izb`'s test
+    /// passes read triangles eight at a time and hand them round by broadcasts and shuffles
+    /// when present).
     pub subgroup_shuffle: bool,
     /// `shaderSubgroupExtendedTypes` (64-bit subgroup arithmetic).
     pub subgroup_extended_types: bool,
@@ -585,6 +586,7 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<Device
         subgroup_shuffle: subgroup.supported_operations.contains(
             vk::SubgroupFeatureFlags::BASIC
                 | vk::SubgroupFeatureFlags::VOTE
+                | vk::SubgroupFeatureFlags::BALLOT
                 | vk::SubgroupFeatureFlags::SHUFFLE,
         ) && subgroup
             .supported_stages

@@ -13,6 +13,12 @@
 
 layout(local_size_x = 64) in;
 
+// cell_count and cell_depth again, read through texel views: visit() reads them for a lane's own
+// cell inside the range walk's loops, where a storage-buffer read goes lane by lane on lavapipe
+// and a texel fetch is one gather.
+layout(set = 0, binding = 29) uniform usamplerBuffer cell_count_texels;
+layout(set = 0, binding = 30) uniform usamplerBuffer cell_depth_texels;
+
 struct Tri {
     vec2 g[3];        // grid coordinates of the projected vertices
     float zmin;       // nearest depth
@@ -91,13 +97,13 @@ uint range_cells(Tri tri) {
 // 1 if the triangle may shadow samples of cell (x, y), else 0.
 uint visit(Tri tri, ivec2 xy) {
     uint cell = uint(xy.y * grid_size() + xy.x);
-    if (cell_count[cell] == 0u) {
+    if (texelFetch(cell_count_texels, int(cell)).x == 0u) {
         return 0u;
     }
     if (tri.full) {
         return 1u;
     }
-    float deepest = uintBitsToFloat(cell_depth[cell]);
+    float deepest = uintBitsToFloat(texelFetch(cell_depth_texels, int(cell)).x);
     if (tri.zmin > deepest * (1.0 + 1e-5)) {
         return 0u;  // every sample of the cell is nearer the light than the triangle
     }

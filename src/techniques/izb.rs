@@ -254,8 +254,9 @@
 //! **Limits.** Pairs beyond `pair_capacity` million are not stored: the frame then fails with
 //! a clear error naming the knob rather than return wrong shadows, as it does when lavapipe's
 //! loop limiter (65 535 loop passes per SIMD group and dispatch) cut a pass short. The pairs
-//! and the triangles' vertices are read through texel views, so `pair_capacity` and three
-//! texels a triangle must fit the device's `maxTexelBufferElements` (2^27 on lavapipe; 65 536
+//! and the triangles' vertices (and, in the footprint pass, the cells' counts and depths) are
+//! read through texel views, so `pair_capacity`, three texels a triangle and the grid's cells
+//! must fit the device's `maxTexelBufferElements` (2^27 on lavapipe; 65 536
 //! is all Vulkan guarantees): beyond it creating the technique fails with [`Error::Unsupported`].
 //!
 //! **Counters**: `view_samples`, `samples_binned`, `behind_tangent_plane` (never binned: V = 0),
@@ -546,7 +547,7 @@ struct Izb<'a> {
     masks: Buffer,
     counters: Buffer,
     args: Buffer,
-    _views: [TexelView; 3],
+    _views: [TexelView; 5],
     _buffers: Vec<Buffer>,
     _visibility: &'a crate::gpu::Image,
 }
@@ -692,9 +693,7 @@ impl<'a> Izb<'a> {
             vk::BufferUsageFlags::UNIFORM_BUFFER,
             std::slice::from_ref(&izb_params),
         )?;
-        let cell_count = storage("izb cell counts", 4 * cells)?;
         let cell_start = storage("izb cell starts", 4 * cells)?;
-        let cell_depth = storage("izb cell depths", 4 * cells)?;
         let binned = storage("izb binned", 8 * pixels)?;
         let cell_samples = storage("izb cell samples", 4 * pixels)?;
         let origins = storage("izb origins", 16 * pixels)?;
@@ -719,6 +718,9 @@ impl<'a> Izb<'a> {
             )
         };
         let tri_list = texel_storage("izb pairs", 4 * capacity)?;
+        // Also read by the footprint pass's range walk through texel views.
+        let cell_count = texel_storage("izb cell counts", 4 * cells)?;
+        let cell_depth = texel_storage("izb cell depths", 4 * cells)?;
         let tri_verts = texel_storage("izb triangle vertices", 48 * tris)?;
         // Only the soft test reads them (one texel otherwise).
         let tri_bounds = texel_storage(
@@ -737,6 +739,8 @@ impl<'a> Izb<'a> {
             tri_list.texel_view(vk::Format::R32_UINT, 4)?,
             tri_verts.texel_view(vk::Format::R32G32B32A32_SFLOAT, 16)?,
             tri_bounds.texel_view(vk::Format::R32G32B32A32_SFLOAT, 16)?,
+            cell_count.texel_view(vk::Format::R32_UINT, 4)?,
+            cell_depth.texel_view(vk::Format::R32_UINT, 4)?,
         ];
         let masks = storage("izb masks", 4 * pixels * u64::from(words))?;
         let counters = storage("izb counters", 4 * COUNTER_WORDS.len() as u64)?;
@@ -780,6 +784,8 @@ impl<'a> Izb<'a> {
             (26, Binding::Buffer(&tri_range)),
             (27, Binding::Texels(&views[2])),
             (28, Binding::Buffer(&tri_bounds)),
+            (29, Binding::Texels(&views[3])),
+            (30, Binding::Texels(&views[4])),
         ];
         let pass = |shader: &str| -> Result<(Pipeline, DescriptorSet)> {
             let p = Pipeline::compute(ctx, shader)?;

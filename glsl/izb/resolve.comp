@@ -7,6 +7,7 @@
 #include "watertight.glsl"
 #include "light_samples.glsl"
 #include "share.glsl"
+#include "small_int.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 19, r32f) uniform writeonly image2D visibility;
@@ -38,19 +39,27 @@ void main() {
                     uint seed = pcg(index);
                     uint base = index * uint(P.pattern.w);
                     uint visible = 0u;
-                    for (int k = 0; k < total; ++k) {
-                        int j = k / na;
-                        int i = k - j * na;
-                        if ((masks[base + uint(k) / 32u] & (1u << (uint(k) % 32u))) != 0u) {
-                            continue;
-                        }
-                        vec2 x = light_cell_point(seed, i, j, na, P.pattern_f.xy, P.pattern.z != 0);
-                        precise float sx = x.x - 0.5;
-                        precise float sy = x.y - 0.5;
-                        precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx + P.light_v.xyz * sy;
-                        precise vec3 to_light = ls - p.xyz;
-                        if (dot3(n, to_light) > 0.0) {
-                            visible += 1u;
+                    // The unblocked light samples only, a mask word read once: their row and
+                    // column without an integer division (test_soft.glsl, decide_strata).
+                    for (int wi = 0; wi < P.pattern.w; ++wi) {
+                        int first = 32 * wi;
+                        int left = total - first;
+                        uint open = ~masks[base + uint(wi)] &
+                                    (left >= 32 ? 0xFFFFFFFFu : (1u << uint(left)) - 1u);
+                        while (open != 0u) {
+                            int k = first + findLSB(open);
+                            open &= open - 1u;
+                            int j = small_int((float(k) + 0.5) * P.pattern_f.x);
+                            int i = k - j * na;
+                            vec2 x = light_cell_point(seed, i, j, na, P.pattern_f.xy,
+                                                      P.pattern.z != 0);
+                            precise float sx = x.x - 0.5;
+                            precise float sy = x.y - 0.5;
+                            precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx + P.light_v.xyz * sy;
+                            precise vec3 to_light = ls - p.xyz;
+                            if (dot3(n, to_light) > 0.0) {
+                                visible += 1u;
+                            }
                         }
                     }
                     v = visible == uint(total) ? 1.0

@@ -222,6 +222,21 @@
 //! dispatch's workgroups, and the items in cell order put the penumbra cells' costly items in
 //! one; dealt by rows of a 16-row table (`work_item`), each thread takes a share of every part of
 //! the grid: test pass 111.1 → 91.7 ms minimum on the bunny, `izb`'s 9.4 → 8.9.
+//! **Loop passes** (2026-12-05, second session): cut-down shaders showed an empty pass of the
+//! item's batch loop costing ~14 ns on lavapipe (the SIMD group's mask and the loop limiter's
+//! count), so: two batches a pass, the per-sample footprint check unrolled with broadcasts, the
+//! item's light-sample quarters unrolled and its row starts by doubling shifts, the box's
+//! corners as quarter-cell levels (one conversion for stratum and quarter), work items of 512
+//! triangles instead of 256 (a cell's samples set up half as often): test pass 54.5 → 47.9 ms
+//! minimum on bunny-rect over the six changes, each byte-identical in visibility. Tried that
+//! day, not kept: each pair's bound coded beside its index (one fetch a batch check instead of
+//! two; the test pass −0.2 ms, the footprint write +1.5); four batches a pass (+1.3 ms); 16
+//! triangles a batch, two a lane (+3.3: each shuffle doubled); the batch's light coordinates and
+//! normal recomputed per test instead of shuffled (+2.0); the decide loop's first pass peeled
+//! (no change); the box of the still-open strata as an early reject (21 % of the candidates
+//! rejected, +2 ms for its upkeep); the work item's binary search unrolled (no change for
+//! `izb-soft`, −0.1 ms `izb`); the three projections' divisions as one (no change); the bin
+//! pass's count and depth added once for a subgroup whose samples share a cell (within noise).
 //! 5. `resolve`: visibility from the masks.
 //!
 //! **izb** tests the ray from `o` to the light's centre (a rect light counts as a point at its

@@ -1,7 +1,7 @@
 // izb-soft pass 7, shared by `test_soft.comp` (one triangle at a time) and
-// `test_soft_batched.comp` (TRIANGLE_BATCH: triangles read eight at a time, one a lane, and handed
-// round by subgroup shuffles; each sample first keeps only the batch's triangles whose footprint
-// reaches it). One workgroup per work item, dispatched indirectly: an invocation per sample of
+// `test_soft_batched.comp` (TRIANGLE_BATCH, `test_soft_batch.glsl`: triangles read eight at a
+// time, one a lane, and handed round by subgroup shuffles; each sample first keeps only the
+// batch's triangles whose footprint reaches it). One workgroup per work item, dispatched indirectly: an invocation per sample of
 // the item; the item's triangles in turn, the same for every invocation (their loads are
 // uniform). For each, the triangle back-projected from the sample's ray origin o onto the light
 // bounds, in the light's (a, b) square, the light samples it can block; the strata that box
@@ -20,9 +20,6 @@
 #include "item_triangles.glsl"
 
 layout(local_size_x = 8) in;
-
-// The footprint pass's per-triangle bounds (izb.glsl, tri_bounds), read through a texel view.
-layout(set = 0, binding = 27) uniform samplerBuffer tri_bound_texels;
 
 // Box of the (a, b) square where the affine f = A + B (a - 1/2) + C (b - 1/2) (f = (A, B, C))
 // is at least -tolerance: the kept corners and the edge crossings. False if none is kept.
@@ -446,77 +443,7 @@ uint all_bits;
 uint tests;
 
 #ifdef TRIANGLE_BATCH
-// The work item's state for its batches (batch()).
-uint lane;
-uint b_t1;
-vec2 item_lo;
-vec2 item_hi;
-vec2 item_shrink;
-bool item_every;
-
-// The batch of the item's triangles k0..k0 + 7 (up to b_t1). A function called twice a pass
-// of the item's loop (main): lavapipe's loop passes carry the SIMD group's mask bookkeeping and
-// the loop limiter's count, and half as many passes made the pass 3 % faster on bunny-rect
-// (minimum 54.5 -> 52.8 ms, four interleaved rounds; four batches a pass: 52.5 -> 53.8).
-void batch(uint k0) {
-    int t = item_triangle_index(min(k0 + lane, b_t1 - 1u));
-    vec4 bound = texelFetch(tri_bound_texels, t);
-    bool near = all(lessThanEqual(bound.xy + item_shrink, item_hi)) &&
-                all(greaterThanEqual(bound.zw - item_shrink, item_lo));
-    if (!item_every && !subgroupAny(near)) {
-        return;
-    }
-    // Each lane reads one triangle of the batch and sets it up (a texel fetch is a
-    // gather over the SIMD lanes on a CPU driver: one for eight triangles instead of
-    // one each); the sample keeps those whose footprint reaches it, and the kept ones
-    // go round by shuffles, in the list's order.
-    vec4 la, lb, lc;
-    triangle_vertices(t, la, lb, lc);
-    TriSetup ts = tri_setup(la, lb, lc);
-    vec4 l_ab01 = vec4(light_ab(la.xyz), light_ab(lb.xyz));
-    vec2 l_ab2 = light_ab(lc.xyz);
-    uint n = min(ITEM_SAMPLES, b_t1 - k0);
-    uint mine = 0u;
-    // Unrolled, so each triangle's index is a constant and its setup reaches every lane by a
-    // broadcast: a loop of n passes with shuffles cost this pass 1.7 % more on bunny-rect.
-    [[unroll]] for (uint i = 0u; i < ITEM_SAMPLES; ++i) {
-        bool r = reaches(subgroupBroadcast(ts.box, i), subgroupBroadcast(ts.zmin, i),
-                         subgroupBroadcast(ts.inv_zmin, i), subgroupBroadcast(ts.every, i));
-        mine |= r && i < n ? 1u << i : 0u;
-    }
-    mine = live ? mine : 0u;
-    tests += uint(bitCount(mine));
-    // A sample with one mask word whose every light sample is decided (blocked or behind
-    // its tangent plane: an umbra) makes no pass of the loop below.
-    mine = !one_word || (m_bits | m_fresh | m_behind) != all_bits ? mine : 0u;
-    // Each lane walks its own kept triangles, in the list's order: a pass of the loop
-    // is a test for every lane that has one left (the shuffles take a lane's own
-    // index), so the SIMD group makes as many passes as its busiest lane keeps
-    // triangles rather than as many as all its lanes keep together. The count is
-    // uniform: every lane stays in the loop, as a shuffle reads only active lanes.
-    uint passes = subgroupMax(uint(bitCount(mine)));
-    uint rest = mine;
-    for (uint p = 0u; p < passes; ++p) {
-        bool has = rest != 0u;
-        uint i = has ? uint(findLSB(rest)) : 0u;
-        rest &= rest - 1u;
-        vec4 va = subgroupShuffle(la, i);
-        vec4 vb = subgroupShuffle(lb, i);
-        vec4 vc = subgroupShuffle(lc, i);
-        vec4 ab01 = subgroupShuffle(l_ab01, i);
-        vec2 ab2 = subgroupShuffle(l_ab2, i);
-        vec3 normal = subgroupShuffle(ts.normal, i);
-        float light_side = subgroupShuffle(ts.light_side, i);
-        float zmin = min(va.w, min(vb.w, vc.w));
-        float zmax = max(va.w, max(vb.w, vc.w));
-        // As above, for a sample decided during the batch; a SIMD group whose samples are
-        // all decided skips the test altogether.
-        bool open = !one_word || (m_bits | m_fresh | m_behind) != all_bits;
-        if (open && has) {
-            test_triangle(va, vb, vc, ab01, ab2, normal, light_side, zmin, zmax);
-        }
-    }
-}
+#include "test_soft_batch.glsl"
 #endif
 
 void main() {
@@ -612,7 +539,7 @@ void main() {
                            (s_rect ? s_spread : vec2(0.0));
         item_every = subgroupAny(live && s_every);
         // Two batches a pass (batch() says why).
-        b_t1 = item.t1;
+        item_end = item.t1;
         for (uint k0 = item.t0; k0 < item.t1; k0 += 2u * ITEM_SAMPLES) {
             batch(k0);
             if (k0 + ITEM_SAMPLES < item.t1) {

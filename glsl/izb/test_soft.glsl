@@ -1,9 +1,9 @@
 // izb-soft pass 7, shared by `test_soft.comp` (one triangle at a time) and
 // `test_soft_batched.comp` (TRIANGLE_BATCH, `test_soft_batch.glsl`: triangles read eight at a
-// time, one a lane, and handed round by subgroup shuffles; each sample first keeps only the
-// batch's triangles whose footprint reaches it). One workgroup per work item, dispatched indirectly: an invocation per sample of
-// the item; the item's triangles in turn, the same for every invocation (their loads are
-// uniform). For each, the triangle back-projected from the sample's ray origin o onto the light
+// time, one a lane, each sample keeping the batch's triangles whose footprint reaches it, and
+// the kept ones handed round by subgroup shuffles). One workgroup per work item, dispatched
+// indirectly: an invocation per sample of the item; the item's triangles in turn (without
+// TRIANGLE_BATCH the same for every invocation: their loads are uniform). For each, the triangle back-projected from the sample's ray origin o onto the light
 // bounds, in the light's (a, b) square, the light samples it can block; the strata that box
 // touches and no triangle has blocked yet are decided one by one (by their distance to the
 // projected edges, or within 10^-3 of one by the reference's exact watertight ray test), and

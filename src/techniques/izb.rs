@@ -318,7 +318,8 @@ const SOFT_ITEM_TRIANGLES: u32 = 512;
 /// Triangles per work item of `izb-soft` with an `n_a × n_b` light-sample grid: a triangle
 /// costs a SIMD group at most `n_a·n_b + n_b + 2·words + 7` loop passes (the still-open,
 /// mask-word, row and column loops are entered on every pass of the loop around them, even with
-/// no lane in them; the batched test adds its batch, footprint-check and kept-triangle loops).
+/// no lane in them; the batched test adds its batch and kept-triangle loops — its footprint
+/// check is unrolled now, so the bound keeps a pass to spare).
 pub fn soft_item_triangles(na: u32, nb: u32) -> u32 {
     let words = (na * nb).div_ceil(32);
     (SOFT_ITEM_PASSES / (na * nb + nb + 2 * words + 7)).clamp(1, SOFT_ITEM_TRIANGLES)

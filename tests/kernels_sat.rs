@@ -523,16 +523,50 @@ fn random_source(
 #[test]
 fn nbuffer_levels_and_queries_match_brute_force() {
     let ctx = common::context();
-    let (w, h) = (300, 173);
     // Both layouts; the tiled one with fewer levels than a tile builds (2) and tiles cut by the
-    // edges (300 and 173 are not multiples of 16).
-    for (format, max_level, layout) in [
-        (vk::Format::R32_SFLOAT, None, NBufferLayout::Walk),
-        (vk::Format::D32_SFLOAT, None, NBufferLayout::Walk),
-        (vk::Format::R32_SFLOAT, Some(2), NBufferLayout::Walk),
-        (vk::Format::R32_SFLOAT, None, NBufferLayout::Tiled),
-        (vk::Format::D32_SFLOAT, Some(4), NBufferLayout::Tiled),
-        (vk::Format::R32_SFLOAT, Some(2), NBufferLayout::Tiled),
+    // edges (300 and 173 are not multiples of 16); odd widths and heights below a chain's rows
+    // (the walk's first level takes its rows two at a time).
+    for ((w, h), format, max_level, layout) in [
+        (
+            (300, 173),
+            vk::Format::R32_SFLOAT,
+            None,
+            NBufferLayout::Walk,
+        ),
+        (
+            (300, 173),
+            vk::Format::D32_SFLOAT,
+            None,
+            NBufferLayout::Walk,
+        ),
+        (
+            (300, 173),
+            vk::Format::R32_SFLOAT,
+            Some(2),
+            NBufferLayout::Walk,
+        ),
+        ((301, 5), vk::Format::D32_SFLOAT, None, NBufferLayout::Walk),
+        ((7, 2), vk::Format::R32_SFLOAT, None, NBufferLayout::Walk),
+        // Levels 3 and 4 leave fewer rows to a residue (mod d) than a chain walks.
+        ((260, 16), vk::Format::R32_SFLOAT, None, NBufferLayout::Walk),
+        (
+            (300, 173),
+            vk::Format::R32_SFLOAT,
+            None,
+            NBufferLayout::Tiled,
+        ),
+        (
+            (300, 173),
+            vk::Format::D32_SFLOAT,
+            Some(4),
+            NBufferLayout::Tiled,
+        ),
+        (
+            (300, 173),
+            vk::Format::R32_SFLOAT,
+            Some(2),
+            NBufferLayout::Tiled,
+        ),
     ] {
         let (data, source) = random_source(&ctx, format, w, h, 21);
         let nb = NBuffer::with_layout(&ctx, &source, max_level, layout).expect("nbuffer");
@@ -556,9 +590,9 @@ fn nbuffer_levels_and_queries_match_brute_force() {
             })
             .collect();
         squares.extend([
-            [0, 0, 173],
+            [0, 0, h as i32],
             [0, 0, 1000],
-            [299, 172, 1],
+            [w as i32 - 1, h as i32 - 1, 1],
             [-5, 3, 5],
             [127, 45, 128],
         ]);

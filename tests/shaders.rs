@@ -635,7 +635,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "kernels/nbuffer_first_rgba.comp",
                 "kernels/nbuffer_next_rgba.comp",
             ],
-            twin!(nbuffer::NBufferBuildPush { size, step, pad }),
+            twin!(nbuffer::NBufferBuildPush { size, step, levels }),
         ),
         (
             vec![

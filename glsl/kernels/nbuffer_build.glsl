@@ -1,7 +1,8 @@
 // N-buffer level l + 1 from level l (Décoret 2005): at texel p, combine the four 2^l windows
 // starting at p, p + (d, 0), p + (0, d), p + (d, d) with d = 2^l; windows starting outside the
 // image are empty (the neutral value), so every window is clipped at the right and bottom edges.
-// NBUFFER_FROM_SOURCE: level 0 is the source image (R32F or D32), read with texelFetch.
+// NBUFFER_FROM_SOURCE: levels 1 and 2 from the source image (R32F or D32), read by gathers
+// (below); the others each from the level below.
 //
 // Each invocation walks one column down a chain of CHAIN output rows d apart (y, y + d, ...):
 // output row y combines the horizontal pairs (p, p + (d, 0)) of rows y and y + d, and row
@@ -17,7 +18,12 @@
 // flow but the chain's loop — alternating `penumbra bench --suite kernels --quick` runs
 // (2026-12-03; both versions' times are bimodal on this VM, ~50 or ~100 ms): 10 levels of 1024²
 // 53-115 ms (median of twelve 96) -> 49-109 (median of fifteen 62), 6 levels of 4096² median
-// 583 -> 474 ms.
+// 583 -> 474 ms. Levels 1 and 2 by gathers in one dispatch (2026-12-05): three alternating quick
+// runs, 10 levels of 1024² 60.9 / 61.4 / 59.6 -> 57.8 / 58.5 / 84.1 ms (the 84 one of the VM's
+// slow spells), 6 levels of 4096² 580 / 563 / 571 -> 545 / 553 / 545 ms. Tried and not kept:
+// the chain loop unrolled with the stores under `if`s (1024² 67-74 ms against 61-65), several
+// residues an invocation where a residue has fewer rows than a chain (fewer invocations for the
+// top levels: no change), two columns an invocation in RGBA32F (no clear change).
 // CPU twin: src/cpu/nbuffer.rs `build`.
 
 layout(local_size_x = 64, local_size_y = 1) in;
@@ -27,10 +33,8 @@ layout(local_size_x = 64, local_size_y = 1) in;
 #ifdef NBUFFER_FROM_SOURCE
 layout(set = 0, binding = 0) uniform sampler2D source;
 layout(set = 0, binding = 1, MINMAX_LEVEL_FORMAT) uniform writeonly image2D dst;
-
-vec2 fetch(ivec2 p) {
-    return vec2(texelFetch(source, p, 0).r);
-}
+// Level 2 (written when pc.levels is 2; level 1 again when only one is built).
+layout(set = 0, binding = 2, MINMAX_LEVEL_FORMAT) uniform writeonly image2D dst2;
 #else
 layout(set = 0, binding = 0, MINMAX_LEVEL_FORMAT) uniform readonly image2D src;
 layout(set = 0, binding = 1, MINMAX_LEVEL_FORMAT) uniform writeonly image2D dst;
@@ -44,12 +48,97 @@ layout(push_constant) uniform Push {
     ivec2 size;
     // d = 2^l, the side of the windows of the level read.
     int step;
-    int pad;
+    // Levels this dispatch writes: 1, or from the source 1 or 2.
+    int levels;
 } pc;
+
+// The (min, max) of two (min, max) pairs.
+vec2 nbuffer_pair_min_max(vec2 a, vec2 b) {
+    return vec2(min(a.x, b.x), max(a.y, b.y));
+}
 
 // Output rows per invocation (src/kernels/nbuffer.rs NBUFFER_CHAIN).
 #define CHAIN 8
 
+#ifdef NBUFFER_FROM_SOURCE
+// Levels 1 and 2 from the source (pc.levels of them): the windows of rows y and y + 1 of both are
+// made of the source's 2x2 blocks at (x, y) and (x + 2, y), a gather each (on lavapipe a read is
+// a call per SIMD lane whatever it returns: half a gather an output where reading level 1 back
+// for level 2 would make 2.25 reads, and one dispatch fewer). The chain takes its rows two at a
+// time and keeps the rows below in registers: row r's (min, max) over columns x..x + 1 (level
+// 1's) and x..x + 3 (level 2's); a row or column past the image is the empty pair, so every
+// window is clipped as the twin's. Min and max are exact: the same bits as a level at a time.
+vec2 inv_size;
+int col;
+
+vec2 empty_pair() {
+    return vec2(uintBitsToFloat(0x7f800000u), uintBitsToFloat(0xff800000u));
+}
+
+// (min, max) of u and, if inside, v.
+vec2 span(float u, float v, bool inside) {
+    float w = inside ? v : u;
+    return vec2(min(u, w), max(u, w));
+}
+
+// Rows y and y + 1 (top, bottom): their pairs over columns x..x + 1 (p) and x..x + 3 (h).
+void block_rows(int y, out vec2 p_top, out vec2 p_bottom, out vec2 h_top, out vec2 h_bottom) {
+    // textureGather returns (x, y + 1), (x + 1, y + 1), (x + 1, y), (x, y).
+    vec4 a = textureGather(source, (vec2(col, y) + 1.0) * inv_size);
+    vec4 b = textureGather(source, (vec2(col + 2, y) + 1.0) * inv_size);
+    bvec3 cols = lessThan(ivec3(col + 1, col + 2, col + 3), ivec3(pc.size.x));
+    vec2 e = empty_pair();
+    p_top = span(a.w, a.z, cols.x);
+    p_bottom = span(a.x, a.y, cols.x);
+    vec2 q_top = cols.y ? span(b.w, b.z, cols.z) : e;
+    vec2 q_bottom = cols.y ? span(b.x, b.y, cols.z) : e;
+    h_top = nbuffer_pair_min_max(p_top, q_top);
+    h_bottom = nbuffer_pair_min_max(p_bottom, q_bottom);
+    bool top = y < pc.size.y;
+    bool bottom = y + 1 < pc.size.y;
+    p_top = top ? p_top : e;
+    h_top = top ? h_top : e;
+    p_bottom = bottom ? p_bottom : e;
+    h_bottom = bottom ? h_bottom : e;
+}
+
+void main() {
+    col = int(gl_GlobalInvocationID.x);
+    int y = int(gl_GlobalInvocationID.y) * CHAIN;
+    if (col >= pc.size.x || y >= pc.size.y) {
+        return;
+    }
+    inv_size = 1.0 / vec2(pc.size);
+    bool second_level = pc.levels >= 2;
+    vec2 p0, p1, p2, p3, p4, p5, h0, h1, h2, h3, h4, h5;
+    block_rows(y, p0, p1, h0, h1);
+    block_rows(y + 2, p2, p3, h2, h3);
+    for (int k = 0; k < CHAIN && y < pc.size.y; k += 2, y += 2) {
+        block_rows(y + 4, p4, p5, h4, h5);
+        vec2 h12 = nbuffer_pair_min_max(h1, h2);
+        vec2 h23 = nbuffer_pair_min_max(h12, h3);
+        imageStore(dst, ivec2(col, y), vec4(nbuffer_pair_min_max(p0, p1), 0.0, 0.0));
+        if (second_level) {
+            imageStore(dst2, ivec2(col, y), vec4(nbuffer_pair_min_max(h0, h23), 0.0, 0.0));
+        }
+        if (y + 1 < pc.size.y) {
+            imageStore(dst, ivec2(col, y + 1), vec4(nbuffer_pair_min_max(p1, p2), 0.0, 0.0));
+            if (second_level) {
+                vec2 m = nbuffer_pair_min_max(h23, h4);
+                imageStore(dst2, ivec2(col, y + 1), vec4(m, 0.0, 0.0));
+            }
+        }
+        p0 = p2;
+        p1 = p3;
+        p2 = p4;
+        p3 = p5;
+        h0 = h2;
+        h1 = h3;
+        h2 = h4;
+        h3 = h5;
+    }
+}
+#else
 // The (min, max) of the texels p and p + (d, 0) of the level read, the second only if inside:
 // both read (the second clamped to the image) and the second dropped by a select, so the loads
 // sit outside all control flow.
@@ -79,3 +168,4 @@ void main() {
         imageStore(dst, ivec2(x, y), vec4(m, 0.0, 0.0));
     }
 }
+#endif

@@ -239,7 +239,14 @@
 //! pass's count and depth added once for a subgroup whose samples share a cell (within noise);
 //! each triangle's soft set-up (grid box, plane, light side, light coordinates: 64 B) written
 //! by the footprint count and fetched by the batches instead of computed (test −0.9 ms,
-//! footprint +0.5: no net gain for the memory).
+//! footprint +0.5: no net gain for the memory). Tried 2026-12-05 (fourth session), not kept: the
+//! batch's kept (sample, triangle) pairs dealt to the lanes eight a pass whoever's sample they
+//! are (each lane walking its own sample's makes as many passes as the busiest lane keeps:
+//! 655 k passes on bunny-rect where dealing needs 430 k), the sample's state and the closed
+//! bits going to and from its lane by shuffles — visibility the same, but the test pass only
+//! 52.2 → 49.1 ms at the minimum and unchanged at the lower quartile over eight interleaved
+//! rounds: the ~45 shuffles a pass (36 cost ~8 ns a pass in a cut-down shader) and the decide
+//! loop's passes, each as long as its busiest lane's, take back what the fewer passes save.
 //! 5. `resolve`: visibility from the masks.
 //!
 //! **izb** tests the ray from `o` to the light's centre (a rect light counts as a point at its

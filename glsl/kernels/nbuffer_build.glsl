@@ -23,7 +23,9 @@
 // slow spells), 6 levels of 4096² 580 / 563 / 571 -> 545 / 553 / 545 ms. Tried and not kept:
 // the chain loop unrolled with the stores under `if`s (1024² 67-74 ms against 61-65), several
 // residues an invocation where a residue has fewer rows than a chain (fewer invocations for the
-// top levels: no change), two columns an invocation in RGBA32F (no clear change).
+// top levels: no change), two columns an invocation in RGBA32F (no clear change), chains of 16
+// rows (1024² 57.7-63.1 ms against 58.0-60.4 at 8, 4096² 542-572 against 538-542) or 32 (83-103
+// and 979-1013 ms) instead of 8.
 // CPU twin: src/cpu/nbuffer.rs `build`.
 
 layout(local_size_x = 64, local_size_y = 1) in;

@@ -25,7 +25,9 @@
 // residues an invocation where a residue has fewer rows than a chain (fewer invocations for the
 // top levels: no change), two columns an invocation in RGBA32F (no clear change), chains of 16
 // rows (1024² 57.7-63.1 ms against 58.0-60.4 at 8, 4096² 542-572 against 538-542) or 32 (83-103
-// and 979-1013 ms) instead of 8.
+// and 979-1013 ms) instead of 8; level 3 fused into the first dispatch too (four gathers a pair
+// of rows, chains of 16 rows, four blocks of rows held below: 1024² 70-74 ms against 59-60, 4096²
+// 714-740 against 544-557, with or without branches around the gathers past the edge).
 // CPU twin: src/cpu/nbuffer.rs `build`.
 
 layout(local_size_x = 64, local_size_y = 1) in;

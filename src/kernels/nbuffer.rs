@@ -339,7 +339,8 @@ impl<'a> NBuffer<'a> {
         })
     }
 
-    /// Records the build: one dispatch per level (no pass of its own).
+    /// Records the build: one dispatch per level, levels 1 and 2 together in the walk (no pass of
+    /// its own).
     pub fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
         let mut tiled = 0;
         if let Some((pipeline, set)) = &self.tile {

@@ -526,47 +526,19 @@ fn nbuffer_levels_and_queries_match_brute_force() {
     // Both layouts; the tiled one with fewer levels than a tile builds (2) and tiles cut by the
     // edges (300 and 173 are not multiples of 16); odd widths and heights below a chain's rows
     // (the walk's first level takes its rows two at a time).
+    let (r32, d32) = (vk::Format::R32_SFLOAT, vk::Format::D32_SFLOAT);
+    let (walk, tiled, odd) = (NBufferLayout::Walk, NBufferLayout::Tiled, (300, 173));
     for ((w, h), format, max_level, layout) in [
-        (
-            (300, 173),
-            vk::Format::R32_SFLOAT,
-            None,
-            NBufferLayout::Walk,
-        ),
-        (
-            (300, 173),
-            vk::Format::D32_SFLOAT,
-            None,
-            NBufferLayout::Walk,
-        ),
-        (
-            (300, 173),
-            vk::Format::R32_SFLOAT,
-            Some(2),
-            NBufferLayout::Walk,
-        ),
-        ((301, 5), vk::Format::D32_SFLOAT, None, NBufferLayout::Walk),
-        ((7, 2), vk::Format::R32_SFLOAT, None, NBufferLayout::Walk),
+        (odd, r32, None, walk),
+        (odd, d32, None, walk),
+        (odd, r32, Some(2), walk),
+        ((301, 5), d32, None, walk),
+        ((7, 2), r32, None, walk),
         // Levels 3 and 4 leave fewer rows to a residue (mod d) than a chain walks.
-        ((260, 16), vk::Format::R32_SFLOAT, None, NBufferLayout::Walk),
-        (
-            (300, 173),
-            vk::Format::R32_SFLOAT,
-            None,
-            NBufferLayout::Tiled,
-        ),
-        (
-            (300, 173),
-            vk::Format::D32_SFLOAT,
-            Some(4),
-            NBufferLayout::Tiled,
-        ),
-        (
-            (300, 173),
-            vk::Format::R32_SFLOAT,
-            Some(2),
-            NBufferLayout::Tiled,
-        ),
+        ((260, 16), r32, None, walk),
+        (odd, r32, None, tiled),
+        (odd, d32, Some(4), tiled),
+        (odd, r32, Some(2), tiled),
     ] {
         let (data, source) = random_source(&ctx, format, w, h, 21);
         let nb = NBuffer::with_layout(&ctx, &source, max_level, layout).expect("nbuffer");

@@ -1,4 +1,5 @@
-// The format of an N-buffer or min/max pyramid level: one image a level, (min, max) in its first
+// The format of an N-buffer or min/max pyramid level, and the (min, max) pairs' neutral element
+// and combination (the builds' and glsl/include/nbuffer.glsl's readers'): one image a level, (min, max) in its first
 // two channels. RG32F, or with MINMAX_LEVEL_RGBA (the `_rgba` shaders: a device without
 // `shaderStorageImageExtendedFormats` or RG32F storage) RGBA32F, whose storage is core. One
 // image rather than an R32F pair: a level's texel is one load and one store instead of two —
@@ -13,5 +14,16 @@
 #else
 #define MINMAX_LEVEL_FORMAT rg32f
 #endif
+
+
+// (min, max) of nothing: the neutral element of nbuffer_combine.
+vec2 nbuffer_empty() {
+    return vec2(uintBitsToFloat(0x7f800000u), uintBitsToFloat(0xff800000u));
+}
+
+// The (min, max) of two (min, max) pairs.
+vec2 nbuffer_combine(vec2 a, vec2 b) {
+    return vec2(min(a.x, b.x), max(a.y, b.y));
+}
 
 #endif

@@ -16,16 +16,9 @@
 #ifndef NBUFFER_GLSL
 #define NBUFFER_GLSL
 
+#include "minmax_level.glsl"
+
 vec2 nbuffer_fetch(int level, ivec2 p);
-
-// (min, max) of nothing: the neutral element of nbuffer_combine.
-vec2 nbuffer_empty() {
-    return vec2(uintBitsToFloat(0x7f800000u), uintBitsToFloat(0xff800000u));
-}
-
-vec2 nbuffer_combine(vec2 a, vec2 b) {
-    return vec2(min(a.x, b.x), max(a.y, b.y));
-}
 
 #ifdef NBUFFER_LEVELS_BINDING
 #define NBUFFER_LEVEL(l)                                                                           \

@@ -1,18 +1,17 @@
-// izb-soft pass 7, shared by `test_soft.comp` (one triangle at a time) and
-// `test_soft_batched.comp` (TRIANGLE_BATCH, `test_soft_batch.glsl`: triangles read eight at a
-// time, one a lane, each sample keeping the batch's triangles whose footprint reaches it, and
-// the kept ones handed round by subgroup shuffles). One workgroup per work item, dispatched
-// indirectly: an invocation per sample of the item; the item's triangles in turn (without
-// TRIANGLE_BATCH the same for every invocation: their loads are uniform). For each, the triangle back-projected from the sample's ray origin o onto the light
-// bounds, in the light's (a, b) square, the light samples it can block; the strata that box
-// touches and no triangle has blocked yet are decided one by one (by their distance to the
-// projected edges, or within 10^-3 of one by the reference's exact watertight ray test), and
-// what they block is OR-ed into the mask, kept in registers a word at a time. The box: the
-// triangle's central projection from o onto the light's plane when the triangle lies between
-// the two (its vertices at light-space depths in (0, 0.99 z_o)); otherwise (a neighbour of the
-// receiver, a triangle crossing the light's plane) the intersection of the boxes of the four
-// half-planes that bound the back-projection: beyond the triangle's plane, inside each edge's
-// plane through o.
+// izb-soft pass 7, shared by `test_soft.comp` (one triangle at a time) and `test_soft_batched.comp`
+// (TRIANGLE_BATCH, `test_soft_batch.glsl`: triangles read eight at a time, one a lane, each sample
+// keeping the batch's triangles whose footprint reaches it, and the kept ones handed round by
+// subgroup shuffles). One workgroup per work item, dispatched indirectly: an invocation per sample
+// of the item; the item's triangles in turn (without TRIANGLE_BATCH the same for every invocation:
+// their loads are uniform). For each, the triangle back-projected from the sample's ray origin o
+// onto the light bounds, in the light's (a, b) square, the light samples it can block; the strata
+// that box touches and no triangle has blocked yet are decided one by one (by their distance to the
+// projected edges, or within 10^-3 of one by the reference's exact watertight ray test), and what
+// they block is OR-ed into the mask, kept in registers a word at a time. The box: the triangle's
+// central projection from o onto the light's plane when the triangle lies between the two (its
+// vertices at light-space depths in (0, 0.99 z_o)); otherwise (a neighbour of the receiver, a
+// triangle crossing the light's plane) the intersection of the boxes of the four half-planes that
+// bound the back-projection: beyond the triangle's plane, inside each edge's plane through o.
 #include "izb.glsl"
 #include "watertight.glsl"
 #include "light_samples.glsl"

@@ -21,13 +21,13 @@
 // 583 -> 474 ms. Levels 1 and 2 by gathers in one dispatch (2026-12-05): three alternating quick
 // runs, 10 levels of 1024² 60.9 / 61.4 / 59.6 -> 57.8 / 58.5 / 84.1 ms (the 84 one of the VM's
 // slow spells), 6 levels of 4096² 580 / 563 / 571 -> 545 / 553 / 545 ms. Tried and not kept:
-// the chain loop unrolled with the stores under `if`s (1024² 67-74 ms against 61-65), several
+// the chain loop unrolled with the stores under `if`s (1024² 67-74 ms against 59-65), several
 // residues an invocation where a residue has fewer rows than a chain (fewer invocations for the
 // top levels: no change), two columns an invocation in RGBA32F (no clear change), chains of 16
-// rows (1024² 57.7-63.1 ms against 58.0-60.4 at 8, 4096² 542-572 against 538-542) or 32 (83-103
+// rows (1024² 57.4-63.1 ms against 57.9-60.4 at 8, 4096² 529-572 against 538-544) or 32 (83-103
 // and 979-1013 ms) instead of 8; level 3 fused into the first dispatch too (four gathers a pair
-// of rows, chains of 16 rows, four blocks of rows held below: 1024² 70-74 ms against 59-60, 4096²
-// 714-740 against 544-557, with or without branches around the gathers past the edge).
+// of rows, chains of 16 rows, four blocks of rows held below: 1024² 70-74 ms against 58.6-60.4,
+// 4096² 714-740 against 544-557, with or without branches around the gathers past the edge).
 // CPU twin: src/cpu/nbuffer.rs `build`.
 
 layout(local_size_x = 64, local_size_y = 1) in;
@@ -56,11 +56,6 @@ layout(push_constant) uniform Push {
     int levels;
 } pc;
 
-// The (min, max) of two (min, max) pairs.
-vec2 nbuffer_pair_min_max(vec2 a, vec2 b) {
-    return vec2(min(a.x, b.x), max(a.y, b.y));
-}
-
 // Output rows per invocation (src/kernels/nbuffer.rs NBUFFER_CHAIN).
 #define CHAIN 8
 
@@ -75,10 +70,6 @@ vec2 nbuffer_pair_min_max(vec2 a, vec2 b) {
 vec2 inv_size;
 int col;
 
-vec2 empty_pair() {
-    return vec2(uintBitsToFloat(0x7f800000u), uintBitsToFloat(0xff800000u));
-}
-
 // (min, max) of u and, if inside, v.
 vec2 span(float u, float v, bool inside) {
     float w = inside ? v : u;
@@ -91,13 +82,13 @@ void block_rows(int y, out vec2 p_top, out vec2 p_bottom, out vec2 h_top, out ve
     vec4 a = textureGather(source, (vec2(col, y) + 1.0) * inv_size);
     vec4 b = textureGather(source, (vec2(col + 2, y) + 1.0) * inv_size);
     bvec3 cols = lessThan(ivec3(col + 1, col + 2, col + 3), ivec3(pc.size.x));
-    vec2 e = empty_pair();
+    vec2 e = nbuffer_empty();
     p_top = span(a.w, a.z, cols.x);
     p_bottom = span(a.x, a.y, cols.x);
     vec2 q_top = cols.y ? span(b.w, b.z, cols.z) : e;
     vec2 q_bottom = cols.y ? span(b.x, b.y, cols.z) : e;
-    h_top = nbuffer_pair_min_max(p_top, q_top);
-    h_bottom = nbuffer_pair_min_max(p_bottom, q_bottom);
+    h_top = nbuffer_combine(p_top, q_top);
+    h_bottom = nbuffer_combine(p_bottom, q_bottom);
     bool top = y < pc.size.y;
     bool bottom = y + 1 < pc.size.y;
     p_top = top ? p_top : e;
@@ -119,16 +110,16 @@ void main() {
     block_rows(y + 2, p2, p3, h2, h3);
     for (int k = 0; k < CHAIN && y < pc.size.y; k += 2, y += 2) {
         block_rows(y + 4, p4, p5, h4, h5);
-        vec2 h12 = nbuffer_pair_min_max(h1, h2);
-        vec2 h23 = nbuffer_pair_min_max(h12, h3);
-        imageStore(dst, ivec2(col, y), vec4(nbuffer_pair_min_max(p0, p1), 0.0, 0.0));
+        vec2 h12 = nbuffer_combine(h1, h2);
+        vec2 h23 = nbuffer_combine(h12, h3);
+        imageStore(dst, ivec2(col, y), vec4(nbuffer_combine(p0, p1), 0.0, 0.0));
         if (second_level) {
-            imageStore(dst2, ivec2(col, y), vec4(nbuffer_pair_min_max(h0, h23), 0.0, 0.0));
+            imageStore(dst2, ivec2(col, y), vec4(nbuffer_combine(h0, h23), 0.0, 0.0));
         }
         if (y + 1 < pc.size.y) {
-            imageStore(dst, ivec2(col, y + 1), vec4(nbuffer_pair_min_max(p1, p2), 0.0, 0.0));
+            imageStore(dst, ivec2(col, y + 1), vec4(nbuffer_combine(p1, p2), 0.0, 0.0));
             if (second_level) {
-                vec2 m = nbuffer_pair_min_max(h23, h4);
+                vec2 m = nbuffer_combine(h23, h4);
                 imageStore(dst2, ivec2(col, y + 1), vec4(m, 0.0, 0.0));
             }
         }

@@ -9,10 +9,10 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use super::nbuffer::{chain_sets, check_source, level_shader, minmax_image, read_minmax};
+use super::nbuffer::{check_source, level_shader, minmax_image, read_minmax};
 use crate::cpu::minmax::level_sizes;
 use crate::error::{Error, Result};
-use crate::gpu::{Context, DescriptorSet, Image, Pipeline, Recorder, Sampler};
+use crate::gpu::{Binding, Context, DescriptorSet, Image, Pipeline, Recorder, Sampler};
 
 /// `minmax_build.glsl` push constants.
 #[repr(C)]
@@ -100,6 +100,32 @@ impl<'a> MinMaxPyramid<'a> {
             .map(|i| texels(i - 1) * if i == 1 { 4 } else { 8 } + texels(i) * 8)
             .sum()
     }
+}
+
+/// The descriptor sets of a chain of min/max levels: level 0 reads `source` through `first`,
+/// every later level reads the one before it through `next`.
+fn chain_sets(
+    ctx: &Context,
+    first: &Pipeline,
+    next: &Pipeline,
+    source: &Image,
+    sampler: &Sampler,
+    levels: &[Image],
+) -> Result<Vec<DescriptorSet>> {
+    levels
+        .iter()
+        .enumerate()
+        .map(|(i, level)| match i.checked_sub(1).map(|p| &levels[p]) {
+            None => DescriptorSet::new(
+                ctx,
+                first,
+                &[Binding::Sampled(source, sampler), Binding::Image(level)],
+            ),
+            Some(below) => {
+                DescriptorSet::new(ctx, next, &[Binding::Image(below), Binding::Image(level)])
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]

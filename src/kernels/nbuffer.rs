@@ -196,33 +196,6 @@ pub(crate) fn read_minmax(ctx: &Context, image: &Image) -> Result<Vec<[f32; 2]>>
         .collect())
 }
 
-/// The descriptor sets of a chain of min/max levels: level 0 reads `source` through `first`,
-/// every later level reads the one before it through `next`: the min/max pyramid's (the
-/// N-buffer's first dispatch writes two levels, [`NBuffer::with_layout`]).
-pub(crate) fn chain_sets(
-    ctx: &Context,
-    first: &Pipeline,
-    next: &Pipeline,
-    source: &Image,
-    sampler: &Sampler,
-    levels: &[Image],
-) -> Result<Vec<DescriptorSet>> {
-    levels
-        .iter()
-        .enumerate()
-        .map(|(i, level)| match i.checked_sub(1).map(|p| &levels[p]) {
-            None => DescriptorSet::new(
-                ctx,
-                first,
-                &[Binding::Sampled(source, sampler), Binding::Image(level)],
-            ),
-            Some(below) => {
-                DescriptorSet::new(ctx, next, &[Binding::Image(below), Binding::Image(level)])
-            }
-        })
-        .collect()
-}
-
 /// Checks that `source` is a sampled R32F or D32 image.
 pub(crate) fn check_source(ctx: &Context, source: &Image, what: &str) -> Result<()> {
     let ok = matches!(

@@ -1,6 +1,6 @@
 #version 460
 // izb pass 5 and 6b. Phase 0 (per cell): the cell's work items for the test pass — chunks of
-// ITEM_SAMPLES samples times chunks of P.sizes.z triangles, so no work item's loops outgrow
+// P.items.x samples times chunks of P.sizes.z triangles, so no work item's loops outgrow
 // lavapipe's loop limiter however long a grazing cell's lists get. Phase 1 (one invocation):
 // the pairs and work items from the prefix sums, and the test pass's indirect dispatch
 // arguments (one workgroup an item; y carries what exceeds 65 535 groups). Pairs beyond the
@@ -17,7 +17,7 @@ void main() {
             uint samples = cell_count[c];
             uint tris = cell_tris[c];
             cell_items[c] = samples == 0u || tris == 0u ? 0u
-                : ((samples + ITEM_SAMPLES - 1u) / ITEM_SAMPLES) *
+                : ((samples + P.items.x - 1u) / P.items.x) *
                   ((tris + P.sizes.z - 1u) / P.sizes.z);
         }
         return;

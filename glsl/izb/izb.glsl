@@ -14,6 +14,7 @@ struct IzbParams {
     ivec4 pattern;     // (n_a, n_b, jitter, mask words per sample)
     vec4 pattern_f;    // (1 / n_a, 1 / n_b, t_far, unused)
     uvec4 sizes;       // (triangles, pair capacity, triangles per work item, perspective)
+    uvec4 items;       // (samples per work item, samples per invocation, unused, unused)
 };
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
@@ -259,10 +260,11 @@ bool work_item(out Item item) {
     }
     uint r = w - item_start[lo];
     uint samples = cell_count[lo];
-    uint sample_chunks = (samples + ITEM_SAMPLES - 1u) / ITEM_SAMPLES;
-    uint first = cell_start[lo] + (r % sample_chunks) * ITEM_SAMPLES;
+    uint chunk = P.items.x;
+    uint sample_chunks = (samples + chunk - 1u) / chunk;
+    uint first = cell_start[lo] + (r % sample_chunks) * chunk;
     item.s0 = first;
-    item.s1 = min(first + ITEM_SAMPLES, cell_start[lo] + samples);
+    item.s1 = min(first + chunk, cell_start[lo] + samples);
     uint tri = cell_tri_start[lo] + (r / sample_chunks) * P.sizes.z;
     item.t0 = tri;
     item.t1 = min(min(tri + P.sizes.z, cell_tri_start[lo] + cell_tris[lo]), P.sizes.y);

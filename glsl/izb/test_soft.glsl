@@ -2,7 +2,7 @@
 // (TRIANGLE_BATCH, `test_soft_batch.glsl`: triangles read eight at a time, one a lane, each sample
 // keeping the batch's triangles whose footprint reaches it, and the kept ones handed round by
 // subgroup shuffles). One workgroup per work item, dispatched indirectly: an invocation per sample
-// of the item; the item's triangles in turn (without TRIANGLE_BATCH the same for every invocation:
+// of the item (two with TRIANGLE_BATCH, P.items.y); the item's triangles in turn (without TRIANGLE_BATCH the same for every invocation:
 // their loads are uniform). For each, the triangle back-projected from the sample's ray origin o
 // onto the light bounds, in the light's (a, b) square, the light samples it can block; the strata
 // that box touches and no triangle has blocked yet are decided one by one (by their distance to the
@@ -22,25 +22,32 @@ layout(local_size_x = 8) in;
 
 // Box of the (a, b) square where the affine f = A + B (a - 1/2) + C (b - 1/2) (f = (A, B, C))
 // is at least -tolerance: the kept corners and the edge crossings. False if none is kept.
+// Without branches: on lavapipe each `if` on a per-sample condition is a mask test and a branch
+// for the SIMD group, and this box's eight of them, four boxes a test, made the rare tests that
+// take the half-planes (a triangle not strictly between the sample and the light) cost this
+// pass ~3 ms on bunny-rect, as much as all its common tests' deciding.
 bool half_square_box(vec3 f, out vec2 lo, out vec2 hi) {
     float tol = 1e-4 * (abs(f.x) + 0.5 * abs(f.y) + 0.5 * abs(f.z));
+    // The values at the corners (0,0), (1,0), (1,1), (0,1), and at the next corner round.
     vec4 at = f.x + tol + vec4(-0.5 * f.y - 0.5 * f.z, 0.5 * f.y - 0.5 * f.z,
                                0.5 * f.y + 0.5 * f.z, -0.5 * f.y + 0.5 * f.z);
-    // Corners (0,0), (1,0), (1,1), (0,1) and their values.
-    vec2 c0 = vec2(0.0, 0.0);
-    vec2 c1 = vec2(1.0, 0.0);
-    vec2 c2 = vec2(1.0, 1.0);
-    vec2 c3 = vec2(0.0, 1.0);
-    lo = vec2(2.0);
-    hi = vec2(-1.0);
-    if (at.x >= 0.0) { lo = min(lo, c0); hi = max(hi, c0); }
-    if (at.y >= 0.0) { lo = min(lo, c1); hi = max(hi, c1); }
-    if (at.z >= 0.0) { lo = min(lo, c2); hi = max(hi, c2); }
-    if (at.w >= 0.0) { lo = min(lo, c3); hi = max(hi, c3); }
-    if ((at.x >= 0.0) != (at.y >= 0.0)) { vec2 x = mix(c0, c1, clamp(at.x / (at.x - at.y), 0.0, 1.0)); lo = min(lo, x); hi = max(hi, x); }
-    if ((at.y >= 0.0) != (at.z >= 0.0)) { vec2 x = mix(c1, c2, clamp(at.y / (at.y - at.z), 0.0, 1.0)); lo = min(lo, x); hi = max(hi, x); }
-    if ((at.z >= 0.0) != (at.w >= 0.0)) { vec2 x = mix(c2, c3, clamp(at.z / (at.z - at.w), 0.0, 1.0)); lo = min(lo, x); hi = max(hi, x); }
-    if ((at.w >= 0.0) != (at.x >= 0.0)) { vec2 x = mix(c3, c0, clamp(at.w / (at.w - at.x), 0.0, 1.0)); lo = min(lo, x); hi = max(hi, x); }
+    vec4 next = at.yzwx;
+    bvec4 keep = greaterThanEqual(at, vec4(0.0));
+    bvec4 crosses = notEqual(keep, keep.yzwx);
+    // Where each edge (corner k to k + 1) crosses zero: the fraction t along it (a NaN or
+    // infinity where it does not cross is never selected).
+    vec4 t = clamp(at / (at - next), 0.0, 1.0);
+    // The corners' and crossings' coordinates, each edge's as mix(corner, next corner, t).
+    vec4 cx = vec4(0.0, 1.0, 1.0, 0.0);
+    vec4 cy = vec4(0.0, 0.0, 1.0, 1.0);
+    vec4 ex = vec4(t.x, 1.0, 1.0 - t.z, 0.0);
+    vec4 ey = vec4(0.0, t.y, 1.0, 1.0 - t.w);
+    vec4 lx = min(mix(vec4(2.0), cx, keep), mix(vec4(2.0), ex, crosses));
+    vec4 ly = min(mix(vec4(2.0), cy, keep), mix(vec4(2.0), ey, crosses));
+    vec4 hx = max(mix(vec4(-1.0), cx, keep), mix(vec4(-1.0), ex, crosses));
+    vec4 hy = max(mix(vec4(-1.0), cy, keep), mix(vec4(-1.0), ey, crosses));
+    lo = vec2(min(min(lx.x, lx.y), min(lx.z, lx.w)), min(min(ly.x, ly.y), min(ly.z, ly.w)));
+    hi = vec2(max(max(hx.x, hx.y), max(hx.z, hx.w)), max(max(hy.x, hy.y), max(hy.z, hy.w)));
     return hi.x >= lo.x;
 }
 
@@ -59,17 +66,44 @@ vec3 light_point(vec2 x) {
     return ls;
 }
 
-// The sample's data, read once for all the item's triangles (private: per invocation).
-uint s_index;
-bool s_all_front;
-vec4 s_origin;
-vec3 s_o;
-vec3 s_p;
-vec3 s_n;
-uint s_seed;
-uint s_base;
+// A view sample under test: its data, read once for all the item's triangles, its footprint
+// check's terms and its mask word. An invocation takes `P.items.y` samples of its item (two for
+// the batched test, which sets each batch of triangles up once for both: test_soft_batch.glsl),
+// the first `S`; the test's functions take the sample they test as a parameter.
+struct Sample {
+    bool live;       // a sample of the item (the last item of a cell may be short)
+    bool all_front;  // its whole light in front of its tangent plane
+    vec4 origin;     // the ray origin o and its light-space depth
+    vec3 p;          // position and normal (only for a sample with light behind its plane)
+    vec3 n;
+    uint seed;       // the reference's hash of the pixel (light_samples.glsl)
+    uint base;       // its first mask word
+    vec2 ab;         // o in the light's coordinates (light_ab)
+    // With one word and jitter: where in its cell each light sample lies, to a quarter of the
+    // cell on each axis: bit k of q_x1 / q_x0 is the top / second bit of light sample k's jitter
+    // in a (its quarter 2 q_x1 + q_x0), likewise q_y1 / q_y0 in b. The hash's own bits, so exact.
+    uint q_x1;
+    uint q_x0;
+    uint q_y1;
+    uint q_y0;
+    // The mask word in use, read once and OR-ed back once when another word (or the end) comes:
+    // memory accesses are the expensive part of this loop on a CPU driver. `behind`: light
+    // samples of the word found behind the tangent plane, never to be tested again.
+    uint word;
+    uint bits;
+    uint fresh;
+    uint behind;
+    // The footprint check's terms (reaches()): o's light-space depth, grid point and 1/z.
+    float z;
+    bool every;  // no projection reaches it (the overflow cell): it keeps every triangle
+    vec2 g;
+    float inv_z;
+    uint tests;  // triangle–sample tests made (those the footprint check keeps)
+    uint rays;   // exact rays traced
+};
+Sample S;
+
 vec2 inv_uv;
-vec2 s_ab;  // the sample's o in the light's coordinates (light_ab)
 float uu;
 float vv;
 int na;
@@ -82,21 +116,7 @@ bool jittered;
 bool one_word;
 uint row_starts;
 uint row_bits;
-// With one word and jitter: where in its cell each light sample lies, to a quarter of the cell
-// on each axis: bit k of q_x1 / q_x0 is the top / second bit of sample k's jitter in a (its
-// quarter 2 q_x1 + q_x0), likewise q_y1 / q_y0 in b. The hash's own bits, so exact.
-uint q_x1;
-uint q_x0;
-uint q_y1;
-uint q_y0;
-// The mask word in use, read once and OR-ed back once when another word (or the end) comes:
-// memory accesses are the expensive part of this loop on a CPU driver; and the rays traced.
-uint m_word;
-uint m_bits;
-uint m_fresh;
-uint m_rays;
-// Light samples of the word found behind the tangent plane: never to be tested again.
-uint m_behind;
+uint all_bits;
 
 // The light's affine coordinates (a, b) of a world point: dot(x - c, u) / |u|² + 1/2 and likewise
 // for v, the light's square [0, 1]² on its plane. Affine, so the point where the line from o
@@ -112,8 +132,8 @@ vec2 light_ab(vec3 w) {
 
 // (a, b) of the point where the line from the sample's o through a vertex (its light
 // coordinates ab and depth z) meets the light's plane.
-vec2 project(vec2 ab, float z) {
-    return fma(ab - s_ab, vec2(s_origin.w / (s_origin.w - z)), s_ab);
+vec2 project(Sample smp, vec2 ab, float z) {
+    return fma(ab - smp.ab, vec2(smp.origin.w / (smp.origin.w - z)), smp.ab);
 }
 
 // The light samples of `box` (bits lo_bit.. of the word in use) that no triangle has blocked
@@ -122,10 +142,10 @@ vec2 project(vec2 ab, float z) {
 // edge's L1 length, decided without a ray beyond `t` (the band times those lengths; 0: no
 // projection shortcut). A pass of the loop is a light sample to decide (none for a box blocked
 // already: an umbra, or the strata a neighbouring triangle covered).
-void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec3 e1, vec3 e2,
+void decide_strata(inout Sample smp, uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec3 e1, vec3 e2,
                    vec3 t) {
     bool shortcut = t.x > 0.0;
-    uint todo = box & ~(m_bits | m_fresh | m_behind);
+    uint todo = box & ~(smp.bits | smp.fresh | smp.behind);
     while (todo != 0u) {
         int b = findLSB(todo);
         todo &= todo - 1u;
@@ -137,16 +157,16 @@ void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec
         int j = small_int((float(bit) + 0.5) * inv_na);
         int i = bit - j * na;
         // The reference's light sample, ray and tangent-plane test, to the bit.
-        vec2 x = light_cell_point(s_seed, i, j, na, inv_ab, jittered);
+        vec2 x = light_cell_point(smp.seed, i, j, na, inv_ab, jittered);
         // Behind the tangent plane: never blocked by anything (the resolve pass leaves it out).
         // Only a sample whose light straddles the plane has such light samples; the others skip
         // the test (and lavapipe the whole branch when no lane takes it).
         bool behind = false;
-        if (!s_all_front) {
-            precise vec3 to_light = light_point(x) - s_p;
-            behind = dot3(s_n, to_light) <= 0.0;
+        if (!smp.all_front) {
+            precise vec3 to_light = light_point(x) - smp.p;
+            behind = dot3(smp.n, to_light) <= 0.0;
         }
-        m_behind |= behind ? mask : 0u;
+        smp.behind |= behind ? mask : 0u;
         // Well outside the projected triangle: no ray can hit; well inside (and the triangle
         // strictly between o and the light): every ray does. The exact ray only in the band
         // between, as an `if` rather than `continue`s: lavapipe skips it when no lane is in the
@@ -158,13 +178,13 @@ void decide_strata(uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec
         bool outside = any(lessThan(dist, -t));
         bool blocked = !behind && shortcut && inside;
         if (!behind && !(shortcut && (inside || outside))) {
-            precise vec3 d = light_point(x) - s_o;
-            Ray r = make_ray(s_o, d, 1.0);
+            precise vec3 d = light_point(x) - smp.origin.xyz;
+            Ray r = make_ray(smp.origin.xyz, d, 1.0);
             vec4 w;
-            m_rays += 1u;
+            smp.rays += 1u;
             blocked = hit_triangle(r, va.xyz, vb.xyz, vc.xyz, w);
         }
-        m_fresh |= blocked ? mask : 0u;
+        smp.fresh |= blocked ? mask : 0u;
     }
 }
 
@@ -216,17 +236,17 @@ uint quarter_at_most(int q, uint p1, uint p0) {
 // The box's corners come as quarter-cell levels l0, l1 (level >> 2 the stratum, level & 3 the
 // quarter), and c0, c1 are their strata clamped to the pattern: a clamped corner lies past the
 // last stratum's every quarter.
-uint quarter_mask(ivec2 l0, ivec2 l1, ivec2 c0, ivec2 c1) {
+uint quarter_mask(Sample smp, ivec2 l0, ivec2 l1, ivec2 c0, ivec2 c1) {
     ivec2 qlo = mix(l0 & 3, ivec2(3), greaterThan(l0 >> 2, c0));
     ivec2 qhi = mix(l1 & 3, ivec2(3), greaterThan(l1 >> 2, c1));
     uint first_col = row_starts << uint(c0.x);
     uint last_col = row_starts << uint(c1.x);
     uint first_row = row_bits << uint(c0.y * na);
     uint last_row = row_bits << uint(c1.y * na);
-    uint m = ~first_col | quarter_at_least(qlo.x, q_x1, q_x0);
-    m &= ~last_col | quarter_at_most(qhi.x, q_x1, q_x0);
-    m &= ~first_row | quarter_at_least(qlo.y, q_y1, q_y0);
-    m &= ~last_row | quarter_at_most(qhi.y, q_y1, q_y0);
+    uint m = ~first_col | quarter_at_least(qlo.x, smp.q_x1, smp.q_x0);
+    m &= ~last_col | quarter_at_most(qhi.x, smp.q_x1, smp.q_x0);
+    m &= ~first_row | quarter_at_least(qlo.y, smp.q_y1, smp.q_y0);
+    m &= ~last_row | quarter_at_most(qhi.y, smp.q_y1, smp.q_y0);
     return m;
 }
 
@@ -234,9 +254,9 @@ uint quarter_mask(ivec2 l0, ivec2 l1, ivec2 c0, ivec2 c1) {
 // state. A function, so that its early exits are returns: a `continue` of the triangle loop
 // under a per-sample condition makes that loop divergent to the compiler, which then loads each
 // triangle per invocation (a scalar loop over the SIMD lanes) instead of once for all.
-void test_triangle(vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2, vec3 normal,
+void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2, vec3 normal,
                    float light_side, float zmin, float zmax) {
-    float side = dot(normal, s_o - va.xyz);
+    float side = dot(normal, smp.origin.xyz - va.xyz);
     if (side == 0.0 || side * light_side > 0.0) {
         return;  // o in the triangle's plane, or on the light's side of it
     }
@@ -253,15 +273,15 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2, vec3 normal,
     // (rarely: 1 % of the bunny's tests) the half-planes, whose 4 boxes cost more than all the
     // rest of this test — behind an `if`, which lavapipe skips when no lane takes it (as a loop
     // of at most one pass, izb's old `WHEN`, this pass was 13 % slower on bunny-rect).
-    bool between = zmin > 0.0 && zmax < 0.99 * s_origin.w;
+    bool between = zmin > 0.0 && zmax < 0.99 * smp.origin.w;
     vec2 q0 = vec2(0.0);
     vec2 q1 = vec2(0.0);
     vec2 q2 = vec2(0.0);
     vec2 margin = vec2(0.0);
     if (between) {
-        q0 = project(ab01.xy, va.w);
-        q1 = project(ab01.zw, vb.w);
-        q2 = project(ab2, vc.w);
+        q0 = project(smp, ab01.xy, va.w);
+        q1 = project(smp, ab01.zw, vb.w);
+        q2 = project(smp, ab2, vc.w);
         lo = min(q0, min(q1, q2));
         hi = max(q0, max(q1, q2));
         margin = 1e-3 * (1.0 + max(abs(lo), abs(hi)));
@@ -274,22 +294,27 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2, vec3 normal,
         // The light samples beyond the triangle's plane and inside its three edge
         // planes through o: the intersection of the four half-squares' boxes.
         vec3 beyond = side > 0.0 ? -normal : normal;
-        vec3 e0 = cross(va.xyz - s_o, vb.xyz - s_o);
-        vec3 e1 = cross(vb.xyz - s_o, vc.xyz - s_o);
-        vec3 e2 = cross(vc.xyz - s_o, va.xyz - s_o);
-        float orient = dot(e0, vc.xyz - s_o);
+        vec3 o = smp.origin.xyz;
+        vec3 e0 = cross(va.xyz - o, vb.xyz - o);
+        vec3 e1 = cross(vb.xyz - o, vc.xyz - o);
+        vec3 e2 = cross(vc.xyz - o, va.xyz - o);
+        float orient = dot(e0, vc.xyz - o);
         if (orient == 0.0) {
             return;  // edge-on from o
         }
         float sg = orient > 0.0 ? 1.0 : -1.0;
         vec3 c = L_C;
         vec3 f0 = vec3(dot(beyond, c - va.xyz), dot(beyond, L_U), dot(beyond, L_V));
-        vec3 f1 = sg * vec3(dot(e0, c - s_o), dot(e0, L_U), dot(e0, L_V));
-        vec3 f2 = sg * vec3(dot(e1, c - s_o), dot(e1, L_U), dot(e1, L_V));
-        vec3 f3 = sg * vec3(dot(e2, c - s_o), dot(e2, L_U), dot(e2, L_V));
+        vec3 f1 = sg * vec3(dot(e0, c - o), dot(e0, L_U), dot(e0, L_V));
+        vec3 f2 = sg * vec3(dot(e1, c - o), dot(e1, L_U), dot(e1, L_V));
+        vec3 f3 = sg * vec3(dot(e2, c - o), dot(e2, L_U), dot(e2, L_V));
         vec2 l1, h1, l2, h2, l3, h3;
-        if (!half_square_box(f0, lo, hi) || !half_square_box(f1, l1, h1) ||
-            !half_square_box(f2, l2, h2) || !half_square_box(f3, l3, h3)) {
+        // All four, then one test (each `||` would be a branch).
+        bool k0 = half_square_box(f0, lo, hi);
+        bool k1 = half_square_box(f1, l1, h1);
+        bool k2 = half_square_box(f2, l2, h2);
+        bool k3 = half_square_box(f3, l3, h3);
+        if (!(k0 && k1 && k2 && k3)) {
             return;
         }
         lo = max(max(lo, l1), max(l2, l3)) - 1e-4;
@@ -330,17 +355,17 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2, vec3 normal,
         uint rows = ((2u << uint(c1.y * na)) - 1u) & ~((1u << uint(c0.y * na)) - 1u);
         uint box = cols * (row_starts & rows);
         if (jittered) {
-            box &= quarter_mask(l0, l1, c0, c1);
+            box &= quarter_mask(smp, l0, l1, c0, c1);
         }
         // The edges only for a box with light samples still open (a third of the bunny's
         // tests have none: blocked by earlier triangles).
-        if ((box & ~(m_bits | m_fresh | m_behind)) == 0u) {
+        if ((box & ~(smp.bits | smp.fresh | smp.behind)) == 0u) {
             return;
         }
         if (between) {
             band = projected_edges(q0, q1, q2, margin, e0, e1, e2);
         }
-        decide_strata(box, 0, va, vb, vc, e0, e1, e2, band);
+        decide_strata(smp, box, 0, va, vb, vc, e0, e1, e2, band);
         return;
     }
     if (between) {
@@ -352,15 +377,15 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2, vec3 normal,
     int first = c0.y * na + c0.x;
     int last = c1.y * na + c1.x;
     for (int wi = first / 32; wi <= last / 32; ++wi) {
-        uint word = s_base + uint(wi);
-        if (word != m_word) {
-            if (m_fresh != 0u) {
-                atomicOr(masks[m_word], m_fresh);
+        uint word = smp.base + uint(wi);
+        if (word != smp.word) {
+            if (smp.fresh != 0u) {
+                atomicOr(masks[smp.word], smp.fresh);
             }
-            m_word = word;
-            m_bits = masks[word];
-            m_fresh = 0u;
-            m_behind = 0u;
+            smp.word = word;
+            smp.bits = masks[word];
+            smp.fresh = 0u;
+            smp.behind = 0u;
         }
         int lo_bit = wi * 32;
         int row0 = small_int((float(lo_bit) + 0.5) * inv_na);
@@ -373,7 +398,7 @@ void test_triangle(vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2, vec3 normal,
                 box |= ((2u << uint(b1 - b0)) - 1u) << uint(b0);
             }
         }
-        decide_strata(box, lo_bit, va, vb, vc, e0, e1, e2, band);
+        decide_strata(smp, box, lo_bit, va, vb, vc, e0, e1, e2, band);
     }
 }
 
@@ -409,15 +434,6 @@ TriSetup tri_setup(vec4 va, vec4 vb, vec4 vc) {
     return ts;
 }
 
-// The sample's own footprint check (the footprint pass's, for this sample rather than its
-// cell's deepest one and whole area): a point of the triangle on a ray from o to the light
-// projects within the light's half extents times 1/z - 1/z_o of o's projection, and within the
-// triangle's projected box. A sample no projection reaches (the overflow cell) keeps every
-// triangle.
-vec3 s_q;
-bool s_every;
-vec2 s_g;
-float s_inv_z;
 
 // A rect light's half extents in grid cells per unit of 1/z, grown by K_MARGIN, and whether the
 // light is a rect: set once, as each uniform read is bounds-checked on lavapipe (this pass 7-9 %
@@ -426,20 +442,83 @@ float s_inv_z;
 vec2 s_spread;
 bool s_rect;
 
-bool reaches(vec4 box, float zmin, float inv_zmin, bool every) {
+// The sample x's own footprint check (the footprint pass's, for this sample rather than its
+// cell's deepest one and whole area): a point of the triangle on a ray from o to the light
+// projects within the light's half extents times 1/z - 1/z_o of o's projection, and within the
+// triangle's projected box. A sample no projection reaches (the overflow cell) keeps every
+// triangle.
+bool reaches(Sample x, vec4 box, float zmin, float inv_zmin, bool every) {
     vec2 grow = vec2(CELL_MARGIN);
     if (s_rect) {
-        grow += max(inv_zmin - s_inv_z, 0.0) * s_spread;
+        grow += max(inv_zmin - x.inv_z, 0.0) * s_spread;
     }
-    return every || s_every ||
-           (zmin <= s_q.z * (1.0 + 1e-5) && all(greaterThanEqual(s_g, box.xy - grow)) &&
-            all(lessThanEqual(s_g, box.zw + grow)));
+    return every || x.every ||
+           (zmin <= x.z * (1.0 + 1e-5) && all(greaterThanEqual(x.g, box.xy - grow)) &&
+            all(lessThanEqual(x.g, box.zw + grow)));
 }
 
-// The sample's place in its work item, its light samples' bits and its count of tests.
-bool live;
-uint all_bits;
-uint tests;
+// Sample s of cell_samples, `live` when the item holds it, with its first mask word read.
+Sample load_sample(uint s, bool live) {
+    Sample x;
+    x.live = live;
+    uint entry = live ? cell_samples[s] : 0u;
+    uint index = entry & LOCAL_INDEX;
+    x.all_front = (entry & ALL_IN_FRONT) != 0u;
+    x.origin = live ? origins[index] : vec4(0.0);
+    x.p = vec3(0.0);
+    x.n = vec3(0.0);
+    if (live && !x.all_front) {
+        ivec2 pixel = ivec2(int(index % uint(P.view.x)), int(index / uint(P.view.x)));
+        x.p = imageLoad(positions, pixel).xyz;
+        x.n = imageLoad(normals, pixel).xyz;
+    }
+    x.seed = pcg(index);
+    x.base = index * uint(P.pattern.w);
+    // The first word now, outside all loops (with up to 32 light samples, the only one).
+    x.word = x.base;
+    x.bits = live ? masks[x.base] : 0u;
+    x.fresh = 0u;
+    x.behind = 0u;
+    x.rays = 0u;
+    x.tests = 0u;
+    // The light samples' quarters, from the reference's hash (light_samples.glsl): the top two
+    // bits of the 24 its jitter takes.
+    x.q_x1 = 0u;
+    x.q_x0 = 0u;
+    x.q_y1 = 0u;
+    x.q_y0 = 0u;
+    if (one_word && jittered) {
+        // All 32, unrolled (a loop's passes cost lavapipe their bookkeeping: with the row
+        // starts' doubling (main), the pass 52.6 -> 51.6 ms minimum on bunny-rect over four
+        // interleaved rounds). Bits past the pattern's are never read: they only meet boxes,
+        // which hold the pattern's bits alone.
+        [[unroll]] for (uint k = 0u; k < 32u; ++k) {
+            uvec2 h = light_cell_hashes(x.seed, k);
+            x.q_x1 |= (h.x >> 31u) << k;
+            x.q_x0 |= ((h.x >> 30u) & 1u) << k;
+            x.q_y1 |= (h.y >> 31u) << k;
+            x.q_y0 |= ((h.y >> 30u) & 1u) << k;
+        }
+    }
+    x.ab = light_ab(x.origin.xyz);
+    vec3 q = light_space(x.origin.xyz);
+    x.z = q.z;
+    x.every = P.sizes.w != 0u && q.z <= P.light_half.z;
+    x.g = x.every ? vec2(0.0) : grid_coord(q);
+    x.inv_z = x.every ? 0.0 : 1.0 / q.z;
+    return x;
+}
+
+// The sample's last mask word back, and its counts.
+void finish_sample(Sample x) {
+    if (x.fresh != 0u) {
+        atomicOr(masks[x.word], x.fresh);
+    }
+    if (x.live) {
+        count(C_SAMPLE_TESTS, x.tests);
+        count(C_RAY_TESTS, x.rays);
+    }
+}
 
 #ifdef TRIANGLE_BATCH
 #include "test_soft_batch.glsl"
@@ -449,20 +528,6 @@ void main() {
     invocation_counters_clear();
     Item item;
     if (work_item(item)) {
-        uint s = item.s0 + gl_LocalInvocationID.x;
-        live = s < item.s1;
-        uint entry = live ? cell_samples[s] : 0u;
-        s_index = entry & LOCAL_INDEX;
-        s_all_front = (entry & ALL_IN_FRONT) != 0u;
-        s_origin = live ? origins[s_index] : vec4(0.0);
-        s_o = s_origin.xyz;
-        s_p = vec3(0.0);
-        s_n = vec3(0.0);
-        if (live && !s_all_front) {
-            ivec2 pixel = ivec2(int(s_index % uint(P.view.x)), int(s_index / uint(P.view.x)));
-            s_p = imageLoad(positions, pixel).xyz;
-            s_n = imageLoad(normals, pixel).xyz;
-        }
         L_C = P.light_c.xyz;
         L_U = P.light_u.xyz;
         L_V = P.light_v.xyz;
@@ -474,14 +539,6 @@ void main() {
         inv_ab = P.pattern_f.xy;
         inv_na = inv_ab.x;
         jittered = P.pattern.z != 0;
-        s_seed = pcg(s_index);
-        s_base = s_index * uint(P.pattern.w);
-        // The first word now, outside all loops (with up to 32 light samples, the only one).
-        m_word = s_base;
-        m_bits = live ? masks[s_base] : 0u;
-        m_fresh = 0u;
-        m_behind = 0u;
-        m_rays = 0u;
         int light_samples = na * nb;
         one_word = light_samples <= 32;
         all_bits = light_samples >= 32 ? 0xFFFFFFFFu : (1u << uint(light_samples)) - 1u;
@@ -495,35 +552,15 @@ void main() {
         row_starts |= 16 * na < 32 ? row_starts << uint(16 * na) : 0u;
         row_starts &= one_word ? all_bits : 0u;
         row_bits = na >= 32 ? ~0u : (1u << uint(na)) - 1u;
-        // The light samples' quarters, from the reference's hash (light_samples.glsl): the
-        // top two bits of the 24 its jitter takes.
-        q_x1 = 0u;
-        q_x0 = 0u;
-        q_y1 = 0u;
-        q_y0 = 0u;
-        if (one_word && jittered) {
-            // All 32, unrolled (a loop's passes cost lavapipe their bookkeeping: with this and
-            // the row starts below, the pass 52.6 -> 51.6 ms minimum on bunny-rect over four
-            // interleaved rounds). Bits past the pattern's are never read: they only meet
-            // boxes, which hold the pattern's bits alone.
-            [[unroll]] for (uint k = 0u; k < 32u; ++k) {
-                uvec2 h = light_cell_hashes(s_seed, k);
-                q_x1 |= (h.x >> 31u) << k;
-                q_x0 |= ((h.x >> 30u) & 1u) << k;
-                q_y1 |= (h.y >> 31u) << k;
-                q_y0 |= ((h.y >> 30u) & 1u) << k;
-            }
-        }
-        s_ab = light_ab(s_o);
-        s_q = light_space(s_o);
-        s_every = P.sizes.w != 0u && s_q.z <= P.light_half.z;
-        s_g = s_every ? vec2(0.0) : grid_coord(s_q);
-        s_inv_z = s_every ? 0.0 : 1.0 / s_q.z;
         s_rect = P.view.w == KIND_RECT;
         s_spread = (1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw);
-        // Triangle–sample tests made (those the sample's own footprint check keeps).
-        tests = 0u;
+        // The invocation's samples: ITEM_SAMPLES apart in the item (the workgroup's size).
+        uint s = item.s0 + gl_LocalInvocationID.x;
+        S = load_sample(s, s < item.s1);
 #ifdef TRIANGLE_BATCH
+        two = P.items.y > 1u;
+        uint s2 = s + ITEM_SAMPLES;
+        S2 = load_sample(s2, two && s2 < item.s1);
         // The batch's lanes are the workgroup's invocations (izb.glsl, batch_lane()).
         lane = batch_lane();
         // The item's samples together: their grid bounds and the smallest 1/z (the deepest),
@@ -531,12 +568,15 @@ void main() {
         // sample's depth). A batch none of whose triangles' bounds, shrunk for that depth, meets
         // them reaches none of the item's samples: its vertices are not fetched (on bunny-rect
         // 43 % of the batches).
-        bool open_sample = live && !s_every;
-        item_lo = subgroupMin(open_sample ? s_g : vec2(3.0e38));
-        item_hi = subgroupMax(open_sample ? s_g : vec2(-3.0e38));
-        item_shrink = subgroupMin(open_sample ? s_inv_z : 3.0e38) * (1.0 - 1e-4) *
-                           (s_rect ? s_spread : vec2(0.0));
-        item_every = subgroupAny(live && s_every);
+        bool open1 = S.live && !S.every;
+        bool open2 = S2.live && !S2.every;
+        vec2 g_lo = min(open1 ? S.g : vec2(3.0e38), open2 ? S2.g : vec2(3.0e38));
+        vec2 g_hi = max(open1 ? S.g : vec2(-3.0e38), open2 ? S2.g : vec2(-3.0e38));
+        float inv_z = min(open1 ? S.inv_z : 3.0e38, open2 ? S2.inv_z : 3.0e38);
+        item_lo = subgroupMin(g_lo);
+        item_hi = subgroupMax(g_hi);
+        item_shrink = subgroupMin(inv_z) * (1.0 - 1e-4) * (s_rect ? s_spread : vec2(0.0));
+        item_every = subgroupAny((S.live && S.every) || (S2.live && S2.every));
         // Two batches a pass (batch() says why).
         item_end = item.t1;
         for (uint k0 = item.t0; k0 < item.t1; k0 += 2u * ITEM_SAMPLES) {
@@ -545,31 +585,26 @@ void main() {
                 batch(k0 + ITEM_SAMPLES);
             }
         }
+        finish_sample(S2);
 #else
         for (uint k = item.t0; k < item.t1; ++k) {
             // The same triangle for every invocation: uniform loads.
             vec4 va, vb, vc;
             item_triangle(k, va, vb, vc);
             TriSetup ts = tri_setup(va, vb, vc);
-            bool reach = live && reaches(ts.box, ts.zmin, ts.inv_zmin, ts.every);
-            tests += reach ? 1u : 0u;
+            bool reach = S.live && reaches(S, ts.box, ts.zmin, ts.inv_zmin, ts.every);
+            S.tests += reach ? 1u : 0u;
             float zmin = min(va.w, min(vb.w, vc.w));
             float zmax = max(va.w, max(vb.w, vc.w));
             // As above: a decided sample skips the test.
-            bool open = !one_word || (m_bits | m_fresh | m_behind) != all_bits;
+            bool open = !one_word || (S.bits | S.fresh | S.behind) != all_bits;
             if (reach && open) {
-                test_triangle(va, vb, vc, vec4(light_ab(va.xyz), light_ab(vb.xyz)),
+                test_triangle(S, va, vb, vc, vec4(light_ab(va.xyz), light_ab(vb.xyz)),
                               light_ab(vc.xyz), ts.normal, ts.light_side, zmin, zmax);
             }
         }
 #endif
-        if (m_fresh != 0u) {
-            atomicOr(masks[m_word], m_fresh);
-        }
-        if (live) {
-            count(C_SAMPLE_TESTS, tests);
-            count(C_RAY_TESTS, m_rays);
-        }
+        finish_sample(S);
     }
     invocation_counters_flush();
     limiter_guard();

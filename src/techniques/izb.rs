@@ -24,7 +24,8 @@
 //!    samples times chunks of [`HARD_ITEM_TRIANGLES`] (`izb`) or [`soft_item_triangles`]
 //!    (`izb-soft`) triangles, scanned, so no item's work grows with a grazing cell's lists.
 //! 4. `test` (dispatched indirectly, one workgroup per item, found by a binary search of the
-//!    items' prefix sum): an invocation per sample, the item's triangles in turn — the same for
+//!    items' prefix sum): an invocation per sample (`izb-soft`'s batched test: two, each
+//!    batch of triangles set up once for both), the item's triangles in turn — the same for
 //!    every invocation, read through texel views (`glsl/izb/item_triangles.glsl`), eight at a
 //!    time where the device has subgroup shuffles (below) — each tested with the reference's
 //!    watertight shadow-ray test
@@ -247,6 +248,13 @@
 //! 52.2 → 49.1 ms at the minimum and unchanged at the lower quartile over eight interleaved
 //! rounds: the ~45 shuffles a pass (36 cost ~8 ns a pass in a cut-down shader) and the decide
 //! loop's passes, each as long as its busiest lane's, take back what the fewer passes save.
+//! 2026-12-05 (fifth session), kept: cut-down shaders split the pass (48 ms on bunny-rect) into
+//! item set-up 2.8, batch bounds check 4.9, vertices' fetch and set-up 4.7, footprint checks 4.8,
+//! kept-triangle shuffles 4 and tests 27; so each invocation takes two samples of its item
+//! ([`SOFT_SAMPLES_PER_INVOCATION`]) and a batch's fetch, set-up and broadcasts serve both
+//! (test pass 48.4 → 45.1 ms lower quartile, teapot-rect 18.8 → 16.8, `grid:100000@rect`
+//! 98.6 → 86.1; visibility byte-identical), and the half-planes' boxes of a triangle not
+//! strictly between sample and light are built without branches (~0.5 ms).
 //! 5. `resolve`: visibility from the masks.
 //!
 //! **izb** tests the ray from `o` to the light's centre (a rect light counts as a point at its
@@ -311,25 +319,37 @@ pub const ITEM_SAMPLES: u32 = 8;
 /// Triangles of a cell one work item of `izb`'s test pass takes: one loop pass each, far under
 /// lavapipe's loop limiter.
 pub const HARD_ITEM_TRIANGLES: u32 = 1024;
-/// Loop passes one work item of `izb-soft` may make (a SIMD group's share of the limiter's
-/// 65 535, with room for the rest of the shader).
-const SOFT_ITEM_PASSES: u32 = 30_000;
+/// Loop passes one work item of `izb-soft`'s triangles may make. lavapipe's limiter counts
+/// every pass of every loop of a SIMD group's run of the shader against one budget of 65 535
+/// (gallivm: one counter a function, set once at its start); the rest of the test shader's
+/// loops make under 100 passes (the item's binary search, at most 33; the batch loop, at most
+/// `SOFT_ITEM_TRIANGLES / 16`; the limiter guard's 2), so this leaves more than 5 000 spare.
+/// It was 30 000 (half the budget) until a work item took two samples an invocation, whose
+/// bound then halved its triangles: 512 instead of 333 took the test pass 47.4 → 46.6 ms (lower
+/// quartile, four interleaved rounds on bunny-rect).
+pub const SOFT_ITEM_PASSES: u32 = 60_000;
 /// Most triangles a work item of `izb-soft` takes. Each item of a cell's samples repeats their
 /// set-up (loads, the light samples' quarters, the mask word), so fewer, longer items: 256 → 512
 /// took the test pass 52.6 → 48.9 ms on bunny-rect, 17.4 → 16.8 on teapot-rect and 96.4 → 93.8
-/// on `grid:100000@rect` (minimum of three interleaved rounds, visibility unchanged); 1024 (the
-/// loop limiter's 666 at 32 samples) gained nothing more. The dealt items (`work_item`) keep
+/// on `grid:100000@rect` (minimum of three interleaved rounds, visibility unchanged); 1024 (then
+/// the loop limiter's 666 at 32 samples) gained nothing more. The dealt items (`work_item`) keep
 /// both threads busy.
 const SOFT_ITEM_TRIANGLES: u32 = 512;
 
-/// Triangles per work item of `izb-soft` with an `n_a × n_b` light-sample grid: a triangle
-/// costs a SIMD group at most `n_a·n_b + n_b + 2·words + 7` loop passes (the still-open,
-/// mask-word, row and column loops are entered on every pass of the loop around them, even with
-/// no lane in them; the batched test adds its batch and kept-triangle loops — its footprint
-/// check is unrolled now, so the bound keeps a pass to spare).
-pub fn soft_item_triangles(na: u32, nb: u32) -> u32 {
+/// Samples an invocation of `izb-soft`'s batched test takes (`P.items.y`): a batch of eight
+/// triangles is fetched, set up and checked against the samples' bounds once for both, where
+/// with one sample that set-up was a third of the pass on bunny-rect.
+pub const SOFT_SAMPLES_PER_INVOCATION: u32 = 2;
+
+/// Triangles per work item of `izb-soft` with an `n_a × n_b` light-sample grid and `per_invocation`
+/// samples an invocation: a triangle costs a SIMD group at most `n_a·n_b + n_b + 2·words + 7`
+/// loop passes a sample (the still-open, mask-word, row and column loops are entered on every
+/// pass of the loop around them, even with no lane in them; the batched test adds its batch and
+/// kept-triangle loops — its footprint check is unrolled now, so the bound keeps a pass to spare).
+pub fn soft_item_triangles(na: u32, nb: u32, per_invocation: u32) -> u32 {
     let words = (na * nb).div_ceil(32);
-    (SOFT_ITEM_PASSES / (na * nb + nb + 2 * words + 7)).clamp(1, SOFT_ITEM_TRIANGLES)
+    let per_triangle = (na * nb + nb + 2 * words + 7) * per_invocation.max(1);
+    (SOFT_ITEM_PASSES / per_triangle).clamp(1, SOFT_ITEM_TRIANGLES)
 }
 /// Workgroups of the large-footprint passes (`LARGE_GROUPS` in `glsl/izb/izb.glsl`).
 const LARGE_GROUPS: u32 = 1024;
@@ -477,8 +497,10 @@ pub struct IzbParams {
     pub pattern: [i32; 4],
     /// (1 / n_a, 1 / n_b, t_far, 0).
     pub pattern_f: [f32; 4],
-    /// (triangles, pair capacity, samples per chunk, perspective).
+    /// (triangles, pair capacity, triangles per work item, perspective).
     pub sizes: [u32; 4],
+    /// (samples per work item, samples per invocation, 0, 0).
+    pub items: [u32; 4],
 }
 
 /// The triangle list in the Morton order of the triangles' centroids (21 bits an axis over the
@@ -685,8 +707,13 @@ impl<'a> Izb<'a> {
             }
             g => g,
         };
+        let per_invocation = if sampled && batched {
+            SOFT_SAMPLES_PER_INVOCATION
+        } else {
+            1
+        };
         let item_triangles = if sampled {
-            soft_item_triangles(na, nb)
+            soft_item_triangles(na, nb, per_invocation)
         } else {
             HARD_ITEM_TRIANGLES
         };
@@ -706,6 +733,7 @@ impl<'a> Izb<'a> {
                 item_triangles,
                 u32::from(perspective),
             ],
+            items: [ITEM_SAMPLES * per_invocation, per_invocation, 0, 0],
         };
 
         let storage = |label: &str, bytes: u64| Buffer::storage(ctx, label, bytes.max(4));
@@ -987,7 +1015,7 @@ mod tests {
     use super::*;
     use std::mem::{offset_of, size_of};
 
-    /// `IzbParams` is read as std430 by `glsl/izb/izb.glsl`: a mat4, five vec4 and four
+    /// `IzbParams` is read as std430 by `glsl/izb/izb.glsl`: a mat4, five vec4 and five
     /// 4-component vectors, each 16-byte aligned, in this order.
     #[test]
     fn params_match_the_std430_block() {
@@ -998,7 +1026,8 @@ mod tests {
         assert_eq!(offset_of!(IzbParams, pattern), 160);
         assert_eq!(offset_of!(IzbParams, pattern_f), 176);
         assert_eq!(offset_of!(IzbParams, sizes), 192);
-        assert_eq!(size_of::<IzbParams>(), 208);
+        assert_eq!(offset_of!(IzbParams, items), 208);
+        assert_eq!(size_of::<IzbParams>(), 224);
     }
 
     /// `spatial_order` reorders whole triangles and keeps each one's winding.
@@ -1037,22 +1066,28 @@ mod tests {
         );
     }
 
-    /// A work item of `izb-soft` stays within half of lavapipe's loop limiter (65 535 passes
-    /// per SIMD group and dispatch) at every sample count, however its loops run.
+    /// A work item of `izb-soft` stays within lavapipe's loop limiter (65 535 passes per SIMD
+    /// group's run of the shader) at every sample count, however its loops run, with room for
+    /// the shader's other loops.
     #[test]
     fn soft_work_items_fit_the_loop_limiter() {
+        const { assert!(SOFT_ITEM_PASSES + 5_000 <= 65_535) };
         for samples in [1, 2, 7, 32, 100, 128, 512, 1000, 1024] {
             let (na, nb) = sample_grid(samples);
             let words = (na * nb).div_ceil(32);
-            let per_triangle = na * nb + nb + 2 * words + 6;
-            let t = soft_item_triangles(na, nb);
-            assert!(t >= 1);
-            assert!(
-                t * per_triangle <= 32_768,
-                "{samples}: {t} x {per_triangle}"
-            );
+            for per_invocation in [1, SOFT_SAMPLES_PER_INVOCATION] {
+                let per_triangle = (na * nb + nb + 2 * words + 6) * per_invocation;
+                let t = soft_item_triangles(na, nb, per_invocation);
+                assert!(t >= 1);
+                assert!(
+                    t * per_triangle <= SOFT_ITEM_PASSES,
+                    "{samples} x {per_invocation}: {t} x {per_triangle}"
+                );
+            }
         }
-        assert_eq!(soft_item_triangles(8, 4), 512);
+        assert_eq!(soft_item_triangles(8, 4, 1), 512);
+        assert_eq!(soft_item_triangles(8, 4, 2), 512);
+        assert_eq!(soft_item_triangles(32, 32, 2), 26);
     }
 
     #[test]

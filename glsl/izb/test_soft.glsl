@@ -93,11 +93,16 @@ struct Sample {
     uint bits;
     uint fresh;
     uint behind;
-    // The footprint check's terms (reaches()): o's light-space depth, grid point and 1/z.
-    float z;
-    bool every;  // no projection reaches it (the overflow cell): it keeps every triangle
+    // o's grid point and 1/z (for the item's bounds), and whether no projection reaches it
+    // (the overflow cell): it keeps every triangle.
+    bool every;
     vec2 g;
     float inv_z;
+    // The footprint check's side of the sample (reaches()): o's grid point less and plus the
+    // light's spread at its depth, and the depth a triangle's nearest vertex must not pass.
+    vec2 reach_lo;
+    vec2 reach_hi;
+    float z_limit;
     uint tests;  // triangle–sample tests made (those the footprint check keeps)
     uint rays;   // exact rays traced
 };
@@ -402,16 +407,25 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
     }
 }
 
+// A rect light's half extents in grid cells per unit of 1/z, grown by K_MARGIN (0 for another
+// light), and whether the light is a rect: set once, as each uniform read is bounds-checked on lavapipe (this pass 7-9 % faster
+// on bunny-rect than with the reads in the check: minimum 111.8 -> 101.7 ms, lower quartile
+// 112.1 -> 104.3, six interleaved rounds).
+vec2 s_spread;
+bool s_rect;
+
 // What a triangle's tests need that does not depend on the sample: its plane's normal, the
-// side of that plane the whole light is on (0: it straddles it), its projected box in grid
-// coordinates (the footprint pass's) and its nearest depth.
+// side of that plane the whole light is on (0: it straddles it), and its side of the footprint
+// check (reaches()).
 struct TriSetup {
     vec3 normal;
     float light_side;
-    vec4 box;
+    // The footprint check's box: the projected box in grid coordinates (the footprint pass's)
+    // grown by CELL_MARGIN and by the light's spread at the triangle's nearest depth, and that
+    // depth; everything (and -inf) for a vertex at or behind the depth floor, which reaches
+    // every sample.
+    vec4 reach;
     float zmin;
-    float inv_zmin;  // 0 when `every`
-    bool every;      // a vertex at or behind the depth floor: it reaches every sample
 };
 
 TriSetup tri_setup(vec4 va, vec4 vb, vec4 vc) {
@@ -424,37 +438,33 @@ TriSetup tri_setup(vec4 va, vec4 vb, vec4 vc) {
     vec3 qa = light_space(va.xyz);
     vec3 qb = light_space(vb.xyz);
     vec3 qc = light_space(vc.xyz);
-    ts.zmin = min(qa.z, min(qb.z, qc.z));
-    ts.every = P.sizes.w != 0u && ts.zmin <= P.light_half.z;
-    vec2 ga = ts.every ? vec2(0.0) : grid_coord(qa);
-    vec2 gb = ts.every ? vec2(0.0) : grid_coord(qb);
-    vec2 gc = ts.every ? vec2(0.0) : grid_coord(qc);
-    ts.box = vec4(min(ga, min(gb, gc)), max(ga, max(gb, gc)));
-    ts.inv_zmin = ts.every ? 0.0 : 1.0 / ts.zmin;
+    float zmin = min(qa.z, min(qb.z, qc.z));
+    bool every = P.sizes.w != 0u && zmin <= P.light_half.z;
+    vec2 ga = every ? vec2(0.0) : grid_coord(qa);
+    vec2 gb = every ? vec2(0.0) : grid_coord(qb);
+    vec2 gc = every ? vec2(0.0) : grid_coord(qc);
+    // (Only a rect light spreads: no 0 * inf for an orthographic depth of 0.)
+    vec2 grow = vec2(CELL_MARGIN);
+    if (s_rect && !every) {
+        grow += (1.0 / zmin) * (1.0 + 1e-5) * s_spread;
+    }
+    const float inf = uintBitsToFloat(0x7F800000u);
+    ts.reach = every ? vec4(-inf, -inf, inf, inf)
+                     : vec4(min(ga, min(gb, gc)) - grow, max(ga, max(gb, gc)) + grow);
+    ts.zmin = every ? -inf : zmin;
     return ts;
 }
-
-
-// A rect light's half extents in grid cells per unit of 1/z, grown by K_MARGIN, and whether the
-// light is a rect: set once, as each uniform read is bounds-checked on lavapipe (this pass 7-9 %
-// faster on bunny-rect than with the reads in the check: minimum 111.8 -> 101.7 ms, lower
-// quartile 112.1 -> 104.3, six interleaved rounds).
-vec2 s_spread;
-bool s_rect;
 
 // The sample x's own footprint check (the footprint pass's, for this sample rather than its
 // cell's deepest one and whole area): a point of the triangle on a ray from o to the light
 // projects within the light's half extents times 1/z - 1/z_o of o's projection, and within the
-// triangle's projected box. A sample no projection reaches (the overflow cell) keeps every
-// triangle.
-bool reaches(Sample x, vec4 box, float zmin, float inv_zmin, bool every) {
-    vec2 grow = vec2(CELL_MARGIN);
-    if (s_rect) {
-        grow += max(inv_zmin - x.inv_z, 0.0) * s_spread;
-    }
-    return every || x.every ||
-           (zmin <= x.z * (1.0 + 1e-5) && all(greaterThanEqual(x.g, box.xy - grow)) &&
-            all(lessThanEqual(x.g, box.zw + grow)));
+// triangle's projected box. The triangle's growth by 1/z and the sample's shrinking by 1/z_o
+// are each computed once (tri_setup, load_sample), each rounded outwards by 1e-5 of itself, so
+// a pair costs five comparisons. A sample no projection reaches (the overflow cell) keeps every
+// triangle: its bounds are infinite the other way round.
+bool reaches(Sample x, vec4 reach, float zmin) {
+    return zmin <= x.z_limit && all(greaterThanEqual(x.reach_lo, reach.xy)) &&
+           all(lessThanEqual(x.reach_hi, reach.zw));
 }
 
 // Sample s of cell_samples, `live` when the item holds it, with its first mask word read.
@@ -502,10 +512,14 @@ Sample load_sample(uint s, bool live) {
     }
     x.ab = light_ab(x.origin.xyz);
     vec3 q = light_space(x.origin.xyz);
-    x.z = q.z;
     x.every = P.sizes.w != 0u && q.z <= P.light_half.z;
     x.g = x.every ? vec2(0.0) : grid_coord(q);
     x.inv_z = x.every ? 0.0 : 1.0 / q.z;
+    const float inf = uintBitsToFloat(0x7F800000u);
+    vec2 shrink = s_rect ? x.inv_z * (1.0 - 1e-5) * s_spread : vec2(0.0);
+    x.reach_lo = x.every ? vec2(inf) : x.g - shrink;
+    x.reach_hi = x.every ? vec2(-inf) : x.g + shrink;
+    x.z_limit = x.every ? inf : q.z * (1.0 + 1e-5);
     return x;
 }
 
@@ -553,7 +567,7 @@ void main() {
         row_starts &= one_word ? all_bits : 0u;
         row_bits = na >= 32 ? ~0u : (1u << uint(na)) - 1u;
         s_rect = P.view.w == KIND_RECT;
-        s_spread = (1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw);
+        s_spread = s_rect ? (1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw) : vec2(0.0);
         // The invocation's samples: ITEM_SAMPLES apart in the item (the workgroup's size).
         uint s = item.s0 + gl_LocalInvocationID.x;
         S = load_sample(s, s < item.s1);
@@ -575,7 +589,7 @@ void main() {
         float inv_z = min(open1 ? S.inv_z : 3.0e38, open2 ? S2.inv_z : 3.0e38);
         item_lo = subgroupMin(g_lo);
         item_hi = subgroupMax(g_hi);
-        item_shrink = subgroupMin(inv_z) * (1.0 - 1e-4) * (s_rect ? s_spread : vec2(0.0));
+        item_shrink = subgroupMin(inv_z) * (1.0 - 1e-4) * s_spread;
         item_every = subgroupAny((S.live && S.every) || (S2.live && S2.every));
         // Two batches a pass (batch() says why).
         item_end = item.t1;
@@ -592,7 +606,7 @@ void main() {
             vec4 va, vb, vc;
             item_triangle(k, va, vb, vc);
             TriSetup ts = tri_setup(va, vb, vc);
-            bool reach = S.live && reaches(S, ts.box, ts.zmin, ts.inv_zmin, ts.every);
+            bool reach = S.live && reaches(S, ts.reach, ts.zmin);
             S.tests += reach ? 1u : 0u;
             float zmin = min(va.w, min(vb.w, vc.w));
             float zmax = max(va.w, max(vb.w, vc.w));

@@ -87,13 +87,11 @@ void batch(uint k0) {
     // Unrolled, so each triangle's index is a constant and its setup reaches every lane by a
     // broadcast: a loop of n passes with shuffles cost this pass 1.7 % more on bunny-rect.
     [[unroll]] for (uint i = 0u; i < ITEM_SAMPLES; ++i) {
-        vec4 box = subgroupBroadcast(ts.box, i);
+        vec4 reach = subgroupBroadcast(ts.reach, i);
         float zmin = subgroupBroadcast(ts.zmin, i);
-        float inv_zmin = subgroupBroadcast(ts.inv_zmin, i);
-        bool every = subgroupBroadcast(ts.every, i);
-        bool r = reaches(S, box, zmin, inv_zmin, every);
+        bool r = reaches(S, reach, zmin);
         mine |= r && i < n ? 1u << i : 0u;
-        bool r2 = reaches(S2, box, zmin, inv_zmin, every);
+        bool r2 = reaches(S2, reach, zmin);
         mine2 |= r2 && i < n ? 1u << i : 0u;
     }
     mine = S.live ? mine : 0u;

@@ -261,12 +261,12 @@ uint quarter_mask(Sample smp, ivec2 l0, ivec2 l1, ivec2 c0, ivec2 c1) {
 // triangle per invocation (a scalar loop over the SIMD lanes) instead of once for all.
 void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2, vec3 normal,
                    float light_side, float zmin, float zmax) {
+    // Whether the triangle may block any light sample, as a flag and not early returns: on
+    // lavapipe a return taken by some lanes leaves every later assignment a masked one (a
+    // select against the returned lanes), and all lanes run the common path anyway.
+    // Not if o lies in the triangle's plane or on the light's side of it.
     float side = dot(normal, smp.origin.xyz - va.xyz);
-    if (side == 0.0 || side * light_side > 0.0) {
-        return;  // o in the triangle's plane, or on the light's side of it
-    }
-    vec2 lo;
-    vec2 hi;
+    bool go = side != 0.0 && !(side * light_side > 0.0);
     // The projected triangle's edges as signed distances (inside > 0), for deciding
     // light samples well inside or outside it without a ray; `band` = 0: no such
     // shortcut (every candidate takes the exact test).
@@ -278,24 +278,19 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
     // (rarely: 1 % of the bunny's tests) the half-planes, whose 4 boxes cost more than all the
     // rest of this test — behind an `if`, which lavapipe skips when no lane takes it (as a loop
     // of at most one pass, izb's old `WHEN`, this pass was 13 % slower on bunny-rect).
+    // (The projection for every lane: the others' lo and hi are replaced, or never used.)
     bool between = zmin > 0.0 && zmax < 0.99 * smp.origin.w;
-    vec2 q0 = vec2(0.0);
-    vec2 q1 = vec2(0.0);
-    vec2 q2 = vec2(0.0);
-    vec2 margin = vec2(0.0);
-    if (between) {
-        q0 = project(smp, ab01.xy, va.w);
-        q1 = project(smp, ab01.zw, vb.w);
-        q2 = project(smp, ab2, vc.w);
-        lo = min(q0, min(q1, q2));
-        hi = max(q0, max(q1, q2));
-        margin = 1e-3 * (1.0 + max(abs(lo), abs(hi)));
-        lo -= margin;
-        hi += margin;
-        if (uu == 0.0) { lo.x = 0.0; hi.x = 1.0; }
-        if (vv == 0.0) { lo.y = 0.0; hi.y = 1.0; }
-    }
-    if (!between) {
+    vec2 q0 = project(smp, ab01.xy, va.w);
+    vec2 q1 = project(smp, ab01.zw, vb.w);
+    vec2 q2 = project(smp, ab2, vc.w);
+    vec2 lo = min(q0, min(q1, q2));
+    vec2 hi = max(q0, max(q1, q2));
+    vec2 margin = 1e-3 * (1.0 + max(abs(lo), abs(hi)));
+    lo -= margin;
+    hi += margin;
+    if (uu == 0.0) { lo.x = 0.0; hi.x = 1.0; }
+    if (vv == 0.0) { lo.y = 0.0; hi.y = 1.0; }
+    if (!between && go) {
         // The light samples beyond the triangle's plane and inside its three edge
         // planes through o: the intersection of the four half-squares' boxes.
         vec3 beyond = side > 0.0 ? -normal : normal;
@@ -304,9 +299,7 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
         vec3 e1 = cross(vb.xyz - o, vc.xyz - o);
         vec3 e2 = cross(vc.xyz - o, va.xyz - o);
         float orient = dot(e0, vc.xyz - o);
-        if (orient == 0.0) {
-            return;  // edge-on from o
-        }
+        go = orient != 0.0;  // not edge-on from o
         float sg = orient > 0.0 ? 1.0 : -1.0;
         vec3 c = L_C;
         vec3 f0 = vec3(dot(beyond, c - va.xyz), dot(beyond, L_U), dot(beyond, L_V));
@@ -319,18 +312,11 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
         bool k1 = half_square_box(f1, l1, h1);
         bool k2 = half_square_box(f2, l2, h2);
         bool k3 = half_square_box(f3, l3, h3);
-        if (!(k0 && k1 && k2 && k3)) {
-            return;
-        }
         lo = max(max(lo, l1), max(l2, l3)) - 1e-4;
         hi = min(min(hi, h1), min(h2, h3)) + 1e-4;
-        if (any(greaterThan(lo, hi))) {
-            return;
-        }
+        go = go && k0 && k1 && k2 && k3 && !any(greaterThan(lo, hi));
     }
-    if (any(greaterThan(lo, vec2(1.0))) || any(lessThan(hi, vec2(0.0)))) {
-        return;
-    }
+    go = go && !any(greaterThan(lo, vec2(1.0))) && !any(lessThan(hi, vec2(0.0)));
     // The strata to decide: with jitter, those whose cell meets the box; without, those whose
     // light sample (the cell's centre) lies in it: columns i with lo.x <= (i + 1/2) / n_a <=
     // hi.x, rows likewise. A cell reaches into a triangle's box far more often than its light
@@ -348,9 +334,7 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
     ivec2 top = ivec2(na - 1, nb - 1);
     ivec2 c0 = min(jittered ? l0 >> 2 : l0, top);
     ivec2 c1 = min(jittered ? l1 >> 2 : l1 - 1, top);
-    if (any(greaterThan(c0, c1))) {
-        return;  // no light sample in the box
-    }
+    go = go && !any(greaterThan(c0, c1));  // else no light sample in the box
     if (one_word) {
         // One mask word, never switched: the box's bits directly, its columns' bits times its
         // rows' first bits. No word loop: on a CPU driver each loop level, even of one pass,
@@ -364,13 +348,15 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
         }
         // The edges only for a box with light samples still open (a third of the bunny's
         // tests have none: blocked by earlier triangles).
-        if ((box & ~(smp.bits | smp.fresh | smp.behind)) == 0u) {
-            return;
+        if (go && (box & ~(smp.bits | smp.fresh | smp.behind)) != 0u) {
+            if (between) {
+                band = projected_edges(q0, q1, q2, margin, e0, e1, e2);
+            }
+            decide_strata(smp, box, 0, va, vb, vc, e0, e1, e2, band);
         }
-        if (between) {
-            band = projected_edges(q0, q1, q2, margin, e0, e1, e2);
-        }
-        decide_strata(smp, box, 0, va, vb, vc, e0, e1, e2, band);
+        return;
+    }
+    if (!go) {
         return;
     }
     if (between) {

@@ -196,12 +196,10 @@ void decide_strata(inout Sample smp, uint box, int lo_bit, vec4 va, vec4 vb, vec
 // The projected triangle q0 q1 q2's edges as affine inward distances times each edge's L1
 // length (see test_triangle), and the band around them within which a light sample takes the
 // exact ray, times the same lengths: the projection's margin, or 0 (no shortcut) for a line
-// light or a degenerate projection. Scaled rather than divided: no division a test.
-vec3 projected_edges(vec2 q0, vec2 q1, vec2 q2, vec2 margin, out vec3 e0, out vec3 e1,
-                     out vec3 e2) {
-    e0 = vec3(0.0);
-    e1 = vec3(0.0);
-    e2 = vec3(0.0);
+// light, a degenerate projection or a triangle not `between` o and the light (no projection).
+// Scaled rather than divided: no division a test.
+vec3 projected_edges(bool between, vec2 q0, vec2 q1, vec2 q2, vec2 margin, out vec3 e0,
+                     out vec3 e1, out vec3 e2) {
     vec2 d0 = q1 - q0;
     vec2 d1 = q2 - q1;
     vec2 d2 = q0 - q2;
@@ -212,18 +210,18 @@ vec3 projected_edges(vec2 q0, vec2 q1, vec2 q2, vec2 margin, out vec3 e0, out ve
     float l0 = abs(d0.x) + abs(d0.y);
     float l1 = abs(d1.x) + abs(d1.y);
     float l2 = abs(d2.x) + abs(d2.y);
-    // A line light (uu or vv = 0) collapses an axis: no shortcut then.
-    if (uu > 0.0 && vv > 0.0 && min(l0, min(l1, l2)) > 0.0 && area != 0.0) {
-        float s = area > 0.0 ? -1.0 : 1.0;
-        vec2 n0 = s * vec2(-d0.y, d0.x);
-        vec2 n1 = s * vec2(-d1.y, d1.x);
-        vec2 n2 = s * vec2(-d2.y, d2.x);
-        e0 = vec3(n0, -dot(n0, q0));
-        e1 = vec3(n1, -dot(n1, q1));
-        e2 = vec3(n2, -dot(n2, q2));
-        return max(margin.x, margin.y) * vec3(l0, l1, l2);
-    }
-    return vec3(0.0);
+    // A line light (uu or vv = 0) collapses an axis: no shortcut then. Selects rather than an
+    // `if` (every assignment under a per-lane branch is a masked one on lavapipe): a triangle
+    // not between o and the light has no projection, and what its lanes compute is dropped.
+    bool shortcut = between && uu > 0.0 && vv > 0.0 && min(l0, min(l1, l2)) > 0.0 && area != 0.0;
+    float s = area > 0.0 ? -1.0 : 1.0;
+    vec2 n0 = s * vec2(-d0.y, d0.x);
+    vec2 n1 = s * vec2(-d1.y, d1.x);
+    vec2 n2 = s * vec2(-d2.y, d2.x);
+    e0 = shortcut ? vec3(n0, -dot(n0, q0)) : vec3(0.0);
+    e1 = shortcut ? vec3(n1, -dot(n1, q1)) : vec3(0.0);
+    e2 = shortcut ? vec3(n2, -dot(n2, q2)) : vec3(0.0);
+    return shortcut ? max(margin.x, margin.y) * vec3(l0, l1, l2) : vec3(0.0);
 }
 
 // The light samples whose quarter (2 p1 + p0) is at least q, or at most q.
@@ -349,9 +347,7 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
         // The edges only for a box with light samples still open (a third of the bunny's
         // tests have none: blocked by earlier triangles).
         if (go && (box & ~(smp.bits | smp.fresh | smp.behind)) != 0u) {
-            if (between) {
-                band = projected_edges(q0, q1, q2, margin, e0, e1, e2);
-            }
+            band = projected_edges(between, q0, q1, q2, margin, e0, e1, e2);
             decide_strata(smp, box, 0, va, vb, vc, e0, e1, e2, band);
         }
         return;
@@ -359,9 +355,7 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
     if (!go) {
         return;
     }
-    if (between) {
-        band = projected_edges(q0, q1, q2, margin, e0, e1, e2);
-    }
+    band = projected_edges(between, q0, q1, q2, margin, e0, e1, e2);
     // Word by word of the mask: the box's bits in the word, read once and OR-ed back once
     // when another word (or the end) comes; the mask's memory is touched once a triangle and
     // word.

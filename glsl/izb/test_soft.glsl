@@ -2,16 +2,17 @@
 // (TRIANGLE_BATCH, `test_soft_batch.glsl`: triangles read eight at a time, one a lane, each sample
 // keeping the batch's triangles whose footprint reaches it, and the kept ones handed round by
 // subgroup shuffles). One workgroup per work item, dispatched indirectly: an invocation per sample
-// of the item (two with TRIANGLE_BATCH, P.items.y); the item's triangles in turn (without TRIANGLE_BATCH the same for every invocation:
-// their loads are uniform). For each, the triangle back-projected from the sample's ray origin o
-// onto the light bounds, in the light's (a, b) square, the light samples it can block; the strata
-// that box touches and no triangle has blocked yet are decided one by one (by their distance to the
-// projected edges, or within 10^-3 of one by the reference's exact watertight ray test), and what
-// they block is OR-ed into the mask, kept in registers a word at a time. The box: the triangle's
-// central projection from o onto the light's plane when the triangle lies between the two (its
-// vertices at light-space depths in (0, 0.99 z_o)); otherwise (a neighbour of the receiver, a
-// triangle crossing the light's plane) the intersection of the boxes of the four half-planes that
-// bound the back-projection: beyond the triangle's plane, inside each edge's plane through o.
+// of the item (two with TRIANGLE_BATCH, P.items.y); the item's triangles in turn (without
+// TRIANGLE_BATCH the same for every invocation: their loads are uniform). For each, the triangle
+// back-projected from the sample's ray origin o onto the light bounds, in the light's (a, b)
+// square, the light samples it can block; the strata that box touches and no triangle has blocked
+// yet are decided one by one (by their distance to the projected edges, or within 10^-3 of one by
+// the reference's exact watertight ray test), and what they block is OR-ed into the mask, kept in
+// registers a word at a time. The box: the triangle's central projection from o onto the light's
+// plane when the triangle lies between the two (its vertices at light-space depths in (0, 0.99
+// z_o)); otherwise (a neighbour of the receiver, a triangle crossing the light's plane) the
+// intersection of the boxes of the four half-planes that bound the back-projection: beyond the
+// triangle's plane, inside each edge's plane through o.
 #include "izb.glsl"
 #include "watertight.glsl"
 #include "light_samples.glsl"
@@ -147,8 +148,8 @@ vec2 project(Sample smp, vec2 ab, float z) {
 // edge's L1 length, decided without a ray beyond `t` (the band times those lengths; 0: no
 // projection shortcut). A pass of the loop is a light sample to decide (none for a box blocked
 // already: an umbra, or the strata a neighbouring triangle covered).
-void decide_strata(inout Sample smp, uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0, vec3 e1, vec3 e2,
-                   vec3 t) {
+void decide_strata(inout Sample smp, uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0,
+                   vec3 e1, vec3 e2, vec3 t) {
     bool shortcut = t.x > 0.0;
     uint todo = box & ~(smp.bits | smp.fresh | smp.behind);
     while (todo != 0u) {
@@ -253,10 +254,10 @@ uint quarter_mask(Sample smp, ivec2 l0, ivec2 l1, ivec2 c0, ivec2 c1) {
     return m;
 }
 
-// The sample's test against one triangle: the light samples it blocks go into the mask word
-// state. A function, so that its early exits are returns: a `continue` of the triangle loop
-// under a per-sample condition makes that loop divergent to the compiler, which then loads each
-// triangle per invocation (a scalar loop over the SIMD lanes) instead of once for all.
+// The sample's test against one triangle: the light samples it blocks go into its mask word
+// state. A function called under the caller's per-sample `if`, not a `continue` of the triangle
+// loop: that makes the loop divergent to the compiler, which then loads each triangle per
+// invocation (a scalar loop over the SIMD lanes) instead of once for all.
 void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2, vec3 normal,
                    float light_side, float zmin, float zmax) {
     // Whether the triangle may block any light sample, as a flag and not early returns: on
@@ -388,9 +389,9 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
 }
 
 // A rect light's half extents in grid cells per unit of 1/z, grown by K_MARGIN (0 for another
-// light), and whether the light is a rect: set once, as each uniform read is bounds-checked on lavapipe (this pass 7-9 % faster
-// on bunny-rect than with the reads in the check: minimum 111.8 -> 101.7 ms, lower quartile
-// 112.1 -> 104.3, six interleaved rounds).
+// light), and whether the light is a rect: set once, as each uniform read is bounds-checked on
+// lavapipe (this pass 7-9 % faster on bunny-rect than with the reads in the check: minimum
+// 111.8 -> 101.7 ms, lower quartile 112.1 -> 104.3, six interleaved rounds).
 vec2 s_spread;
 bool s_rect;
 

@@ -21,8 +21,9 @@
 //!    second pass of 1024 workgroups: one workgroup a triangle up to 16 384 cells, and every
 //!    workgroup a share of each larger one's (a full-screen triangle), so no loop outgrows
 //!    lavapipe's loop limiter. Each cell's *work items* follow: chunks of [`ITEM_SAMPLES`]
-//!    samples times chunks of [`HARD_ITEM_TRIANGLES`] (`izb`) or [`soft_item_triangles`]
-//!    (`izb-soft`) triangles, scanned, so no item's work grows with a grazing cell's lists.
+//!    samples (times [`SOFT_SAMPLES_PER_INVOCATION`] for `izb-soft`'s batched test) times
+//!    chunks of [`HARD_ITEM_TRIANGLES`] (`izb`) or [`soft_item_triangles`] (`izb-soft`)
+//!    triangles, scanned, so no item's work grows with a grazing cell's lists.
 //! 4. `test` (dispatched indirectly, one workgroup per item, found by a binary search of the
 //!    items' prefix sum): an invocation per sample (`izb-soft`'s batched test: two, each
 //!    batch of triangles set up once for both), the item's triangles in turn — the same for
@@ -312,9 +313,10 @@ use crate::reference::bvh::scene_scale;
 use crate::reference::{light_encoding, KIND_DIRECTIONAL, KIND_POINT, KIND_RECT, RAY_OFFSET};
 use crate::scene::Light;
 
-/// Samples of a cell one work item of the test pass takes (`ITEM_SAMPLES` in
-/// `glsl/izb/izb.glsl`, the test shaders' workgroup size: one SIMD group on lavapipe, so a
-/// small cell wastes no group on lanes without a sample).
+/// The test shaders' workgroup size (`ITEM_SAMPLES` in `glsl/izb/izb.glsl`): one SIMD group on
+/// lavapipe, so a small cell wastes no group on lanes without a sample. A work item takes this
+/// many samples of a cell, one an invocation, or twice as many for `izb-soft`'s batched test
+/// ([`SOFT_SAMPLES_PER_INVOCATION`]); the host passes the item's size in `IzbParams::items`.
 pub const ITEM_SAMPLES: u32 = 8;
 /// Triangles of a cell one work item of `izb`'s test pass takes: one loop pass each, far under
 /// lavapipe's loop limiter.

@@ -141,7 +141,7 @@ vec2 pair(ivec2 p, int d) {
     vec2 m = fetch(p);
     vec2 v = fetch(ivec2(min(p.x + d, pc.size.x - 1), p.y));
     bool inside = p.x + d < pc.size.x;
-    return inside ? vec2(min(m.x, v.x), max(m.y, v.y)) : m;
+    return inside ? nbuffer_combine(m, v) : m;
 }
 
 void main() {
@@ -159,7 +159,7 @@ void main() {
         vec2 m = upper;
         bool below = y + d < pc.size.y;
         upper = pair(ivec2(x, min(y + d, last)), d);
-        m = below ? vec2(min(m.x, upper.x), max(m.y, upper.y)) : m;
+        m = below ? nbuffer_combine(m, upper) : m;
         imageStore(dst, ivec2(x, y), vec4(m, 0.0, 0.0));
     }
 }

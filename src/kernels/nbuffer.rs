@@ -223,11 +223,15 @@ pub struct NBuffer<'a> {
     /// How the levels are built.
     pub layout: NBufferLayout,
     levels: Vec<Image>,
-    first: Pipeline,
-    next: Pipeline,
-    sets: Vec<DescriptorSet>,
-    // Tiled layout: the first levels' pass.
+    // Walk layout: the dispatch that builds the first FIRST_LEVELS levels from the source.
+    first: Option<(Pipeline, DescriptorSet)>,
+    // Tiled layout: the one that builds the first TILE_LEVELS levels.
     tile: Option<(Pipeline, DescriptorSet)>,
+    // Levels the first dispatch (either) builds; each later level reads the one below through
+    // `next` and its set in `next_sets` (the first for level built + 1).
+    built_first: u32,
+    next: Pipeline,
+    next_sets: Vec<DescriptorSet>,
     sampler: Sampler,
     source: &'a Image,
 }
@@ -261,52 +265,56 @@ impl<'a> NBuffer<'a> {
         let levels = (1..=max_level)
             .map(|l| minmax_image(ctx, &format!("nbuffer level {l}"), width, height))
             .collect::<Result<Vec<_>>>()?;
-        let first = Pipeline::compute(ctx, &level_shader(ctx, "nbuffer_first"))?;
         let next = Pipeline::compute(ctx, &level_shader(ctx, "nbuffer_next"))?;
         let sampler = Sampler::nearest_border_white(ctx, "nbuffer source")?;
-        // The first dispatch writes levels 1 and 2 from the source (level 1 twice when it is the
-        // only one); every later one reads the level below.
-        let sets = levels
-            .iter()
-            .enumerate()
-            .map(|(i, level)| match i.checked_sub(1).map(|p| &levels[p]) {
-                None => {
-                    let level2 = levels.get(1).unwrap_or(level);
+        let (mut first, mut tile, mut built_first) = (None, None, 0);
+        if let Some(top) = levels.last() {
+            match layout {
+                NBufferLayout::Tiled => {
+                    let pipeline = Pipeline::compute(ctx, &level_shader(ctx, "nbuffer_tile"))?;
+                    // Levels past the highest built repeat it (the shader does not write them).
+                    let level = |l: usize| levels.get(l).unwrap_or(top);
+                    let mut bindings = vec![Binding::Sampled(source, &sampler)];
+                    bindings.extend((0..TILE_LEVELS as usize).map(|l| Binding::Image(level(l))));
+                    let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
+                    tile = Some((pipeline, set));
+                    built_first = max_level.min(TILE_LEVELS);
+                }
+                NBufferLayout::Walk => {
+                    // Levels 1 and 2 from the source (level 1 bound twice when it is the only
+                    // one).
+                    let pipeline = Pipeline::compute(ctx, &level_shader(ctx, "nbuffer_first"))?;
                     let bindings = [
                         Binding::Sampled(source, &sampler),
-                        Binding::Image(level),
-                        Binding::Image(level2),
+                        Binding::Image(&levels[0]),
+                        Binding::Image(levels.get(1).unwrap_or(&levels[0])),
                     ];
-                    DescriptorSet::new(ctx, &first, &bindings)
+                    let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
+                    first = Some((pipeline, set));
+                    built_first = max_level.min(FIRST_LEVELS);
                 }
-                Some(below) => {
-                    DescriptorSet::new(ctx, &next, &[Binding::Image(below), Binding::Image(level)])
-                }
+            }
+        }
+        // Level l + 1 (index l) from level l (index l - 1), for the levels the first dispatch
+        // leaves.
+        let next_sets = (built_first as usize..levels.len())
+            .map(|l| {
+                let bindings = [Binding::Image(&levels[l - 1]), Binding::Image(&levels[l])];
+                DescriptorSet::new(ctx, &next, &bindings)
             })
             .collect::<Result<Vec<_>>>()?;
-        let tile = match (layout, levels.last()) {
-            (NBufferLayout::Tiled, Some(top)) => {
-                let pipeline = Pipeline::compute(ctx, &level_shader(ctx, "nbuffer_tile"))?;
-                // Levels past the highest built repeat it (the shader does not write them).
-                let level = |l: usize| levels.get(l).unwrap_or(top);
-                let mut bindings = vec![Binding::Sampled(source, &sampler)];
-                bindings.extend((0..TILE_LEVELS as usize).map(|l| Binding::Image(level(l))));
-                let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
-                Some((pipeline, set))
-            }
-            _ => None,
-        };
         Ok(NBuffer {
             ctx: ctx.clone(),
             width,
             height,
             max_level,
             layout,
-            tile,
             levels,
             first,
+            tile,
+            built_first,
             next,
-            sets,
+            next_sets,
             sampler,
             source,
         })
@@ -315,12 +323,11 @@ impl<'a> NBuffer<'a> {
     /// Records the build: one dispatch per level, levels 1 and 2 together in the walk (no pass of
     /// its own).
     pub fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
-        let mut tiled = 0;
+        let size = [self.width as i32, self.height as i32];
         if let Some((pipeline, set)) = &self.tile {
-            tiled = self.max_level.min(TILE_LEVELS);
             let push = NBufferTilePush {
-                size: [self.width as i32, self.height as i32],
-                levels: tiled as i32,
+                size,
+                levels: self.built_first as i32,
                 pad: 0,
             };
             let threads = [
@@ -330,20 +337,17 @@ impl<'a> NBuffer<'a> {
             ];
             rec.dispatch(pipeline, set, &push, threads)?;
         }
-        let size = [self.width as i32, self.height as i32];
-        let mut walked = tiled;
-        if let (0, Some(set)) = (tiled, self.sets.first()) {
+        if let Some((pipeline, set)) = &self.first {
             // Levels 1 and 2 from the source, a chain of rows an invocation.
-            walked = self.max_level.min(FIRST_LEVELS);
             let push = NBufferBuildPush {
                 size,
                 step: 1,
-                levels: walked as i32,
+                levels: self.built_first as i32,
             };
             let chains = self.height.div_ceil(NBUFFER_CHAIN);
-            rec.dispatch(&self.first, set, &push, [self.width, chains, 1])?;
+            rec.dispatch(pipeline, set, &push, [self.width, chains, 1])?;
         }
-        for (l, set) in self.sets.iter().enumerate().skip(walked as usize) {
+        for (l, set) in (self.built_first..).zip(&self.next_sets) {
             // Level l + 1 reads level l's windows, d = 2^l apart: an invocation per column and
             // chain of CHAIN rows d apart (nbuffer_build.glsl).
             let d = 1u32 << l;

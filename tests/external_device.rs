@@ -127,6 +127,15 @@ fn serial_kernels_without_int64(ctx: &Context) {
     // Without shaderStorageImageExtendedFormats the min/max levels are RGBA32F (the `_rgba`
     // build shaders); the same values as the CPU twins, in both N-buffer layouts.
     assert!(!ctx.info().storage_image_extended_formats);
+    // The staged walk needs shaderInt64, which this device leaves off: a clear error, and
+    // `best` falls back to a layout the device has.
+    assert!(!NBufferLayout::StagedWalk.supported(ctx, w, h));
+    let err = NBuffer::with_layout(ctx, &fsrc, None, NBufferLayout::StagedWalk).err();
+    assert!(
+        matches!(err, Some(penumbra::Error::Unsupported { .. })),
+        "{err:?}"
+    );
+    assert_ne!(NBufferLayout::best(ctx, w, h), NBufferLayout::StagedWalk);
     for layout in [NBufferLayout::Walk, NBufferLayout::Tiled] {
         let nb = NBuffer::with_layout(ctx, &fsrc, None, layout).expect("nbuffer");
         ctx.submit(None, |rec| nb.record(rec))

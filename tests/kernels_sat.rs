@@ -528,7 +528,8 @@ fn nbuffer_levels_and_queries_match_brute_force() {
     // (the walk's first level takes its rows two at a time).
     let (r32, d32) = (vk::Format::R32_SFLOAT, vk::Format::D32_SFLOAT);
     let (walk, tiled, odd) = (NBufferLayout::Walk, NBufferLayout::Tiled, (300, 173));
-    for ((w, h), format, max_level, layout) in [
+    let staged = NBufferLayout::StagedWalk;
+    let mut cases = vec![
         (odd, r32, None, walk),
         (odd, d32, None, walk),
         (odd, r32, Some(2), walk),
@@ -539,7 +540,21 @@ fn nbuffer_levels_and_queries_match_brute_force() {
         (odd, r32, None, tiled),
         (odd, d32, Some(4), tiled),
         (odd, r32, Some(2), tiled),
-    ] {
+    ];
+    // The staged walk where the device has it (lavapipe does): the same cases as the walk's,
+    // one level alone among them (its first dispatch binds one buffer for both outputs).
+    if staged.supported(&ctx, odd.0, odd.1) {
+        cases.extend([
+            (odd, r32, None, staged),
+            (odd, d32, None, staged),
+            (odd, r32, Some(1), staged),
+            (odd, r32, Some(2), staged),
+            ((301, 5), d32, None, staged),
+            ((7, 2), r32, None, staged),
+            ((260, 16), r32, None, staged),
+        ]);
+    }
+    for ((w, h), format, max_level, layout) in cases {
         let (data, source) = random_source(&ctx, format, w, h, 21);
         let nb = NBuffer::with_layout(&ctx, &source, max_level, layout).expect("nbuffer");
         ctx.submit(None, |rec| nb.record(rec)).expect("build");

@@ -634,6 +634,8 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "kernels/nbuffer_next.comp",
                 "kernels/nbuffer_first_rgba.comp",
                 "kernels/nbuffer_next_rgba.comp",
+                "kernels/nbuffer_first_staged.comp",
+                "kernels/nbuffer_next_staged.comp",
             ],
             twin!(nbuffer::NBufferBuildPush { size, step, levels }),
         ),

@@ -17,7 +17,14 @@
 //! serves two outputs (`glsl/kernels/nbuffer_build.glsl`). Levels 1 and 2 come from one dispatch
 //! that reads the source by gathers (2×2 blocks: half a gather an output of both levels, where
 //! reading level 1 back would take 2.25 reads an output of level 2; 10 levels of 1024² about 5 %
-//! faster on lavapipe, 6 of 4096² 4 %). In the [`NBufferLayout::Tiled`]
+//! faster on lavapipe, 6 of 4096² 4 %). On a device that runs workgroups on CPU threads the
+//! walk is [staged](NBufferLayout::StagedWalk): each dispatch writes its level into a storage
+//! buffer, a 64-bit word a texel, and a copy moves it into the level's image. There the stores
+//! were most of the build: lavapipe (Mesa 25) makes an image store a call that loops over the
+//! SIMD lanes once per channel, spilling its vectors to the stack on every pass (10 levels of
+//! 1024² took 26 ms with the stores left out, 61 with them), where a 64-bit buffer store is one
+//! inline loop: alternating runs, 1024² 59–64 → 36–39 ms and 6 levels of 4096² 582 → 351 ms,
+//! copies included. In the [`NBufferLayout::Tiled`]
 //! layout (GPUs) the first four levels come from one dispatch instead of four: each workgroup
 //! builds them for a 16² tile in shared memory from one load of the source (31² texels,
 //! `glsl/kernels/nbuffer_tile.comp`); on lavapipe, where shared memory and barriers cost what
@@ -73,12 +80,19 @@ pub struct NBufferTilePush {
     pub pad: i32,
 }
 
-/// How an N-buffer's levels are built. Both give the same levels bit for bit.
+/// How an N-buffer's levels are built. All give the same levels bit for bit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NBufferLayout {
     /// One dispatch per level, each invocation walking a column (no shared memory, no
-    /// barrier): for devices that run a workgroup on one CPU thread.
+    /// barrier), storing into the level's image: for GPUs past [`TILED_MAX_TEXELS`].
     Walk,
+    /// The walk writing each level into a storage buffer, one 64-bit word a texel, copied into
+    /// the level's image after its dispatch: for devices that run workgroups on CPU threads. On
+    /// lavapipe (Mesa 25) an image store is a call looping over the SIMD lanes once per channel
+    /// and spilling its vectors to the stack on each pass; a 64-bit buffer store is one inline
+    /// loop. Needs `shaderInt64`, RG32F levels and a level within `maxStorageBufferRange`
+    /// ([`NBufferLayout::supported`]); costs one or two levels' worth of buffers.
+    StagedWalk,
     /// Levels 1 ..= [`TILE_LEVELS`] in one dispatch from shared-memory tiles, the rest walked:
     /// for GPUs.
     Tiled,
@@ -92,31 +106,55 @@ pub enum NBufferLayout {
 pub const TILED_MAX_TEXELS: u64 = 2048 * 2048;
 
 impl NBufferLayout {
-    /// The layout for a `width × height` source: [`NBufferLayout::Walk`] on a device that runs
-    /// workgroups on CPU threads ([`crate::gpu::DeviceInfo::runs_workgroups_on_cpu_threads`])
-    /// or past [`TILED_MAX_TEXELS`], else [`NBufferLayout::Tiled`].
+    /// Every layout, in the bench's order.
+    pub const ALL: [NBufferLayout; 3] = [
+        NBufferLayout::StagedWalk,
+        NBufferLayout::Walk,
+        NBufferLayout::Tiled,
+    ];
+
+    /// The layout for a `width × height` source: on a device that runs workgroups on CPU threads
+    /// ([`crate::gpu::DeviceInfo::runs_workgroups_on_cpu_threads`])
+    /// [`NBufferLayout::StagedWalk`] where [supported](NBufferLayout::supported), else
+    /// [`NBufferLayout::Walk`]; on others the walk past [`TILED_MAX_TEXELS`], else
+    /// [`NBufferLayout::Tiled`].
     pub fn best(ctx: &Context, width: u32, height: u32) -> NBufferLayout {
         let texels = u64::from(width) * u64::from(height);
-        if ctx.info().runs_workgroups_on_cpu_threads() || texels > TILED_MAX_TEXELS {
+        if ctx.info().runs_workgroups_on_cpu_threads() {
+            if NBufferLayout::StagedWalk.supported(ctx, width, height) {
+                NBufferLayout::StagedWalk
+            } else {
+                NBufferLayout::Walk
+            }
+        } else if texels > TILED_MAX_TEXELS {
             NBufferLayout::Walk
         } else {
             NBufferLayout::Tiled
         }
     }
 
-    /// `walk` or `tiled` (bench row names).
-    pub fn name(self) -> &'static str {
+    /// Whether this device can build a `width × height` source in this layout: the staged walk
+    /// needs `shaderInt64`, RG32F levels and `width × height × 8` bytes within
+    /// `maxStorageBufferRange`; the others run anywhere.
+    pub fn supported(self, ctx: &Context, width: u32, height: u32) -> bool {
         match self {
-            NBufferLayout::Walk => "walk",
-            NBufferLayout::Tiled => "tiled",
+            NBufferLayout::StagedWalk => {
+                let info = ctx.info();
+                let bytes = u64::from(width) * u64::from(height) * 8;
+                info.int64
+                    && two_channel_levels(ctx)
+                    && bytes <= u64::from(info.max_storage_buffer_range)
+            }
+            NBufferLayout::Walk | NBufferLayout::Tiled => true,
         }
     }
 
-    /// The other layout.
-    pub fn other(self) -> NBufferLayout {
+    /// `walk`, `staged-walk` or `tiled` (bench row names).
+    pub fn name(self) -> &'static str {
         match self {
-            NBufferLayout::Walk => NBufferLayout::Tiled,
-            NBufferLayout::Tiled => NBufferLayout::Walk,
+            NBufferLayout::Walk => "walk",
+            NBufferLayout::StagedWalk => "staged-walk",
+            NBufferLayout::Tiled => "tiled",
         }
     }
 }
@@ -153,7 +191,8 @@ pub(crate) fn level_shader(ctx: &Context, name: &str) -> String {
 pub(crate) fn minmax_image(ctx: &Context, name: &str, width: u32, height: u32) -> Result<Image> {
     let usage = vk::ImageUsageFlags::STORAGE
         | vk::ImageUsageFlags::SAMPLED
-        | vk::ImageUsageFlags::TRANSFER_SRC;
+        | vk::ImageUsageFlags::TRANSFER_SRC
+        | vk::ImageUsageFlags::TRANSFER_DST;
     let format = if two_channel_levels(ctx) {
         vk::Format::R32G32_SFLOAT
     } else {
@@ -232,6 +271,9 @@ pub struct NBuffer<'a> {
     built_first: u32,
     next: Pipeline,
     next_sets: Vec<DescriptorSet>,
+    // Staged walk: the buffers the dispatches write (the first for level 1 and every later
+    // level, the second for level 2), each copied into its level's image after the dispatch.
+    staged: Vec<Buffer>,
     sampler: Sampler,
     source: &'a Image,
 }
@@ -254,6 +296,16 @@ impl<'a> NBuffer<'a> {
     ) -> Result<NBuffer<'a>> {
         check_source(ctx, source, "an N-buffer")?;
         let (width, height) = (source.desc.width, source.desc.height);
+        if !layout.supported(ctx, width, height) {
+            return Err(Error::Unsupported {
+                device: ctx.info().name.clone(),
+                feature: format!(
+                    "the {} N-buffer layout at {width}x{height} (shaderInt64, RG32F storage \
+                     images, a level within maxStorageBufferRange)",
+                    layout.name()
+                ),
+            });
+        }
         let useful = full_levels(width, height) - 1;
         let max_level = max_level.unwrap_or(useful).min(useful);
         if max_level > MAX_LEVEL {
@@ -265,7 +317,31 @@ impl<'a> NBuffer<'a> {
         let levels = (1..=max_level)
             .map(|l| minmax_image(ctx, &format!("nbuffer level {l}"), width, height))
             .collect::<Result<Vec<_>>>()?;
-        let next = Pipeline::compute(ctx, &level_shader(ctx, "nbuffer_next"))?;
+        let is_staged = layout == NBufferLayout::StagedWalk;
+        let build_shader = |name: &str| {
+            if is_staged {
+                format!("kernels/{name}_staged.comp")
+            } else {
+                level_shader(ctx, name)
+            }
+        };
+        let texel_bytes = u64::from(width) * u64::from(height) * 8;
+        let staged = if is_staged {
+            (0..max_level.min(FIRST_LEVELS))
+                .map(|l| {
+                    Buffer::storage(ctx, &format!("nbuffer staged level {}", l + 1), texel_bytes)
+                })
+                .collect::<Result<Vec<_>>>()?
+        } else {
+            Vec::new()
+        };
+        // What the dispatch writing level l + 1 binds for it: the level's image, or its staging
+        // buffer (the second for level 2, the first for the others).
+        let written = |l: usize| match staged.get(usize::from(l == 1)) {
+            Some(buffer) => Binding::Buffer(buffer),
+            None => Binding::Image(&levels[l]),
+        };
+        let next = Pipeline::compute(ctx, &build_shader("nbuffer_next"))?;
         let sampler = Sampler::nearest_border_white(ctx, "nbuffer source")?;
         let (mut first, mut tile, mut built_first) = (None, None, 0);
         if let Some(top) = levels.last() {
@@ -280,14 +356,14 @@ impl<'a> NBuffer<'a> {
                     tile = Some((pipeline, set));
                     built_first = max_level.min(TILE_LEVELS);
                 }
-                NBufferLayout::Walk => {
+                NBufferLayout::Walk | NBufferLayout::StagedWalk => {
                     // Levels 1 and 2 from the source (level 1 bound twice when it is the only
                     // one).
-                    let pipeline = Pipeline::compute(ctx, &level_shader(ctx, "nbuffer_first"))?;
+                    let pipeline = Pipeline::compute(ctx, &build_shader("nbuffer_first"))?;
                     let bindings = [
                         Binding::Sampled(source, &sampler),
-                        Binding::Image(&levels[0]),
-                        Binding::Image(levels.get(1).unwrap_or(&levels[0])),
+                        written(0),
+                        written(if levels.len() > 1 { 1 } else { 0 }),
                     ];
                     let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
                     first = Some((pipeline, set));
@@ -299,7 +375,7 @@ impl<'a> NBuffer<'a> {
         // leaves.
         let next_sets = (built_first as usize..levels.len())
             .map(|l| {
-                let bindings = [Binding::Image(&levels[l - 1]), Binding::Image(&levels[l])];
+                let bindings = [Binding::Image(&levels[l - 1]), written(l)];
                 DescriptorSet::new(ctx, &next, &bindings)
             })
             .collect::<Result<Vec<_>>>()?;
@@ -315,6 +391,7 @@ impl<'a> NBuffer<'a> {
             built_first,
             next,
             next_sets,
+            staged,
             sampler,
             source,
         })
@@ -346,6 +423,9 @@ impl<'a> NBuffer<'a> {
             };
             let chains = self.height.div_ceil(NBUFFER_CHAIN);
             rec.dispatch(pipeline, set, &push, [self.width, chains, 1])?;
+            for (buffer, level) in self.staged.iter().zip(&self.levels) {
+                rec.copy_buffer_to_image(buffer, level);
+            }
         }
         for (l, set) in (self.built_first..).zip(&self.next_sets) {
             // Level l + 1 reads level l's windows, d = 2^l apart: an invocation per column and
@@ -359,6 +439,9 @@ impl<'a> NBuffer<'a> {
             let chains = self.height.div_ceil(d).div_ceil(NBUFFER_CHAIN);
             let threads = [self.width, d.min(self.height) * chains, 1];
             rec.dispatch(&self.next, set, &push, threads)?;
+            if let Some(buffer) = self.staged.first() {
+                rec.copy_buffer_to_image(buffer, &self.levels[l as usize]);
+            }
         }
         Ok(())
     }
@@ -457,6 +540,14 @@ mod tests {
         for (name, size) in [
             ("kernels/nbuffer_first.comp", size_of::<NBufferBuildPush>()),
             ("kernels/nbuffer_next.comp", size_of::<NBufferBuildPush>()),
+            (
+                "kernels/nbuffer_first_staged.comp",
+                size_of::<NBufferBuildPush>(),
+            ),
+            (
+                "kernels/nbuffer_next_staged.comp",
+                size_of::<NBufferBuildPush>(),
+            ),
             ("kernels/nbuffer_query.comp", size_of::<NBufferQueryPush>()),
             ("kernels/nbuffer_tile.comp", size_of::<NBufferTilePush>()),
         ] {

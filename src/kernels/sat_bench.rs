@@ -154,7 +154,7 @@ fn same<T: SatValue>(sat: &Sat<'_>, cpu: SatTable<T>) -> Result<bool> {
 /// Bench rows of every filtering structure: summed-area tables in each precision the device
 /// has (`sat-<precision>` in the device's best layout, `sat-<precision>-<layout>` in the other),
 /// the N-buffer (levels capped so one fits in ~768 MiB: `nbuffer-minmax-L<levels>`, and
-/// `-<layout>` in the layout that is not the device's best) and
+/// `-<layout>` in each other layout the device supports) and
 /// the min/max pyramid, at 1024² and 4096² (`quick`) or also 8192².
 pub fn bench_rows(ctx: &Context, quick: bool) -> Result<Vec<KernelBenchRow>> {
     let sizes: &[u32] = if quick {
@@ -228,7 +228,10 @@ pub fn bench_rows(ctx: &Context, quick: bool) -> Result<Vec<KernelBenchRow>> {
         // One N-buffer level of 8 bytes per texel per level; keep the levels within ~768 MiB.
         let budget = (768u64 << 20) / (size as u64 * size as u64 * 8);
         let best = NBufferLayout::best(ctx, size, size);
-        for layout in [best, best.other()] {
+        let others = NBufferLayout::ALL
+            .into_iter()
+            .filter(|&l| l != best && l.supported(ctx, size, size));
+        for layout in std::iter::once(best).chain(others) {
             let nb = NBuffer::with_layout(ctx, &float_src, Some(budget as u32), layout)?;
             let check = || {
                 let cpu = crate::cpu::nbuffer::build(&depth, size, size, nb.max_level);

@@ -212,6 +212,8 @@ pub struct PcssPush {
 }
 
 /// The skip classification's structure (the `skip` knob).
+// One a renderer, built once: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
 enum MinMax<'a> {
     Off,
     NBuffer(NBuffer<'a>),

@@ -1,0 +1,7 @@
+#version 460
+// nbuffer_next.comp writing its level to a storage buffer (NBUFFER_STAGED, nbuffer_build.glsl):
+// devices that run workgroups on CPU threads and have shaderInt64, RG32F levels.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#define NBUFFER_STAGED
+#include "nbuffer_build.glsl"

@@ -264,6 +264,16 @@ knob_choices! {
         /// Sum their hidden areas (over-darkens where they overlap).
         Add => "add",
     }
+    /// `blur_layout` of the filtered techniques (`vsm`, `esm`, `evsm`, `msm`, `csm`): how the
+    /// encode and blur passes are laid out (the same texels either way).
+    BlurLayoutChoice for "blur_layout" {
+        /// Staged where workgroups run on CPU threads and the device can stage, shared otherwise.
+        Auto => "auto",
+        /// Rows in workgroup shared memory (GPUs).
+        Shared => "shared",
+        /// A pass a direction, each writing a buffer copied into the filtered image.
+        Staged => "staged",
+    }
 }
 
 /// A technique and the knobs set on it; unset knobs take their defaults (the technique's or the
@@ -352,6 +362,7 @@ mod tests {
             names::<PageRasterChoice>(),
             names::<Partition>(),
             names::<Combine>(),
+            names::<BlurLayoutChoice>(),
         ]
     }
 

@@ -224,6 +224,20 @@ fn renders_on_a_device_the_host_owns() {
             assert_eq!(frame.stats.nan_count, 0);
             assert!(frame.stats.counters["umbra"] + frame.stats.counters["penumbra"] > 0);
         }
+        // The staged blur stores 64-bit words past one channel: without shaderInt64 asking for
+        // it is a clear error (`auto`, above, fell back to the shared layout), and ESM's one
+        // channel stages anyway.
+        let mut staged = set.clone();
+        staged.insert("blur_layout".into(), "staged".into());
+        let err = engine.render(&prepared, "vsm", &staged, 1).err();
+        assert!(
+            matches!(err, Some(penumbra::Error::Unsupported { .. })),
+            "{err:?}"
+        );
+        let frame = engine
+            .render(&prepared, "esm", &staged, 1)
+            .expect("esm staged");
+        assert_eq!(frame.stats.nan_count, 0);
     }
     // Again, with penumbra's memory taken from the host's own gpu-allocator.
     let allocator =

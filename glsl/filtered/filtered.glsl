@@ -43,6 +43,8 @@ const int MAX_RADIUS = 16;
 // flags: this dispatch starts the visibility sum / finishes it (CSM runs several term groups).
 const int FLAG_FIRST = 1;
 const int FLAG_LAST = 2;
+// The staged layout's blur (blur_staged_body.glsl): this dispatch blurs columns, not rows.
+const int FLAG_VERTICAL = 4;
 
 layout(push_constant) uniform Push {
     mat4 light_view_proj;

@@ -90,7 +90,7 @@ pub const DEPTH_RANGE: Knob = Knob {
     names: &[],
 };
 
-const KNOBS: [Knob; 11] = [
+const KNOBS: [Knob; 12] = [
     COMMON_KNOBS[0],
     COMMON_KNOBS[1],
     COMMON_KNOBS[2],
@@ -98,6 +98,7 @@ const KNOBS: [Knob; 11] = [
     COMMON_KNOBS[4],
     COMMON_KNOBS[5],
     COMMON_KNOBS[6],
+    COMMON_KNOBS[7],
     TERMS,
     DAMPING,
     OFFSET,

@@ -35,7 +35,7 @@ pub const EXPONENT: Knob = Knob {
     names: &[],
 };
 
-const KNOBS: [Knob; 8] = [
+const KNOBS: [Knob; 9] = [
     COMMON_KNOBS[0],
     COMMON_KNOBS[1],
     COMMON_KNOBS[2],
@@ -43,6 +43,7 @@ const KNOBS: [Knob; 8] = [
     COMMON_KNOBS[4],
     COMMON_KNOBS[5],
     COMMON_KNOBS[6],
+    COMMON_KNOBS[7],
     EXPONENT,
 ];
 

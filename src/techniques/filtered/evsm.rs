@@ -70,7 +70,7 @@ pub const MIN_VARIANCE: Knob = Knob {
     names: &[],
 };
 
-const KNOBS: [Knob; 12] = [
+const KNOBS: [Knob; 13] = [
     COMMON_KNOBS[0],
     COMMON_KNOBS[1],
     COMMON_KNOBS[2],
@@ -78,6 +78,7 @@ const KNOBS: [Knob; 12] = [
     COMMON_KNOBS[4],
     COMMON_KNOBS[5],
     COMMON_KNOBS[6],
+    COMMON_KNOBS[7],
     COMPONENTS,
     EXPONENT_POSITIVE,
     EXPONENT_NEGATIVE,

@@ -31,9 +31,24 @@
 //!    fetches the filtered channels bilinearly by hand (depth formats cannot be filtered on
 //!    lavapipe, and storage images never are) and applies the technique's formula.
 //!
-//! The filtered map is an image, not a storage buffer: lavapipe's image loads and stores cost
-//! about 1.5× its buffer accesses here, but its `maxStorageBufferRange` is 128 MiB, which a
-//! buffer of 16 B per texel would hit at 2896² — images go to `maxImageDimension2D`.
+//! Passes 1 and 2 above are the **shared** [`BlurLayout`], for GPUs. On a device that runs
+//! workgroups on CPU threads (the `blur_layout` knob's `auto`) they are **staged** instead:
+//! `encode_staged.comp` encodes a texel an invocation, then `blur_staged.comp` blurs the rows and
+//! then the columns, four outputs an invocation; each pass writes a storage buffer (32 or 64-bit
+//! words holding the channels' bits) that a copy moves over the filtered image after it, so the
+//! column pass reads and writes the same image without a race and no pass needs shared memory
+//! or a barrier. On lavapipe a barrier turns the shader into coroutines over the workgroup's SIMD
+//! rows, and an image store is a call that loops over the lanes once per channel; on teapot-rect
+//! (2048² map) the encode and blur passes took 112 + 85 → 57 + 32 ms for `vsm`, 141 + 149 →
+//! 81 + 48 for `msm`, and `csm`'s terms 619 → 318 ms, the visibility byte-identical (one frame
+//! each, `--set blur_layout=shared|staged`). Both layouts add the same taps in the same order
+//! and divide by the same total, so they give the same bits
+//! (`tests/filtered.rs::staged_and_shared_blurs_give_the_same_bits`).
+//!
+//! The filtered map is an image, not a storage buffer: its `maxStorageBufferRange` is 128 MiB on
+//! lavapipe, which a buffer of 16 B per texel would hit at 2896² — images go to
+//! `maxImageDimension2D`. The staged layout's buffer is bounded the same way, so past it (or
+//! without `shaderInt64` past one channel) `auto` takes the shared layout.
 //!
 //! Timed passes: `light-depth`, `<name>-encode` (encode + horizontal blur), `<name>-blur`
 //! (vertical), `<name>-reconstruct`; CSM times its whole group loop as `csm-terms`.
@@ -48,7 +63,7 @@
 //!
 //! **Memory per shadow-map texel** while running: 4 B (D32) + 4 B per stored channel — 8 B for
 //! ESM, 12 B for VSM and two-component EVSM, 20 B for the rest (20 B for all with
-//! `pack_channels = 0`). The classic stored sizes (Table 5.1 of the book) are in each technique's
+//! `pack_channels = 0`) — and in the staged layout 4 B more per stored channel (the buffer). The classic stored sizes (Table 5.1 of the book) are in each technique's
 //! module: they are what a renderer that keeps the filtered map would hold.
 //!
 //! CPU twin: [`crate::cpu::filtered`].
@@ -75,6 +90,55 @@ pub const MAX_RADIUS: u32 = 16;
 
 /// Rows one `encode.comp` workgroup walks through (`ROWS` there).
 const ENCODE_ROWS: u32 = 4;
+
+/// Outputs one `blur_staged` invocation makes side by side (`CHAIN` in
+/// `glsl/filtered/blur_staged_body.glsl`).
+const STAGED_CHAIN: u32 = 4;
+
+/// `FLAG_VERTICAL` in `filtered.glsl`: the staged blur's dispatch along columns.
+const FLAG_VERTICAL: i32 = 4;
+
+/// How the filtered map is encoded and blurred (the `blur_layout` knob). Both give the same
+/// texels: each output adds its taps in the same order and divides by the same total.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlurLayout {
+    /// Workgroups share rows in shared memory: encode fused with the horizontal blur, then the
+    /// columns blurred in place through a ring of rows (`encode.comp`, `blur.comp`). For GPUs.
+    Shared,
+    /// No shared memory or barrier: encode, blur the rows, blur the columns, each pass writing a
+    /// storage buffer that a copy moves into the filtered image (`encode_staged.comp`,
+    /// `blur_staged.comp`). For devices that run workgroups on CPU threads: on lavapipe a
+    /// barrier makes the shader coroutines over the workgroup's SIMD rows, and an image store
+    /// costs a call that loops over the lanes once per channel. Needs a map within
+    /// `maxStorageBufferRange` and, past one channel, `shaderInt64`.
+    Staged,
+}
+
+impl BlurLayout {
+    /// The layout the `blur_layout` knob asks for on this device for a `size`² map of
+    /// `channels` channels: 0 (auto) staged where the device runs workgroups on CPU threads and
+    /// can stage, else shared; 1 shared; 2 staged, or an error where the device cannot.
+    pub fn choose(ctx: &Context, knob: u32, size: u32, channels: u32) -> Result<BlurLayout> {
+        let info = ctx.info();
+        let bytes = u64::from(size) * u64::from(size) * u64::from(channels) * 4;
+        let can_stage =
+            (channels == 1 || info.int64) && bytes <= u64::from(info.max_storage_buffer_range);
+        match knob {
+            0 if can_stage && info.runs_workgroups_on_cpu_threads() => Ok(BlurLayout::Staged),
+            0 | 1 => Ok(BlurLayout::Shared),
+            _ if can_stage => Ok(BlurLayout::Staged),
+            _ => Err(Error::Unsupported {
+                device: info.name.clone(),
+                feature: format!(
+                    "blur_layout = staged for a {size}² map of {channels} channels (a staging \
+                     buffer of {bytes} bytes within maxStorageBufferRange {}, and shaderInt64 \
+                     past one channel)",
+                    info.max_storage_buffer_range
+                ),
+            }),
+        }
+    }
+}
 
 /// The format of the filtered image with all four channels.
 pub const FILTERED_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
@@ -261,9 +325,22 @@ pub const PACK_CHANNELS: Knob = Knob {
     names: &[],
 };
 
+/// `blur_layout`: how the encode and blur passes are laid out ([`BlurLayout`]).
+pub const BLUR_LAYOUT: Knob = Knob {
+    name: "blur_layout",
+    summary: "auto: staged on a device that runs workgroups on CPU threads, else shared; shared: \
+              rows in workgroup shared memory (GPUs); staged: a pass a direction, each writing a \
+              buffer copied into the map (same texels)",
+    default: KnobDefault::Value(0.0),
+    min: 0.0,
+    max: 2.0,
+    integer: true,
+    names: &["auto", "shared", "staged"],
+};
+
 /// The knobs every filtered technique starts with: the shadow map's, then the blur's, then the
-/// channel packing.
-pub const COMMON_KNOBS: [Knob; 7] = [
+/// channel packing and the passes' layout.
+pub const COMMON_KNOBS: [Knob; 8] = [
     SHADOW_MAP_KNOBS[0],
     SHADOW_MAP_KNOBS[1],
     SHADOW_MAP_KNOBS[2],
@@ -271,6 +348,7 @@ pub const COMMON_KNOBS: [Knob; 7] = [
     FILTER_RADIUS,
     FILTER_SHAPE,
     PACK_CHANNELS,
+    BLUR_LAYOUT,
 ];
 
 /// A [`FilterConfig`] with the blur knobs read and everything else zero.
@@ -308,17 +386,31 @@ struct Filtered<'a> {
     /// Channels the filtered image stores (of the four the shaders could write).
     channels: u32,
     shadow_map: ShadowMap,
-    // Only the descriptor sets use it; held so it lives as long as they do.
-    _filtered: Image,
-    encode: Pipeline,
-    blur: Pipeline,
+    filtered: Image,
+    passes: FilterPasses,
     reconstruct: Pipeline,
-    encode_set: DescriptorSet,
-    blur_set: DescriptorSet,
     reconstruct_set: DescriptorSet,
     counters: Buffer,
     view_size: IVec2,
     geometry: &'a SceneGeometry,
+}
+
+/// The encode and blur passes in their [`BlurLayout`].
+enum FilterPasses {
+    Shared {
+        encode: Pipeline,
+        blur: Pipeline,
+        encode_set: DescriptorSet,
+        blur_set: DescriptorSet,
+    },
+    Staged {
+        encode: Pipeline,
+        blur: Pipeline,
+        encode_set: DescriptorSet,
+        blur_set: DescriptorSet,
+        // What every pass writes, copied over the filtered image after it.
+        staging: Buffer,
+    },
 }
 
 /// Builds filtered technique `name` with `config`.
@@ -334,6 +426,7 @@ pub fn create<'a>(
     let channels = config.stored_channels(params.u32("pack_channels")? == 1, ctx.info());
     // One variant of each shader per channel count (the image's format qualifier).
     let (format, suffix) = filtered_format(channels);
+    let layout = BlurLayout::choose(ctx, params.u32("blur_layout")?, size, channels)?;
     let filtered = Image::new(
         ctx,
         &format!("{name} filtered map"),
@@ -341,26 +434,51 @@ pub fn create<'a>(
             format,
             size,
             size,
-            vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
+            vk::ImageUsageFlags::STORAGE
+                | vk::ImageUsageFlags::TRANSFER_SRC
+                | vk::ImageUsageFlags::TRANSFER_DST,
         ),
     )?;
-    let encode = Pipeline::compute(ctx, &format!("filtered/encode{suffix}.comp"))?;
-    let blur = Pipeline::compute(ctx, &format!("filtered/blur{suffix}.comp"))?;
+    let depth = Binding::Sampled(&shadow_map.depth, &shadow_map.sampler);
+    let passes = match layout {
+        BlurLayout::Shared => {
+            let encode = Pipeline::compute(ctx, &format!("filtered/encode{suffix}.comp"))?;
+            let blur = Pipeline::compute(ctx, &format!("filtered/blur{suffix}.comp"))?;
+            let encode_set = DescriptorSet::new(ctx, &encode, &[depth, Binding::Image(&filtered)])?;
+            let blur_set = DescriptorSet::new(ctx, &blur, &[Binding::Image(&filtered)])?;
+            FilterPasses::Shared {
+                encode,
+                blur,
+                encode_set,
+                blur_set,
+            }
+        }
+        BlurLayout::Staged => {
+            let bytes = u64::from(size) * u64::from(size) * u64::from(channels) * 4;
+            let staging = Buffer::storage(ctx, &format!("{name} staging"), bytes)?;
+            let encode = Pipeline::compute(ctx, &format!("filtered/encode_staged{suffix}.comp"))?;
+            let blur = Pipeline::compute(ctx, &format!("filtered/blur_staged{suffix}.comp"))?;
+            let encode_set = DescriptorSet::new(ctx, &encode, &[depth, Binding::Buffer(&staging)])?;
+            let blur_set = DescriptorSet::new(
+                ctx,
+                &blur,
+                &[Binding::Image(&filtered), Binding::Buffer(&staging)],
+            )?;
+            FilterPasses::Staged {
+                encode,
+                blur,
+                encode_set,
+                blur_set,
+                staging,
+            }
+        }
+    };
     let reconstruct = Pipeline::compute(ctx, &format!("filtered/reconstruct{suffix}.comp"))?;
     let counters = Buffer::storage(
         ctx,
         &format!("{name} counters"),
         (COUNTER_NAMES.len() * 4) as u64,
     )?;
-    let encode_set = DescriptorSet::new(
-        ctx,
-        &encode,
-        &[
-            Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
-            Binding::Image(&filtered),
-        ],
-    )?;
-    let blur_set = DescriptorSet::new(ctx, &blur, &[Binding::Image(&filtered)])?;
     let reconstruct_set = DescriptorSet::new(
         ctx,
         &reconstruct,
@@ -377,12 +495,9 @@ pub fn create<'a>(
         config,
         channels,
         shadow_map,
-        _filtered: filtered,
-        encode,
-        blur,
+        filtered,
+        passes,
         reconstruct,
-        encode_set,
-        blur_set,
         reconstruct_set,
         counters,
         view_size: IVec2::new(setup.view.width as i32, setup.view.height as i32),
@@ -400,18 +515,55 @@ impl Filtered<'_> {
         timed: bool,
     ) -> Result<()> {
         let size = self.shadow_map.desc.size;
+        let blurred = self.config.radius > 0;
         if timed {
             rec.begin_pass(&format!("{}-encode", self.name))?;
         }
-        let rows = size.div_ceil(ENCODE_ROWS);
-        rec.dispatch(&self.encode, &self.encode_set, push, [size, rows, 1])?;
-        if self.config.radius > 0 {
-            if timed {
-                rec.begin_pass(&format!("{}-blur", self.name))?;
+        match &self.passes {
+            FilterPasses::Shared {
+                encode,
+                blur,
+                encode_set,
+                blur_set,
+            } => {
+                let rows = size.div_ceil(ENCODE_ROWS);
+                rec.dispatch(encode, encode_set, push, [size, rows, 1])?;
+                if blurred {
+                    if timed {
+                        rec.begin_pass(&format!("{}-blur", self.name))?;
+                    }
+                    // One workgroup per strip of columns: local_size.y threads cover it
+                    // vertically.
+                    let rows = blur.local_size[1];
+                    rec.dispatch(blur, blur_set, push, [size, rows, 1])?;
+                }
             }
-            // One workgroup per strip of columns: local_size.y threads cover it vertically.
-            let rows = self.blur.local_size[1];
-            rec.dispatch(&self.blur, &self.blur_set, push, [size, rows, 1])?;
+            FilterPasses::Staged {
+                encode,
+                blur,
+                encode_set,
+                blur_set,
+                staging,
+            } => {
+                rec.dispatch(encode, encode_set, push, [size, size, 1])?;
+                rec.copy_buffer_to_image(staging, &self.filtered);
+                if blurred {
+                    // Rows (in the encode pass's time, as the shared layout fuses them), then
+                    // columns: CHAIN outputs an invocation across the blur's direction.
+                    let chains = size.div_ceil(STAGED_CHAIN);
+                    rec.dispatch(blur, blur_set, push, [size, chains, 1])?;
+                    rec.copy_buffer_to_image(staging, &self.filtered);
+                    if timed {
+                        rec.begin_pass(&format!("{}-blur", self.name))?;
+                    }
+                    let columns = FilteredPush {
+                        flags: push.flags | FLAG_VERTICAL,
+                        ..*push
+                    };
+                    rec.dispatch(blur, blur_set, &columns, [chains, size, 1])?;
+                    rec.copy_buffer_to_image(staging, &self.filtered);
+                }
+            }
         }
         Ok(())
     }
@@ -494,6 +646,12 @@ mod tests {
             "filtered/blur.comp",
             "filtered/blur_rg.comp",
             "filtered/blur_r.comp",
+            "filtered/encode_staged.comp",
+            "filtered/encode_staged_rg.comp",
+            "filtered/encode_staged_r.comp",
+            "filtered/blur_staged.comp",
+            "filtered/blur_staged_rg.comp",
+            "filtered/blur_staged_r.comp",
             "filtered/reconstruct.comp",
             "filtered/reconstruct_rg.comp",
             "filtered/reconstruct_r.comp",

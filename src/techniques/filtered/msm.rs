@@ -49,7 +49,7 @@ pub const DEPTH_BIAS: Knob = Knob {
     names: &[],
 };
 
-const KNOBS: [Knob; 9] = [
+const KNOBS: [Knob; 10] = [
     COMMON_KNOBS[0],
     COMMON_KNOBS[1],
     COMMON_KNOBS[2],
@@ -57,6 +57,7 @@ const KNOBS: [Knob; 9] = [
     COMMON_KNOBS[4],
     COMMON_KNOBS[5],
     COMMON_KNOBS[6],
+    COMMON_KNOBS[7],
     MOMENT_BIAS,
     DEPTH_BIAS,
 ];

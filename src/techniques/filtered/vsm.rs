@@ -43,7 +43,7 @@ pub const BLEED_REDUCTION: Knob = Knob {
     names: &[],
 };
 
-const KNOBS: [Knob; 9] = [
+const KNOBS: [Knob; 10] = [
     COMMON_KNOBS[0],
     COMMON_KNOBS[1],
     COMMON_KNOBS[2],
@@ -51,6 +51,7 @@ const KNOBS: [Knob; 9] = [
     COMMON_KNOBS[4],
     COMMON_KNOBS[5],
     COMMON_KNOBS[6],
+    COMMON_KNOBS[7],
     MIN_VARIANCE,
     BLEED_REDUCTION,
 ];

@@ -622,6 +622,10 @@ fn pyramid_matches_brute_force_on_odd_sizes() {
         (vk::Format::R32_SFLOAT, 13, 6),
         (vk::Format::R32_SFLOAT, 257, 129),
         (vk::Format::D32_SFLOAT, 300, 173),
+        // The tiny levels' single dispatch (minmax_tail.glsl) from level 2, the earliest it
+        // starts, and over a long thin tail of five levels.
+        (vk::Format::R32_SFLOAT, 33, 20),
+        (vk::Format::R32_SFLOAT, 1000, 3),
     ] {
         let (data, source) = random_source(&ctx, format, w, h, (w * h) as u64);
         let pyramid = MinMaxPyramid::new(&ctx, &source).expect("pyramid");

@@ -635,6 +635,14 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             twin!(minmax::MinMaxPush { src_size, dst_size }),
         ),
         (
+            vec!["kernels/minmax_tail.comp", "kernels/minmax_tail_rgba.comp"],
+            twin!(minmax::MinMaxTailPush {
+                src_size,
+                levels,
+                pad
+            }),
+        ),
+        (
             vec![
                 "kernels/nbuffer_first.comp",
                 "kernels/nbuffer_next.comp",

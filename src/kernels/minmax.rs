@@ -5,7 +5,12 @@
 //! Level 0 is the source (a D32 shadow map or an R32F image, read by `textureGather`); levels
 //! 1 .. down to 1 × 1 are one image each, (min, max) in its first two channels (RG32F, or RGBA32F
 //! on a device without two-channel storage images — see [`super::nbuffer`]), built by one
-//! dispatch per level, each reading the level below.
+//! dispatch per level, each reading the level below — but the tiny levels, from the first at
+//! most [`TAIL`] texels a side down to 1 × 1, come from one dispatch of one workgroup
+//! (`glsl/kernels/minmax_tail.glsl`, a barrier between levels) instead of up to
+//! [`TAIL_LEVELS`] dispatches of a few hundred texels, each behind a pipeline barrier. A source
+//! whose first level is already that small builds every level a dispatch (the tail reads a
+//! storage level, not the source).
 
 use bytemuck::{Pod, Zeroable};
 
@@ -24,6 +29,32 @@ pub struct MinMaxPush {
     pub dst_size: [i32; 2],
 }
 
+/// Side of the workgroup that builds the tiny levels (`TAIL` in `minmax_tail.glsl`): the tail
+/// starts at the first level at most this many texels a side.
+pub const TAIL: u32 = 16;
+
+/// Levels the tail builds at most (`TAIL_LEVELS` there): TAIL, TAIL / 2, ..., 1 a side.
+pub const TAIL_LEVELS: u32 = 5;
+
+/// `minmax_tail.glsl` push constants.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct MinMaxTailPush {
+    /// Size of the level below the tail.
+    pub src_size: [i32; 2],
+    /// Levels the tail builds, 1 ..= [`TAIL_LEVELS`].
+    pub levels: i32,
+    /// Padding.
+    pub pad: i32,
+}
+
+/// The level (index into `sizes`) the tail starts at, where it can: the first level at most
+/// [`TAIL`] a side, if the level below it is a built level rather than the source.
+fn tail_start(sizes: &[(u32, u32)]) -> Option<usize> {
+    let start = sizes.iter().position(|&(w, h)| w <= TAIL && h <= TAIL)?;
+    (start >= 2).then_some(start)
+}
+
 /// A min/max pyramid of a source image and the passes that build it. Borrows the source.
 pub struct MinMaxPyramid<'a> {
     ctx: Context,
@@ -32,7 +63,10 @@ pub struct MinMaxPyramid<'a> {
     levels: Vec<Image>,
     first: Pipeline,
     next: Pipeline,
+    // One set a level built by its own dispatch (level i + 1 from level i).
     sets: Vec<DescriptorSet>,
+    // The tiny levels' dispatch, its set and push constants.
+    tail: Option<(Pipeline, DescriptorSet, MinMaxTailPush)>,
     _sampler: Sampler,
     _source: &'a Image,
 }
@@ -50,7 +84,30 @@ impl<'a> MinMaxPyramid<'a> {
         let first = Pipeline::compute(ctx, &level_shader(ctx, "minmax_first"))?;
         let next = Pipeline::compute(ctx, &level_shader(ctx, "minmax_next"))?;
         let sampler = Sampler::nearest_border_white(ctx, "minmax source")?;
-        let sets = chain_sets(ctx, &first, &next, source, &sampler, &levels)?;
+        let start = tail_start(&sizes);
+        // Levels before the tail, each its own dispatch.
+        let own = start.map_or(levels.len(), |s| s - 1);
+        let sets = chain_sets(ctx, &first, &next, source, &sampler, &levels[..own])?;
+        let tail = match start {
+            Some(s) => {
+                let pipeline = Pipeline::compute(ctx, &level_shader(ctx, "minmax_tail"))?;
+                let built = &levels[s - 1..];
+                let last = &built[built.len() - 1];
+                let mut bindings = vec![Binding::Image(&levels[s - 2])];
+                bindings.extend(
+                    (0..TAIL_LEVELS as usize).map(|i| Binding::Image(built.get(i).unwrap_or(last))),
+                );
+                let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
+                let (w, h) = sizes[s - 1];
+                let push = MinMaxTailPush {
+                    src_size: [w as i32, h as i32],
+                    levels: built.len() as i32,
+                    pad: 0,
+                };
+                Some((pipeline, set, push))
+            }
+            None => None,
+        };
         Ok(MinMaxPyramid {
             ctx: ctx.clone(),
             sizes,
@@ -58,12 +115,14 @@ impl<'a> MinMaxPyramid<'a> {
             first,
             next,
             sets,
+            tail,
             _sampler: sampler,
             _source: source,
         })
     }
 
-    /// Records the build: one dispatch per level (no pass of its own).
+    /// Records the build: one dispatch per level down to the tail, then one for the tail (no pass
+    /// of its own).
     pub fn record(&self, rec: &mut Recorder<'_>) -> Result<()> {
         for (i, set) in self.sets.iter().enumerate() {
             let (sw, sh) = self.sizes[i];
@@ -74,6 +133,9 @@ impl<'a> MinMaxPyramid<'a> {
             };
             let pipeline = if i == 0 { &self.first } else { &self.next };
             rec.dispatch(pipeline, set, &push, [dw, dh, 1])?;
+        }
+        if let Some((pipeline, set, push)) = &self.tail {
+            rec.dispatch(pipeline, set, push, [TAIL, TAIL, 1])?;
         }
         Ok(())
     }
@@ -145,6 +207,33 @@ mod tests {
                 size_of::<MinMaxPush>(),
                 "{name}"
             );
+        }
+        let (_, tail) = shader_interface("kernels/minmax_tail.comp").expect("reflect");
+        assert_eq!(
+            tail.push_constant_size as usize,
+            size_of::<MinMaxTailPush>()
+        );
+        assert_eq!(tail.local_size, [TAIL, TAIL, 1]);
+        // The level below and one image a tail level.
+        assert_eq!(tail.bindings.len(), 1 + TAIL_LEVELS as usize);
+    }
+
+    #[test]
+    fn the_tail_starts_at_the_first_small_level_above_level_one() {
+        let start = |w, h| tail_start(&level_sizes(w, h));
+        // 1024: 512 256 128 64 32 16 ...: level 6 is 16 a side.
+        assert_eq!(start(1024, 1024), Some(6));
+        assert_eq!(start(1000, 3), Some(6));
+        // Level 1 already small: it reads the source, so no tail.
+        assert_eq!(start(32, 32), None);
+        assert_eq!(start(1, 1), None);
+        assert_eq!(start(33, 20), Some(2));
+        // Never more levels than the shader binds.
+        for (w, h) in [(1024, 1024), (4096, 17), (33, 33), (17, 2)] {
+            let sizes = level_sizes(w, h);
+            if let Some(s) = tail_start(&sizes) {
+                assert!(sizes.len() - s <= TAIL_LEVELS as usize, "{w}x{h}");
+            }
         }
     }
 }

@@ -4,7 +4,7 @@
 // sin(c_k r z), cos(c_k r z) (csm's bases) and z sin(c_k r z), z cos(c_k r z) (the numerator
 // bases of the blocker average), stored as (b + 1)/2 so they lie in [0, 1] for the unsigned
 // fixed-point tables (affine, so it commutes with the box sums: the lookup undoes it on the
-// means), and z itself (read by the z table only after the first term).
+// means), and z itself (for the z table, built at the search's first term only).
 // CPU twin: src/cpu/cssm.rs (channels).
 #extension GL_GOOGLE_include_directive : require
 #include "cssm.glsl"
@@ -25,9 +25,18 @@ void main() {
     }
     float z = linear_depth(texelFetch(shadow_map, t, 0).r);
     vec2 b = basis(z);
-    imageStore(depth, t, vec4(z));
+    // Only the images this dispatch's tables are built from (src/techniques/cssm.rs
+    // record_term): z at the search's first term, z sin and z cos in the search, sin and cos
+    // always. The conditions are push constants, the same for every lane, so a skipped store
+    // costs nothing (on lavapipe these stores were a quarter of the frame).
+    bool search = (pc.flags & FLAG_FILTER) == 0;
+    if (search && (pc.flags & FLAG_FIRST) != 0) {
+        imageStore(depth, t, vec4(z));
+    }
     imageStore(sin_image, t, vec4(0.5 * b.x + 0.5));
     imageStore(cos_image, t, vec4(0.5 * b.y + 0.5));
-    imageStore(zsin_image, t, vec4(0.5 * z * b.x + 0.5));
-    imageStore(zcos_image, t, vec4(0.5 * z * b.y + 0.5));
+    if (search) {
+        imageStore(zsin_image, t, vec4(0.5 * z * b.x + 0.5));
+        imageStore(zcos_image, t, vec4(0.5 * z * b.y + 0.5));
+    }
 }

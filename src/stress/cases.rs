@@ -132,6 +132,36 @@ fn box_mesh(name: &str, centre: Vec3, size: Vec3) -> Mesh {
     transform_mesh(name.to_owned(), p, i, &glam::Mat4::from_translation(centre))
 }
 
+/// `s` with `count` needle triangles between its camera's target and its rect light: each lies
+/// in the plane of the target and the light's diagonal, from a half to 95 % of the way to the
+/// light, a hundred-thousandth of its length wide. From the target every needle projects onto the
+/// light as a sliver along its diagonal, so its box covers every stratum of a light-sample grid
+/// while (the diagonal passing between the strata's centres) it covers almost none of their
+/// points; the view is narrowed to a patch around the target so every sample sees them so.
+fn needles(mut s: Scene, count: u32) -> Result<Scene> {
+    let Light::Rect { position, u, v } = s.light else {
+        return Ok(s);
+    };
+    let o = s.camera.target;
+    s.camera.fov_y_deg = 2.0;
+    let (l0, l1) = (position - 0.5 * (u + v), position + 0.5 * (u + v));
+    let n = (l0 - o).cross(l1 - o).normalize_or_zero();
+    let (mut positions, mut indices) = (Vec::new(), Vec::new());
+    for i in 0..count {
+        let t = 0.5 + 0.45 * (i as f32 + 0.5) / count as f32;
+        let (a, b) = (o + (l0 - o) * t, o + (l1 - o) * t);
+        let c = 0.5 * (a + b) + n * (1e-5 * (b - a).length());
+        indices.extend((0..3).map(|k| positions.len() as u32 + k));
+        positions.extend([a, b, c]);
+    }
+    s.meshes.push(Mesh {
+        name: "needles".to_owned(),
+        positions,
+        indices,
+    });
+    Ok(s)
+}
+
 /// The cases, baseline first.
 pub fn cases() -> Vec<Case> {
     vec![
@@ -311,6 +341,17 @@ pub fn cases() -> Vec<Case> {
             },
             knobs: all,
             bound: |t| Bound::Mae(if exact(t) { 0.02 } else { 0.06 }),
+        },
+        Case {
+            name: "needles",
+            summary: "600 needle triangles between the ground and the rect light, each seen from \
+                      the view's patch of ground along the light's diagonal: boxes over the whole \
+                      light, blocking almost none of it (a full izb-soft work item of them)",
+            quick: true,
+            scene: |w, h| needles(baseline(w, h)?, 600),
+            knobs: all,
+            // Thin enough that no map technique rasterizes them over more than scattered texels.
+            bound: |_| Bound::Mae(0.05),
         },
         Case {
             name: "grazing-89.9",

@@ -328,7 +328,12 @@ pub const HARD_ITEM_TRIANGLES: u32 = 1024;
 /// `SOFT_ITEM_TRIANGLES / 16`; the limiter guard's 2), so this leaves more than 5 000 spare.
 /// It was 30 000 (half the budget) until a work item took two samples an invocation, whose
 /// bound then halved its triangles: 512 instead of 333 took the test pass 47.4 → 46.6 ms (lower
-/// quartile, four interleaved rounds on bunny-rect).
+/// quartile, four interleaved rounds on bunny-rect). The bound (every stratum a pass, for every
+/// triangle) is far above what the loops make: the stress case `needles` (slivers whose boxes
+/// cover the whole light) ran with this constant raised to 240 000 — items of 512 triangles at
+/// 32 samples (the cap) and of 106 instead of 26 at 1 024 samples — without tripping the limiter
+/// (2026-12-05): a sliver's edges open only the strata along them, the rest of its box is
+/// decided a row at a time.
 pub const SOFT_ITEM_PASSES: u32 = 60_000;
 /// Most triangles a work item of `izb-soft` takes. Each item of a cell's samples repeats their
 /// set-up (loads, the light samples' quarters, the mask word), so fewer, longer items: 256 → 512

@@ -350,8 +350,17 @@ pub fn cases() -> Vec<Case> {
             quick: true,
             scene: |w, h| needles(baseline(w, h)?, 600),
             knobs: all,
-            // Thin enough that no map technique rasterizes them over more than scattered texels.
-            bound: |_| Bound::Mae(0.05),
+            bound: |t| match t {
+                "pcss" => Bound::Known(
+                    0.08,
+                    "each needle rasterizes to a line of whole map texels, and the blockers near \
+                     the light ask for filters wide enough to gather many such lines, each \
+                     counted as a full occluder (MAE 0.059 at 256x192, 0.033 at 128x96; \
+                     max_width = 16: 0.013, map_size = 4096: 0.019)",
+                ),
+                // Thin enough that the other map techniques see only scattered texels.
+                _ => Bound::Mae(0.05),
+            },
         },
         Case {
             name: "grazing-89.9",

@@ -649,6 +649,44 @@ type Packing = (&'static str, &'static [(&'static str, &'static str)], u64);
 /// Unused basis channels are skipped (`pack_channels`, the default): ESM's filtered image has one
 /// channel, VSM's and two-component EVSM's two, one-term CSM's two, the rest four — and the
 /// output is the same bit for bit as with all four stored, with less memory.
+/// `blur_layout`'s choice follows the device: `auto` stages where workgroups run on CPU threads
+/// and the staging buffer fits one storage-buffer binding, else takes the shared layout; asking
+/// for `staged` past that binding is a clear error, not a truncated buffer.
+#[test]
+fn blur_layout_follows_the_device_limits() {
+    use penumbra::techniques::filtered::BlurLayout;
+    let ctx = common::context();
+    let info = ctx.info();
+    let range = u64::from(info.max_storage_buffer_range);
+    // The largest square map whose four channels fit the binding, and one twice as wide.
+    let fits = ((range / 16) as f64).sqrt() as u32;
+    let (small, big) = (fits.min(1024), fits * 2);
+    let cpu = info.runs_workgroups_on_cpu_threads();
+    let staged_ok = info.int64;
+    let auto = BlurLayout::choose(&ctx, 0, small, 4).expect("auto");
+    let want = if cpu && staged_ok {
+        BlurLayout::Staged
+    } else {
+        BlurLayout::Shared
+    };
+    assert_eq!(auto, want, "auto at {small}²");
+    assert_eq!(
+        BlurLayout::choose(&ctx, 0, big, 4).expect("auto"),
+        BlurLayout::Shared,
+        "auto at {big}², past maxStorageBufferRange {range}"
+    );
+    assert_eq!(
+        BlurLayout::choose(&ctx, 1, small, 4).expect("shared"),
+        BlurLayout::Shared
+    );
+    let err = BlurLayout::choose(&ctx, 2, big, 4).err();
+    assert!(
+        matches!(err, Some(penumbra::Error::Unsupported { .. })),
+        "{err:?}"
+    );
+    common::assert_clean(&ctx.validation());
+}
+
 /// The staged layout (encode, rows, columns: a buffer each, copied into the map) gives the map
 /// the shared layout gives, bit for bit, for every filtered technique and channel count, blurred
 /// or not, Gaussian or box, ESM in log space, CSM over several term groups; the twin tests above

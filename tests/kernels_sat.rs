@@ -520,6 +520,28 @@ fn random_source(
     (data, image)
 }
 
+/// The staged walk needs a level within one storage-buffer binding: past it `best` walks with
+/// image stores and asking for the staged walk is a clear error.
+#[test]
+fn staged_nbuffer_follows_the_device_limits() {
+    let ctx = common::context();
+    let range = u64::from(ctx.info().max_storage_buffer_range);
+    let side = ((range / 8) as f64).sqrt() as u32 + 1;
+    let staged = NBufferLayout::StagedWalk;
+    assert!(
+        !staged.supported(&ctx, side, side),
+        "{side}² past {range} bytes"
+    );
+    assert_ne!(NBufferLayout::best(&ctx, side, side), staged);
+    if ctx.info().runs_workgroups_on_cpu_threads() && staged.supported(&ctx, 64, 64) {
+        assert_eq!(NBufferLayout::best(&ctx, 64, 64), staged);
+    }
+    let (_, source) = random_source(&ctx, vk::Format::R32_SFLOAT, 16, 16, 1);
+    assert!(NBufferLayout::Walk.supported(&ctx, 16, 16));
+    assert!(NBuffer::with_layout(&ctx, &source, None, NBufferLayout::Walk).is_ok());
+    common::assert_clean(&ctx.validation());
+}
+
 #[test]
 fn nbuffer_levels_and_queries_match_brute_force() {
     let ctx = common::context();

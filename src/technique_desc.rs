@@ -264,6 +264,16 @@ knob_choices! {
         /// Sum their hidden areas (over-darkens where they overlap).
         Add => "add",
     }
+    /// `moments_layout` of `vssm` and `savsm`: how their moments pass writes (the same texels
+    /// either way).
+    MomentsLayoutChoice for "moments_layout" {
+        /// Staged where workgroups run on CPU threads and the map fits a buffer binding.
+        Auto => "auto",
+        /// Stores into the moment images (GPUs).
+        Image => "image",
+        /// Stores into buffers copied into the images.
+        Staged => "staged",
+    }
     /// `blur_layout` of the filtered techniques (`vsm`, `esm`, `evsm`, `msm`, `csm`): how the
     /// encode and blur passes are laid out (the same texels either way).
     BlurLayoutChoice for "blur_layout" {
@@ -363,6 +373,7 @@ mod tests {
             names::<Partition>(),
             names::<Combine>(),
             names::<BlurLayoutChoice>(),
+            names::<MomentsLayoutChoice>(),
         ]
     }
 

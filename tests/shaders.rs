@@ -392,7 +392,11 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
-            vec!["savsm/moments.comp", "savsm/lookup.comp"],
+            vec![
+                "savsm/moments.comp",
+                "savsm/moments_staged.comp",
+                "savsm/lookup.comp",
+            ],
             twin!(SavsmPush {
                 light_view_proj,
                 view_size,
@@ -514,7 +518,11 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
-            vec!["vssm/moments.comp", "vssm/lookup.comp"],
+            vec![
+                "vssm/moments.comp",
+                "vssm/moments_staged.comp",
+                "vssm/lookup.comp",
+            ],
             twin!(VssmPush {
                 light_view_proj,
                 view_size,

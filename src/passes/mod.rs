@@ -10,6 +10,7 @@ mod geometry;
 mod light_depth;
 mod light_view;
 pub mod lispsm;
+pub mod moments;
 pub mod pages;
 mod receiver_bounds;
 pub mod receivers;

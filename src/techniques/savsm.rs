@@ -50,6 +50,7 @@ use crate::cpu::savsm::COUNTER_NAMES;
 use crate::error::Result;
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
 use crate::kernels::sat::{Sat, SatPrecision};
+use crate::passes::moments::{MomentsLayout, MomentsPass, MOMENTS_LAYOUT, MOMENT_IMAGE_USAGE};
 use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
 
 /// Fractional bits of the fixed-point tables.
@@ -72,7 +73,7 @@ pub const KERNEL: Knob = Knob {
     names: &[],
 };
 
-const KNOBS: [Knob; 7] = [
+const KNOBS: [Knob; 8] = [
     SHADOW_MAP_KNOBS[0],
     SHADOW_MAP_KNOBS[1],
     SHADOW_MAP_KNOBS[2],
@@ -80,6 +81,7 @@ const KNOBS: [Knob; 7] = [
     KERNEL,
     MIN_VARIANCE,
     BLEED_REDUCTION,
+    MOMENTS_LAYOUT,
 ];
 
 /// `savsm`: summed-area variance shadow maps.
@@ -154,9 +156,8 @@ struct Savsm<'a> {
     // dropped last (see `new`).
     sats: [Sat<'a>; 2],
     lookup_set: DescriptorSet,
-    moments_set: DescriptorSet,
     lookup: Pipeline,
-    moments: Pipeline,
+    moments: MomentsPass<'a>,
     counters: Buffer,
     push: SavsmPush,
     shadow_map: ShadowMap,
@@ -169,8 +170,7 @@ impl<'a> Savsm<'a> {
         let ctx = setup.ctx;
         let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params)?)?;
         let size = shadow_map.desc.size;
-        let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::SAMPLED;
-        let desc = ImageDesc::new_2d(MOMENT_FORMAT, size, size, usage);
+        let desc = ImageDesc::new_2d(MOMENT_FORMAT, size, size, MOMENT_IMAGE_USAGE);
         let images = [
             Box::new(Image::new(ctx, "savsm z", desc)?),
             Box::new(Image::new(ctx, "savsm z^2", desc)?),
@@ -186,18 +186,10 @@ impl<'a> Savsm<'a> {
             )
         };
         let sats = [Sat::new(ctx, z, PRECISION)?, Sat::new(ctx, z2, PRECISION)?];
-        let moments = Pipeline::compute(ctx, "savsm/moments.comp")?;
+        let layout = MomentsLayout::choose(ctx, params.u32("moments_layout")?, size)?;
+        let moments = MomentsPass::new(ctx, "savsm", &shadow_map, [z, z2], layout)?;
         let lookup = Pipeline::compute(ctx, "savsm/lookup.comp")?;
         let counters = Buffer::storage(ctx, "savsm counters", (COUNTER_NAMES.len() * 4) as u64)?;
-        let moments_set = DescriptorSet::new(
-            ctx,
-            &moments,
-            &[
-                Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
-                Binding::Image(z),
-                Binding::Image(z2),
-            ],
-        )?;
         let mut bindings = vec![
             Binding::Image(setup.receivers),
             Binding::Image(setup.visibility),
@@ -219,7 +211,6 @@ impl<'a> Savsm<'a> {
             ctx: ctx.clone(),
             sats,
             lookup_set,
-            moments_set,
             lookup,
             moments,
             counters,
@@ -236,12 +227,7 @@ impl Technique for Savsm<'_> {
         self.shadow_map.record(rec, self.geometry)?;
         let size = self.shadow_map.desc.size;
         rec.begin_pass("savsm-tables")?;
-        rec.dispatch(
-            &self.moments,
-            &self.moments_set,
-            &self.push,
-            [size, size, 1],
-        )?;
+        self.moments.record(rec, &self.push, size)?;
         for sat in &self.sats {
             sat.record(rec)?;
         }
@@ -286,7 +272,11 @@ mod tests {
         assert_eq!(offset_of!(SavsmPush, min_variance), 96);
         assert_eq!(offset_of!(SavsmPush, bleed_reduction), 100);
         assert_eq!(size_of::<SavsmPush>(), 112);
-        for shader in ["savsm/moments.comp", "savsm/lookup.comp"] {
+        for shader in [
+            "savsm/moments.comp",
+            "savsm/moments_staged.comp",
+            "savsm/lookup.comp",
+        ] {
             let declared = shader_interface(shader).expect("embedded").1;
             assert_eq!(
                 declared.push_constant_size as usize,

@@ -54,6 +54,7 @@ use crate::gpu::{
 };
 use crate::kernels::nbuffer::{level_bindings, NBuffer, MAX_LEVEL};
 use crate::kernels::sat::{Sat, SatPrecision};
+use crate::passes::moments::{MomentsLayout, MomentsPass, MOMENTS_LAYOUT, MOMENT_IMAGE_USAGE};
 use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
 use crate::scene::Light;
 
@@ -74,7 +75,7 @@ pub const SUBDIVISION: Knob = Knob {
     names: &[],
 };
 
-const KNOBS: [Knob; 8] = [
+const KNOBS: [Knob; 9] = [
     SHADOW_MAP_KNOBS[0],
     SHADOW_MAP_KNOBS[1],
     SHADOW_MAP_KNOBS[2],
@@ -83,6 +84,7 @@ const KNOBS: [Knob; 8] = [
     MIN_VARIANCE,
     MIN_KERNEL,
     MAX_WIDTH,
+    MOMENTS_LAYOUT,
 ];
 
 /// `vssm`: variance soft shadow mapping.
@@ -177,9 +179,8 @@ struct Vssm<'a> {
     sats: [Sat<'a>; 2],
     nbuffer: NBuffer<'a>,
     lookup_set: DescriptorSet,
-    moments_set: DescriptorSet,
     lookup: Pipeline,
-    moments: Pipeline,
+    moments: MomentsPass<'a>,
     counters: Buffer,
     push: VssmPush,
     shadow_map: ShadowMap,
@@ -193,8 +194,7 @@ impl<'a> Vssm<'a> {
         let ctx = setup.ctx;
         let shadow_map = ShadowMap::new(ctx, *setup.light_view, shadow_map_desc(params)?)?;
         let size = shadow_map.desc.size;
-        let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::SAMPLED;
-        let desc = ImageDesc::new_2d(vk::Format::R32_SFLOAT, size, size, usage);
+        let desc = ImageDesc::new_2d(vk::Format::R32_SFLOAT, size, size, MOMENT_IMAGE_USAGE);
         let images = [
             Box::new(Image::new(ctx, "vssm z", desc)?),
             Box::new(Image::new(ctx, "vssm z^2", desc)?),
@@ -220,18 +220,10 @@ impl<'a> Vssm<'a> {
             params,
         )?;
         let nbuffer = NBuffer::new(ctx, z, Some(push.max_level as u32))?;
-        let moments = Pipeline::compute(ctx, "vssm/moments.comp")?;
+        let layout = MomentsLayout::choose(ctx, params.u32("moments_layout")?, size)?;
+        let moments = MomentsPass::new(ctx, "vssm", &shadow_map, [z, z2], layout)?;
         let lookup = Pipeline::compute(ctx, "vssm/lookup.comp")?;
         let counters = Buffer::storage(ctx, "vssm counters", (COUNTER_NAMES.len() * 4) as u64)?;
-        let moments_set = DescriptorSet::new(
-            ctx,
-            &moments,
-            &[
-                Binding::Sampled(&shadow_map.depth, &shadow_map.sampler),
-                Binding::Image(z),
-                Binding::Image(z2),
-            ],
-        )?;
         let sampler = Sampler::nearest_border_white(ctx, "vssm z")?;
         let mut bindings = vec![
             Binding::Image(setup.receivers),
@@ -258,7 +250,6 @@ impl<'a> Vssm<'a> {
             sats,
             nbuffer,
             lookup_set,
-            moments_set,
             lookup,
             moments,
             counters,
@@ -276,12 +267,7 @@ impl Technique for Vssm<'_> {
         self.shadow_map.record(rec, self.geometry)?;
         let size = self.shadow_map.desc.size;
         rec.begin_pass("vssm-tables")?;
-        rec.dispatch(
-            &self.moments,
-            &self.moments_set,
-            &self.push,
-            [size, size, 1],
-        )?;
+        self.moments.record(rec, &self.push, size)?;
         for sat in &self.sats {
             sat.record(rec)?;
         }
@@ -325,7 +311,11 @@ mod tests {
         assert_eq!(offset_of!(VssmPush, min_variance), 112);
         assert_eq!(offset_of!(VssmPush, max_level), 116);
         assert_eq!(size_of::<VssmPush>(), 128);
-        for shader in ["vssm/moments.comp", "vssm/lookup.comp"] {
+        for shader in [
+            "vssm/moments.comp",
+            "vssm/moments_staged.comp",
+            "vssm/lookup.comp",
+        ] {
             let declared = shader_interface(shader).expect("embedded").1;
             assert_eq!(
                 declared.push_constant_size as usize,

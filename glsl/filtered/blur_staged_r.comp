@@ -1,6 +1,6 @@
 #version 460
-// Filtered shadow maps, staged layout, the blur passes on a R32F filtered image (see blur_staged_body.glsl;
-// the channel count is chosen in src/techniques/filtered/mod.rs).
+// Filtered shadow maps, staged layout, the blur passes on a R32F filtered image (see
+// blur_staged_body.glsl; the channel count is chosen in src/techniques/filtered/mod.rs).
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #define CHANNELS 1

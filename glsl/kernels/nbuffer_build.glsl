@@ -53,18 +53,23 @@ vec2 fetch(ivec2 p) {
 #endif
 
 // Where a level is written: its image (put), or with NBUFFER_STAGED a storage buffer of its
-// texels, row-major, each (min, max) as one 64-bit word (src/kernels/nbuffer.rs copies it into
-// the image after the dispatch). On lavapipe an image store is a call that loops over the SIMD
-// lanes once per channel, spilling the address and value vectors to the stack on every pass,
-// where a 64-bit buffer store is one inline loop: 10 levels of 1024² built 61 -> 47 ms with the
-// copies (33 ms without them). The words hold the same bits as the image's texels.
+// texels, row-major, each (min, max) as one 64-bit word holding the image texel's bits
+// (src/kernels/nbuffer.rs copies it into the image after the dispatch). On lavapipe an image
+// store is a call that loops over the SIMD lanes once per channel, spilling the address and
+// value vectors to the stack on every pass, where a 64-bit buffer store is one inline loop: the
+// quick kernel bench's 10 levels of 1024² went 57.9-63.9 ms -> 36.8-41.1, copies included
+// (README, "Compute primitives").
 #ifdef NBUFFER_STAGED
 layout(set = 0, binding = 1) writeonly buffer Staged {
     uint64_t texels[];
 } staged;
 
+// The buffer index and word of texel p's (min, max).
+#define STAGED_INDEX(p) ((p).y * pc.size.x + (p).x)
+#define STAGED_WORD(m) packUint2x32(floatBitsToUint(m))
+
 void put(ivec2 p, vec2 m) {
-    staged.texels[p.y * pc.size.x + p.x] = packUint2x32(floatBitsToUint(m));
+    staged.texels[STAGED_INDEX(p)] = STAGED_WORD(m);
 }
 #ifdef NBUFFER_FROM_SOURCE
 // Level 2 (written when pc.levels is 2).
@@ -73,7 +78,7 @@ layout(set = 0, binding = 2) writeonly buffer Staged2 {
 } staged2;
 
 void put2(ivec2 p, vec2 m) {
-    staged2.texels[p.y * pc.size.x + p.x] = packUint2x32(floatBitsToUint(m));
+    staged2.texels[STAGED_INDEX(p)] = STAGED_WORD(m);
 }
 #endif
 #else

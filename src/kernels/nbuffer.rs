@@ -20,11 +20,12 @@
 //! faster on lavapipe, 6 of 4096² 4 %). On a device that runs workgroups on CPU threads the
 //! walk is [staged](NBufferLayout::StagedWalk): each dispatch writes its level into a storage
 //! buffer, a 64-bit word a texel, and a copy moves it into the level's image. There the stores
-//! were most of the build: lavapipe (Mesa 25) makes an image store a call that loops over the
-//! SIMD lanes once per channel, spilling its vectors to the stack on every pass (10 levels of
-//! 1024² took 26 ms with the stores left out, 61 with them), where a 64-bit buffer store is one
-//! inline loop: alternating runs, 1024² 59–64 → 36–39 ms and 6 levels of 4096² 582 → 351 ms,
-//! copies included. In the [`NBufferLayout::Tiled`]
+//! were most of the build (a local diagnosis with cut-down shaders, not a project command: 10
+//! levels of 1024² took 26 ms with the stores left out, 61 with them): lavapipe (Mesa 25) makes
+//! an image store a call that loops over the SIMD lanes once per channel, spilling its vectors
+//! to the stack on every pass, where a 64-bit buffer store is one inline loop. The quick kernel
+//! bench (README, "Compute primitives"): 1024² 57.9–63.9 → 36.8–41.1 ms, 6 levels of 4096²
+//! 546–554 → 368–370 ms, copies included. In the [`NBufferLayout::Tiled`]
 //! layout (GPUs) the first four levels come from one dispatch instead of four: each workgroup
 //! builds them for a 16² tile in shared memory from one load of the source (31² texels,
 //! `glsl/kernels/nbuffer_tile.comp`); on lavapipe, where shared memory and barriers cost what

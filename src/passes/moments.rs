@@ -14,10 +14,8 @@ use bytemuck::Pod;
 use crate::error::{Error, Result};
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, Pipeline, Recorder};
 use crate::passes::ShadowMap;
-use crate::techniques::Knob;
-use crate::techniques::KnobDefault;
 
-/// How the moments are written (the `moments_layout` knob).
+/// How the moments are written (the `moments_layout` knob of `vssm` and `savsm`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MomentsLayout {
     /// Stores into the two images (GPUs).
@@ -27,40 +25,12 @@ pub enum MomentsLayout {
     Staged,
 }
 
-/// `moments_layout`: [`MomentsLayout`] from the knob (0 auto, 1 image, 2 staged).
-pub const MOMENTS_LAYOUT: Knob = Knob {
-    name: "moments_layout",
-    summary: "auto: staged on a device that runs workgroups on CPU threads, else image; image: \
-              the moments pass stores into its two images; staged: into two buffers copied into \
-              them (same texels)",
-    default: KnobDefault::Value(0.0),
-    min: 0.0,
-    max: 2.0,
-    integer: true,
-    names: &["auto", "image", "staged"],
-};
-
 impl MomentsLayout {
-    /// The layout the knob asks for on this device for a `size`² map: auto stages where
-    /// workgroups run on CPU threads and the map's texels (4 B each) fit
-    /// `maxStorageBufferRange`; staged past that range is an error.
-    pub fn choose(ctx: &Context, knob: u32, size: u32) -> Result<MomentsLayout> {
-        let info = ctx.info();
+    /// Whether this device can write a `size`² map's moments in this layout: staged, where a
+    /// moment's texels (4 B each) fit one storage-buffer binding (`maxStorageBufferRange`).
+    pub fn supported(self, ctx: &Context, size: u32) -> bool {
         let bytes = u64::from(size) * u64::from(size) * 4;
-        let fits = bytes <= u64::from(info.max_storage_buffer_range);
-        match knob {
-            0 if fits && info.runs_workgroups_on_cpu_threads() => Ok(MomentsLayout::Staged),
-            0 | 1 => Ok(MomentsLayout::Image),
-            _ if fits => Ok(MomentsLayout::Staged),
-            _ => Err(Error::Unsupported {
-                device: info.name.clone(),
-                feature: format!(
-                    "moments_layout = staged for a {size}² map ({bytes} bytes a moment, past \
-                     maxStorageBufferRange {})",
-                    info.max_storage_buffer_range
-                ),
-            }),
-        }
+        self == MomentsLayout::Image || bytes <= u64::from(ctx.info().max_storage_buffer_range)
     }
 }
 
@@ -91,6 +61,15 @@ impl<'a> MomentsPass<'a> {
         layout: MomentsLayout,
     ) -> Result<MomentsPass<'a>> {
         let size = map.desc.size;
+        if !layout.supported(ctx, size) {
+            return Err(Error::Unsupported {
+                device: ctx.info().name.clone(),
+                feature: format!(
+                    "staged moments for a {size}² map (4 B a texel past maxStorageBufferRange {})",
+                    ctx.info().max_storage_buffer_range
+                ),
+            });
+        }
         let bytes = u64::from(size) * u64::from(size) * 4;
         let depth = Binding::Sampled(&map.depth, &map.sampler);
         let (pipeline, staged) = match layout {

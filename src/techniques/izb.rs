@@ -330,11 +330,10 @@ pub const HARD_ITEM_TRIANGLES: u32 = 1024;
 /// bound then halved its triangles: 512 instead of 333 took the test pass 47.4 → 46.6 ms (lower
 /// quartile, four interleaved rounds on bunny-rect). The bound (every stratum a pass, for every
 /// triangle) is far above what the loops make: the stress case `needles` (slivers whose boxes
-/// cover the whole light; 1 100 of them at 32 samples, 120 at 1 024) ran with this constant
-/// raised to 240 000 — items of 512 triangles at 32 samples (the cap) and of 106 instead of 26
-/// at 1 024 — without tripping the limiter
-/// (2026-12-05): a sliver's edges open only the strata along them, the rest of its box is
-/// decided a row at a time.
+/// cover the whole light; 1 100 of them at 32 samples, 120 at 1 024) ran in a local build with
+/// this constant raised to 240 000 — items of 512 triangles at 32 samples (the cap) and of 106
+/// instead of 26 at 1 024 — without tripping the limiter (2026-12-05): a sliver's edges open
+/// only the strata along them, the rest of its box is decided a row at a time.
 pub const SOFT_ITEM_PASSES: u32 = 60_000;
 /// Most triangles a work item of `izb-soft` takes. Each item of a cell's samples repeats their
 /// set-up (loads, the light samples' quarters, the mask word), so fewer, longer items: 256 → 512

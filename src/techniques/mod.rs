@@ -144,6 +144,28 @@ pub(crate) fn only_changed(built: &Params, next: &Params, allowed: &[&str]) -> b
         })
 }
 
+/// Whether a pass with a staged layout (written into a storage buffer that a copy moves into its
+/// image) runs staged, from its layout knob: 0 (auto) where the device runs workgroups on CPU
+/// threads and `can_stage`, 1 never, 2 always — an [`Error::Unsupported`] naming `feature` where
+/// the device cannot. On lavapipe an image store is a call looping over the SIMD lanes and a
+/// buffer store an inline loop; a GPU's image stores cost no more than its buffer stores.
+pub(crate) fn staged_knob(
+    ctx: &Context,
+    knob: u32,
+    can_stage: bool,
+    feature: impl FnOnce() -> String,
+) -> Result<bool> {
+    match knob {
+        0 => Ok(can_stage && ctx.info().runs_workgroups_on_cpu_threads()),
+        1 => Ok(false),
+        _ if can_stage => Ok(true),
+        _ => Err(Error::Unsupported {
+            device: ctx.info().name.clone(),
+            feature: feature(),
+        }),
+    }
+}
+
 /// Reads a counters buffer back as `(name, value)` pairs, one u32 slot per name in order: what
 /// every technique's [`Technique::counters`] starts from.
 pub(crate) fn read_counters(

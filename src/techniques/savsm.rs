@@ -44,13 +44,14 @@ use glam::{IVec2, Mat4};
 use super::filtered::vsm::{BLEED_REDUCTION, MIN_VARIANCE};
 use super::pcf::shadow_map_desc;
 use super::{
-    Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS,
+    staged_knob, Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup,
+    SHADOW_MAP_KNOBS,
 };
 use crate::cpu::savsm::COUNTER_NAMES;
 use crate::error::Result;
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
 use crate::kernels::sat::{Sat, SatPrecision};
-use crate::passes::moments::{MomentsLayout, MomentsPass, MOMENTS_LAYOUT, MOMENT_IMAGE_USAGE};
+use crate::passes::moments::{MomentsLayout, MomentsPass, MOMENT_IMAGE_USAGE};
 use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
 
 /// Fractional bits of the fixed-point tables.
@@ -72,6 +73,33 @@ pub const KERNEL: Knob = Knob {
     integer: false,
     names: &[],
 };
+
+/// `moments_layout` (`savsm` and `vssm`): how the moments pass writes z and z²
+/// ([`MomentsLayout`]: into the images, or staged through buffers copied into them).
+pub const MOMENTS_LAYOUT: Knob = Knob {
+    name: "moments_layout",
+    summary: "auto: staged on a device that runs workgroups on CPU threads, else image; image: \
+              the moments pass stores into its two images; staged: into two buffers copied into \
+              them (same texels)",
+    default: KnobDefault::Value(0.0),
+    min: 0.0,
+    max: 2.0,
+    integer: true,
+    names: &["auto", "image", "staged"],
+};
+
+/// The moments pass's layout for a `size`² map from the `moments_layout` knob.
+pub(crate) fn moments_layout(ctx: &Context, params: &Params, size: u32) -> Result<MomentsLayout> {
+    let can_stage = MomentsLayout::Staged.supported(ctx, size);
+    let staged = staged_knob(ctx, params.u32("moments_layout")?, can_stage, || {
+        format!("moments_layout = staged for a {size}² map (past maxStorageBufferRange)")
+    })?;
+    Ok(if staged {
+        MomentsLayout::Staged
+    } else {
+        MomentsLayout::Image
+    })
+}
 
 const KNOBS: [Knob; 8] = [
     SHADOW_MAP_KNOBS[0],
@@ -186,7 +214,7 @@ impl<'a> Savsm<'a> {
             )
         };
         let sats = [Sat::new(ctx, z, PRECISION)?, Sat::new(ctx, z2, PRECISION)?];
-        let layout = MomentsLayout::choose(ctx, params.u32("moments_layout")?, size)?;
+        let layout = moments_layout(ctx, params, size)?;
         let moments = MomentsPass::new(ctx, "savsm", &shadow_map, [z, z2], layout)?;
         let lookup = Pipeline::compute(ctx, "savsm/lookup.comp")?;
         let counters = Buffer::storage(ctx, "savsm counters", (COUNTER_NAMES.len() * 4) as u64)?;

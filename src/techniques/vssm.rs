@@ -43,6 +43,7 @@ use glam::{IVec2, Mat4, Vec2};
 
 use super::filtered::vsm::MIN_VARIANCE;
 use super::pcf::shadow_map_desc;
+use super::savsm::{moments_layout, MOMENTS_LAYOUT};
 use super::soft_light::{soft_light, MAX_WIDTH, MIN_KERNEL};
 use super::{
     Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS,
@@ -54,7 +55,7 @@ use crate::gpu::{
 };
 use crate::kernels::nbuffer::{level_bindings, NBuffer, MAX_LEVEL};
 use crate::kernels::sat::{Sat, SatPrecision};
-use crate::passes::moments::{MomentsLayout, MomentsPass, MOMENTS_LAYOUT, MOMENT_IMAGE_USAGE};
+use crate::passes::moments::{MomentsPass, MOMENT_IMAGE_USAGE};
 use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
 use crate::scene::Light;
 
@@ -220,7 +221,7 @@ impl<'a> Vssm<'a> {
             params,
         )?;
         let nbuffer = NBuffer::new(ctx, z, Some(push.max_level as u32))?;
-        let layout = MomentsLayout::choose(ctx, params.u32("moments_layout")?, size)?;
+        let layout = moments_layout(ctx, params, size)?;
         let moments = MomentsPass::new(ctx, "vssm", &shadow_map, [z, z2], layout)?;
         let lookup = Pipeline::compute(ctx, "vssm/lookup.comp")?;
         let counters = Buffer::storage(ctx, "vssm counters", (COUNTER_NAMES.len() * 4) as u64)?;

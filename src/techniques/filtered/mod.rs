@@ -40,8 +40,9 @@
 //! or a barrier. On lavapipe a barrier turns the shader into coroutines over the workgroup's SIMD
 //! rows, and an image store is a call that loops over the lanes once per channel; on teapot-rect
 //! (2048² map) the encode and blur passes took 112 + 85 → 57 + 32 ms for `vsm`, 141 + 149 →
-//! 81 + 48 for `msm`, and `csm`'s terms 619 → 318 ms, the visibility byte-identical (one frame
-//! each, `--set blur_layout=shared|staged`). Both layouts add the same taps in the same order
+//! 81 + 48 for `msm`, and `csm`'s terms 619 → 318 ms, the visibility byte-identical (`penumbra
+//! render … --set blur_layout=shared|staged`, medians of three frames for `vsm`, one frame for
+//! `msm` and `csm`). Both layouts add the same taps in the same order
 //! and divide by the same total, so they give the same bits
 //! (`tests/filtered.rs::staged_and_shared_blurs_give_the_same_bits`).
 //!
@@ -63,8 +64,9 @@
 //!
 //! **Memory per shadow-map texel** while running: 4 B (D32) + 4 B per stored channel — 8 B for
 //! ESM, 12 B for VSM and two-component EVSM, 20 B for the rest (20 B for all with
-//! `pack_channels = 0`) — and in the staged layout 4 B more per stored channel (the buffer). The classic stored sizes (Table 5.1 of the book) are in each technique's
-//! module: they are what a renderer that keeps the filtered map would hold.
+//! `pack_channels = 0`) — and in the staged layout 4 B more per stored channel (the buffer). The
+//! classic stored sizes (Table 5.1 of the book) are in each technique's module: they are what a
+//! renderer that keeps the filtered map would hold.
 //!
 //! CPU twin: [`crate::cpu::filtered`].
 
@@ -79,7 +81,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{IVec2, Mat4, Vec4};
 
 use super::pcf::shadow_map_desc;
-use super::{Knob, KnobDefault, Params, Technique, TechniqueSetup, SHADOW_MAP_KNOBS};
+use super::{staged_knob, Knob, KnobDefault, Params, Technique, TechniqueSetup, SHADOW_MAP_KNOBS};
 use crate::cpu::filtered::COUNTER_NAMES;
 use crate::error::{Error, Result};
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder};
@@ -121,22 +123,20 @@ impl BlurLayout {
     pub fn choose(ctx: &Context, knob: u32, size: u32, channels: u32) -> Result<BlurLayout> {
         let info = ctx.info();
         let bytes = u64::from(size) * u64::from(size) * u64::from(channels) * 4;
-        let can_stage =
-            (channels == 1 || info.int64) && bytes <= u64::from(info.max_storage_buffer_range);
-        match knob {
-            0 if can_stage && info.runs_workgroups_on_cpu_threads() => Ok(BlurLayout::Staged),
-            0 | 1 => Ok(BlurLayout::Shared),
-            _ if can_stage => Ok(BlurLayout::Staged),
-            _ => Err(Error::Unsupported {
-                device: info.name.clone(),
-                feature: format!(
-                    "blur_layout = staged for a {size}² map of {channels} channels (a staging \
-                     buffer of {bytes} bytes within maxStorageBufferRange {}, and shaderInt64 \
-                     past one channel)",
-                    info.max_storage_buffer_range
-                ),
-            }),
-        }
+        let range = info.max_storage_buffer_range;
+        let can_stage = (channels == 1 || info.int64) && bytes <= u64::from(range);
+        let staged = staged_knob(ctx, knob, can_stage, || {
+            format!(
+                "blur_layout = staged for a {size}² map of {channels} channels (a staging buffer \
+                 of {bytes} bytes within maxStorageBufferRange {range}, and shaderInt64 past one \
+                 channel)"
+            )
+        })?;
+        Ok(if staged {
+            BlurLayout::Staged
+        } else {
+            BlurLayout::Shared
+        })
     }
 }
 
@@ -395,22 +395,15 @@ struct Filtered<'a> {
     geometry: &'a SceneGeometry,
 }
 
-/// The encode and blur passes in their [`BlurLayout`].
-enum FilterPasses {
-    Shared {
-        encode: Pipeline,
-        blur: Pipeline,
-        encode_set: DescriptorSet,
-        blur_set: DescriptorSet,
-    },
-    Staged {
-        encode: Pipeline,
-        blur: Pipeline,
-        encode_set: DescriptorSet,
-        blur_set: DescriptorSet,
-        // What every pass writes, copied over the filtered image after it.
-        staging: Buffer,
-    },
+/// The encode and blur passes in their [`BlurLayout`]: the shared layout's `encode.comp` and
+/// `blur.comp` writing the filtered image, or the staged layout's `encode_staged.comp` and
+/// `blur_staged.comp` writing `staging`, which is copied over the image after each dispatch.
+struct FilterPasses {
+    encode: Pipeline,
+    blur: Pipeline,
+    encode_set: DescriptorSet,
+    blur_set: DescriptorSet,
+    staging: Option<Buffer>,
 }
 
 /// Builds filtered technique `name` with `config`.
@@ -444,13 +437,12 @@ pub fn create<'a>(
         BlurLayout::Shared => {
             let encode = Pipeline::compute(ctx, &format!("filtered/encode{suffix}.comp"))?;
             let blur = Pipeline::compute(ctx, &format!("filtered/blur{suffix}.comp"))?;
-            let encode_set = DescriptorSet::new(ctx, &encode, &[depth, Binding::Image(&filtered)])?;
-            let blur_set = DescriptorSet::new(ctx, &blur, &[Binding::Image(&filtered)])?;
-            FilterPasses::Shared {
+            FilterPasses {
+                encode_set: DescriptorSet::new(ctx, &encode, &[depth, Binding::Image(&filtered)])?,
+                blur_set: DescriptorSet::new(ctx, &blur, &[Binding::Image(&filtered)])?,
                 encode,
                 blur,
-                encode_set,
-                blur_set,
+                staging: None,
             }
         }
         BlurLayout::Staged => {
@@ -458,18 +450,13 @@ pub fn create<'a>(
             let staging = Buffer::storage(ctx, &format!("{name} staging"), bytes)?;
             let encode = Pipeline::compute(ctx, &format!("filtered/encode_staged{suffix}.comp"))?;
             let blur = Pipeline::compute(ctx, &format!("filtered/blur_staged{suffix}.comp"))?;
-            let encode_set = DescriptorSet::new(ctx, &encode, &[depth, Binding::Buffer(&staging)])?;
-            let blur_set = DescriptorSet::new(
-                ctx,
-                &blur,
-                &[Binding::Image(&filtered), Binding::Buffer(&staging)],
-            )?;
-            FilterPasses::Staged {
+            let written = Binding::Buffer(&staging);
+            FilterPasses {
+                encode_set: DescriptorSet::new(ctx, &encode, &[depth, written])?,
+                blur_set: DescriptorSet::new(ctx, &blur, &[Binding::Image(&filtered), written])?,
                 encode,
                 blur,
-                encode_set,
-                blur_set,
-                staging,
+                staging: Some(staging),
             }
         }
     };
@@ -519,51 +506,43 @@ impl Filtered<'_> {
         if timed {
             rec.begin_pass(&format!("{}-encode", self.name))?;
         }
-        match &self.passes {
-            FilterPasses::Shared {
-                encode,
-                blur,
-                encode_set,
-                blur_set,
-            } => {
-                let rows = size.div_ceil(ENCODE_ROWS);
-                rec.dispatch(encode, encode_set, push, [size, rows, 1])?;
-                if blurred {
-                    if timed {
-                        rec.begin_pass(&format!("{}-blur", self.name))?;
-                    }
-                    // One workgroup per strip of columns: local_size.y threads cover it
-                    // vertically.
-                    let rows = blur.local_size[1];
-                    rec.dispatch(blur, blur_set, push, [size, rows, 1])?;
+        let FilterPasses {
+            encode,
+            blur,
+            encode_set,
+            blur_set,
+            staging,
+        } = &self.passes;
+        let Some(staging) = staging else {
+            let rows = size.div_ceil(ENCODE_ROWS);
+            rec.dispatch(encode, encode_set, push, [size, rows, 1])?;
+            if blurred {
+                if timed {
+                    rec.begin_pass(&format!("{}-blur", self.name))?;
                 }
+                // One workgroup per strip of columns: local_size.y threads cover it vertically.
+                let rows = blur.local_size[1];
+                rec.dispatch(blur, blur_set, push, [size, rows, 1])?;
             }
-            FilterPasses::Staged {
-                encode,
-                blur,
-                encode_set,
-                blur_set,
-                staging,
-            } => {
-                rec.dispatch(encode, encode_set, push, [size, size, 1])?;
-                rec.copy_buffer_to_image(staging, &self.filtered);
-                if blurred {
-                    // Rows (in the encode pass's time, as the shared layout fuses them), then
-                    // columns: CHAIN outputs an invocation across the blur's direction.
-                    let chains = size.div_ceil(STAGED_CHAIN);
-                    rec.dispatch(blur, blur_set, push, [size, chains, 1])?;
-                    rec.copy_buffer_to_image(staging, &self.filtered);
-                    if timed {
-                        rec.begin_pass(&format!("{}-blur", self.name))?;
-                    }
-                    let columns = FilteredPush {
-                        flags: push.flags | FLAG_VERTICAL,
-                        ..*push
-                    };
-                    rec.dispatch(blur, blur_set, &columns, [chains, size, 1])?;
-                    rec.copy_buffer_to_image(staging, &self.filtered);
-                }
+            return Ok(());
+        };
+        rec.dispatch(encode, encode_set, push, [size, size, 1])?;
+        rec.copy_buffer_to_image(staging, &self.filtered);
+        if blurred {
+            // Rows (in the encode pass's time, as the shared layout fuses them), then columns:
+            // CHAIN outputs an invocation across the blur's direction.
+            let chains = size.div_ceil(STAGED_CHAIN);
+            rec.dispatch(blur, blur_set, push, [size, chains, 1])?;
+            rec.copy_buffer_to_image(staging, &self.filtered);
+            if timed {
+                rec.begin_pass(&format!("{}-blur", self.name))?;
             }
+            let columns = FilteredPush {
+                flags: push.flags | FLAG_VERTICAL,
+                ..*push
+            };
+            rec.dispatch(blur, blur_set, &columns, [chains, size, 1])?;
+            rec.copy_buffer_to_image(staging, &self.filtered);
         }
         Ok(())
     }

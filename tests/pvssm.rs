@@ -383,7 +383,7 @@ fn filter_and_prediction_match_cpu() {
             table = pages.read_table()?;
             atlas = penumbra::gpu::f32s(&ctx.read_image(&pages.atlas)?);
             atlas_width = pages.atlas.extent().width;
-            shape = common::read_named_image(&ctx, t, "shape")?;
+            shape = common::read_named_buffer(&ctx, t, "shape")?;
             Ok(())
         })
         .expect("render");

@@ -52,7 +52,7 @@ fn blocker_search_matches_cpu() {
             let (mut shape, mut pyramid) = (vec![], vec![]);
             engine
                 .render_inspect(&prepared, "pvssm", &set, 1, |t| {
-                    shape = common::read_named_image(&ctx, t, "shape")?;
+                    shape = common::read_named_buffer(&ctx, t, "shape")?;
                     pyramid = common::read_named_buffer(&ctx, t, "lowres")?;
                     Ok(())
                 })

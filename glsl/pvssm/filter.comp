@@ -15,7 +15,8 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
-layout(set = 0, binding = 6, rgba32f) uniform readonly image2D shape;
+// shape.comp's kernels, row by row (why a buffer: there).
+layout(set = 0, binding = 6) readonly buffer Shape { vec4 shape[]; };
 layout(set = 0, binding = 7, r32f) uniform writeonly image2D visibility;
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
 
@@ -59,7 +60,7 @@ void main() {
 
     ivec2 pixel = simd_block_pixel();
     if (all(lessThan(pixel, pc.view_size))) {
-        vec4 k = imageLoad(shape, pixel);
+        vec4 k = shape[pixel.y * pc.view_size.x + pixel.x];
         if (k.w != DECIDED) {
             vec4 r = imageLoad(receivers, pixel);
             vec3 n = imageLoad(normals, pixel).xyz;

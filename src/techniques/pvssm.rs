@@ -82,9 +82,7 @@ use glam::IVec2;
 use super::soft_light::soft_light;
 use super::{virtual_map, Knob, Params, Technique, TechniqueInfo, TechniqueSetup};
 use crate::error::{Error, Result};
-use crate::gpu::{
-    Binding, Buffer, Context, DescriptorSet, Image, ImageDesc, Pipeline, Recorder, TexelView,
-};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder, TexelView};
 use crate::kernels::raster::{ConservativeRaster, RasterBinding};
 use crate::passes::pages::VirtualPages;
 use crate::passes::LightProjection;
@@ -255,7 +253,7 @@ pub struct Pvssm<'a> {
     // (source offset, destination offset, destination size) of each level above 0.
     mip_levels: Vec<PvssmMipPush>,
     /// Per view sample: (u_h.x, u_h.y, v_h.y, predicted level), w < 0 where V was decided.
-    pub shape: Image,
+    pub shape: Buffer,
     shape_pass: (Pipeline, DescriptorSet),
     filter: (Pipeline, DescriptorSet),
     counters: Buffer,
@@ -353,15 +351,11 @@ impl<'a> Pvssm<'a> {
         let camera_buffer =
             virtual_map::view_camera(ctx, "pvssm camera", setup, params.u32("tangent_plane")?)?;
         let samples = setup.view;
-        let shape = Image::new(
+        // A vec4 per view sample, row by row (shape.comp says why a buffer).
+        let shape = Buffer::storage(
             ctx,
             "pvssm kernel shapes",
-            ImageDesc::new_2d(
-                ash::vk::Format::R32G32B32A32_SFLOAT,
-                samples.width,
-                samples.height,
-                ash::vk::ImageUsageFlags::STORAGE | ash::vk::ImageUsageFlags::TRANSFER_SRC,
-            ),
+            16 * u64::from(samples.width) * u64::from(samples.height),
         )?;
         let counters = Buffer::storage(ctx, "pvssm counters", 4 * COUNTER_NAMES.len() as u64)?;
         let shape_pipeline = Pipeline::compute(ctx, "pvssm/shape.comp")?;
@@ -375,7 +369,7 @@ impl<'a> Pvssm<'a> {
                 Binding::Buffer(&camera_buffer),
                 Binding::Buffer(&pages.table),
                 Binding::Texels(&lowres_texels),
-                Binding::Image(&shape),
+                Binding::Buffer(&shape),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&counters),
                 // Its `missed` word: whether the low-res map can prove a sample lit.
@@ -392,7 +386,7 @@ impl<'a> Pvssm<'a> {
                 Binding::Buffer(&camera_buffer),
                 Binding::Buffer(&pages.table),
                 Binding::Sampled(&pages.atlas, &pages.sampler),
-                Binding::Image(&shape),
+                Binding::Buffer(&shape),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&counters),
             ],
@@ -527,11 +521,7 @@ impl Technique for Pvssm<'_> {
         }]
     }
 
-    fn images(&self) -> Vec<(&'static str, &Image)> {
-        vec![("shape", &self.shape)]
-    }
-
     fn buffers(&self) -> Vec<(&'static str, &crate::gpu::Buffer)> {
-        vec![("lowres", self.lowres.depth())]
+        vec![("lowres", self.lowres.depth()), ("shape", &self.shape)]
     }
 }

@@ -252,7 +252,8 @@ pub struct Pvssm<'a> {
     mip: (Pipeline, DescriptorSet),
     // (source offset, destination offset, destination size) of each level above 0.
     mip_levels: Vec<PvssmMipPush>,
-    /// Per view sample: (u_h.x, u_h.y, v_h.y, predicted level), w < 0 where V was decided.
+    /// Per view sample: (u_h.x, u_h.y, v_h.y, predicted level), or all four -1 where the shape
+    /// pass decided V.
     pub shape: Buffer,
     shape_pass: (Pipeline, DescriptorSet),
     filter: (Pipeline, DescriptorSet),
@@ -477,6 +478,9 @@ impl Technique for Pvssm<'_> {
         rec.pass("pvssm-shape", |rec| {
             self.pages.record_clear(rec);
             rec.fill(&self.counters, 0);
+            // Every sample DECIDED (-1.0 in every component) until the pass writes its kernel:
+            // a memset instead of a store per decided sample (shape.comp says why).
+            rec.fill(&self.shape, (-1.0f32).to_bits());
             let (pipeline, set) = &self.shape_pass;
             rec.dispatch(pipeline, set, &self.push, threads)
         })?;

@@ -295,6 +295,92 @@ fn skipping_changes_the_work_not_the_output() {
     common::assert_clean(&engine.context().validation());
 }
 
+/// The decided lit samples store nothing where the host can clear the visibility image first
+/// (its usage has `TRANSFER_DST`: the engine's own image), and store their V = 1 where it cannot
+/// (a caller's image without that usage): the same bits either way, on a caller's images in
+/// GENERAL as on the engine's own.
+#[test]
+fn a_visibility_image_without_transfers_gets_the_same_bits() {
+    use ash::vk;
+    use penumbra::gpu::{Access, Image, ImageDesc};
+    use penumbra::passes::ViewSamples;
+    let engine = common::engine();
+    let ctx = engine.context().clone();
+    let scene = common::small("scenes/teapot-rect.toml");
+    let own = engine.prepare(&scene).expect("prepare");
+    let expected = render(&engine, &own, &[]).visibility;
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let rgba = vk::Format::R32G32B32A32_SFLOAT;
+    let image = |name: &str, format, usage| {
+        Image::new(&ctx, name, ImageDesc::new_2d(format, w, h, usage)).expect("image")
+    };
+    let inputs = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST;
+    let positions = image("caller positions", rgba, inputs);
+    let normals = image("caller normals", rgba, inputs);
+    let cleared = image(
+        "caller visibility (clearable)",
+        vk::Format::R32_SFLOAT,
+        vk::ImageUsageFlags::STORAGE
+            | vk::ImageUsageFlags::TRANSFER_SRC
+            | vk::ImageUsageFlags::TRANSFER_DST,
+    );
+    let stored = image(
+        "caller visibility (no transfers in)",
+        vk::Format::R32_SFLOAT,
+        vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
+    );
+    let pos_bytes = ctx.read_image(&own.view.positions).expect("read");
+    let nrm_bytes = ctx.read_image(&own.view.normals).expect("read");
+    ctx.submit(None, |rec| {
+        rec.upload_image(&positions, &pos_bytes)?;
+        rec.upload_image(&normals, &nrm_bytes)?;
+        for i in [&positions, &normals, &cleared, &stored] {
+            rec.use_image(i, Access::ComputeWrite);
+        }
+        Ok(())
+    })
+    .expect("fill the caller's images");
+    let general = vk::ImageLayout::GENERAL;
+    let borrow = |i: &Image| unsafe {
+        Image::borrowed(
+            &ctx,
+            &format!("{} (borrowed)", i.name),
+            i.raw,
+            i.desc,
+            general,
+        )
+        .expect("wrap")
+    };
+    let mut frames = vec![];
+    for visibility in [&cleared, &stored] {
+        let view = ViewSamples::from_images(&scene.camera, borrow(&positions), borrow(&normals))
+            .expect("view samples");
+        let prepared = engine
+            .prepare_with_view_samples(&scene, view, borrow(visibility))
+            .expect("prepare on the caller's images");
+        let mut renderer = engine
+            .renderer(&prepared, "pvssm", &knobs(&[]))
+            .expect("renderer");
+        renderer.render().expect("frame");
+        frames.push(renderer.read_visibility().expect("read"));
+    }
+    let (differing, _) = penumbra::metrics::bitwise_difference(&frames[0], &frames[1]);
+    assert_eq!(
+        differing, 0,
+        "cleared against stored: {differing} pixels differ"
+    );
+    // Against the engine's own images: the receiver fit is made from the samples the caller's
+    // images hold (Engine::prepare_with_view_samples), the same to rounding, which may move a
+    // sample at a shadow's edge.
+    let (differing, _) = penumbra::metrics::bitwise_difference(&expected, &frames[0]);
+    assert!(
+        differing <= 4,
+        "against the engine's images: {differing} pixels differ"
+    );
+    drop((positions, normals, cleared, stored));
+    common::assert_clean(&ctx.validation());
+}
+
 /// The kernel's own proof (`kernel_proof`): after the refined search a sample whose kernel's
 /// reach (its box and a texel of its level around it: what the exact filter reads) holds no
 /// blocker in the conservative map is decided lit in the shape pass — what the filter would

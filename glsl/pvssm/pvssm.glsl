@@ -65,6 +65,9 @@ layout(push_constant) uniform Push {
 // Of the predicted z_avg's distance to the receiver, the least a silhouette cell's may have
 // (0.1-0.5 measured: penumbra MAE teapot-rect 0.0152-0.0159, bunny-rect 0.0295-0.0307).
 #define SILHOUETTE_GAP 0.25
+// The host cleared the visibility image to 1 before the shape pass (it can where the image takes
+// transfers: the engine's own does, a caller's may not): a sample decided lit stores nothing.
+#define OPT_LIT_CLEARED 64u
 // Bits 20..23: fixed_level + 1 (0: the predicted level).
 #define OPT_FIXED_SHIFT 20u
 // Bits 8..15: the blocker search's cells per side (the push block has no room left).

@@ -479,6 +479,23 @@ impl Recorder<'_> {
         };
     }
 
+    /// Clears the whole of a colour image (`TRANSFER_DST` usage) to `value`, its old contents
+    /// discarded, after the barriers it needs.
+    pub fn clear_color(&mut self, image: &Image, value: [f32; 4]) {
+        self.discard(image);
+        self.use_image(image, Access::TransferWrite);
+        let color = vk::ClearColorValue { float32: value };
+        unsafe {
+            self.ctx.device().cmd_clear_color_image(
+                self.cmd,
+                image.raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &color,
+                &[image.subresource_range()],
+            )
+        };
+    }
+
     /// Fills a buffer with a repeated `u32`.
     pub fn fill(&mut self, buffer: &Buffer, value: u32) {
         self.use_buffer(buffer, Access::TransferWrite);

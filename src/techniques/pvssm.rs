@@ -82,7 +82,7 @@ use glam::IVec2;
 use super::soft_light::soft_light;
 use super::{virtual_map, Knob, Params, Technique, TechniqueInfo, TechniqueSetup};
 use crate::error::{Error, Result};
-use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder, TexelView};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, Pipeline, Recorder, TexelView};
 use crate::kernels::raster::{ConservativeRaster, RasterBinding};
 use crate::passes::pages::VirtualPages;
 use crate::passes::LightProjection;
@@ -264,6 +264,9 @@ pub struct Pvssm<'a> {
     view_size: IVec2,
     // Triangles the caster list left out of the low-res map and the pages.
     non_casters: u64,
+    /// The visibility image, when it takes a clear (`TRANSFER_DST`): cleared to 1 before the
+    /// shape pass, whose decided lit samples then store nothing.
+    clear_lit: Option<&'a Image>,
 }
 
 impl<'a> Pvssm<'a> {
@@ -412,6 +415,17 @@ impl<'a> Pvssm<'a> {
         if params.u32("kernel_proof")? == 1 {
             options |= 32;
         }
+        // The visibility cleared to 1 by a transfer, so the decided lit samples store nothing
+        // (where the image allows it: a caller's may lack the usage).
+        let clear_lit = setup
+            .visibility
+            .desc
+            .usage
+            .contains(ash::vk::ImageUsageFlags::TRANSFER_DST);
+        if clear_lit {
+            options |= 64;
+        }
+        let clear_lit = clear_lit.then_some(setup.visibility);
         // -1 (predicted) is stored as 0, level k as k + 1.
         options |= ((fixed_level + 1.0) as u32) << 20;
         options |= params.u32("search_cells")? << 8;
@@ -452,6 +466,7 @@ impl<'a> Pvssm<'a> {
             push,
             view_size,
             non_casters: u64::from((setup.geometry.index_count - setup.casters.index_count) / 3),
+            clear_lit,
         })
     }
 }
@@ -481,6 +496,9 @@ impl Technique for Pvssm<'_> {
             // Every sample DECIDED (-1.0 in every component) until the pass writes its kernel:
             // a memset instead of a store per decided sample (shape.comp says why).
             rec.fill(&self.shape, (-1.0f32).to_bits());
+            if let Some(visibility) = self.clear_lit {
+                rec.clear_color(visibility, [1.0; 4]);
+            }
             let (pipeline, set) = &self.shape_pass;
             rec.dispatch(pipeline, set, &self.push, threads)
         })?;

@@ -75,7 +75,10 @@ layout(push_constant) uniform Push {
 
 #include "virtual_map.glsl"
 
-// Counter slots, shared by the shape and filter passes.
+// Counter slots, shared by the shape and filter passes. A sample the shape pass decides counts
+// once, in its own class (C_OUTSIDE, C_FULLY_LIT, C_KERNEL_LIT), and the filter's in C_LIT,
+// C_UMBRA or C_PENUMBRA; the host adds up the view samples and the lit (pvssm.rs's counters):
+// an atomic is a walk over the SIMD lanes on lavapipe, and most samples are decided lit.
 #define C_SAMPLES 0
 #define C_OUTSIDE 1
 #define C_LIT 2

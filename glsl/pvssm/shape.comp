@@ -349,12 +349,9 @@ void main() {
         if (!(p.w > 0.0 && r.w > 0.0)) {
             decide(pixel, 1.0);
         } else if (!inside_map(c, ivec2(pc.virtual_size))) {
-            count(C_SAMPLES, 1u);
             count(C_OUTSIDE, 1u);
-            count(C_LIT, 1u);
             decide(pixel, 1.0);
         } else {
-            count(C_SAMPLES, 1u);
             vec3 n = imageLoad(normals, pixel).xyz;
             vec2 dx, dy;
             bool has_pixel = pixel_steps(pixel, p.xyz, n, dx, dy);
@@ -396,7 +393,6 @@ void main() {
             }
             if (sum.y == 0.0 && lit_proof) {
                 count(C_FULLY_LIT, 1u);
-                count(C_LIT, 1u);
                 decide(pixel, 1.0);
             } else {
                 float d_avg = sum.y > 0.0 ? sum.x / sum.y : dr;
@@ -441,7 +437,6 @@ void main() {
                     && !may_have_blocker(centre, reach / lowres_texel, first_cells, rc,
                                          lowres_texel)) {
                     count(C_KERNEL_LIT, 1u);
-                    count(C_LIT, 1u);
                     decide(pixel, 1.0);
                 } else {
                     shape[pixel.y * pc.view_size.x + pixel.x] = vec4(u_h, v_h.y, float(level));

@@ -511,6 +511,23 @@ impl Technique for Pvssm<'_> {
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
         let mut out = super::read_counters(&self.ctx, &self.counters, &COUNTER_NAMES)?;
+        // The shaders count each sample once, in the class that decided it; the lit and the
+        // view samples are their sums (pvssm.glsl's counter slots say why).
+        let get = |out: &[(String, u64)], name: &str| {
+            out.iter().find(|(n, _)| n == name).map_or(0, |(_, v)| *v)
+        };
+        let lit = get(&out, "lit")
+            + get(&out, "outside_light")
+            + get(&out, "fully_lit")
+            + get(&out, "kernel_lit");
+        let samples = lit + get(&out, "umbra") + get(&out, "penumbra");
+        for (name, value) in out.iter_mut() {
+            match name.as_str() {
+                "lit" => *value = lit,
+                "view_samples" => *value = samples,
+                _ => {}
+            }
+        }
         // Its pages have no refinement round.
         out.extend(
             self.pages

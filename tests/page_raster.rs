@@ -286,14 +286,20 @@ fn compute_pages_match_the_rasterizer() {
     ] {
         let prepared = engine.prepare(&common::small(scene)).expect("prepare");
         let base = [("bias_constant", "1.5"), ("bias_slope", "2")];
-        let with = |raster: &'static str, split: &'static str| {
+        let with = |raster: &'static str, split: &'static str, viewports: &'static str| {
             let mut set = base.to_vec();
-            set.extend([("page_raster", raster), ("raster_split", split)]);
+            set.extend([
+                ("page_raster", raster),
+                ("raster_split", split),
+                ("slot_viewports", viewports),
+            ]);
             render(&engine, &prepared, technique, &set)
         };
-        let graphics = with("graphics", "64");
-        for split in ["64", "1048576"] {
-            let compute = with("compute", split);
+        let graphics = with("graphics", "64", "1");
+        // The rasterizer's share a viewport per slot (where the device has it) and clipped.
+        for (split_knob, viewports) in [("64", "1"), ("64", "0"), ("1048576", "1")] {
+            let compute = with("compute", split_knob, viewports);
+            let split = format!("{split_knob} viewports {viewports}");
             // The same pages in the same slots with the same casters.
             assert_eq!(compute.slots, graphics.slots, "{scene}");
             // Binned alike: appended in one walk for the compute raster, counted and
@@ -359,16 +365,25 @@ fn listed_triangles_behind_the_light_get_their_bias() {
         .prepare(&(case.scene)(128, 96).expect("scene"))
         .expect("prepare");
     let graphics = render(&engine, &prepared, "rmsm", &[("page_raster", "graphics")]);
-    // raster_split = 0: every covering entry goes to the listed draw.
-    let set = [("page_raster", "compute"), ("raster_split", "0")];
-    let listed = render(&engine, &prepared, "rmsm", &set);
-    let v_diff = mean_abs_diff(&graphics.frame.visibility, &listed.frame.visibility);
-    let entries = listed.bins.len();
-    eprintln!("light-inside: {entries} bin entries, mean |dV| {v_diff:.2e}");
-    assert!(
-        v_diff < 2e-3,
-        "mean |dV| {v_diff} between the listed and rasterized pages"
-    );
+    // raster_split = 0: every covering entry goes to the listed draw, a viewport per slot
+    // (where the device has it) or clipped to its slot.
+    for viewports in ["1", "0"] {
+        let set = [
+            ("page_raster", "compute"),
+            ("raster_split", "0"),
+            ("slot_viewports", viewports),
+        ];
+        let listed = render(&engine, &prepared, "rmsm", &set);
+        let v_diff = mean_abs_diff(&graphics.frame.visibility, &listed.frame.visibility);
+        let entries = listed.bins.len();
+        eprintln!(
+            "light-inside, slot_viewports {viewports}: {entries} bin entries, mean |dV| {v_diff:.2e}"
+        );
+        assert!(
+            v_diff < 2e-3,
+            "mean |dV| {v_diff} between the listed and rasterized pages"
+        );
+    }
     common::assert_clean(&engine.context().validation());
 }
 
@@ -439,6 +454,7 @@ fn a_pool_past_the_exact_slot_quotient_is_refused() {
         raster: PageRaster::Graphics,
         ancestors_on_overflow: false,
         raster_split: 64,
+        slot_viewports: true,
         cluster_skip: true,
     };
     match desc(MAX_POOL_PAGES + 1).check(&ctx, "test") {

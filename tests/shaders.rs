@@ -453,9 +453,12 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 "pages/cluster_levels.comp",
                 "pages/draws.comp",
                 "pages/page_depth.vert",
+                "pages/page_depth_grouped.vert",
                 "pages/page_depth_listed.vert",
                 "pages/page_raster.comp",
                 "pages/slot_clear.comp",
+                "pages/slot_groups.comp",
+                "pages/slot_scatter.comp",
             ],
             twin!(PagesPush {
                 light_view_proj,

@@ -23,7 +23,9 @@ layout(set = 0, binding = 3) readonly buffer Entries { uvec2 entries[]; };
 layout(set = 0, binding = 4) readonly buffer LargeList { uint large_list[]; };
 #endif
 
+#ifndef SLOT_VIEWPORTS_DRAW
 out float gl_ClipDistance[4];
+#endif
 
 vec4 clip_vertex(uint i) {
     uint v = indices[i];
@@ -89,6 +91,15 @@ void main() {
     // The page's NDC rectangle in the virtual map, and the slot's in the atlas.
     float page_ndc = 2.0 * float(pc.page_size << level) / float(pc.virtual_size);
     vec2 page_lo = vec2(info.yz) * page_ndc - 1.0;
+#ifdef SLOT_VIEWPORTS_DRAW
+    // The page onto the whole of viewport slot % SLOT_VIEWPORTS, which the host set (with its
+    // scissor) to the slot's square of the atlas: the scissor keeps the triangle in its slot
+    // where clip distances would cut it into a fan of up to five (on lavapipe each a triangle
+    // set up and binned: most of the draw's time).
+    gl_ViewportIndex = int(entry.y % SLOT_VIEWPORTS);
+    float zoom = 2.0 / page_ndc;
+    gl_Position = vec4(clip.xy * zoom - clip.w * (page_lo * zoom + 1.0), clip.zw);
+#else
     uint rows = (pc.pool_pages + pc.atlas_cols - 1u) / pc.atlas_cols;
     vec2 slot_ndc = 2.0 / vec2(pc.atlas_cols, rows);
     vec2 slot_lo = vec2(slot_cell(entry.y, pc.atlas_cols)) * slot_ndc - 1.0;
@@ -100,4 +111,5 @@ void main() {
     gl_ClipDistance[1] = slot_hi.x * clip.w - xy.x;
     gl_ClipDistance[2] = xy.y - slot_lo.y * clip.w;
     gl_ClipDistance[3] = slot_hi.y * clip.w - xy.y;
+#endif
 }

@@ -34,6 +34,11 @@ layout(set = 0, binding = 4) buffer Atlas { uint atlas_bits[]; };
 layout(set = 0, binding = 5) buffer RasterArgs { uint raster_args[]; };
 // The entries left to the graphics pipeline (page_depth_listed.vert): bin entry indices.
 layout(set = 0, binding = 6) writeonly buffer LargeList { uint large_list[]; };
+// Per group of SLOT_VIEWPORTS slots, its listed entries (zeroed before the dispatch), and each
+// listed entry's rank in its group: slot_groups.comp and slot_scatter.comp order the list by
+// group for the draws that give each slot a viewport of its own (pages.rs).
+layout(set = 0, binding = 7) buffer GroupCount { uint group_count[]; };
+layout(set = 0, binding = 8) writeonly buffer LargeRank { uint large_rank[]; };
 
 vec4 clip_vertex(uint i) {
     uint v = indices[i];
@@ -110,7 +115,9 @@ void main() {
     }
     int texels = box_texels(en.t0) + (en.count == 2 ? box_texels(en.t1) : 0);
     if (uint(texels) > pc.mode) {
-        large_list[atomicAdd(raster_args[base + 8u], 3u) / 3u] = k;
+        uint at = atomicAdd(raster_args[base + 8u], 3u) / 3u;
+        large_list[at] = k;
+        large_rank[at] = atomicAdd(group_count[entries[k].y / SLOT_VIEWPORTS], 1u);
         return;
     }
     uint atlas_width = pc.atlas_cols * pc.page_size;

@@ -61,5 +61,9 @@ struct LevelInfo {
 #define APPEND_REST 1u
 #define APPEND_ROUND1 2u
 
+// Slots a draw of the compute raster's large triangles gives a viewport each (SLOT_VIEWPORTS in
+// src/gpu/context.rs): the listed entries are grouped by slot / SLOT_VIEWPORTS.
+#define SLOT_VIEWPORTS 16u
+
 // Slots of round 0 come first: round 1's start after them.
 #define ROUND_FIRST_SLOT(round) ((round) == 0u ? 0u : counters[C_ALLOCATED])

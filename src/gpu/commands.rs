@@ -290,6 +290,38 @@ impl Recorder<'_> {
         }
     }
 
+    /// Sets viewports and scissors `0..rects.len()` to the rectangles (x, y, width, height) of
+    /// the attachments, inside `begin_rendering`: for a pipeline built with that many viewports
+    /// whose vertex shader picks one (`gl_ViewportIndex`).
+    pub fn set_viewport_rects(&mut self, rects: &[[u32; 4]]) {
+        let viewports: Vec<vk::Viewport> = rects
+            .iter()
+            .map(|&[x, y, width, height]| vk::Viewport {
+                x: x as f32,
+                y: y as f32,
+                width: width as f32,
+                height: height as f32,
+                min_depth: 0.0,
+                max_depth: 1.0,
+            })
+            .collect();
+        let scissors: Vec<vk::Rect2D> = rects
+            .iter()
+            .map(|&[x, y, width, height]| vk::Rect2D {
+                offset: vk::Offset2D {
+                    x: x as i32,
+                    y: y as i32,
+                },
+                extent: vk::Extent2D { width, height },
+            })
+            .collect();
+        let device = self.ctx.device();
+        unsafe {
+            device.cmd_set_viewport(self.cmd, 0, &viewports);
+            device.cmd_set_scissor(self.cmd, 0, &scissors);
+        }
+    }
+
     /// Ends dynamic rendering.
     pub fn end_rendering(&mut self) {
         unsafe { self.ctx.device().cmd_end_rendering(self.cmd) };

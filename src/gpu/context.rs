@@ -93,6 +93,11 @@ pub struct DeviceInfo {
     /// `shaderClipDistance`: vertex shaders may write `gl_ClipDistance` (virtual shadow maps clip
     /// each page's casters to the page's rectangle of the atlas with it).
     pub clip_distance: bool,
+    /// Vulkan 1.2 `shaderOutputViewportIndex` with `multiViewport` and at least
+    /// [`SLOT_VIEWPORTS`] viewports: a vertex shader may pick the viewport (the compute page
+    /// raster's large triangles are drawn sixteen pages a draw, each into its own viewport and
+    /// scissor, instead of clipped to its page by clip distances).
+    pub viewport_index: bool,
     /// `shaderStorageImageExtendedFormats`: storage images of two-channel formats such as
     /// `R32G32_SFLOAT` (the filtered maps of two-channel techniques use it when present).
     pub storage_image_extended_formats: bool,
@@ -193,6 +198,9 @@ pub struct EnabledFeatures {
     pub depth_bias_clamp: bool,
     /// `shaderClipDistance` (pvssm's and rmsm's page draws).
     pub clip_distance: bool,
+    /// `multiViewport` and Vulkan 1.2 `shaderOutputViewportIndex` (the compute page raster's
+    /// large triangles a viewport per page; clipped by clip distances without).
+    pub viewport_index: bool,
     /// `shaderStorageImageExtendedFormats` (two-channel filtered maps; four channels without).
     pub storage_image_extended_formats: bool,
     /// `geometryShader` (`gl_PrimitiveID` in the view-sample pass's fragment shader: the face
@@ -219,6 +227,7 @@ impl EnabledFeatures {
             subgroup_extended_types: info.subgroup_extended_types,
             depth_bias_clamp: info.depth_bias_clamp,
             clip_distance: info.clip_distance,
+            viewport_index: info.viewport_index,
             storage_image_extended_formats: info.storage_image_extended_formats,
             geometry_shader: info.geometry_shader,
         }
@@ -239,6 +248,7 @@ impl EnabledFeatures {
             .shader_int64(self.int64 || core.shader_int64 == vk::TRUE)
             .depth_bias_clamp(self.depth_bias_clamp || core.depth_bias_clamp == vk::TRUE)
             .shader_clip_distance(self.clip_distance || core.shader_clip_distance == vk::TRUE)
+            .multi_viewport(self.viewport_index || core.multi_viewport == vk::TRUE)
             .shader_storage_image_extended_formats(
                 self.storage_image_extended_formats
                     || core.shader_storage_image_extended_formats == vk::TRUE,
@@ -250,12 +260,15 @@ impl EnabledFeatures {
             )
             .shader_subgroup_extended_types(
                 self.subgroup_extended_types || v12.shader_subgroup_extended_types == vk::TRUE,
+            )
+            .shader_output_viewport_index(
+                self.viewport_index || v12.shader_output_viewport_index == vk::TRUE,
             );
         (core, v12)
     }
 
     /// (name, in `self`, in `other`) per feature.
-    fn pairs(&self, other: &EnabledFeatures) -> [(&'static str, bool, bool); 8] {
+    fn pairs(&self, other: &EnabledFeatures) -> [(&'static str, bool, bool); 9] {
         [
             ("shaderFloat64", self.float64, other.float64),
             ("shaderInt64", self.int64, other.int64),
@@ -278,6 +291,11 @@ impl EnabledFeatures {
                 "shaderClipDistance",
                 self.clip_distance,
                 other.clip_distance,
+            ),
+            (
+                "shaderOutputViewportIndex and multiViewport",
+                self.viewport_index,
+                other.viewport_index,
             ),
             (
                 "shaderStorageImageExtendedFormats",
@@ -358,6 +376,10 @@ impl std::fmt::Debug for Context {
             .finish()
     }
 }
+
+/// Viewports a draw of the compute page raster's large triangles sets, one page each
+/// ([`DeviceInfo::viewport_index`]).
+pub const SLOT_VIEWPORTS: u32 = 16;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -594,6 +616,9 @@ fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<Device
         subgroup_extended_types: f12.shader_subgroup_extended_types == vk::TRUE,
         depth_bias_clamp: features.depth_bias_clamp == vk::TRUE,
         clip_distance: features.shader_clip_distance == vk::TRUE,
+        viewport_index: f12.shader_output_viewport_index == vk::TRUE
+            && features.multi_viewport == vk::TRUE
+            && props.limits.max_viewports >= SLOT_VIEWPORTS,
         storage_image_extended_formats: features.shader_storage_image_extended_formats == vk::TRUE,
         geometry_shader: features.geometry_shader == vk::TRUE,
         conservative_rasterization: has_ext(ash::ext::conservative_rasterization::NAME),
@@ -847,6 +872,7 @@ impl Context {
         info.subgroup_extended_types = enabled.subgroup_extended_types;
         info.depth_bias_clamp = enabled.depth_bias_clamp;
         info.clip_distance = enabled.clip_distance;
+        info.viewport_index = enabled.viewport_index;
         info.storage_image_extended_formats = enabled.storage_image_extended_formats;
         info.geometry_shader = enabled.geometry_shader;
         let debug_utils = false;
@@ -1104,12 +1130,14 @@ fn create_device(
         .shader_int64(info.int64)
         .depth_bias_clamp(info.depth_bias_clamp)
         .shader_clip_distance(info.clip_distance)
+        .multi_viewport(info.viewport_index)
         .shader_storage_image_extended_formats(info.storage_image_extended_formats)
         .geometry_shader(info.geometry_shader)
         .shader_storage_image_write_without_format(false);
     let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
         .shader_buffer_int64_atomics(info.int64_atomics)
-        .shader_subgroup_extended_types(info.subgroup_extended_types);
+        .shader_subgroup_extended_types(info.subgroup_extended_types)
+        .shader_output_viewport_index(info.viewport_index);
     let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
         .dynamic_rendering(true)
         .synchronization2(true);

@@ -20,7 +20,8 @@ mod validation;
 
 pub use commands::{f32s, u32s, Recorder};
 pub use context::{
-    enumerate_devices, Context, ContextDesc, CreationCounts, DeviceInfo, EnabledFeatures, RawDevice,
+    enumerate_devices, Context, ContextDesc, CreationCounts, DeviceInfo, EnabledFeatures,
+    RawDevice, SLOT_VIEWPORTS,
 };
 pub use pipeline::{
     shader_interface, shader_names, shader_spirv, Binding, DescriptorSet, GraphicsDesc, Pipeline,

@@ -259,8 +259,8 @@ impl Pipeline {
         let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
             .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
         let viewport = vk::PipelineViewportStateCreateInfo::default()
-            .viewport_count(1)
-            .scissor_count(1);
+            .viewport_count(desc.viewports.max(1))
+            .scissor_count(desc.viewports.max(1));
         let raster = vk::PipelineRasterizationStateCreateInfo::default()
             .polygon_mode(vk::PolygonMode::FILL)
             .cull_mode(desc.cull_mode)
@@ -383,6 +383,9 @@ pub struct GraphicsDesc<'a> {
     /// The depth test: `LESS_OR_EQUAL` keeps the nearest surface, `GREATER_OR_EQUAL` (with
     /// a clear to 0) the farthest.
     pub depth_compare: vk::CompareOp,
+    /// Viewports (and scissors), all dynamic: 1, or more for a vertex shader that picks one
+    /// with `gl_ViewportIndex` ([`crate::gpu::DeviceInfo::viewport_index`]).
+    pub viewports: u32,
 }
 
 /// One resource bound to a descriptor, in binding order.

@@ -75,6 +75,7 @@ pub fn depth_pipeline(ctx: &Context, bias: &DepthBias, layer: MapLayer) -> Resul
                 MapLayer::Nearest => vk::CompareOp::LESS_OR_EQUAL,
                 MapLayer::FarthestBackFacing => vk::CompareOp::GREATER_OR_EQUAL,
             },
+            viewports: 1,
         },
     )
 }

@@ -86,6 +86,7 @@ impl ViewSamples {
                 vertex_input: true,
                 cull_mode: vk::CullModeFlags::NONE,
                 depth_compare: vk::CompareOp::LESS_OR_EQUAL,
+                viewports: 1,
             },
         )?;
         let (w, h) = (camera.width, camera.height);

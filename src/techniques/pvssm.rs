@@ -105,9 +105,9 @@ pub const COUNTER_NAMES: [&str; 13] = [
     "kernel_lit",
 ];
 
-const PAGE_KNOBS: [Knob; 7] = virtual_map::page_knobs(16384.0);
+const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(16384.0);
 
-const KNOBS: [Knob; 24] = [
+const KNOBS: [Knob; 25] = [
     Knob::int(
         "lowres_size",
         "conservative low-resolution map for the blocker search, texels per side",
@@ -219,6 +219,7 @@ const KNOBS: [Knob; 24] = [
     PAGE_KNOBS[4],
     PAGE_KNOBS[5],
     PAGE_KNOBS[6],
+    PAGE_KNOBS[7],
     super::SHADOW_MAP_KNOBS[1],
     super::SHADOW_MAP_KNOBS[2],
     super::SHADOW_MAP_KNOBS[3],

@@ -61,9 +61,9 @@ pub const LOOKUP_COUNTER_NAMES: [&str; 9] = [
 /// Counter names of the edge pass, in the order of `glsl/rmsm/edges.comp`'s buffer.
 pub const EDGE_COUNTER_NAMES: [&str; 2] = ["edge_samples", "refine_requests"];
 
-const PAGE_KNOBS: [Knob; 7] = virtual_map::page_knobs(32768.0);
+const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(32768.0);
 
-const KNOBS: [Knob; 14] = [
+const KNOBS: [Knob; 15] = [
     PAGE_KNOBS[0],
     PAGE_KNOBS[1],
     PAGE_KNOBS[2],
@@ -95,6 +95,7 @@ const KNOBS: [Knob; 14] = [
     PAGE_KNOBS[4],
     PAGE_KNOBS[5],
     PAGE_KNOBS[6],
+    PAGE_KNOBS[7],
     super::SHADOW_MAP_KNOBS[1],
     super::SHADOW_MAP_KNOBS[2],
     super::SHADOW_MAP_KNOBS[3],

@@ -12,7 +12,7 @@ use crate::passes::DepthBias;
 
 /// `virtual_size` (with the technique's default), `page_size`, `pool_pages`, `bin_factor`,
 /// `page_raster`, `raster_split` and `cluster_skip`.
-pub const fn page_knobs(virtual_size: f64) -> [Knob; 7] {
+pub const fn page_knobs(virtual_size: f64) -> [Knob; 8] {
     [
         Knob::int(
             "virtual_size",
@@ -62,6 +62,15 @@ pub const fn page_knobs(virtual_size: f64) -> [Knob; 7] {
             1_048_576.0,
         ),
         Knob::int(
+            "slot_viewports",
+            "page_raster = compute: 1 draws the rasterizer's share a viewport and scissor per \
+             page where the device lets a vertex shader pick one (shaderOutputViewportIndex), \
+             0 clips each triangle to its page with clip distances",
+            1.0,
+            0.0,
+            1.0,
+        ),
+        Knob::int(
             "cluster_skip",
             "1: the culling walk skips, per cluster of 64 triangles, the levels whose resident \
              pages lie nowhere under the cluster's box (exact; counted as walk_levels_skipped); \
@@ -100,6 +109,7 @@ pub fn pages_desc(ctx: &Context, params: &Params) -> Result<PagesDesc> {
         ancestors_on_overflow: false,
         raster: PageRaster::Graphics,
         raster_split: params.u32("raster_split")?,
+        slot_viewports: params.u32("slot_viewports")? == 1,
         cluster_skip: params.u32("cluster_skip")? == 1,
     };
     desc.raster = PageRaster::from_knob(ctx, params.u32("page_raster")?, desc.atlas_bytes());

@@ -11,7 +11,8 @@
 #include "pvssm.glsl"
 #include "share.glsl"
 
-layout(local_size_x = 8, local_size_y = 8) in;
+// One invocation per undecided sample of shape.comp's list (dispatched indirectly by its count).
+layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
@@ -19,6 +20,9 @@ layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
 layout(set = 0, binding = 6) readonly buffer Shape { vec4 shape[]; };
 layout(set = 0, binding = 7, r32f) uniform writeonly image2D visibility;
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
+// shape.comp's undecided samples: (workgroups, 1, 1, count) and their pixels ((y << 16) | x).
+layout(set = 0, binding = 10) readonly buffer FilterArgs { uint filter_args[]; };
+layout(set = 0, binding = 11) readonly buffer FilterList { uint filter_list[]; };
 
 #define INVOCATION_COUNTS COUNTERS
 #include "invocation_counts.glsl"
@@ -58,8 +62,10 @@ float plane_at(Receiver rc, vec2 t, float s) {
 void main() {
     invocation_counts_clear();
 
-    ivec2 pixel = simd_block_pixel();
-    if (all(lessThan(pixel, pc.view_size))) {
+    uint i = gl_GlobalInvocationID.x;
+    if (i < filter_args[3]) {
+        uint packed = filter_list[i];
+        ivec2 pixel = ivec2(packed & 0xffffu, packed >> 16u);
         vec4 k = shape[pixel.y * pc.view_size.x + pixel.x];
         if (k.w != DECIDED) {
             vec4 r = imageLoad(receivers, pixel);

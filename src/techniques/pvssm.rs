@@ -259,6 +259,10 @@ pub struct Pvssm<'a> {
     shape_pass: (Pipeline, DescriptorSet),
     filter: (Pipeline, DescriptorSet),
     counters: Buffer,
+    /// The filter's indirect dispatch over the shape pass's undecided samples, and their count.
+    filter_args: Buffer,
+    // Their pixels (bound in both sets).
+    _filter_list: Buffer,
     // Read by both sets.
     _camera: Buffer,
     push: PvssmPush,
@@ -363,6 +367,19 @@ impl<'a> Pvssm<'a> {
             16 * u64::from(samples.width) * u64::from(samples.height),
         )?;
         let counters = Buffer::storage(ctx, "pvssm counters", 4 * COUNTER_NAMES.len() as u64)?;
+        // The shape pass's undecided samples, which the filter is dispatched over: its
+        // indirect dispatch and count, and a pixel per sample.
+        let filter_args = Buffer::storage_with(
+            ctx,
+            "pvssm filter args",
+            16,
+            ash::vk::BufferUsageFlags::INDIRECT_BUFFER,
+        )?;
+        let filter_list = Buffer::storage(
+            ctx,
+            "pvssm filter list",
+            4 * u64::from(samples.width) * u64::from(samples.height),
+        )?;
         let shape_pipeline = Pipeline::compute(ctx, "pvssm/shape.comp")?;
         let shape_set = DescriptorSet::new(
             ctx,
@@ -379,6 +396,8 @@ impl<'a> Pvssm<'a> {
                 Binding::Buffer(&counters),
                 // Its `missed` word: whether the low-res map can prove a sample lit.
                 Binding::Buffer(lowres.counters()),
+                Binding::Buffer(&filter_args),
+                Binding::Buffer(&filter_list),
             ],
         )?;
         let filter_pipeline = Pipeline::compute(ctx, "pvssm/filter.comp")?;
@@ -394,6 +413,8 @@ impl<'a> Pvssm<'a> {
                 Binding::Buffer(&shape),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&counters),
+                Binding::Buffer(&filter_args),
+                Binding::Buffer(&filter_list),
             ],
         )?;
         let mut options = 0;
@@ -463,6 +484,8 @@ impl<'a> Pvssm<'a> {
             shape_pass: (shape_pipeline, shape_set),
             filter: (filter_pipeline, filter_set),
             counters,
+            filter_args,
+            _filter_list: filter_list,
             _camera: camera_buffer,
             push,
             view_size,
@@ -497,6 +520,7 @@ impl Technique for Pvssm<'_> {
             // Every sample DECIDED (-1.0 in every component) until the pass writes its kernel:
             // a memset instead of a store per decided sample (shape.comp says why).
             rec.fill(&self.shape, (-1.0f32).to_bits());
+            rec.fill(&self.filter_args, 0);
             if let Some(visibility) = self.clear_lit {
                 rec.clear_color(visibility, [1.0; 4]);
             }
@@ -506,7 +530,7 @@ impl Technique for Pvssm<'_> {
         self.pages.record(rec)?;
         rec.pass("pvssm-filter", |rec| {
             let (pipeline, set) = &self.filter;
-            rec.dispatch(pipeline, set, &self.push, threads)
+            rec.dispatch_indirect(pipeline, set, &self.push, &self.filter_args, 0)
         })
     }
 

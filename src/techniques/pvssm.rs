@@ -50,7 +50,15 @@
 //!    level sums (Σc·o, Σc) over all of them and divides once (the tile merge).
 //! 4. `pvssm-filter` — the exact coverage filter of h (Eq. 2, one axis-aligned box per texel
 //!    column of the sheared kernel) at the predicted level, or the first coarser level whose
-//!    pages hold the whole kernel when the pool ran out (counted).
+//!    pages hold the whole kernel when the pool ran out (counted); dispatched indirectly over the
+//!    samples the shape pass left undecided, which it lists.
+//!
+//! On a device that runs workgroups on CPU threads (lavapipe), a store or an atomic walks the
+//! SIMD lanes one by one (an image store once per channel), and most samples are decided lit in
+//! the shape pass. So a decided sample stores as little as it can: the kernel shapes are a
+//! buffer a memset marks DECIDED, the visibility is cleared to 1 first where the image allows a
+//! transfer, a sample is counted once (the host sums `lit` and `view_samples`), and the filter
+//! never visits it (teapot-rect's shape + filter 41 → 30 ms, README's `pvssm` section).
 //!
 //! Knobs: `lowres_size`, `virtual_size`, `page_size`, `pool_pages`, `rho` (`dynamic` | `static`),
 //! `rho_scale` (the quality/speed dial: texels across a kernel ×), `antialias`, `max_search`,

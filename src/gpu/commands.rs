@@ -268,26 +268,7 @@ impl Recorder<'_> {
     /// attachments (viewport and scissor), inside `begin_rendering`: to render several maps into
     /// tiles of one atlas.
     pub fn set_viewport_rect(&mut self, x: u32, y: u32, width: u32, height: u32) {
-        let viewport = vk::Viewport {
-            x: x as f32,
-            y: y as f32,
-            width: width as f32,
-            height: height as f32,
-            min_depth: 0.0,
-            max_depth: 1.0,
-        };
-        let scissor = vk::Rect2D {
-            offset: vk::Offset2D {
-                x: x as i32,
-                y: y as i32,
-            },
-            extent: vk::Extent2D { width, height },
-        };
-        let device = self.ctx.device();
-        unsafe {
-            device.cmd_set_viewport(self.cmd, 0, &[viewport]);
-            device.cmd_set_scissor(self.cmd, 0, &[scissor]);
-        }
+        self.set_viewport_rects(&[[x, y, width, height]]);
     }
 
     /// Sets viewports and scissors `0..rects.len()` to the rectangles (x, y, width, height) of

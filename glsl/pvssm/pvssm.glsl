@@ -97,9 +97,6 @@ layout(push_constant) uniform Push {
 #define C_KERNEL_LIT 12
 #define COUNTERS 13
 
-// A shape that needs no filtering: the shape pass decided V.
-#define DECIDED -1.0
-
 // Smallest kernel half-axis, level-0 texels: a point light without anti-aliasing still filters
 // a finite box.
 const float MIN_HALF = 1.0 / 64.0;

@@ -40,9 +40,9 @@ uint mip_offset(uint level) {
     }
     return offset;
 }
-// Per view sample, row by row: (u_h.x, u_h.y, v_h.y, predicted level), or w = DECIDED — which
-// the host's fill before the pass writes into every sample, so that only the undecided ones
-// store here. Why: on lavapipe a store per sample is a walk over the SIMD lanes (an image
+// Per view sample, row by row: (u_h.x, u_h.y, v_h.y, predicted level), or -1 in every component
+// where the pass decided V — the host's fill before the pass, so that only the undecided
+// samples store here. Why: on lavapipe a store per sample is a walk over the SIMD lanes (an image
 // store, an RGBA32F image's before, one walk per channel), and most samples are decided: the
 // pass 31 -> 26.5 ms on teapot-rect with a buffer store each, 24.4 ms with the decided ones'
 // left to a memset.

@@ -271,8 +271,19 @@ impl PagesDesc {
                 ),
             });
         }
-        // Both rasters draw through page_depth.glsl (compute leaves its large triangles to it).
+        // Both rasters draw through page_depth.glsl (compute leaves its large triangles to it),
+        // clipped to each slot by clip distances unless the viewport draw takes them.
+        if self.raster == PageRaster::Compute && self.viewport_draw(ctx) {
+            return Ok(());
+        }
         ctx.require(ctx.info().clip_distance, "shaderClipDistance")
+    }
+
+    /// Whether [`PageRaster::Compute`]'s large triangles are drawn a viewport and scissor per
+    /// slot: asked for (`slot_viewports`) and the device has
+    /// [`crate::gpu::DeviceInfo::viewport_index`].
+    fn viewport_draw(&self, ctx: &Context) -> bool {
+        self.slot_viewports && ctx.info().viewport_index
     }
 }
 
@@ -360,18 +371,23 @@ struct ComputeDrawer {
     /// The atlas's depths as float bits, `atomicMin`-combined, copied into the atlas.
     depth_bits: Buffer,
     /// The rasterizer's draw of the entries whose boxes hold more than `raster_split` texels,
-    /// which the compute pass lists (`glsl/pages/page_depth_listed.vert`).
-    listed: Pipeline,
-    listed_set: DescriptorSet,
-    // The listed entries' indices (bound in both sets).
+    /// which the compute pass lists.
+    large: LargeDraw,
+    // The listed entries' indices (bound in the page raster's and the draw's sets).
     _large_list: Buffer,
-    /// Per group of [`SLOT_VIEWPORTS`] slots, its listed entries (page_raster.comp counts them).
+    /// Per group of [`SLOT_VIEWPORTS`] slots, its listed entries (page_raster.comp counts them
+    /// for [`LargeDraw::Viewports`]).
     group_count: Buffer,
     // Each listed entry's rank in its group (bound in the page raster's set).
     _large_rank: Buffer,
-    /// The listed entries drawn a viewport per slot, where the device lets a vertex shader
-    /// pick the viewport; else `listed` draws them clipped by clip distances.
-    grouped: Option<GroupedDraw>,
+}
+
+/// How the compute raster's listed entries are drawn.
+enum LargeDraw {
+    /// One draw clipped to each slot by clip distances (`glsl/pages/page_depth_listed.vert`).
+    Clipped(Pipeline, DescriptorSet),
+    /// A viewport and scissor per slot, where the device lets a vertex shader pick one.
+    Viewports(Box<GroupedDraw>),
 }
 
 /// The compute raster's listed entries ordered by group of [`SLOT_VIEWPORTS`] slots and drawn
@@ -620,7 +636,7 @@ impl<'a> VirtualPages<'a> {
                         Binding::Buffer(&large_rank),
                     ],
                 )?;
-                let grouped = if desc.slot_viewports && ctx.info().viewport_index {
+                let large = if desc.viewport_draw(ctx) {
                     let group_first = storage("page raster group firsts", 4 * groups)?;
                     let indirect = |name: &str, size: u64| {
                         Buffer::new(
@@ -676,7 +692,7 @@ impl<'a> VirtualPages<'a> {
                             Binding::Buffer(&grouped_list),
                         ],
                     )?;
-                    Some(GroupedDraw {
+                    LargeDraw::Viewports(Box::new(GroupedDraw {
                         groups: groups_pass,
                         scatter,
                         scatter_args,
@@ -684,29 +700,29 @@ impl<'a> VirtualPages<'a> {
                         pipeline: draw_pipeline,
                         set: draw_set,
                         _buffers: [group_first, grouped_list],
-                    })
+                    }))
                 } else {
-                    None
+                    let listed = Pipeline::graphics(
+                        ctx,
+                        &GraphicsDesc {
+                            vertex: "pages/page_depth_listed.vert",
+                            depth_bias: false,
+                            ..page_graphics
+                        },
+                    )?;
+                    let listed_set = DescriptorSet::new(
+                        ctx,
+                        &listed,
+                        &[
+                            Binding::Buffer(&geometry.vertices),
+                            Binding::Buffer(&geometry.indices),
+                            Binding::Buffer(&slot_info),
+                            Binding::Buffer(&bins),
+                            Binding::Buffer(&large_list),
+                        ],
+                    )?;
+                    LargeDraw::Clipped(listed, listed_set)
                 };
-                let listed = Pipeline::graphics(
-                    ctx,
-                    &GraphicsDesc {
-                        vertex: "pages/page_depth_listed.vert",
-                        depth_bias: false,
-                        ..page_graphics
-                    },
-                )?;
-                let listed_set = DescriptorSet::new(
-                    ctx,
-                    &listed,
-                    &[
-                        Binding::Buffer(&geometry.vertices),
-                        Binding::Buffer(&geometry.indices),
-                        Binding::Buffer(&slot_info),
-                        Binding::Buffer(&bins),
-                        Binding::Buffer(&large_list),
-                    ],
-                )?;
                 let clear = with_set(
                     "pages/slot_clear.comp",
                     &[Binding::Buffer(&depth_bits), Binding::Buffer(&counters)],
@@ -716,12 +732,10 @@ impl<'a> VirtualPages<'a> {
                     set,
                     clear,
                     depth_bits,
-                    listed,
-                    listed_set,
+                    large,
                     _large_list: large_list,
                     group_count,
                     _large_rank: large_rank,
-                    grouped,
                 };
                 (PageDrawer::Compute(Box::new(drawer)), None)
             }
@@ -921,10 +935,8 @@ impl<'a> VirtualPages<'a> {
                     pipeline,
                     set,
                     depth_bits,
-                    listed,
-                    listed_set,
+                    large,
                     group_count,
-                    grouped,
                     ..
                 } = drawer.as_ref();
                 // (The depths were cleared or taken from the atlas before the walk, which
@@ -938,9 +950,12 @@ impl<'a> VirtualPages<'a> {
                 };
                 rec.fill(group_count, 0);
                 rec.dispatch_indirect(pipeline, set, &split, &self.raster_args, offset)?;
-                if let Some(grouped) = grouped {
-                    return self.record_grouped(rec, push, grouped, depth_bits);
-                }
+                let (listed, listed_set) = match large {
+                    LargeDraw::Viewports(grouped) => {
+                        return self.record_grouped(rec, push, grouped, depth_bits)
+                    }
+                    LargeDraw::Clipped(listed, listed_set) => (listed, listed_set),
+                };
                 rec.copy_buffer_to_image(depth_bits, &self.atlas);
                 rec.use_set(listed_set);
                 rec.use_buffer(&self.raster_args, Access::IndirectRead);

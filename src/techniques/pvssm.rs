@@ -56,7 +56,7 @@
 //! On a device that runs workgroups on CPU threads (lavapipe), a store or an atomic walks the
 //! SIMD lanes one by one (an image store once per channel), and most samples are decided lit in
 //! the shape pass. So a decided sample stores as little as it can: the kernel shapes are a
-//! buffer a memset marks DECIDED, the visibility is cleared to 1 first where the image allows a
+//! buffer a memset marks decided, the visibility is cleared to 1 first where the image allows a
 //! transfer, a sample is counted once (the host sums `lit` and `view_samples`), and the filter
 //! never visits it (teapot-rect's shape + filter 41 → 30 ms, README's `pvssm` section).
 //!
@@ -525,7 +525,7 @@ impl Technique for Pvssm<'_> {
         rec.pass("pvssm-shape", |rec| {
             self.pages.record_clear(rec);
             rec.fill(&self.counters, 0);
-            // Every sample DECIDED (-1.0 in every component) until the pass writes its kernel:
+            // Every sample marked decided (-1.0 in every component) until the pass writes its kernel:
             // a memset instead of a store per decided sample (shape.comp says why).
             rec.fill(&self.shape, (-1.0f32).to_bits());
             rec.fill(&self.filter_args, 0);

@@ -598,11 +598,10 @@ impl Technique for Filtered<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::shader_interface;
     use std::mem::{offset_of, size_of};
 
     #[test]
-    fn push_layout_matches_every_shader() {
+    fn push_layout_is_the_documented_one() {
         assert_eq!(offset_of!(FilteredPush, light_view_proj), 0);
         assert_eq!(offset_of!(FilteredPush, view_size), 64);
         assert_eq!(offset_of!(FilteredPush, map_size), 72);
@@ -618,29 +617,8 @@ mod tests {
         assert_eq!(offset_of!(FilteredPush, params), 112);
         // 128 bytes: the smallest maxPushConstantsSize Vulkan guarantees.
         assert_eq!(size_of::<FilteredPush>(), 128);
-        for shader in [
-            "filtered/encode.comp",
-            "filtered/encode_rg.comp",
-            "filtered/encode_r.comp",
-            "filtered/blur.comp",
-            "filtered/blur_rg.comp",
-            "filtered/blur_r.comp",
-            "filtered/encode_staged.comp",
-            "filtered/encode_staged_rg.comp",
-            "filtered/encode_staged_r.comp",
-            "filtered/blur_staged.comp",
-            "filtered/blur_staged_rg.comp",
-            "filtered/blur_staged_r.comp",
-            "filtered/reconstruct.comp",
-            "filtered/reconstruct_rg.comp",
-            "filtered/reconstruct_r.comp",
-        ] {
-            let declared = shader_interface(shader).expect("embedded").1;
-            assert_eq!(
-                declared.push_constant_size as usize,
-                size_of::<FilteredPush>()
-            );
-        }
+        // Every filtered shader's block against these fields, member by member:
+        // tests/shaders.rs (every_push_struct_matches_its_reflected_block_member_by_member).
     }
 
     #[test]

@@ -58,7 +58,8 @@
 //! the shape pass. So a decided sample stores as little as it can: the kernel shapes are a
 //! buffer a memset marks decided, the visibility is cleared to 1 first where the image allows a
 //! transfer, a sample is counted once (the host sums `lit` and `view_samples`), and the filter
-//! never visits it (teapot-rect's shape + filter 41 → 30 ms, README's `pvssm` section).
+//! never visits it (teapot-rect's shape + filter 43 → 31 ms between the README's `pvssm` bench
+//! reruns at `6e6191b` and `5f11b84`).
 //!
 //! Knobs: `lowres_size`, `virtual_size`, `page_size`, `pool_pages`, `rho` (`dynamic` | `static`),
 //! `rho_scale` (the quality/speed dial: texels across a kernel ×), `antialias`, `max_search`,

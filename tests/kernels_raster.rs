@@ -6,9 +6,11 @@
 mod common;
 
 use glam::{Mat4, Vec3};
-use penumbra::cpu::conservative_raster::{rasterize, ConservativeDepth};
+use penumbra::cpu::conservative_raster::{rasterize_biased, ConservativeDepth};
 use penumbra::cpu::raster::rasterize_depth;
-use penumbra::kernels::raster::{ConservativeRaster, RasterCounters, EPS, SMALL_TEXELS};
+use penumbra::kernels::raster::{
+    ConservativeRaster, RasterBias, RasterCounters, EPS, SMALL_TEXELS,
+};
 
 /// Depths may differ by a few ulp (FMA contraction, division order).
 const DEPTH_TOL: f32 = 1e-6;
@@ -37,7 +39,8 @@ fn texel_point(x: f32, y: f32, z: f32, n: u32) -> Vec3 {
 /// Checks the GPU's map and counters against the twin: every texel's depth lies between the
 /// twin's at 2·EPS and at EPS/2 (coverage only grows and depths only fall with the epsilon), the
 /// skip counts match exactly, the covered-pair count lies in the same bracket. Writes a diff
-/// image on failure.
+/// image on failure. `bias`: the twin's (slope, clamp), the GPU's [`RasterBias`].
+#[allow(clippy::too_many_arguments)]
 fn check_against_twin(
     what: &str,
     (positions, indices): (&[Vec3], &[u32]),
@@ -46,26 +49,23 @@ fn check_against_twin(
     gpu: &[f32],
     counters: &RasterCounters,
     clip: bool,
+    bias: (f32, f32),
 ) -> ConservativeDepth {
-    let tight = rasterize(
-        positions,
-        indices,
-        view_proj,
-        n,
-        EPS * 0.5,
-        SMALL_TEXELS,
-        clip,
-    );
-    let loose = rasterize(
-        positions,
-        indices,
-        view_proj,
-        n,
-        EPS * 2.0,
-        SMALL_TEXELS,
-        clip,
-    );
-    let twin = rasterize(positions, indices, view_proj, n, EPS, SMALL_TEXELS, clip);
+    let twin_at = |eps: f32| {
+        rasterize_biased(
+            positions,
+            indices,
+            view_proj,
+            n,
+            eps,
+            SMALL_TEXELS,
+            clip,
+            bias,
+        )
+    };
+    let tight = twin_at(EPS * 0.5);
+    let loose = twin_at(EPS * 2.0);
+    let twin = twin_at(EPS);
     assert_eq!(gpu.len(), (n * n) as usize);
     let mut bad = Vec::new();
     for (i, &g) in gpu.iter().enumerate() {
@@ -189,9 +189,20 @@ fn random_triangles_match_the_twin_and_are_conservative() {
     let (positions, indices) = random_triangles(3000, 12345);
     let vp = perspective_light();
     for (n, clip) in [(128, true), (256, true), (128, false)] {
-        let (gpu, counters) = raster.run(&positions, &indices, vp, n, clip).expect("run");
+        let (gpu, counters) = raster
+            .run(&positions, &indices, vp, n, clip, RasterBias::default())
+            .expect("run");
         let what = format!("random-{n}-clip-{clip}");
-        let twin = check_against_twin(&what, (&positions, &indices), vp, n, &gpu, &counters, clip);
+        let twin = check_against_twin(
+            &what,
+            (&positions, &indices),
+            vp,
+            n,
+            &gpu,
+            &counters,
+            clip,
+            (0.0, 0.0),
+        );
         // Some behind the light, some past the far plane; with the clip many clipped at the
         // light's or the near plane (drawn, not skipped), without it skipped.
         assert!(twin.behind_light > 0 && twin.skipped > twin.behind_light);
@@ -216,10 +227,10 @@ fn random_triangles_match_the_twin_and_are_conservative() {
     // and within the twin's bracket.
     let lanes = ConservativeRaster::with_subgroup_count(&ctx, false).expect("pipeline");
     let (gpu, counters) = raster
-        .run(&positions, &indices, vp, 256, false)
+        .run(&positions, &indices, vp, 256, false, RasterBias::default())
         .expect("run");
     let (lanes_gpu, lanes_counters) = lanes
-        .run(&positions, &indices, vp, 256, false)
+        .run(&positions, &indices, vp, 256, false, RasterBias::default())
         .expect("run");
     assert_eq!(
         counters, lanes_counters,
@@ -239,7 +250,124 @@ fn random_triangles_match_the_twin_and_are_conservative() {
         &lanes_gpu,
         &lanes_counters,
         false,
+        (0.0, 0.0),
     );
+    common::assert_clean(&ctx.validation());
+}
+
+/// pvssm's bias ([`RasterBias`]): the biased map matches the twin rasterizing with the same
+/// bias (clamped and not, with and without the clip), covers no texel the unbiased one leaves
+/// empty, and lies behind it by at most the clamp (where clamped) and at least 0; on one
+/// triangle of known slope the shift is the slope factor times its largest gradient.
+#[test]
+fn a_slope_bias_moves_every_piece_back_as_the_twin_does() {
+    let ctx = common::context();
+    let raster = ConservativeRaster::new(&ctx).expect("pipeline");
+    let (positions, indices) = random_triangles(1500, 777);
+    let vp = perspective_light();
+    let n = 128;
+    for (clip, bias) in [
+        (
+            false,
+            RasterBias {
+                slope: 2.0,
+                clamp: 0.0,
+            },
+        ),
+        (
+            true,
+            RasterBias {
+                slope: 2.0,
+                clamp: 0.0,
+            },
+        ),
+        (
+            false,
+            RasterBias {
+                slope: 2.0,
+                clamp: 1e-4,
+            },
+        ),
+    ] {
+        let what = format!("bias-{}-{}-clip-{clip}", bias.slope, bias.clamp);
+        let run = |b: RasterBias| {
+            raster
+                .run(&positions, &indices, vp, n, clip, b)
+                .expect("run")
+        };
+        let (plain, _) = run(RasterBias::default());
+        let (gpu, counters) = run(bias);
+        check_against_twin(
+            &what,
+            (&positions, &indices),
+            vp,
+            n,
+            &gpu,
+            &counters,
+            clip,
+            (bias.slope, bias.clamp),
+        );
+        let (mut moved, mut past_clamp) = (0, 0);
+        for (i, (&b, &p)) in gpu.iter().zip(&plain).enumerate() {
+            // (A covered texel pushed past the far plane reads 1.0, as an uncovered one.)
+            assert!(
+                b == 1.0 || p < 1.0,
+                "{what}: texel {i} covered only when biased"
+            );
+            assert!(b >= p, "{what}: texel {i} moved nearer ({p} -> {b})");
+            if bias.clamp > 0.0 {
+                // Past the clamp only by the rounding of a steep plane's evaluation, which the
+                // bias changes: rarely, and never by as much as the clamp itself.
+                assert!(b <= p + 2.0 * bias.clamp, "{what}: texel {i} {p} -> {b}");
+                past_clamp += usize::from(b > p + bias.clamp + DEPTH_TOL);
+            }
+            moved += usize::from(b > p);
+        }
+        eprintln!("{what}: {moved} moved, {past_clamp} past the clamp");
+        assert!(
+            past_clamp * 100 <= moved,
+            "{what}: {past_clamp} of {moved} past the clamp"
+        );
+        assert!(moved > 1000, "{what}: only {moved} texels moved");
+    }
+    // One triangle, depth 0.25 + 0.001 x + 0.003 y per texel (largest gradient 0.003): every
+    // covered texel's depth rises by slope * 0.003.
+    let ndc = |x: f32, y: f32| texel_point(x, y, 0.25 + 0.001 * x + 0.003 * y, n);
+    let tri = [ndc(10.0, 10.0), ndc(90.0, 20.0), ndc(30.0, 100.0)];
+    let slope = 4.0;
+    let (plain, _) = raster
+        .run(
+            &tri,
+            &[0, 1, 2],
+            Mat4::IDENTITY,
+            n,
+            false,
+            RasterBias::default(),
+        )
+        .expect("run");
+    let (biased, _) = raster
+        .run(
+            &tri,
+            &[0, 1, 2],
+            Mat4::IDENTITY,
+            n,
+            false,
+            RasterBias { slope, clamp: 0.0 },
+        )
+        .expect("run");
+    let mut covered = 0;
+    for (&b, &p) in biased.iter().zip(&plain) {
+        if p < 1.0 {
+            covered += 1;
+            let shift = b - p;
+            assert!(
+                (shift - slope * 0.003).abs() < 1e-5,
+                "shifted by {shift}, not {}",
+                slope * 0.003
+            );
+        }
+    }
+    assert!(covered > 2000, "only {covered} texels covered");
     common::assert_clean(&ctx.validation());
 }
 
@@ -252,7 +380,14 @@ fn a_scene_mesh_matches_the_twin_and_is_conservative() {
     let light = penumbra::passes::LightView::fit(&scene.light, &scene.bounds()).expect("fit");
     for n in [128, 256] {
         let (gpu, counters) = raster
-            .run(&positions, &indices, light.view_proj, n, true)
+            .run(
+                &positions,
+                &indices,
+                light.view_proj,
+                n,
+                true,
+                RasterBias::default(),
+            )
             .expect("run");
         let what = format!("spot-point-{n}");
         check_against_twin(
@@ -263,6 +398,7 @@ fn a_scene_mesh_matches_the_twin_and_is_conservative() {
             &gpu,
             &counters,
             true,
+            (0.0, 0.0),
         );
         assert_eq!(
             counters.behind_light, 0,
@@ -287,8 +423,8 @@ fn the_bound_api_rasterizes_scene_geometry() {
         .expect("bind");
     // Twice in one submission: the second recording starts from a cleared map.
     ctx.submit(None, |rec| {
-        raster.record(rec, &binding, light.view_proj, false)?;
-        raster.record(rec, &binding, light.view_proj, false)
+        raster.record(rec, &binding, light.view_proj, false, RasterBias::default())?;
+        raster.record(rec, &binding, light.view_proj, false, RasterBias::default())
     })
     .expect("submit");
     let gpu = penumbra::gpu::f32s(&ctx.read_buffer(binding.depth()).expect("read"));
@@ -302,6 +438,7 @@ fn the_bound_api_rasterizes_scene_geometry() {
         &gpu,
         &counters,
         false,
+        (0.0, 0.0),
     );
     assert!(raster
         .bind(
@@ -334,7 +471,14 @@ fn a_sliver_marks_every_texel_it_crosses() {
     ];
     let indices = [0, 1, 2];
     let (gpu, counters) = raster
-        .run(&positions, &indices, Mat4::IDENTITY, n, true)
+        .run(
+            &positions,
+            &indices,
+            Mat4::IDENTITY,
+            n,
+            true,
+            RasterBias::default(),
+        )
         .expect("run");
     let mut crossed = std::collections::BTreeSet::new();
     for s in 0..=200_000 {
@@ -366,6 +510,7 @@ fn a_sliver_marks_every_texel_it_crosses() {
         &gpu,
         &counters,
         true,
+        (0.0, 0.0),
     );
     common::assert_clean(&ctx.validation());
 }
@@ -381,7 +526,14 @@ fn one_triangle_fills_a_1024_map_through_the_large_path() {
         Vec3::new(-1.0, 3.0, 0.25),
     ];
     let (gpu, counters) = raster
-        .run(&positions, &[0, 1, 2], Mat4::IDENTITY, n, true)
+        .run(
+            &positions,
+            &[0, 1, 2],
+            Mat4::IDENTITY,
+            n,
+            true,
+            RasterBias::default(),
+        )
         .expect("run (fails if the loop limiter cut it short)");
     let wrong = gpu.iter().filter(|&&d| d != 0.25).count();
     assert_eq!(wrong, 0, "{wrong} texels not at depth 0.25");
@@ -406,7 +558,14 @@ fn an_empty_list_leaves_the_map_empty() {
     let ctx = common::context();
     let raster = ConservativeRaster::new(&ctx).expect("pipeline");
     let (gpu, counters) = raster
-        .run(&[Vec3::ZERO], &[], Mat4::IDENTITY, 16, true)
+        .run(
+            &[Vec3::ZERO],
+            &[],
+            Mat4::IDENTITY,
+            16,
+            true,
+            RasterBias::default(),
+        )
         .expect("run");
     assert!(gpu.iter().all(|&d| d == 1.0));
     assert_eq!(counters, RasterCounters::default());

@@ -690,7 +690,11 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 triangles,
                 map_size,
                 phase,
-                pad
+                bias_slope,
+                bias_clamp,
+                pad0,
+                pad1,
+                pad2
             }),
         ),
         (

@@ -24,6 +24,11 @@
 // to the light's centre) is drawn as the segment it projects to, at its smallest depth: from
 // the rest of an area light it is not edge-on.
 //
+// Bias (push bias_slope, bias_clamp; zero unless asked for): a piece with a plane is moved back
+// by min(bias_slope * max(|dz/dx|, |dz/dy|), bias_clamp) — the slope-scaled part of the depth
+// bias a rasterizer would give it. pvssm asks for its finest page's (src/techniques/pvssm.rs
+// says why): the map then holds each caster no nearer than any page of the virtual map will.
+//
 // phase 0: one invocation per TRIS_PER_INVOCATION (4) consecutive triangles (a SIMD group's
 // fixed cost, ~6 ms over 800k invocations on lavapipe, shared by four: the 800k grid's pass
 // 31.1 -> 29.7 ms). Skipped (counted): triangles entirely behind the light
@@ -110,7 +115,13 @@ layout(push_constant) uniform Push {
     uint map_size;
     // 0: per-triangle pass, 1: large-triangle pass.
     uint phase;
-    uint pad;
+    // Slope-scaled depth bias added to every piece with a plane: bias_slope times its largest
+    // depth gradient per map texel, at most bias_clamp where that is positive (0 and 0: none).
+    float bias_slope;
+    float bias_clamp;
+    uint pad0;
+    uint pad1;
+    uint pad2;
 } pc;
 
 // raster_conservative_clip.comp defines CLIP: triangles reaching before the near plane or behind
@@ -189,7 +200,12 @@ Setup finish_setup(vec3 a, vec3 b, vec3 c, float zmin, vec2 tmin, vec2 tmax) {
         float dz2 = c.z - a.z;
         vec2 dz = vec2((dz1 * e2.y - dz2 * e1.y) / area, (dz2 * e1.x - dz1 * e2.x) / area);
         if (!any(isnan(dz)) && !any(isinf(dz))) {
-            s.z0 = a.z;
+            // The bias moves the whole piece (its plane and its vertex minimum) back: the same
+            // for every texel, so the conservative rule holds for the biased plane.
+            float bias = max(abs(dz.x), abs(dz.y)) * pc.bias_slope;
+            bias = pc.bias_clamp > 0.0 ? min(bias, pc.bias_clamp) : bias;
+            s.zmin = zmin + bias;
+            s.z0 = a.z + bias;
             s.dz = dz;
         }
     }

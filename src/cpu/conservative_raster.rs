@@ -73,8 +73,8 @@ fn project(c: Vec4, n: f32) -> Vec3 {
 }
 
 /// The piece over projected vertices `p`, its plane through `p[a], p[b], p[c]`; `flat`: at
-/// depth 0 (a near piece).
-fn piece(p: Vec<Vec3>, plane: [usize; 3], flat: bool) -> Piece {
+/// depth 0 (a near piece). A piece with a plane is moved back by `bias` (slope factor, clamp).
+fn piece(p: Vec<Vec3>, plane: [usize; 3], flat: bool, bias: (f32, f32)) -> Piece {
     let zmin = if flat {
         0.0
     } else {
@@ -107,7 +107,13 @@ fn piece(p: Vec<Vec3>, plane: [usize; 3], flat: bool) -> Piece {
             (dz2 * e1.x - dz1 * e2.x) / area,
         );
         if dz.is_finite() {
-            out.z0 = a.z;
+            let (slope, clamp) = bias;
+            let mut b = dz.x.abs().max(dz.y.abs()) * slope;
+            if clamp > 0.0 {
+                b = b.min(clamp);
+            }
+            out.zmin += b;
+            out.z0 = a.z + b;
             out.dz = dz;
         }
     }
@@ -132,7 +138,7 @@ fn clip(v: &[Vec4], plane: Vec4, offset: f32) -> Vec<Vec4> {
 }
 
 /// The far (`near == false`) or near piece of a triangle that is neither whole nor skipped.
-fn clipped_piece(c: [Vec4; 3], near: bool, n: f32) -> Option<Piece> {
+fn clipped_piece(c: [Vec4; 3], near: bool, n: f32, bias: (f32, f32)) -> Option<Piece> {
     let mut v = c.to_vec();
     for plane in [
         Vec4::new(-1.0, 0.0, 0.0, GUARD),
@@ -159,7 +165,7 @@ fn clipped_piece(c: [Vec4; 3], near: bool, n: f32) -> Option<Piece> {
         (e1.x * e2.y - e1.y * e2.x).abs()
     };
     let best = (1..p.len() - 1).fold(1, |b, i| if area(i) > area(b) { i } else { b });
-    Some(piece(p, [0, best, best + 1], near))
+    Some(piece(p, [0, best, best + 1], near, bias))
 }
 
 /// The inclusive texel range `[lo, hi]` of a bounding box, clamped to the map (empty when any
@@ -237,7 +243,7 @@ enum Pieces {
     Clipped(Vec<Piece>),
 }
 
-fn pieces(v: [Vec3; 3], view_proj: Mat4, n: f32, clip: bool) -> Pieces {
+fn pieces(v: [Vec3; 3], view_proj: Mat4, n: f32, clip: bool, bias: (f32, f32)) -> Pieces {
     let c = v.map(|p| view_proj * p.extend(1.0));
     let front = c.iter().all(|c| c.w > 0.0);
     let behind = c.iter().all(|c| c.w <= 0.0);
@@ -260,12 +266,12 @@ fn pieces(v: [Vec3; 3], view_proj: Mat4, n: f32, clip: bool) -> Pieces {
         if !p.iter().all(|q| q.is_finite()) {
             return Pieces::Skipped { may_cast: true };
         }
-        return Pieces::Whole(piece(p, [0, 1, 2], false));
+        return Pieces::Whole(piece(p, [0, 1, 2], false, bias));
     }
     Pieces::Clipped(
         [false, true]
             .into_iter()
-            .filter_map(|near| clipped_piece(c, near, n))
+            .filter_map(|near| clipped_piece(c, near, n, bias))
             .collect(),
     )
 }
@@ -286,6 +292,31 @@ pub fn rasterize(
     small: u32,
     clip: bool,
 ) -> ConservativeDepth {
+    rasterize_biased(
+        positions,
+        indices,
+        view_proj,
+        n,
+        eps,
+        small,
+        clip,
+        (0.0, 0.0),
+    )
+}
+
+/// [`rasterize`] with every piece that has a plane moved back by `min(slope · max(|∂z/∂x|,
+/// |∂z/∂y|), clamp)` (gradients per texel; `clamp ≤ 0`: unclamped), `bias = (slope, clamp)`.
+#[allow(clippy::too_many_arguments)]
+pub fn rasterize_biased(
+    positions: &[Vec3],
+    indices: &[u32],
+    view_proj: Mat4,
+    n: u32,
+    eps: f32,
+    small: u32,
+    clip: bool,
+    bias: (f32, f32),
+) -> ConservativeDepth {
     let mut out = ConservativeDepth {
         depth: vec![1.0; n as usize * n as usize],
         triangles: 0,
@@ -299,7 +330,7 @@ pub fn rasterize(
     for tri in indices.chunks_exact(3) {
         out.triangles += 1;
         let v = [0, 1, 2].map(|k| positions[tri[k] as usize]);
-        let (list, whole) = match pieces(v, view_proj, n as f32, clip) {
+        let (list, whole) = match pieces(v, view_proj, n as f32, clip, bias) {
             Pieces::Behind { may_cast } => {
                 out.skipped += 1;
                 out.behind_light += 1;

@@ -102,8 +102,29 @@ pub struct RasterPush {
     pub map_size: u32,
     /// 0: per-triangle pass; 1: large-triangle pass.
     pub phase: u32,
+    /// [`RasterBias::slope`].
+    pub bias_slope: f32,
+    /// [`RasterBias::clamp`].
+    pub bias_clamp: f32,
     /// Padding.
-    pub pad: u32,
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+    /// Padding.
+    pub pad2: u32,
+}
+
+/// A slope-scaled depth bias for the conservative map: every piece with a plane is moved back by
+/// `min(slope · max(|∂z/∂x|, |∂z/∂y|), clamp)` (gradients per map texel; `clamp ≤ 0`: no
+/// clamp), as a rasterizer's slope-scaled bias would move it. The default, zero, is no bias.
+/// pvssm passes the bias of its finest page level, rescaled to the low-resolution map's
+/// texels, so that the map holds each caster no nearer than the pages will.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RasterBias {
+    /// Factor on the piece's largest depth gradient per map texel.
+    pub slope: f32,
+    /// Largest bias, where positive.
+    pub clamp: f32,
 }
 
 /// What a rasterization counted (the GPU's counters buffer, in this order, `u32` each).
@@ -327,6 +348,7 @@ impl ConservativeRaster {
         binding: &RasterBinding<'_>,
         light_view_proj: Mat4,
         clip: bool,
+        bias: RasterBias,
     ) -> Result<()> {
         rec.fill(&binding.depth, EMPTY_DEPTH_BITS);
         rec.fill(&binding.counters, 0);
@@ -335,7 +357,11 @@ impl ConservativeRaster {
             triangles: binding.triangles,
             map_size: binding.map_size,
             phase: 0,
-            pad: 0,
+            bias_slope: bias.slope,
+            bias_clamp: bias.clamp,
+            pad0: 0,
+            pad1: 0,
+            pad2: 0,
         };
         let (pipeline, set) = if clip {
             (&self.clip_pipeline, &binding.clip_set)
@@ -359,6 +385,7 @@ impl ConservativeRaster {
         light_view_proj: Mat4,
         map_size: u32,
         clip: bool,
+        bias: RasterBias,
     ) -> Result<(Vec<f32>, RasterCounters)> {
         if indices.len() % 3 != 0 || indices.iter().any(|&i| i as usize >= positions.len()) {
             return Err(param_error(
@@ -378,7 +405,7 @@ impl ConservativeRaster {
         let index_buffer = self.ctx.buffer_with("raster indices", usage, indices)?;
         let binding = self.bind(&vertices, &index_buffer, triangles, map_size, 0)?;
         self.ctx.submit(None, |rec| {
-            self.record(rec, &binding, light_view_proj, clip)
+            self.record(rec, &binding, light_view_proj, clip, bias)
         })?;
         let counters = binding.read_counters(&self.ctx)?;
         if counters.cut > 0 {

@@ -8,7 +8,9 @@ mod common;
 use std::collections::{BTreeMap, BTreeSet};
 
 use penumbra::cpu::page_raster::{rasterize_pages, PageRasterDesc};
-use penumbra::cpu::pages::{atlas_columns, cluster_level_mask, triangle_overlaps_page, PageLayout};
+use penumbra::cpu::pages::{
+    atlas_columns, cluster_level_mask, page_used_rect, triangle_overlaps_page, PageLayout,
+};
 use penumbra::gpu::f32s;
 use penumbra::{Engine, Frame, PreparedScene};
 
@@ -21,6 +23,8 @@ struct Pages {
     slots: Vec<[u32; 4]>,
     /// The walk's levels per cluster (cluster_levels.comp).
     cluster_masks: Vec<u32>,
+    /// The atlas texels some slot's used rectangle holds (the part of its page drawn).
+    used: Vec<bool>,
 }
 
 fn render(
@@ -35,7 +39,7 @@ fn render(
         knobs.insert(k.into(), v.into());
     }
     let (mut atlas, mut atlas_size, mut bins, mut slots) = (vec![], (0, 0), vec![], vec![]);
-    let mut cluster_masks = vec![];
+    let (mut cluster_masks, mut used) = (vec![], vec![]);
     let frame = engine
         .render_inspect(prepared, technique, &knobs, 1, |t| {
             let pages = t.virtual_pages().expect("pages");
@@ -45,19 +49,23 @@ fn render(
             bins = pages.read_bins()?;
             slots = pages.read_slots()?;
             cluster_masks = pages.read_cluster_masks()?;
-            // Only the allocated slots are this frame's: the compute raster clears and draws
-            // those alone (slot_clear.comp), and nothing reads the rest. Those read as empty
-            // here, as the twin's and the rasterizer's (which clears the whole atlas) do.
+            let bands = pages.read_slot_bands()?;
+            // Only the allocated slots are this frame's, and of each only its used rectangle
+            // (the bands its kernels read, pages.glsl): the compute raster clears those slots
+            // alone (slot_clear.comp), both rasters draw only the rectangles, and nothing reads
+            // the rest. Those texels read as empty here, as the twin's do (masked alike).
             let (page, cols) = (pages.desc().page_size, pages.desc().atlas_cols());
             let width = e.width as usize;
-            let mut mine = vec![false; atlas.len()];
-            for slot in 0..slots.len() as u32 {
+            used = vec![false; atlas.len()];
+            for (slot, &b) in bands.iter().enumerate() {
+                let slot = slot as u32;
+                let r = page_used_rect(b, page).map(|v| v as usize);
                 let (x0, y0) = ((slot % cols * page) as usize, (slot / cols * page) as usize);
-                for y in y0..y0 + page as usize {
-                    mine[y * width + x0..y * width + x0 + page as usize].fill(true);
+                for y in y0 + r[1]..=y0 + r[3] {
+                    used[y * width + x0 + r[0]..=y * width + x0 + r[2]].fill(true);
                 }
             }
-            for (z, &m) in atlas.iter_mut().zip(&mine) {
+            for (z, &m) in atlas.iter_mut().zip(&used) {
                 if !m {
                     *z = 1.0;
                 }
@@ -73,6 +81,7 @@ fn render(
         bins,
         slots,
         cluster_masks,
+        used,
     }
 }
 
@@ -170,7 +179,17 @@ fn compute_pages_match_their_twin() {
         pairs.len()
     );
     check_cluster_levels(&gpu, &prepared, &layout, &pairs);
-    let twin = rasterize_pages(&desc, m, &vertices, &prepared.indices, &pairs, &gpu.slots);
+    let mut twin = rasterize_pages(&desc, m, &vertices, &prepared.indices, &pairs, &gpu.slots);
+    // The twin draws whole pages; the GPU only each page's used rectangle (read alike).
+    for (z, &m) in twin.iter_mut().zip(&gpu.used) {
+        if !m {
+            *z = 1.0;
+        }
+    }
+    let used = gpu.used.iter().filter(|&&m| m).count();
+    let slot_texels = gpu.slots.len() * (page * page) as usize;
+    eprintln!("the used rectangles hold {used} of the slots' {slot_texels} texels");
+    assert!(used < slot_texels, "every page drawn whole");
     let covered = twin.iter().filter(|&&z| z < 1.0).count();
     // Depths within rounding; a texel centre within rounding of an edge may be covered on one
     // side only: at most 0.1 % of the covered texels.

@@ -65,6 +65,42 @@ uvec2 slot_cell(uint slot, uint atlas_cols) {
     return uvec2(slot - row * atlas_cols, row);
 }
 
+// A page's used part, as band masks: bit i of the low half is the i-th of 16 column bands of the
+// page (page_size / 16 texels wide, at least one), bit i of the high half the i-th row band. A
+// technique that knows which texels of a page its samples read (pvssm: each kernel's box) ORs in
+// the bands of each; the page then only has to hold the bounding rectangle of the bands set in
+// both halves (page_used_rect) — texels outside it are never read, so the page raster may leave
+// them. PAGE_BANDS_FULL (and a page no technique described: 0 on allocation) is the whole page.
+#define PAGE_BANDS_FULL 0xffffffffu
+
+// log2 of a band's width in texels.
+uint band_shift(uint page_size) {
+    return page_shift(page_size) > 4u ? page_shift(page_size) - 4u : 0u;
+}
+
+// The bands of the page-local texel box lo..hi (inclusive, clamped to the page here).
+uint box_bands(ivec2 lo, ivec2 hi, uint page_size) {
+    int last = int(page_size) - 1;
+    uvec2 a = uvec2(clamp(lo, ivec2(0), ivec2(last))) >> band_shift(page_size);
+    uvec2 b = uvec2(clamp(hi, ivec2(0), ivec2(last))) >> band_shift(page_size);
+    // Bits a..b of each half (b <= 15).
+    uvec2 bits = ((uvec2(2u) << b) - 1u) & ~((uvec2(1u) << a) - 1u);
+    return bits.x | (bits.y << 16u);
+}
+
+// The page-local texel rectangle (lo.xy, hi.xy inclusive) the bands describe: the whole page for
+// PAGE_BANDS_FULL or for no band in a half (a page nothing described).
+ivec4 page_used_rect(uint bands, uint page_size) {
+    uvec2 half_bits = uvec2(bands & 0xffffu, bands >> 16u);
+    if (any(equal(half_bits, uvec2(0u)))) {
+        return ivec4(0, 0, int(page_size) - 1, int(page_size) - 1);
+    }
+    uint s = band_shift(page_size);
+    ivec2 lo = ivec2(uvec2(findLSB(half_bits.x), findLSB(half_bits.y)) << s);
+    ivec2 hi = ivec2(((uvec2(findMSB(half_bits.x), findMSB(half_bits.y)) + 1u) << s) - 1u);
+    return ivec4(lo, min(hi, ivec2(int(page_size) - 1)));
+}
+
 // Atlas texel of level-l texel t on slot `slot`.
 ivec2 atlas_texel(uint slot, ivec2 t, uint page_size, uint atlas_cols) {
     uvec2 origin = slot_cell(slot, atlas_cols) * page_size;

@@ -40,10 +40,20 @@ void mark_ancestors(uint level, uvec2 page) {
     for (uint l = level + 1u; l < pc.levels; ++l) {
         page >>= 1u;
         uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, l, page);
+#ifdef ENTRY_BANDS
+        // A fallback reads an ancestor anywhere under its descendants: it is drawn whole, also
+        // where its own kernels asked for a part (whole ones go on to whole ancestors).
+        if (entry_bands[e] == PAGE_BANDS_FULL) {
+            break;
+        }
+        table[e] = 1u;
+        entry_bands[e] = PAGE_BANDS_FULL;
+#else
         if (table[e] != 0u) {
             break;
         }
         table[e] = 1u;
+#endif
     }
 }
 #endif

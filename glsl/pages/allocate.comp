@@ -18,6 +18,11 @@ layout(set = 0, binding = 2) readonly buffer Count { uint count; };
 layout(set = 0, binding = 3) writeonly buffer Slots { uvec4 slot_info[]; };
 layout(set = 0, binding = 4) buffer Levels { LevelInfo level_info[]; };
 layout(set = 0, binding = 5) buffer Counters { uint counters[]; };
+// The bands of each entry a technique described (pages.glsl; 0: none), and per slot the bands its
+// page is drawn over (the whole page where none were given, and for the refinement round, whose
+// marks carry none).
+layout(set = 0, binding = 6) readonly buffer EntryBands { uint entry_bands[]; };
+layout(set = 0, binding = 7) writeonly buffer SlotBands { uint slot_bands[]; };
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -45,6 +50,8 @@ void main() {
     }
     uint slot = first + i;
     table[entry] = slot + 1u;
+    uint bands = pc.round == 0u ? entry_bands[entry] : 0u;
+    slot_bands[slot] = bands == 0u ? PAGE_BANDS_FULL : bands;
     uint level = entry_level(pc.levels, entry);
     uint local = entry - level_offset(pc.levels, level);
     uint n_side = pages_per_side(pc.virtual_size, pc.page_size, level);

@@ -2,7 +2,7 @@
 // Ancestors only when the pool overflows (`VirtualPages` with `ancestors_on_overflow`, pvssm's
 // `ancestors = 2`): after the marked pages are compacted, if there are more of them than pool
 // slots, every listed page marks its coarser ancestors up to the root (or to the first one
-// already marked), and the table is compacted again — the marks `ancestors = 1` makes, so an
+// already marked as an ancestor), each drawn whole, and the table is compacted again — the marks `ancestors = 1` makes, so an
 // overflowing fine page falls back one level. Without an overflow no lookup falls back, so the
 // ancestors would be drawn for nothing (on grid:800000@rect they are a fifth of the frame).
 #extension GL_GOOGLE_include_directive : require
@@ -14,6 +14,9 @@ layout(local_size_x = 64) in;
 layout(set = 0, binding = 0) buffer Table { uint table[]; };
 layout(set = 0, binding = 1) readonly buffer List { uint list[]; };
 layout(set = 0, binding = 2) readonly buffer Count { uint count; };
+// The pages' described bands (pages.glsl): an ancestor is drawn whole, since a fallback may read
+// it anywhere under its descendants.
+layout(set = 0, binding = 3) buffer EntryBands { uint entry_bands[]; };
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -29,11 +32,12 @@ void main() {
     for (uint l = level + 1u; l < pc.levels; ++l) {
         page >>= 1u;
         uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, l, page);
-        // A marked one is a listed page (which marks its own ancestors) or an ancestor another
-        // invocation marked and goes on from.
-        if (table[e] != 0u) {
+        // A whole one is an ancestor another invocation marked and goes on from (a listed page
+        // that is an ancestor too is made whole here, whatever its own kernels read).
+        if (entry_bands[e] == PAGE_BANDS_FULL) {
             break;
         }
         table[e] = 1u;
+        entry_bands[e] = PAGE_BANDS_FULL;
     }
 }

@@ -21,11 +21,13 @@ layout(set = 0, binding = 3) readonly buffer Entries { uvec2 entries[]; };
 
 #ifdef LISTED
 layout(set = 0, binding = 4) readonly buffer LargeList { uint large_list[]; };
+// Per slot, the bands of its page to draw (allocate.comp; pages.glsl).
+layout(set = 0, binding = 5) readonly buffer SlotBands { uint slot_bands[]; };
+#else
+layout(set = 0, binding = 4) readonly buffer SlotBands { uint slot_bands[]; };
 #endif
 
-#ifndef SLOT_VIEWPORTS_DRAW
 out float gl_ClipDistance[4];
-#endif
 
 vec4 clip_vertex(uint i) {
     uint v = indices[i];
@@ -98,7 +100,21 @@ void main() {
     // set up and binned: most of the draw's time).
     gl_ViewportIndex = int(entry.y % SLOT_VIEWPORTS);
     float zoom = 2.0 / page_ndc;
-    gl_Position = vec4(clip.xy * zoom - clip.w * (page_lo * zoom + 1.0), clip.zw);
+    vec2 xy = clip.xy * zoom - clip.w * (page_lo * zoom + 1.0);
+    gl_Position = vec4(xy, clip.zw);
+    // The page's used rectangle in the viewport's NDC. A side on the page's edge is left to the
+    // scissor (a clip distance there would cut every triangle crossing it into a fan, each piece
+    // set up and binned on lavapipe); a side inside the page cuts the triangle, so that it fills
+    // only the texels some kernel reads — about a third of a page on teapot-rect.
+    ivec4 used = page_used_rect(slot_bands[entry.y], pc.page_size);
+    float to_ndc = 2.0 / float(pc.page_size);
+    vec2 used_lo = vec2(used.xy) * to_ndc - 1.0;
+    vec2 used_hi = vec2(used.zw + 1) * to_ndc - 1.0;
+    int last = int(pc.page_size) - 1;
+    gl_ClipDistance[0] = used.x > 0 ? xy.x - used_lo.x * clip.w : 1.0;
+    gl_ClipDistance[1] = used.z < last ? used_hi.x * clip.w - xy.x : 1.0;
+    gl_ClipDistance[2] = used.y > 0 ? xy.y - used_lo.y * clip.w : 1.0;
+    gl_ClipDistance[3] = used.w < last ? used_hi.y * clip.w - xy.y : 1.0;
 #else
     uint rows = (pc.pool_pages + pc.atlas_cols - 1u) / pc.atlas_cols;
     vec2 slot_ndc = 2.0 / vec2(pc.atlas_cols, rows);
@@ -106,10 +122,14 @@ void main() {
     vec2 scale = slot_ndc / page_ndc;
     vec2 xy = clip.xy * scale + clip.w * (slot_lo - page_lo * scale);
     gl_Position = vec4(xy, clip.zw);
-    vec2 slot_hi = slot_lo + slot_ndc;
-    gl_ClipDistance[0] = xy.x - slot_lo.x * clip.w;
-    gl_ClipDistance[1] = slot_hi.x * clip.w - xy.x;
-    gl_ClipDistance[2] = xy.y - slot_lo.y * clip.w;
-    gl_ClipDistance[3] = slot_hi.y * clip.w - xy.y;
+    // Cut to the slot's square, or to the part of it the page's used rectangle covers.
+    ivec4 used = page_used_rect(slot_bands[entry.y], pc.page_size);
+    vec2 texel_ndc = slot_ndc / float(pc.page_size);
+    vec2 used_lo = slot_lo + vec2(used.xy) * texel_ndc;
+    vec2 used_hi = slot_lo + vec2(used.zw + 1) * texel_ndc;
+    gl_ClipDistance[0] = xy.x - used_lo.x * clip.w;
+    gl_ClipDistance[1] = used_hi.x * clip.w - xy.x;
+    gl_ClipDistance[2] = xy.y - used_lo.y * clip.w;
+    gl_ClipDistance[3] = used_hi.y * clip.w - xy.y;
 #endif
 }

@@ -39,6 +39,9 @@ layout(set = 0, binding = 6) writeonly buffer LargeList { uint large_list[]; };
 // group for the draws that give each slot a viewport of its own (pages.rs).
 layout(set = 0, binding = 7) buffer GroupCount { uint group_count[]; };
 layout(set = 0, binding = 8) writeonly buffer LargeRank { uint large_rank[]; };
+// Per slot, the bands of its page to draw (allocate.comp; pages.glsl): texels outside their
+// rectangle are never read.
+layout(set = 0, binding = 9) readonly buffer SlotBands { uint slot_bands[]; };
 
 vec4 clip_vertex(uint i) {
     uint v = indices[i];
@@ -65,7 +68,10 @@ Entry load_entry(uint k) {
     int ps = int(pc.page_size);
     Entry en;
     en.lo = ivec2(info.yz) * ps;
-    ivec2 hi = en.lo + ps - 1;
+    // The triangle's texels are taken within the page's used rectangle only.
+    ivec4 used = page_used_rect(slot_bands[bin.y], pc.page_size);
+    ivec2 used_lo = en.lo + used.xy;
+    ivec2 hi = en.lo + used.zw;
     en.origin = ivec2(slot_cell(bin.y, pc.atlas_cols)) * ps;
     en.count = 0;
     float level_size = float(pc.virtual_size >> level);
@@ -86,10 +92,10 @@ Entry load_entry(uint k) {
     }
     vec3 s0 = level_position(poly[0], level_size);
     vec3 s2 = level_position(poly[2], level_size);
-    en.t0 = setup(s0, level_position(poly[1], level_size), s2, en.lo, hi, level);
+    en.t0 = setup(s0, level_position(poly[1], level_size), s2, used_lo, hi, level);
     en.count = 1;
     if (n == 4) {
-        en.t1 = setup(s0, s2, level_position(poly[3], level_size), en.lo, hi, level);
+        en.t1 = setup(s0, s2, level_position(poly[3], level_size), used_lo, hi, level);
         en.count = 2;
     }
     return en;

@@ -23,6 +23,8 @@ layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
 // shape.comp's undecided samples: (workgroups, 1, 1, count) and their pixels ((y << 16) | x).
 layout(set = 0, binding = 10) readonly buffer FilterArgs { uint filter_args[]; };
 layout(set = 0, binding = 11) readonly buffer FilterList { uint filter_list[]; };
+// Per slot, the bands of its page that were drawn (allocate.comp; pages.glsl).
+layout(set = 0, binding = 12) readonly buffer SlotBands { uint slot_bands[]; };
 
 #define INVOCATION_COUNTS COUNTERS
 #include "invocation_counts.glsl"
@@ -32,8 +34,10 @@ layout(set = 0, binding = 11) readonly buffer FilterList { uint filter_list[]; }
 // only `fixed_level` reaches this.
 const int MAX_SPAN = 256;
 
-// Whether every page under the kernel's box at `level` is resident (texels off the level need
-// none).
+// Whether every page under the kernel's box at `level` is resident with the box's part of it
+// drawn (texels off the level need none). A kernel's own pages hold its box (the shape pass
+// described it); a coarser page it falls back to may have been drawn over another kernel's part
+// only, and then the fallback goes on to a coarser one (the root is whole).
 bool kernel_covered(ivec4 box, uint level) {
     int size = int(pc.virtual_size >> level);
     ivec2 a = max(box.xy, ivec2(0));
@@ -41,12 +45,21 @@ bool kernel_covered(ivec4 box, uint level) {
     if (any(greaterThan(a, b))) {
         return true;
     }
-    ivec2 pa = a >> int(page_shift(pc.page_size));
-    ivec2 pb = b >> int(page_shift(pc.page_size));
+    int shift = int(page_shift(pc.page_size));
+    ivec2 pa = a >> shift;
+    ivec2 pb = b >> shift;
     for (int py = pa.y; py <= pb.y; ++py) {
         for (int px = pa.x; px <= pb.x; ++px) {
             uvec2 page = uvec2(px, py);
-            if (table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page)] == 0u) {
+            uint s = table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page)];
+            if (s == 0u) {
+                return false;
+            }
+            ivec2 origin = ivec2(page) << shift;
+            ivec4 used = page_used_rect(slot_bands[s - 1u], pc.page_size);
+            ivec2 lo = max(a - origin, ivec2(0));
+            ivec2 hi = min(b - origin, ivec2(int(pc.page_size) - 1));
+            if (any(lessThan(lo, used.xy)) || any(greaterThan(hi, used.zw))) {
                 return false;
             }
         }

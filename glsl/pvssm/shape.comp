@@ -15,6 +15,11 @@
 // CPU twins: src/cpu/pvssm_search.rs (the search), src/cpu/pvssm.rs (the kernel and the level).
 #extension GL_GOOGLE_include_directive : require
 #define TABLE_ACCESS
+// Per page-table entry, the bands of the page its kernels read (pages.glsl's box_bands; zeroed
+// by the host with the table): allocation keeps them per slot, and the page raster draws only
+// their rectangle — a page's kernels read about a third of it (teapot-rect).
+layout(set = 0, binding = 12) buffer EntryBands { uint entry_bands[]; };
+#define ENTRY_BANDS
 #include "pvssm.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -319,7 +324,13 @@ void request_pages(vec2 c, vec2 u_h, vec2 v_h, uint level) {
     for (int py = pa.y; py <= pb.y; ++py) {
         for (int px = pa.x; px <= pb.x; ++px) {
             uvec2 page = uvec2(px, py);
-            table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page)] = 1u;
+            uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page);
+            table[e] = 1u;
+            // The texels the filter reads here: the box and the texel of margin the page
+            // choice above takes, in the page's own coordinates.
+            ivec2 origin = ivec2(page) << shift;
+            atomicOr(entry_bands[e], box_bands(box.xy - 1 - origin, box.zw + 1 - origin,
+                                               pc.page_size));
             if ((pc.options & OPT_ANCESTORS) != 0u) {
                 mark_ancestors(level, page);
             }
@@ -337,6 +348,7 @@ void main() {
     uint fixed_plus1 = (pc.options >> OPT_FIXED_SHIFT) & 0xfu;
     if (pixel == ivec2(0)) {
         table[0] = 1u;
+        entry_bands[0] = PAGE_BANDS_FULL;
         filter_args[1] = 1u;
         filter_args[2] = 1u;
         // A fixed level is one whole map of that resolution: every page of it (the paper's
@@ -345,8 +357,10 @@ void main() {
             uint l = min(fixed_plus1 - 1u, pc.levels - 1u);
             uint n = pages_per_side(pc.virtual_size, pc.page_size, l);
             for (uint e = 0u; e < n * n; ++e) {
-                table[page_entry(pc.virtual_size, pc.page_size, pc.levels, l,
-                                 uvec2(e % n, e / n))] = 1u;
+                uint entry = page_entry(pc.virtual_size, pc.page_size, pc.levels, l,
+                                        uvec2(e % n, e / n));
+                table[entry] = 1u;
+                entry_bands[entry] = PAGE_BANDS_FULL;
             }
         }
     }

@@ -207,6 +207,45 @@ pub fn slot_origin(slot: u32, pool_pages: u32, page_size: u32) -> (u32, u32) {
     ((slot % cols) * page_size, (slot / cols) * page_size)
 }
 
+/// A page's bands drawn whole (`PAGE_BANDS_FULL` in `glsl/include/pages.glsl`).
+pub const PAGE_BANDS_FULL: u32 = u32::MAX;
+
+/// Band width in texels of a `page_size`² page: a sixteenth of its side, at least one texel.
+fn band_width(page_size: u32) -> u32 {
+    (page_size / 16).max(1)
+}
+
+/// The bands (bit i of the low half: column band i; of the high half: row band i) of the
+/// page-local texel box `lo..=hi`, clamped to the page — `box_bands` in
+/// `glsl/include/pages.glsl`, written plainly.
+pub fn box_bands(lo: [i64; 2], hi: [i64; 2], page_size: u32) -> u32 {
+    let last = i64::from(page_size) - 1;
+    let w = i64::from(band_width(page_size));
+    let mut halves = [0u32; 2];
+    for axis in 0..2 {
+        let a = lo[axis].clamp(0, last) / w;
+        let b = hi[axis].clamp(0, last) / w;
+        for band in a..=b {
+            halves[axis] |= 1 << band;
+        }
+    }
+    halves[0] | (halves[1] << 16)
+}
+
+/// The page-local texel rectangle `[x0, y0, x1, y1]` (inclusive) that a page's bands describe:
+/// from the first to the last band set in each half, the whole page where a half has none
+/// (nothing described) — `page_used_rect` in `glsl/include/pages.glsl`.
+pub fn page_used_rect(bands: u32, page_size: u32) -> [u32; 4] {
+    let halves = [bands & 0xffff, bands >> 16];
+    if halves.contains(&0) {
+        return [0, 0, page_size - 1, page_size - 1];
+    }
+    let w = band_width(page_size);
+    let first = halves.map(|h| h.trailing_zeros() * w);
+    let last = halves.map(|h| ((31 - h.leading_zeros() + 1) * w - 1).min(page_size - 1));
+    [first[0], first[1], last[0], last[1]]
+}
+
 /// The spec's caster-culling test: whether a triangle with light clip-space vertices `clip` may
 /// cover a texel centre of page `(level, px, py)` (conservative where a vertex lies behind the
 /// light): its box and the page's rectangle, both widened by 1/64 of the level's texel, overlap,
@@ -369,6 +408,47 @@ mod tests {
     /// Light clip-space vertex at level-0 texel `(x, y)` of a `v`² map, depth 0.5, w = 1.
     fn clip_at(x: f32, y: f32, v: f32) -> Vec4 {
         Vec4::new(x / v * 2.0 - 1.0, y / v * 2.0 - 1.0, 0.5, 1.0)
+    }
+
+    #[test]
+    fn bands_cover_their_boxes_and_nothing_past_a_band() {
+        // 64² pages: bands of 4 texels.
+        let b = box_bands([5, 17], [9, 17], 64);
+        assert_eq!(b & 0xffff, 0b110);
+        assert_eq!(b >> 16, 1 << 4);
+        assert_eq!(page_used_rect(b, 64), [4, 16, 11, 19]);
+        // Clamped to the page; two boxes' bands give their bounding rectangle.
+        let both = box_bands([-3, -9], [2, 1], 64) | box_bands([60, 62], [70, 99], 64);
+        assert_eq!(page_used_rect(both, 64), [0, 0, 63, 63]);
+        // Nothing described, or everything: the whole page; 16² pages: one-texel bands.
+        assert_eq!(page_used_rect(0, 64), [0, 0, 63, 63]);
+        assert_eq!(page_used_rect(PAGE_BANDS_FULL, 128), [0, 0, 127, 127]);
+        assert_eq!(
+            page_used_rect(box_bands([3, 7], [3, 8], 16), 16),
+            [3, 7, 3, 8]
+        );
+        // Every box lies inside the rectangle of its own bands, for random boxes and sizes.
+        let mut rng = crate::cpu::test_support::Rng(7);
+        // A value in 0..n.
+        let mut below = |n: u32| (((rng.next() + 1.0) * 0.5 * n as f32) as u32).min(n - 1);
+        for _ in 0..2000 {
+            let page = [16u32, 32, 64, 256][below(4) as usize];
+            let p = i64::from(page);
+            let lo = [i64::from(below(page)), i64::from(below(page))];
+            let hi = [
+                lo[0] + i64::from(below(page)),
+                lo[1] + i64::from(below(page)),
+            ];
+            let r = page_used_rect(box_bands(lo, hi, page), page);
+            for axis in 0..2 {
+                assert!(i64::from(r[axis]) <= lo[axis]);
+                assert!(i64::from(r[axis + 2]) >= hi[axis].min(p - 1));
+                // Never more than a band past the box.
+                let w = i64::from(band_width(page));
+                assert!(lo[axis] - i64::from(r[axis]) < w);
+                assert!(i64::from(r[axis + 2]) - hi[axis].min(p - 1) < w);
+            }
+        }
     }
 
     #[test]

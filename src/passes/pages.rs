@@ -272,10 +272,8 @@ impl PagesDesc {
             });
         }
         // Both rasters draw through page_depth.glsl (compute leaves its large triangles to it),
-        // clipped to each slot by clip distances unless the viewport draw takes them.
-        if self.raster == PageRaster::Compute && self.viewport_draw(ctx) {
-            return Ok(());
-        }
+        // which cuts each triangle to its page's used rectangle by clip distances (and, without
+        // the viewport draw, to its slot).
         ctx.require(ctx.info().clip_distance, "shaderClipDistance")
     }
 
@@ -299,6 +297,14 @@ pub struct VirtualPages<'a> {
     /// One `u32` per page: nonzero = marked for the refinement round (only pages not resident
     /// after round 0; the technique writes 1), see [`VirtualPages::record_refine`].
     pub refine_flags: Buffer,
+    /// One `u32` per page: the bands of the page its samples read (`glsl/include/pages.glsl`'s
+    /// `box_bands`, OR-ed in by a technique that knows them: pvssm's shape pass), cleared with
+    /// the table; 0 (none described) draws the whole page. The page raster draws only the
+    /// bands' bounding rectangle of each page.
+    pub entry_bands: Buffer,
+    /// One `u32` per slot: the bands its page was drawn over (`PAGE_BANDS_FULL`: all of it),
+    /// which a lookup must stay within (pvssm's filter checks them before reading a page).
+    pub slot_bands: Buffer,
     /// The depth atlas: `pool_pages` slots of `page_size`² texels, row by row.
     pub atlas: Image,
     /// Nearest sampler for texel fetches from the atlas.
@@ -498,6 +504,8 @@ impl<'a> VirtualPages<'a> {
         let compact = Compact::new(ctx)?;
         let compact_binding = compact.bind(&table, &list, &count, entries)?;
         let refine_flags = storage("page refine flags", 4 * u64::from(entries))?;
+        let entry_bands = storage("page entry bands", 4 * u64::from(entries))?;
+        let slot_bands = storage("page slot bands", 4 * u64::from(pool))?;
         let refine_list = storage("page refine list", 4 * u64::from(entries))?;
         let refine_count = storage("page refine count", 4)?;
         let refine_compact_binding =
@@ -518,6 +526,8 @@ impl<'a> VirtualPages<'a> {
                 Binding::Buffer(&slot_info),
                 Binding::Buffer(&level_info),
                 Binding::Buffer(&counters),
+                Binding::Buffer(&entry_bands),
+                Binding::Buffer(&slot_bands),
             ],
         )?;
         let refine_allocate = DescriptorSet::new(
@@ -530,6 +540,8 @@ impl<'a> VirtualPages<'a> {
                 Binding::Buffer(&slot_info),
                 Binding::Buffer(&level_info),
                 Binding::Buffer(&counters),
+                Binding::Buffer(&entry_bands),
+                Binding::Buffer(&slot_bands),
             ],
         )?;
         let ancestors = if desc.ancestors_on_overflow {
@@ -539,6 +551,7 @@ impl<'a> VirtualPages<'a> {
                     Binding::Buffer(&table),
                     Binding::Buffer(&list),
                     Binding::Buffer(&count),
+                    Binding::Buffer(&entry_bands),
                 ],
             )?)
         } else {
@@ -613,6 +626,7 @@ impl<'a> VirtualPages<'a> {
                         Binding::Buffer(&geometry.indices),
                         Binding::Buffer(&slot_info),
                         Binding::Buffer(&bins),
+                        Binding::Buffer(&slot_bands),
                     ],
                 )?;
                 (PageDrawer::Graphics(pipeline, set), Some(depth_bits))
@@ -634,6 +648,7 @@ impl<'a> VirtualPages<'a> {
                         Binding::Buffer(&large_list),
                         Binding::Buffer(&group_count),
                         Binding::Buffer(&large_rank),
+                        Binding::Buffer(&slot_bands),
                     ],
                 )?;
                 let large = if desc.viewport_draw(ctx) {
@@ -690,6 +705,7 @@ impl<'a> VirtualPages<'a> {
                             Binding::Buffer(&slot_info),
                             Binding::Buffer(&bins),
                             Binding::Buffer(&grouped_list),
+                            Binding::Buffer(&slot_bands),
                         ],
                     )?;
                     LargeDraw::Viewports(Box::new(GroupedDraw {
@@ -719,6 +735,7 @@ impl<'a> VirtualPages<'a> {
                             Binding::Buffer(&slot_info),
                             Binding::Buffer(&bins),
                             Binding::Buffer(&large_list),
+                            Binding::Buffer(&slot_bands),
                         ],
                     )?;
                     LargeDraw::Clipped(listed, listed_set)
@@ -762,6 +779,8 @@ impl<'a> VirtualPages<'a> {
             push,
             table,
             refine_flags,
+            entry_bands,
+            slot_bands,
             atlas,
             sampler,
             list,
@@ -811,6 +830,7 @@ impl<'a> VirtualPages<'a> {
     pub fn record_clear(&self, rec: &mut Recorder<'_>) {
         rec.fill(&self.table, 0);
         rec.fill(&self.refine_flags, 0);
+        rec.fill(&self.entry_bands, 0);
     }
 
     /// Records compaction, allocation, culling and rendering of the marked pages, each as its
@@ -1132,6 +1152,15 @@ impl<'a> VirtualPages<'a> {
         let total: u64 = counts.iter().map(|&c| u64::from(c)).sum();
         let n = total.min(u64::from(self.push.capacity)) as usize;
         Ok(pairs(0..n))
+    }
+
+    /// The bands each allocated slot (both rounds) was drawn over after the last frame, in slot
+    /// order (`glsl/include/pages.glsl`): for tests.
+    pub fn read_slot_bands(&self) -> Result<Vec<u32>> {
+        let slots = self.read_slots()?.len();
+        let mut bands = crate::gpu::u32s(&self.ctx.read_buffer(&self.slot_bands)?);
+        bands.truncate(slots);
+        Ok(bands)
     }
 
     /// (level, page x, page y, entry) of each allocated slot (both rounds) after the last

@@ -409,6 +409,7 @@ impl<'a> Pvssm<'a> {
                 Binding::Buffer(lowres.counters()),
                 Binding::Buffer(&filter_args),
                 Binding::Buffer(&filter_list),
+                Binding::Buffer(&pages.entry_bands),
             ],
         )?;
         let filter_pipeline = Pipeline::compute(ctx, "pvssm/filter.comp")?;
@@ -426,6 +427,7 @@ impl<'a> Pvssm<'a> {
                 Binding::Buffer(&counters),
                 Binding::Buffer(&filter_args),
                 Binding::Buffer(&filter_list),
+                Binding::Buffer(&pages.slot_bands),
             ],
         )?;
         let mut options = 0;

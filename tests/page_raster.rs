@@ -9,7 +9,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use penumbra::cpu::page_raster::{rasterize_pages, PageRasterDesc};
 use penumbra::cpu::pages::{
-    atlas_columns, cluster_level_mask, page_used_rect, triangle_overlaps_page, PageLayout,
+    atlas_columns, cluster_level_mask, page_used_rect, triangle_overlaps_page_part, PageLayout,
 };
 use penumbra::gpu::f32s;
 use penumbra::{Engine, Frame, PreparedScene};
@@ -25,6 +25,8 @@ struct Pages {
     cluster_masks: Vec<u32>,
     /// The atlas texels some slot's used rectangle holds (the part of its page drawn).
     used: Vec<bool>,
+    /// Each slot's bands (`glsl/include/pages.glsl`): the part of its page drawn.
+    bands: Vec<u32>,
 }
 
 fn render(
@@ -39,7 +41,7 @@ fn render(
         knobs.insert(k.into(), v.into());
     }
     let (mut atlas, mut atlas_size, mut bins, mut slots) = (vec![], (0, 0), vec![], vec![]);
-    let (mut cluster_masks, mut used) = (vec![], vec![]);
+    let (mut cluster_masks, mut used, mut bands) = (vec![], vec![], vec![]);
     let frame = engine
         .render_inspect(prepared, technique, &knobs, 1, |t| {
             let pages = t.virtual_pages().expect("pages");
@@ -49,7 +51,7 @@ fn render(
             bins = pages.read_bins()?;
             slots = pages.read_slots()?;
             cluster_masks = pages.read_cluster_masks()?;
-            let bands = pages.read_slot_bands()?;
+            bands = pages.read_slot_bands()?;
             // Only the allocated slots are this frame's, and of each only its used rectangle
             // (the bands its kernels read, pages.glsl): the compute raster clears those slots
             // alone (slot_clear.comp), both rasters draw only the rectangles, and nothing reads
@@ -82,6 +84,7 @@ fn render(
         slots,
         cluster_masks,
         used,
+        bands,
     }
 }
 
@@ -150,7 +153,8 @@ fn compute_pages_match_their_twin() {
     for (tri, t) in prepared.indices.chunks_exact(3).enumerate() {
         let clip = [0, 1, 2].map(|k| m * prepared.positions[t[k] as usize].extend(1.0));
         for (slot, info) in gpu.slots.iter().enumerate() {
-            if triangle_overlaps_page(clip, &layout, info[0], info[1], info[2]) {
+            let page = [info[0], info[1], info[2]];
+            if triangle_overlaps_page_part(clip, &layout, page, gpu.bands[slot]) {
                 pairs.push((tri as u32, slot as u32));
             }
         }

@@ -54,6 +54,9 @@ layout(set = 0, binding = 10) buffer Atlas { uint atlas_bits[]; };
 // into (cluster_levels.comp), read once a workgroup, so the level loop stays the same for every
 // lane and skips the levels none of them can reach.
 layout(set = 0, binding = 11) readonly buffer ClusterMask { uint cluster_mask[]; };
+// Per slot, the bands of its page to draw (allocate.comp; pages.glsl): a triangle is binned into
+// a page only where it reaches the page's used rectangle.
+layout(set = 0, binding = 12) readonly buffer SlotBands { uint slot_bands[]; };
 
 #include "page_bias.glsl"
 #include "page_cover.glsl"
@@ -229,6 +232,14 @@ bool cover_here(Projected t, uint slot, uint level, ivec2 page) {
     return true;
 }
 
+// The used rectangle of slot `slot`'s page (level-0 texels, lo.xy and hi.xy) whose corner is
+// `page_lo`, at a level of `texel` level-0 texels a texel: the page itself unless its bands
+// describe a part (pages.glsl), where the walk bins only the triangles reaching that part.
+vec4 used_rect(uint slot, vec2 page_lo, float texel) {
+    vec4 used = vec4(page_used_rect(slot_bands[slot], pc.page_size));
+    return vec4(page_lo + used.xy * texel, page_lo + (used.zw + 1.0) * texel);
+}
+
 // Slot + 1 of page `page` of `level` if it is resident and of this round, else 0.
 uint resident_slot(uint level, ivec2 page, uint first_slot) {
     uint s = table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level, uvec2(page))];
@@ -286,7 +297,13 @@ uint walk(uint tri, Projected t, uint what) {
                     // find, for less); a box within a page past the level's edge touches none.
                     if (all(greaterThanEqual(lo, ivec2(0))) && all(lessThanEqual(lo, ivec2(last)))) {
                         uint s = resident_slot(level, lo, first_slot);
-                        if (s != 0u) {
+                        // (A page drawn over a part only: the triangle against that part.)
+                        bool part = s != 0u && slot_bands[s - 1u] != PAGE_BANDS_FULL;
+                        vec4 used = part ? used_rect(s - 1u, vec2(lo) * texels,
+                                                     float(1u << level))
+                                         : vec4(0.0);
+                        if (s != 0u && (!part || overlaps(t.p0, t.p1, t.p2, t.area,
+                                                          used.xy - eps, used.zw + eps))) {
                             if (cover_here(t, s - 1u, level, lo)) {
                                 covered += 1u;
                             } else {
@@ -302,10 +319,13 @@ uint walk(uint tri, Projected t, uint what) {
                     for (int py = lo.y; py <= hi.y; ++py) {
                         for (int px = lo.x; px <= hi.x; ++px) {
                             uint s = resident_slot(level, ivec2(px, py), first_slot);
-                            vec2 rlo = vec2(px, py) * texels;
-                            if (s != 0u && overlaps(t.p0, t.p1, t.p2, t.area, rlo - eps,
-                                                    rlo + texels + eps)) {
-                                visit(tri, s - 1u, what, binned);
+                            if (s != 0u) {
+                                vec4 used = used_rect(s - 1u, vec2(px, py) * texels,
+                                                      float(1u << level));
+                                if (overlaps(t.p0, t.p1, t.p2, t.area, used.xy - eps,
+                                             used.zw + eps)) {
+                                    visit(tri, s - 1u, what, binned);
+                                }
                             }
                         }
                     }

@@ -258,6 +258,18 @@ pub fn triangle_overlaps_page(
     px: u32,
     py: u32,
 ) -> bool {
+    triangle_overlaps_page_part(clip, layout, [level, px, py], PAGE_BANDS_FULL)
+}
+
+/// [`triangle_overlaps_page`] against the part of the page its `bands` describe
+/// ([`page_used_rect`]; the whole page where a vertex lies behind the light): the walk bins a
+/// triangle into a page drawn over a part only where it reaches that part.
+pub fn triangle_overlaps_page_part(
+    clip: [Vec4; 3],
+    layout: &PageLayout,
+    [level, px, py]: [u32; 3],
+    bands: u32,
+) -> bool {
     // Wholly in front of the near or behind the far plane: the rasterizer clips it away.
     if clip.iter().all(|v| v.z < 0.0) || clip.iter().all(|v| v.z > v.w) {
         return false;
@@ -282,7 +294,19 @@ pub fn triangle_overlaps_page(
             None => return true,
         }
     }
-    let eps = 2f32.powi(level as i32) / 64.0;
+    let texel = 2f32.powi(level as i32);
+    let eps = texel / 64.0;
+    let (x0, y0, x1, y1) = if bands == PAGE_BANDS_FULL {
+        (x0, y0, x1, y1)
+    } else {
+        let r = page_used_rect(bands, layout.page_size).map(|v| v as f32);
+        (
+            x0 + r[0] * texel,
+            y0 + r[1] * texel,
+            x0 + (r[2] + 1.0) * texel,
+            y0 + (r[3] + 1.0) * texel,
+        )
+    };
     let (r0, r1) = (Vec2::new(x0 - eps, y0 - eps), Vec2::new(x1 + eps, y1 + eps));
     let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
     if hi.x < r0.x || lo.x > r1.x || hi.y < r0.y || lo.y > r1.y {

@@ -588,6 +588,7 @@ impl<'a> VirtualPages<'a> {
                 Binding::Buffer(&bin_memo),
                 Binding::Buffer(&depth_bits),
                 Binding::Buffer(&cluster_mask),
+                Binding::Buffer(&slot_bands),
             ],
         )?;
         let draw_args = with_set(

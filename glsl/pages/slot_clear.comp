@@ -1,6 +1,6 @@
 #version 460
 // Clears the compute page raster's depths (the float bits of 1.0) in this round's allocated
-// slots only, one workgroup a slot, before the culling walk draws into them: round 0's slots
+// slots only — each over its page's used rectangle — one workgroup a slot, before the culling walk draws into them: round 0's slots
 // [0, allocated), round 1's after them. The rest of the atlas is never read this frame (the
 // filter and the lookups read resident pages only, the rasterizer's listed draw writes allocated
 // slots only), so a fill of the whole pool (16 MiB at the defaults; 1.7-2.0 ms as a pass of its
@@ -17,23 +17,31 @@ layout(local_size_x = 64) in;
 // The atlas's depths, four texels a word (a page row is page_size >= 16 texels, a multiple of 4).
 layout(set = 0, binding = 0) writeonly buffer Depths { uvec4 depth4[]; };
 layout(set = 0, binding = 1) readonly buffer Counters { uint counters[]; };
+// Per slot, the bands of its page drawn (allocate.comp; pages.glsl): only their rectangle is
+// cleared (the quads holding it), since nothing reads the rest of the slot.
+layout(set = 0, binding = 2) readonly buffer SlotBands { uint slot_bands[]; };
 
 const uint EMPTY_DEPTH_BITS = 0x3F800000u;
 
 void main() {
     uint allocated = pc.round == 0u ? counters[C_ALLOCATED] : counters[C_ROUND1 + C_ALLOCATED];
-    uint row_quads = pc.page_size >> 2u;
-    uint row_shift = page_shift(pc.page_size) - 2u;
     uint width_quads = (pc.atlas_cols * pc.page_size) >> 2u;
     // Slot k of the round, k from the workgroup on by the dispatch's size (the host dispatches
     // one workgroup a pool slot, at most 65 535: a dispatch's guaranteed limit).
     for (uint k = gl_WorkGroupID.x; k < allocated; k += gl_NumWorkGroups.x) {
         uint slot = ROUND_FIRST_SLOT(pc.round) + k;
         uvec2 origin = slot_cell(slot, pc.atlas_cols) * pc.page_size;
-        uint first = origin.y * width_quads + (origin.x >> 2u);
-        for (uint q = gl_LocalInvocationID.x; q < pc.page_size * row_quads; q += 64u) {
-            depth4[first + (q >> row_shift) * width_quads + (q & (row_quads - 1u))] =
-                uvec4(EMPTY_DEPTH_BITS);
+        // The used rectangle's quads: columns qa.x..qb.x, rows qa.y..qb.y of the slot.
+        ivec4 used = page_used_rect(slot_bands[slot], pc.page_size);
+        uvec2 qa = uvec2(uint(used.x) >> 2u, used.y);
+        uvec2 qb = uvec2(uint(used.z) >> 2u, used.w);
+        uint cols = qb.x - qa.x + 1u;
+        uint first = (origin.y + qa.y) * width_quads + (origin.x >> 2u) + qa.x;
+        for (uint q = gl_LocalInvocationID.x; q < cols * (qb.y - qa.y + 1u); q += 64u) {
+            // (A float quotient, exact for these small counts: an integer division by a
+            // value the compiler cannot see is a scalar division per lane on lavapipe.)
+            uint row = uint(small_int((float(q) + 0.5) / float(cols)));
+            depth4[first + row * width_quads + (q - row * cols)] = uvec4(EMPTY_DEPTH_BITS);
         }
     }
 }

@@ -743,7 +743,11 @@ impl<'a> VirtualPages<'a> {
                 };
                 let clear = with_set(
                     "pages/slot_clear.comp",
-                    &[Binding::Buffer(&depth_bits), Binding::Buffer(&counters)],
+                    &[
+                        Binding::Buffer(&depth_bits),
+                        Binding::Buffer(&counters),
+                        Binding::Buffer(&slot_bands),
+                    ],
                 )?;
                 let drawer = ComputeDrawer {
                     pipeline,

@@ -114,7 +114,12 @@ pub const COUNTER_NAMES: [&str; 13] = [
     "kernel_lit",
 ];
 
-const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(16384.0);
+// raster_split 1024: pvssm's pages are drawn over the part their kernels read (a third of a page
+// on teapot-rect), so a triangle's box there is small and the compute raster takes it for less
+// than the rasterizer's set-up and its cut at the part's edges — `pvssm-render` on bunny-rect
+// 44-48 -> 40 ms against 64 (tools/ab.py, two rounds; teapot-rect and `grid:800000@rect` the
+// same within the noise). rmsm draws whole pages and keeps 64.
+const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(16384.0, 1024.0);
 
 const KNOBS: [Knob; 25] = [
     Knob::int(

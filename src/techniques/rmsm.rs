@@ -61,7 +61,7 @@ pub const LOOKUP_COUNTER_NAMES: [&str; 9] = [
 /// Counter names of the edge pass, in the order of `glsl/rmsm/edges.comp`'s buffer.
 pub const EDGE_COUNTER_NAMES: [&str; 2] = ["edge_samples", "refine_requests"];
 
-const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(32768.0);
+const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(32768.0, 64.0);
 
 const KNOBS: [Knob; 15] = [
     PAGE_KNOBS[0],

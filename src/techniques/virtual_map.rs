@@ -10,9 +10,9 @@ use crate::gpu::{Buffer, Context};
 use crate::passes::pages::{PageRaster, PagesDesc};
 use crate::passes::DepthBias;
 
-/// `virtual_size` (with the technique's default), `page_size`, `pool_pages`, `bin_factor`,
-/// `page_raster`, `raster_split` and `cluster_skip`.
-pub const fn page_knobs(virtual_size: f64) -> [Knob; 8] {
+/// `virtual_size` and `raster_split` (with the technique's defaults), `page_size`, `pool_pages`,
+/// `bin_factor`, `page_raster`, `slot_viewports` and `cluster_skip`.
+pub const fn page_knobs(virtual_size: f64, raster_split: f64) -> [Knob; 8] {
     [
         Knob::int(
             "virtual_size",
@@ -57,7 +57,7 @@ pub const fn page_knobs(virtual_size: f64) -> [Knob; 8] {
             "raster_split",
             "page_raster = compute: triangles covering a box of more texels of a page go to the \
              rasterizer (page_size² or more: none)",
-            64.0,
+            raster_split,
             0.0,
             1_048_576.0,
         ),

@@ -437,12 +437,13 @@ fn larger_lights_need_fewer_pages() {
 /// The filter and the prediction against the twin (`src/cpu/pvssm.rs`), reading the GPU's own
 /// kernel shapes and pages: every filtered sample's V equals the twin's coverage filter over the
 /// same atlas texels at the level the twin finds served (1e-4; depth ties capped at 1 % of the
-/// samples), and its predicted level is the twin's from the same kernel (levels within rounding of
-/// a power of two excepted, same cap).
+/// samples), its predicted level is the twin's from the same kernel (levels within rounding of
+/// a power of two excepted, same cap), and its kernel's box lies inside the drawn part of every
+/// page it reads (the bands the shape pass marked; `pages.glsl`), none excepted.
 #[test]
 fn filter_and_prediction_match_cpu() {
     use glam::Vec2;
-    use penumbra::cpu::pages::{atlas_columns, PageLayout};
+    use penumbra::cpu::pages::{atlas_columns, page_used_rect, PageLayout};
     use penumbra::cpu::pvssm as twin;
     use penumbra::cpu::shadow_map::shadow_coord;
     let engine = common::engine();
@@ -461,10 +462,12 @@ fn filter_and_prediction_match_cpu() {
         set.insert(k.into(), v.into());
     }
     let (mut shape, mut table, mut atlas, mut atlas_width) = (vec![], vec![], vec![], 0u32);
+    let mut bands = vec![];
     let frame = engine
         .render_inspect(&prepared, "pvssm", &set, 1, |t| {
             let pages = t.virtual_pages().expect("pages");
             table = pages.read_table()?;
+            bands = pages.read_slot_bands()?;
             atlas = penumbra::gpu::f32s(&ctx.read_image(&pages.atlas)?);
             atlas_width = pages.atlas.extent().width;
             shape = common::read_named_buffer(&ctx, t, "shape")?;
@@ -486,6 +489,8 @@ fn filter_and_prediction_match_cpu() {
     };
     let width = prepared.view.width as usize;
     let (mut filtered, mut off_v, mut off_level) = (0usize, 0usize, 0usize);
+    // Kernel boxes reaching past the part of a served page that was drawn (its bands).
+    let (mut outside_drawn, mut partial_pages) = (0usize, 0usize);
     let mut worst = 0.0f32;
     for (k, px) in positions.iter().enumerate() {
         let s = &shape[4 * k..4 * k + 4];
@@ -540,6 +545,37 @@ fn filter_and_prediction_match_cpu() {
             }
             level += 1;
         }
+        // The served pages were drawn over the part the shape pass's bands describe, and the
+        // kernel's box lies inside it wherever it lies in the level: what the filter relies on
+        // when it reads them (texels outside that part are never drawn).
+        {
+            let sc = (1u32 << level) as f32;
+            let half = Vec2::new(u_h.x, u_h.y.abs() + v_h.y) / sc;
+            let centre = Vec2::new(c.x, c.y) / sc;
+            let (lo, hi) = ((centre - half).floor(), (centre + half).ceil() - 1.0);
+            let last = i64::from(v_size >> level) - 1;
+            let (lo, hi) = (
+                [(lo.x as i64).max(0), (lo.y as i64).max(0)],
+                [(hi.x as i64).min(last), (hi.y as i64).min(last)],
+            );
+            for py in lo[1].div_euclid(p)..=hi[1].div_euclid(p) {
+                for px in lo[0].div_euclid(p)..=hi[0].div_euclid(p) {
+                    let Some(s) = slot_of(level, px * p, py * p).filter(|&s| s != 0) else {
+                        continue;
+                    };
+                    let r = page_used_rect(bands[s as usize - 1], page).map(i64::from);
+                    partial_pages += usize::from(r != [0, 0, p - 1, p - 1]);
+                    let a = [lo[0].max(px * p) - px * p, lo[1].max(py * p) - py * p];
+                    let b = [
+                        hi[0].min(px * p + p - 1) - px * p,
+                        hi[1].min(py * p + p - 1) - py * p,
+                    ];
+                    if a[0] < r[0] || a[1] < r[1] || b[0] > r[2] || b[1] > r[3] {
+                        outside_drawn += 1;
+                    }
+                }
+            }
+        }
         let depth = |i: i64, j: i64| -> f32 {
             match slot_of(level, i, j) {
                 Some(s) if s != 0 => {
@@ -565,6 +601,17 @@ fn filter_and_prediction_match_cpu() {
          {off_level} predicted at another level"
     );
     assert!(filtered > 1000, "only {filtered} samples filtered");
+    eprintln!(
+        "{partial_pages} (sample, page) reads of pages drawn in part, {outside_drawn} past it"
+    );
+    assert!(
+        partial_pages > 1000,
+        "only {partial_pages} reads of pages drawn in part"
+    );
+    assert_eq!(
+        outside_drawn, 0,
+        "kernel boxes past their pages' drawn part"
+    );
     assert!(
         off_v * 100 <= filtered,
         "{off_v} of {filtered} samples off (max {worst})"

@@ -307,7 +307,7 @@ fn a_slope_bias_moves_every_piece_back_as_the_twin_does() {
             clip,
             (bias.slope, bias.clamp),
         );
-        let (mut moved, mut past_clamp) = (0, 0);
+        let mut moved = 0;
         for (i, (&b, &p)) in gpu.iter().zip(&plain).enumerate() {
             // (A covered texel pushed past the far plane reads 1.0, as an uncovered one.)
             assert!(
@@ -316,18 +316,16 @@ fn a_slope_bias_moves_every_piece_back_as_the_twin_does() {
             );
             assert!(b >= p, "{what}: texel {i} moved nearer ({p} -> {b})");
             if bias.clamp > 0.0 {
-                // Past the clamp only by the rounding of a steep plane's evaluation, which the
-                // bias changes: rarely, and never by as much as the clamp itself.
-                assert!(b <= p + 2.0 * bias.clamp, "{what}: texel {i} {p} -> {b}");
-                past_clamp += usize::from(b > p + bias.clamp + DEPTH_TOL);
+                // No further than the clamp, but for the rounding of the plane's evaluation,
+                // which the bias's term changes (measured up to 1.1e-6 on lavapipe).
+                assert!(
+                    b <= p + bias.clamp + 4.0 * DEPTH_TOL,
+                    "{what}: texel {i} moved {} past the clamp ({p} -> {b})",
+                    b - p - bias.clamp
+                );
             }
             moved += usize::from(b > p);
         }
-        eprintln!("{what}: {moved} moved, {past_clamp} past the clamp");
-        assert!(
-            past_clamp * 100 <= moved,
-            "{what}: {past_clamp} of {moved} past the clamp"
-        );
         assert!(moved > 1000, "{what}: only {moved} texels moved");
     }
     // One triangle, depth 0.25 + 0.001 x + 0.003 y per texel (largest gradient 0.003): every

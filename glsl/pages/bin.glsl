@@ -232,12 +232,14 @@ bool cover_here(Projected t, uint slot, uint level, ivec2 page) {
     return true;
 }
 
-// The used rectangle of slot `slot`'s page (level-0 texels, lo.xy and hi.xy) whose corner is
-// `page_lo`, at a level of `texel` level-0 texels a texel: the page itself unless its bands
-// describe a part (pages.glsl), where the walk bins only the triangles reaching that part.
-vec4 used_rect(uint slot, vec2 page_lo, float texel) {
+// Whether the triangle overlaps the used rectangle of slot `slot`'s page, whose corner is
+// `page_lo` (level-0 texels), at a level of `texel` level-0 texels a texel, the rectangle
+// widened by `eps`: the page itself unless its bands describe a part (pages.glsl), where the
+// walk bins only the triangles reaching that part.
+bool overlaps_used(Projected t, uint slot, vec2 page_lo, float texel, float eps) {
     vec4 used = vec4(page_used_rect(slot_bands[slot], pc.page_size));
-    return vec4(page_lo + used.xy * texel, page_lo + (used.zw + 1.0) * texel);
+    return overlaps(t.p0, t.p1, t.p2, t.area, page_lo + used.xy * texel - eps,
+                    page_lo + (used.zw + 1.0) * texel + eps);
 }
 
 // Slot + 1 of page `page` of `level` if it is resident and of this round, else 0.
@@ -298,12 +300,9 @@ uint walk(uint tri, Projected t, uint what) {
                     if (all(greaterThanEqual(lo, ivec2(0))) && all(lessThanEqual(lo, ivec2(last)))) {
                         uint s = resident_slot(level, lo, first_slot);
                         // (A page drawn over a part only: the triangle against that part.)
-                        bool part = s != 0u && slot_bands[s - 1u] != PAGE_BANDS_FULL;
-                        vec4 used = part ? used_rect(s - 1u, vec2(lo) * texels,
-                                                     float(1u << level))
-                                         : vec4(0.0);
-                        if (s != 0u && (!part || overlaps(t.p0, t.p1, t.p2, t.area,
-                                                          used.xy - eps, used.zw + eps))) {
+                        if (s != 0u && (slot_bands[s - 1u] == PAGE_BANDS_FULL
+                                        || overlaps_used(t, s - 1u, vec2(lo) * texels,
+                                                         float(1u << level), eps))) {
                             if (cover_here(t, s - 1u, level, lo)) {
                                 covered += 1u;
                             } else {
@@ -319,13 +318,9 @@ uint walk(uint tri, Projected t, uint what) {
                     for (int py = lo.y; py <= hi.y; ++py) {
                         for (int px = lo.x; px <= hi.x; ++px) {
                             uint s = resident_slot(level, ivec2(px, py), first_slot);
-                            if (s != 0u) {
-                                vec4 used = used_rect(s - 1u, vec2(px, py) * texels,
-                                                      float(1u << level));
-                                if (overlaps(t.p0, t.p1, t.p2, t.area, used.xy - eps,
-                                             used.zw + eps)) {
-                                    visit(tri, s - 1u, what, binned);
-                                }
+                            if (s != 0u && overlaps_used(t, s - 1u, vec2(px, py) * texels,
+                                                         float(1u << level), eps)) {
+                                visit(tri, s - 1u, what, binned);
                             }
                         }
                     }

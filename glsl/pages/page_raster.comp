@@ -32,7 +32,8 @@ layout(set = 0, binding = 4) buffer Atlas { uint atlas_bits[]; };
 // entries, [word 3, word 4) and [word 5, word 6) (draws.comp).
 // Words 8..11: the indirect draw of the listed entries (vertexCount = 3 per entry).
 layout(set = 0, binding = 5) buffer RasterArgs { uint raster_args[]; };
-// The entries left to the graphics pipeline (page_depth_listed.vert): bin entry indices.
+// The entries left to the graphics pipeline (page_depth_listed.vert, or grouped by slot for
+// page_depth_grouped.vert): bin entry indices.
 layout(set = 0, binding = 6) writeonly buffer LargeList { uint large_list[]; };
 // Per group of SLOT_VIEWPORTS slots, its listed entries (zeroed before the dispatch), and each
 // listed entry's rank in its group: slot_groups.comp and slot_scatter.comp order the list by

@@ -410,8 +410,9 @@ enum LargeDraw {
 
 /// The compute raster's listed entries ordered by group of [`SLOT_VIEWPORTS`] slots and drawn
 /// one indirect draw per group, each slot into its own viewport and scissor
-/// (`glsl/pages/page_depth_grouped.vert`): no clip distances, so a large triangle is not cut
-/// into a fan at its page's edges (on lavapipe each piece is a triangle set up and binned).
+/// (`glsl/pages/page_depth_grouped.vert`): the scissor, not clip distances, keeps a large
+/// triangle inside its page, so it is not cut into a fan at the page's edges (on lavapipe each
+/// piece is a triangle set up and binned) — only at the sides of a used part inside the page.
 struct GroupedDraw {
     /// `pages/slot_groups.comp`: the groups' first entries, draws and the scatter's dispatch.
     groups: (Pipeline, DescriptorSet),

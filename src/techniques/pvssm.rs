@@ -72,7 +72,8 @@
 //! `grid:800000@rect`), 0 never (an overflow falls back to the first coarser resident level, the
 //! root at worst)), `fixed_level` (-1:
 //! predicted; k: one whole map at level k for every kernel — level 0 of a 4096 virtual map is the
-//! paper's Table 2 baseline), `search_bias`, `tangent_plane`, `bin_factor`, and the depth bias of a
+//! paper's Table 2 baseline), `search_bias`, `lowres_bias` (the low-resolution map biased as the
+//! finest pages are; see `Pvssm::new`), `tangent_plane`, `bin_factor`, and the depth bias of a
 //! level-0 page.
 //!
 //! **Casters only.** The low-resolution map and the pages hold the triangles that may shadow some
@@ -121,7 +122,7 @@ pub const COUNTER_NAMES: [&str; 13] = [
 // same within the noise). rmsm draws whole pages and keeps 64.
 const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(16384.0, 1024.0);
 
-const KNOBS: [Knob; 25] = [
+const KNOBS: [Knob; 26] = [
     Knob::int(
         "lowres_size",
         "conservative low-resolution map for the blocker search, texels per side",
@@ -228,6 +229,14 @@ const KNOBS: [Knob; 25] = [
         0.01,
     )
     .real(),
+    Knob::int(
+        "lowres_bias",
+        "1: the low-resolution map holds each caster moved back by the slope-scaled depth bias of \
+         the finest page level, as the pages hold it; 0: unbiased (to measure the bias)",
+        1.0,
+        0.0,
+        1.0,
+    ),
     virtual_map::tangent_plane_knob(1.0),
     PAGE_KNOBS[3],
     PAGE_KNOBS[4],
@@ -497,11 +506,16 @@ impl<'a> Pvssm<'a> {
         // receiver's plane, and without the bias a steep caster (a facet seen at grazing
         // light) counted as a blocker of itself and its neighbours, which the filter, reading
         // biased pages, then found lit — teapot-rect's body asked for 442 of its 501 pages at
-        // the four finest levels. With it (lavapipe, `penumbra render SCENE --technique pvssm
-        // --compare-to reference`): teapot-rect 501 -> 463 pages, penumbra MAE 0.0141 ->
-        // 0.0128; bunny-rect 696 -> 682 pages, 0.0296 -> 0.0284. Kept only while it cannot
-        // exceed any page's: a negative factor (a bias toward the light) leaves it off.
-        let lowres_bias = if desc.bias.slope >= 0.0 && desc.bias.constant >= 0.0 {
+        // the four finest levels (`examples/pvssm_levels.rs` with `lowres_bias=0`). With it
+        // (lavapipe, `penumbra render SCENE --technique pvssm
+        // --compare-to reference --set lowres_bias=0|1`): teapot-rect 501 -> 463 pages,
+        // penumbra MAE 0.0141 -> 0.0128; bunny-rect 696 -> 682 pages, 0.0296 -> 0.0284. Kept
+        // only while it cannot exceed any page's: a negative factor (a bias toward the light)
+        // leaves it off.
+        let lowres_bias = if params.u32("lowres_bias")? == 1
+            && desc.bias.slope >= 0.0
+            && desc.bias.constant >= 0.0
+        {
             RasterBias {
                 slope: desc.bias.slope * lowres_size as f32 / virtual_size as f32,
                 clamp: desc.bias.clamp,

@@ -389,11 +389,16 @@ fn check_bins(engine: &Engine, prepared: &PreparedScene, drawer: &str) {
 fn bins_past_capacity_fall_back_to_coarser_pages() {
     let engine = common::engine();
     let prepared = prepare(&engine, "scenes/spot-point.toml");
-    // One bin entry per triangle: the root takes most of them, finer pages overflow.
+    // One bin entry per triangle (a pool of 256 slots keeps its floor of 8 a slot below the
+    // triangle count): the root takes most of them, finer pages overflow.
     let gpu = run(
         &engine,
         &prepared,
-        &[("virtual_size", "4096"), ("bin_factor", "1")],
+        &[
+            ("virtual_size", "4096"),
+            ("bin_factor", "1"),
+            ("pool_pages", "256"),
+        ],
     );
     let f = &gpu.frame;
     assert!(counter(f, "bin_overflow_pages") > 0, "no bin overflowed");

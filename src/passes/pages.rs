@@ -26,8 +26,9 @@
 //!    grid's 617k pairs, its cull + page render 85 → 70 ms on lavapipe. For the rasterizer the
 //!    count keeps each triangle's first two slots, and the scatter writes from them. A page
 //!    whose bins would run past the bin buffer's capacity (`bin_factor` entries per triangle or
-//!    per pool slot, whichever is more: a scene of a few large triangles puts most of them in
-//!    every page) is taken out of the page table, so
+//!    8 × `bin_factor` per pool slot, whichever is more: a scene of a few large triangles puts
+//!    most of them in every page, one of long thin ones crosses many pages with each) is taken
+//!    out of the page table, so
 //!    lookups fall back instead of reading a page with missing casters (`bin_overflow_pages`);
 //!    the root always fits;
 //! 4. **render** (`<name>-render`): the atlas is cleared and each level's bins are drawn with
@@ -158,8 +159,8 @@ pub struct PagesDesc {
     pub page_size: u32,
     /// Page slots in the atlas.
     pub pool_pages: u32,
-    /// Bin entries per scene triangle or per pool slot, whichever gives more (at least 1: the
-    /// root page may need every triangle).
+    /// Bin entries per scene triangle, or 8 times as many per pool slot, whichever gives more
+    /// (at least 1: the root page may need every triangle).
     pub bin_factor: u32,
     /// Depth bias of level 0 (constant and clamp double per level).
     pub bias: DepthBias,
@@ -377,6 +378,16 @@ enum PageDrawer {
     Compute(Box<ComputeDrawer>),
 }
 
+/// Bin entries per pool slot, in units of `bin_factor`, that the bins hold at least however few
+/// the triangles: `bin_factor` × 8 = 128 entries a slot at the defaults. Why: a full pool of pages
+/// crossed by long triangles holds many more pairs than triangles — `lattice@rect` (2 304
+/// triangles, bars the lattice's width long) binned 88.9k pairs into its 1 024 slots, 87 a
+/// slot (teapot-rect 41, bunny-rect 142) — and with entries for one pair per triangle or slot
+/// (16 × 2 304) the walk's appends ran out: 983 of the 1 024 pages were dropped and their lookups
+/// fell back to the root, a penumbra MAE of 0.41; with room for every pair, 0.051 (lavapipe,
+/// `penumbra render lattice@rect --technique pvssm --compare-to reference`).
+const SLOT_BIN_SHARE: u32 = 8;
+
 /// Invocations of a `slot_clear.comp` workgroup (one workgroup a slot).
 const SLOT_CLEAR_GROUP: u32 = 64;
 
@@ -438,7 +449,8 @@ impl<'a> VirtualPages<'a> {
     ) -> Result<Self> {
         desc.check(ctx, name)?;
         let triangles = geometry.index_count / 3;
-        let capacity = u64::from(desc.bin_factor) * u64::from(triangles.max(desc.pool_pages));
+        let capacity = u64::from(desc.bin_factor)
+            * u64::from(triangles).max(u64::from(SLOT_BIN_SHARE) * u64::from(desc.pool_pages));
         let max_entries = u64::from(ctx.info().max_storage_buffer_range) / 8;
         let capacity = capacity.min(max_entries).min(u64::from(u32::MAX / 3));
         if capacity < u64::from(triangles) {

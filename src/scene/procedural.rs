@@ -39,6 +39,12 @@ pub const LIST: &[(&str, &str)] = &[
          shadow maps (N = bar count, default 12, max 100000)",
     ),
     (
+        "lattice",
+        "flat lattice of N x N crossed thin bars parallel to the ground, seen from low down \
+         across its shadow: a pattern finer than the pixels toward the horizon (the PVSSM \
+         paper's Fig. 11 grid; N = bars per side, default 96, max 2000)",
+    ),
+    (
         "grazing-plane",
         "large plane lit about 85 degrees from its normal, one box occluder: the shadow-acne \
          stress case (takes no size)",
@@ -106,6 +112,10 @@ pub fn build(spec: &str) -> Result<Scene> {
         "thin-bars" => {
             let n = sized(12, 100_000)?;
             (Some(n), thin_bars(n, light))
+        }
+        "lattice" => {
+            let n = sized(96, 2000)?;
+            (Some(n), lattice(n, light))
         }
         "grazing-plane" => {
             if size.is_some() {
@@ -370,6 +380,43 @@ fn thin_bars(n: usize, kind: LightKind) -> Built {
         vec![ground(20.0, 1), bars.finish()],
         camera(Vec3::new(0.0, 8.0, 11.0), Vec3::new(0.0, 0.3, 0.5)),
         light(kind, Vec3::ZERO, Vec3::new(-0.35, 1.0, 0.25), 10.0, 0.5),
+        SceneDefaults {
+            shadow_map_size: 2048,
+            ..SceneDefaults::default()
+        },
+    )
+}
+
+/// The PVSSM paper's Fig. 11 setting: one large grid parallel to the floor, its shadow seen
+/// obliquely so that, toward the horizon, many lattice periods fall in one pixel — where
+/// screen-space supersampling aliases and a filter over the pixel's footprint does not. The
+/// camera looks along the lattice from below its height, so the ground under it is in view
+/// (and one smooth surface, as the anti-aliasing suite scores). The light is above the
+/// lattice's centre, so its shadow map's texels fall evenly on the ground.
+fn lattice(n: usize, kind: LightKind) -> Built {
+    const EXTENT: f32 = 24.0;
+    const HEIGHT: f32 = 2.0;
+    let period = EXTENT / n as f32;
+    let width = 0.35 * period;
+    let thickness = 0.25 * width;
+    let mut bars = MeshBuilder::new("lattice");
+    for k in 0..n {
+        let along = -0.5 * EXTENT + (k as f32 + 0.5) * period;
+        // The bars along z sit one thickness lower, so the crossings do not share a plane.
+        bars.push(
+            shapes::cuboid(Vec3::new(EXTENT, thickness, width)),
+            Mat4::from_translation(Vec3::new(0.0, HEIGHT, along - 0.5 * EXTENT + 6.0)),
+        );
+        bars.push(
+            shapes::cuboid(Vec3::new(width, thickness, EXTENT)),
+            Mat4::from_translation(Vec3::new(along, HEIGHT - thickness, 6.0 - 0.5 * EXTENT)),
+        );
+    }
+    let centre = Vec3::new(0.0, 0.0, 6.0 - 0.5 * EXTENT);
+    (
+        vec![ground(2.0 * EXTENT, 1), bars.finish()],
+        camera(Vec3::new(0.0, 1.2, 9.0), Vec3::new(0.0, 0.0, -8.0)),
+        light(kind, centre, Vec3::new(0.15, 1.0, 0.1), 16.0, 1.0),
         SceneDefaults {
             shadow_map_size: 2048,
             ..SceneDefaults::default()

@@ -37,8 +37,8 @@ pub const fn page_knobs(virtual_size: f64, raster_split: f64) -> [Knob; 8] {
         ),
         Knob::int(
             "bin_factor",
-            "caster bin entries per triangle or pool slot, whichever is more (pages past it fall \
-             back)",
+            "caster bin entries per triangle, or 8 times as many per pool slot, whichever is \
+             more (pages past it fall back)",
             16.0,
             1.0,
             1024.0,

@@ -382,7 +382,7 @@ enum PageDrawer {
 /// the triangles: `bin_factor` × 8 = 128 entries a slot at the defaults. Why: a full pool of pages
 /// crossed by long triangles holds many more pairs than triangles — `lattice@rect` (2 304
 /// triangles, bars the lattice's width long) binned 88.9k pairs into its 1 024 slots, 87 a
-/// slot (teapot-rect 41, bunny-rect 142) — and with entries for one pair per triangle or slot
+/// slot (teapot-rect 41, bunny-rect 142) — and with 16 entries a triangle or a slot
 /// (16 × 2 304) the walk's appends ran out: 983 of the 1 024 pages were dropped and their lookups
 /// fell back to the root, a penumbra MAE of 0.41; with room for every pair, 0.051 (lavapipe,
 /// `penumbra render lattice@rect --technique pvssm --compare-to reference`).

@@ -36,10 +36,29 @@ fn texel_point(x: f32, y: f32, z: f32, n: u32) -> Vec3 {
     Vec3::new(x / n as f32 * 2.0 - 1.0, y / n as f32 * 2.0 - 1.0, z)
 }
 
+/// The GPU's map and counters without a bias (every test but the bias's).
+fn unbiased(
+    raster: &ConservativeRaster,
+    positions: &[Vec3],
+    indices: &[u32],
+    view_proj: Mat4,
+    n: u32,
+    clip: bool,
+) -> penumbra::Result<(Vec<f32>, RasterCounters)> {
+    raster.run(
+        positions,
+        indices,
+        view_proj,
+        n,
+        clip,
+        RasterBias::default(),
+    )
+}
+
 /// Checks the GPU's map and counters against the twin: every texel's depth lies between the
 /// twin's at 2·EPS and at EPS/2 (coverage only grows and depths only fall with the epsilon), the
 /// skip counts match exactly, the covered-pair count lies in the same bracket. Writes a diff
-/// image on failure. `bias`: the twin's (slope, clamp), the GPU's [`RasterBias`].
+/// image on failure. `bias`: the GPU's, which the twin takes as its (slope, clamp).
 #[allow(clippy::too_many_arguments)]
 fn check_against_twin(
     what: &str,
@@ -49,7 +68,7 @@ fn check_against_twin(
     gpu: &[f32],
     counters: &RasterCounters,
     clip: bool,
-    bias: (f32, f32),
+    bias: RasterBias,
 ) -> ConservativeDepth {
     let twin_at = |eps: f32| {
         rasterize_biased(
@@ -60,7 +79,7 @@ fn check_against_twin(
             eps,
             SMALL_TEXELS,
             clip,
-            bias,
+            (bias.slope, bias.clamp),
         )
     };
     let tight = twin_at(EPS * 0.5);
@@ -189,9 +208,7 @@ fn random_triangles_match_the_twin_and_are_conservative() {
     let (positions, indices) = random_triangles(3000, 12345);
     let vp = perspective_light();
     for (n, clip) in [(128, true), (256, true), (128, false)] {
-        let (gpu, counters) = raster
-            .run(&positions, &indices, vp, n, clip, RasterBias::default())
-            .expect("run");
+        let (gpu, counters) = unbiased(&raster, &positions, &indices, vp, n, clip).expect("run");
         let what = format!("random-{n}-clip-{clip}");
         let twin = check_against_twin(
             &what,
@@ -201,7 +218,7 @@ fn random_triangles_match_the_twin_and_are_conservative() {
             &gpu,
             &counters,
             clip,
-            (0.0, 0.0),
+            RasterBias::default(),
         );
         // Some behind the light, some past the far plane; with the clip many clipped at the
         // light's or the near plane (drawn, not skipped), without it skipped.
@@ -226,12 +243,9 @@ fn random_triangles_match_the_twin_and_are_conservative() {
     // own texels) draws the same map and counts the same: bit for bit against the default one,
     // and within the twin's bracket.
     let lanes = ConservativeRaster::with_subgroup_count(&ctx, false).expect("pipeline");
-    let (gpu, counters) = raster
-        .run(&positions, &indices, vp, 256, false, RasterBias::default())
-        .expect("run");
-    let (lanes_gpu, lanes_counters) = lanes
-        .run(&positions, &indices, vp, 256, false, RasterBias::default())
-        .expect("run");
+    let (gpu, counters) = unbiased(&raster, &positions, &indices, vp, 256, false).expect("run");
+    let (lanes_gpu, lanes_counters) =
+        unbiased(&lanes, &positions, &indices, vp, 256, false).expect("run");
     assert_eq!(
         counters, lanes_counters,
         "the counters differ between the two shaders"
@@ -250,7 +264,7 @@ fn random_triangles_match_the_twin_and_are_conservative() {
         &lanes_gpu,
         &lanes_counters,
         false,
-        (0.0, 0.0),
+        RasterBias::default(),
     );
     common::assert_clean(&ctx.validation());
 }
@@ -305,7 +319,7 @@ fn a_slope_bias_moves_every_piece_back_as_the_twin_does() {
             &gpu,
             &counters,
             clip,
-            (bias.slope, bias.clamp),
+            bias,
         );
         let mut moved = 0;
         for (i, (&b, &p)) in gpu.iter().zip(&plain).enumerate() {
@@ -333,16 +347,7 @@ fn a_slope_bias_moves_every_piece_back_as_the_twin_does() {
     let ndc = |x: f32, y: f32| texel_point(x, y, 0.25 + 0.001 * x + 0.003 * y, n);
     let tri = [ndc(10.0, 10.0), ndc(90.0, 20.0), ndc(30.0, 100.0)];
     let slope = 4.0;
-    let (plain, _) = raster
-        .run(
-            &tri,
-            &[0, 1, 2],
-            Mat4::IDENTITY,
-            n,
-            false,
-            RasterBias::default(),
-        )
-        .expect("run");
+    let (plain, _) = unbiased(&raster, &tri, &[0, 1, 2], Mat4::IDENTITY, n, false).expect("run");
     let (biased, _) = raster
         .run(
             &tri,
@@ -377,16 +382,8 @@ fn a_scene_mesh_matches_the_twin_and_is_conservative() {
     let (positions, indices) = scene.merged();
     let light = penumbra::passes::LightView::fit(&scene.light, &scene.bounds()).expect("fit");
     for n in [128, 256] {
-        let (gpu, counters) = raster
-            .run(
-                &positions,
-                &indices,
-                light.view_proj,
-                n,
-                true,
-                RasterBias::default(),
-            )
-            .expect("run");
+        let (gpu, counters) =
+            unbiased(&raster, &positions, &indices, light.view_proj, n, true).expect("run");
         let what = format!("spot-point-{n}");
         check_against_twin(
             &what,
@@ -396,7 +393,7 @@ fn a_scene_mesh_matches_the_twin_and_is_conservative() {
             &gpu,
             &counters,
             true,
-            (0.0, 0.0),
+            RasterBias::default(),
         );
         assert_eq!(
             counters.behind_light, 0,
@@ -436,7 +433,7 @@ fn the_bound_api_rasterizes_scene_geometry() {
         &gpu,
         &counters,
         false,
-        (0.0, 0.0),
+        RasterBias::default(),
     );
     assert!(raster
         .bind(
@@ -468,16 +465,8 @@ fn a_sliver_marks_every_texel_it_crosses() {
         texel_point(c.x, c.y, z, n),
     ];
     let indices = [0, 1, 2];
-    let (gpu, counters) = raster
-        .run(
-            &positions,
-            &indices,
-            Mat4::IDENTITY,
-            n,
-            true,
-            RasterBias::default(),
-        )
-        .expect("run");
+    let (gpu, counters) =
+        unbiased(&raster, &positions, &indices, Mat4::IDENTITY, n, true).expect("run");
     let mut crossed = std::collections::BTreeSet::new();
     for s in 0..=200_000 {
         let p = a + (b - a) * (s as f32 / 200_000.0);
@@ -508,7 +497,7 @@ fn a_sliver_marks_every_texel_it_crosses() {
         &gpu,
         &counters,
         true,
-        (0.0, 0.0),
+        RasterBias::default(),
     );
     common::assert_clean(&ctx.validation());
 }
@@ -523,15 +512,7 @@ fn one_triangle_fills_a_1024_map_through_the_large_path() {
         Vec3::new(3.0, -1.0, 0.25),
         Vec3::new(-1.0, 3.0, 0.25),
     ];
-    let (gpu, counters) = raster
-        .run(
-            &positions,
-            &[0, 1, 2],
-            Mat4::IDENTITY,
-            n,
-            true,
-            RasterBias::default(),
-        )
+    let (gpu, counters) = unbiased(&raster, &positions, &[0, 1, 2], Mat4::IDENTITY, n, true)
         .expect("run (fails if the loop limiter cut it short)");
     let wrong = gpu.iter().filter(|&&d| d != 0.25).count();
     assert_eq!(wrong, 0, "{wrong} texels not at depth 0.25");
@@ -555,16 +536,8 @@ fn one_triangle_fills_a_1024_map_through_the_large_path() {
 fn an_empty_list_leaves_the_map_empty() {
     let ctx = common::context();
     let raster = ConservativeRaster::new(&ctx).expect("pipeline");
-    let (gpu, counters) = raster
-        .run(
-            &[Vec3::ZERO],
-            &[],
-            Mat4::IDENTITY,
-            16,
-            true,
-            RasterBias::default(),
-        )
-        .expect("run");
+    let (gpu, counters) =
+        unbiased(&raster, &[Vec3::ZERO], &[], Mat4::IDENTITY, 16, true).expect("run");
     assert!(gpu.iter().all(|&d| d == 1.0));
     assert_eq!(counters, RasterCounters::default());
     common::assert_clean(&ctx.validation());

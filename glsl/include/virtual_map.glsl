@@ -35,26 +35,25 @@ uint texel_slot(ivec2 t, uint level) {
 // Marks the coarser pages over `page` of `level` up to the root (or to the first already marked),
 // so that when the pool runs out at a fine level the samples there fall back one level; with
 // allocation coarse first an ancestor is always served before its descendants.
+// Where the includer describes the pages' used parts (ENTRY_BANDS: its `entry_bands`), each
+// ancestor is drawn whole (whole_ancestors.glsl).
 #ifdef TABLE_WRITABLE
+#ifdef ENTRY_BANDS
+#include "whole_ancestors.glsl"
+#endif
 void mark_ancestors(uint level, uvec2 page) {
+#ifdef ENTRY_BANDS
+    mark_whole_ancestors(pc.virtual_size, pc.page_size, pc.levels, level, page);
+#else
     for (uint l = level + 1u; l < pc.levels; ++l) {
         page >>= 1u;
         uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, l, page);
-#ifdef ENTRY_BANDS
-        // A fallback reads an ancestor anywhere under its descendants: it is drawn whole, also
-        // where its own kernels asked for a part (whole ones go on to whole ancestors).
-        if (entry_bands[e] == PAGE_BANDS_FULL) {
-            break;
-        }
-        table[e] = 1u;
-        entry_bands[e] = PAGE_BANDS_FULL;
-#else
         if (table[e] != 0u) {
             break;
         }
         table[e] = 1u;
-#endif
     }
+#endif
 }
 #endif
 

@@ -1,10 +1,11 @@
 #version 460
 // Ancestors only when the pool overflows (`VirtualPages` with `ancestors_on_overflow`, pvssm's
 // `ancestors = 2`): after the marked pages are compacted, if there are more of them than pool
-// slots, every listed page marks its coarser ancestors up to the root (or to the first one
-// already marked as an ancestor), each drawn whole, and the table is compacted again — the marks `ancestors = 1` makes, so an
-// overflowing fine page falls back one level. Without an overflow no lookup falls back, so the
-// ancestors would be drawn for nothing (on grid:800000@rect they are a fifth of the frame).
+// slots, every listed page marks its coarser ancestors, each drawn whole, up to the root or to
+// the first one already whole (whole_ancestors.glsl), and the table is compacted again — the
+// marks `ancestors = 1` makes, so an overflowing fine page falls back one level. Without an
+// overflow no lookup falls back, so the ancestors would be drawn for nothing (on
+// grid:800000@rect they are a fifth of the frame).
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
 #include "pages_push.glsl"
@@ -18,6 +19,8 @@ layout(set = 0, binding = 2) readonly buffer Count { uint count; };
 // it anywhere under its descendants.
 layout(set = 0, binding = 3) buffer EntryBands { uint entry_bands[]; };
 
+#include "whole_ancestors.glsl"
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     uint n = count;
@@ -29,15 +32,5 @@ void main() {
     uint local = entry - level_offset(pc.levels, level);
     uint side = pages_per_side(pc.virtual_size, pc.page_size, level);
     uvec2 page = uvec2(local % side, local / side);
-    for (uint l = level + 1u; l < pc.levels; ++l) {
-        page >>= 1u;
-        uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, l, page);
-        // A whole one is an ancestor another invocation marked and goes on from (a listed page
-        // that is an ancestor too is made whole here, whatever its own kernels read).
-        if (entry_bands[e] == PAGE_BANDS_FULL) {
-            break;
-        }
-        table[e] = 1u;
-        entry_bands[e] = PAGE_BANDS_FULL;
-    }
+    mark_whole_ancestors(pc.virtual_size, pc.page_size, pc.levels, level, page);
 }

@@ -1,13 +1,14 @@
 #version 460
 // Clears the compute page raster's depths (the float bits of 1.0) in this round's allocated
-// slots only — each over its page's used rectangle — one workgroup a slot, before the culling walk draws into them: round 0's slots
-// [0, allocated), round 1's after them. The rest of the atlas is never read this frame (the
-// filter and the lookups read resident pages only, the rasterizer's listed draw writes allocated
-// slots only), so a fill of the whole pool (16 MiB at the defaults; 1.7-2.0 ms as a pass of its
-// own on lavapipe, where `grid:800000@rect` uses 135 slots of 1024) did work no frame needed;
-// the cull with this instead ~0.6-1 ms faster (tools/ab.py). Workgroups past the count return
-// at once. CPU twin: the page raster's (src/cpu/page_raster.rs), whose atlas starts
-// empty: the tests compare every allocated slot with it.
+// slots only — each over its page's used rectangle — one workgroup a slot, before the culling
+// walk draws into them: round 0's slots [0, allocated), round 1's after them. The rest of the
+// atlas is never read this frame (the filter and the lookups read resident pages only, the
+// rasterizer's listed draw writes allocated slots only), so a fill of the whole pool (16 MiB at
+// the defaults; 1.7-2.0 ms as a pass of its own on lavapipe, where `grid:800000@rect` uses 135
+// slots of 1024) did work no frame needed; the cull with this instead ~0.6-1 ms faster
+// (tools/ab.py). Workgroups past the count return at once. CPU twin: the page raster's
+// (src/cpu/page_raster.rs), whose atlas starts empty: the tests compare every allocated slot's
+// used rectangle with it.
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
 #include "pages_push.glsl"

@@ -383,9 +383,10 @@ enum PageDrawer {
 /// crossed by long triangles holds many more pairs than triangles — `lattice@rect` (2 304
 /// triangles, bars the lattice's width long) binned 88.9k pairs into its 1 024 slots, 87 a
 /// slot (teapot-rect 41, bunny-rect 142) — and with 16 entries a triangle or a slot
-/// (16 × 2 304) the walk's appends ran out: 983 of the 1 024 pages were dropped and their lookups
-/// fell back to the root, a penumbra MAE of 0.41; with room for every pair, 0.051 (lavapipe,
-/// `penumbra render lattice@rect --technique pvssm --compare-to reference`).
+/// (16 × 2 304, as before this floor) the walk's appends ran out: 983 of the 1 024 pages were
+/// dropped and their lookups fell back to the root, a penumbra MAE of 0.41; with room for every
+/// pair, 0.051 (lavapipe, `penumbra render lattice@rect --technique pvssm --compare-to
+/// reference`; `--set bin_factor=4`, 32 768 entries, drops 980 pages for 0.41 again).
 const SLOT_BIN_SHARE: u32 = 8;
 
 /// Invocations of a `slot_clear.comp` workgroup (one workgroup a slot).
@@ -641,20 +642,25 @@ impl<'a> VirtualPages<'a> {
             depth_compare: vk::CompareOp::LESS_OR_EQUAL,
             viewports: 1,
         };
+        // The rasterizer's page draws (`page_depth*.vert`): the scene's triangles pulled by bin
+        // entry into their slots, cut to the used rectangles; the compute raster's listed and
+        // grouped draws read an entry list too, bound before the bands.
+        let page_draw = |graphics: &GraphicsDesc, list: Option<&Buffer>| -> Result<_> {
+            let pipeline = Pipeline::graphics(ctx, graphics)?;
+            let mut bindings = vec![
+                Binding::Buffer(&geometry.vertices),
+                Binding::Buffer(&geometry.indices),
+                Binding::Buffer(&slot_info),
+                Binding::Buffer(&bins),
+            ];
+            bindings.extend(list.map(Binding::Buffer));
+            bindings.push(Binding::Buffer(&slot_bands));
+            let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
+            Ok((pipeline, set))
+        };
         let (render, unused_depths) = match desc.raster {
             PageRaster::Graphics => {
-                let pipeline = Pipeline::graphics(ctx, &page_graphics)?;
-                let set = DescriptorSet::new(
-                    ctx,
-                    &pipeline,
-                    &[
-                        Binding::Buffer(&geometry.vertices),
-                        Binding::Buffer(&geometry.indices),
-                        Binding::Buffer(&slot_info),
-                        Binding::Buffer(&bins),
-                        Binding::Buffer(&slot_bands),
-                    ],
-                )?;
+                let (pipeline, set) = page_draw(&page_graphics, None)?;
                 (PageDrawer::Graphics(pipeline, set), Some(depth_bits))
             }
             PageRaster::Compute => {
@@ -713,26 +719,14 @@ impl<'a> VirtualPages<'a> {
                             Binding::Buffer(&grouped_list),
                         ],
                     )?;
-                    let draw_pipeline = Pipeline::graphics(
-                        ctx,
+                    let (draw_pipeline, draw_set) = page_draw(
                         &GraphicsDesc {
                             vertex: "pages/page_depth_grouped.vert",
                             depth_bias: false,
                             viewports: SLOT_VIEWPORTS,
                             ..page_graphics
                         },
-                    )?;
-                    let draw_set = DescriptorSet::new(
-                        ctx,
-                        &draw_pipeline,
-                        &[
-                            Binding::Buffer(&geometry.vertices),
-                            Binding::Buffer(&geometry.indices),
-                            Binding::Buffer(&slot_info),
-                            Binding::Buffer(&bins),
-                            Binding::Buffer(&grouped_list),
-                            Binding::Buffer(&slot_bands),
-                        ],
+                        Some(&grouped_list),
                     )?;
                     LargeDraw::Viewports(Box::new(GroupedDraw {
                         groups: groups_pass,
@@ -744,25 +738,13 @@ impl<'a> VirtualPages<'a> {
                         _buffers: [group_first, grouped_list],
                     }))
                 } else {
-                    let listed = Pipeline::graphics(
-                        ctx,
+                    let (listed, listed_set) = page_draw(
                         &GraphicsDesc {
                             vertex: "pages/page_depth_listed.vert",
                             depth_bias: false,
                             ..page_graphics
                         },
-                    )?;
-                    let listed_set = DescriptorSet::new(
-                        ctx,
-                        &listed,
-                        &[
-                            Binding::Buffer(&geometry.vertices),
-                            Binding::Buffer(&geometry.indices),
-                            Binding::Buffer(&slot_info),
-                            Binding::Buffer(&bins),
-                            Binding::Buffer(&large_list),
-                            Binding::Buffer(&slot_bands),
-                        ],
+                        Some(&large_list),
                     )?;
                     LargeDraw::Clipped(listed, listed_set)
                 };

@@ -574,8 +574,8 @@ impl Technique for Pvssm<'_> {
         rec.pass("pvssm-shape", |rec| {
             self.pages.record_clear(rec);
             rec.fill(&self.counters, 0);
-            // Every sample marked decided (-1.0 in every component) until the pass writes its kernel:
-            // a memset instead of a store per decided sample (shape.comp says why).
+            // Every sample marked decided (-1.0 in every component) until the pass writes its
+            // kernel: a memset instead of a store per decided sample (shape.comp says why).
             rec.fill(&self.shape, (-1.0f32).to_bits());
             rec.fill(&self.filter_args, 0);
             if let Some(visibility) = self.clear_lit {

@@ -203,8 +203,9 @@ pub struct PagesPush {
     pub triangles: u32,
     /// Bin entries the bin buffer holds.
     pub capacity: u32,
-    /// `bin.comp`: 0 counts, 1 scatters, 2 appends, in the low byte; with 2, the bits above are
-    /// the most texels of a page box the walk covers itself; `page_raster.comp`: the
+    /// `bin.comp`: 0 counts, 1 scatters, 2 appends, in the low byte (`bin_later.comp`: 4 counts
+    /// per level, 3 appends the levels kept); with 2, the bits above are the most texels of a
+    /// page box the walk covers itself; `bin_fit.comp`: its stage; `page_raster.comp`: the
     /// `raster_split` (triangles whose box holds more texels go to the rasterizer).
     pub mode: u32,
     /// 0: the requests' round; 1: the refinement round.

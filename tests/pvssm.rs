@@ -859,7 +859,27 @@ fn a_lattice_fills_the_pool_and_its_bins_hold_every_pair() {
         .penumbra_mae
         .expect("the lattice has a penumbra");
     // 0.084 (lavapipe; against a 4 × 4-sample reference), 0.39 with the pages dropped
-    // (`bin_factor = 4`: 972 of them).
+    // (`bin_factor = 4`: 972 of them) in the walk's order, before the bins kept coarse levels first.
     assert!(mae <= 0.12, "penumbra MAE {mae:.4}");
+    // Bins a quarter as large: they overflow, and keep the coarsest levels that fit
+    // (bin_fit.comp), so a lookup whose page was dropped falls back to a coarse page near its own
+    // resolution rather than to the root.
+    let small_bins = render(&engine, &prepared, &[("bin_factor", "4")]);
+    let small_mae =
+        penumbra::metrics::compare(&reference.visibility, &small_bins.visibility, &is_sample)
+            .expect("metrics")
+            .penumbra_mae
+            .expect("the lattice has a penumbra");
+    eprintln!(
+        "bin_factor 4: {} pages dropped, {} levels cut, penumbra MAE {small_mae:.4}",
+        counter(&small_bins, "bin_overflow_pages"),
+        counter(&small_bins, "bin_levels_cut")
+    );
+    assert!(counter(&small_bins, "bin_levels_cut") > 0);
+    // 0.104 (946 pages dropped, the 3 finest levels cut); 0.39 before.
+    assert!(
+        small_mae <= 0.15,
+        "penumbra MAE {small_mae:.4} with bins past their capacity"
+    );
     common::assert_clean(&engine.context().validation());
 }

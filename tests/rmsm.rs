@@ -588,3 +588,114 @@ fn refinement_allocates_after_round_zero_and_sharpens_edges() {
     );
     common::assert_clean(&engine.context().validation());
 }
+
+/// Appended bins past their capacity keep the coarsest levels whose pairs fit (bin_fit.comp):
+/// the counting walk's pairs per level match the twin's overlap test, the choice matches
+/// [`twin::bins_fit_levels`] on the twin's counts, every page of the levels kept whole stays with
+/// exactly its casters, no page of a level finer than the one kept in part does, and the dropped
+/// pages are counted. Before, the walk's appends ran out in whatever order the triangles came, and
+/// pages of every level were dropped.
+#[test]
+fn overflowing_bins_keep_the_coarsest_levels() {
+    let engine = common::engine();
+    let prepared = prepare(&engine, "scenes/spot-point.toml");
+    let (virtual_size, page) = (2048u32, 64u32);
+    let set = knobs(&[
+        ("virtual_size", "2048"),
+        ("page_size", "64"),
+        ("page_raster", "compute"),
+        // The walk covers no page itself: every pair is binned.
+        ("raster_split", "0"),
+        ("bin_factor", "1"),
+    ]);
+    let (mut table, mut bins, mut slots, mut fit, mut capacity) = (vec![], vec![], vec![], None, 0);
+    let frame = engine
+        .render_inspect(&prepared, "rmsm", &set, 1, |t| {
+            let pages = t.virtual_pages().expect("rmsm has pages");
+            table = pages.read_table()?;
+            bins = pages.read_bins()?;
+            slots = pages.read_slots()?;
+            fit = pages.read_bin_fit()?;
+            capacity = pages.bin_capacity();
+            Ok(())
+        })
+        .expect("render");
+    let (gpu_fit, gpu_pairs) = fit.expect("the bins overflow");
+    let layout = PageLayout::new(virtual_size, page).expect("layout");
+    let m = prepared.light_view.view_proj;
+    let clip: Vec<[Vec4; 3]> = prepared
+        .indices
+        .chunks_exact(3)
+        .map(|t| [0, 1, 2].map(|k| m * prepared.positions[t[k] as usize].extend(1.0)))
+        .collect();
+    let levels = layout.levels as usize;
+    let mut pairs = vec![0u64; levels];
+    let mut expected = BTreeSet::new();
+    for (slot, info) in slots.iter().enumerate().skip(1) {
+        for (tri, c) in clip.iter().enumerate() {
+            if twin::triangle_overlaps_page(*c, &layout, info[0], info[1], info[2]) {
+                pairs[info[0] as usize] += 1;
+                expected.insert((tri as u32, slot as u32));
+            }
+        }
+    }
+    let total: u64 = pairs.iter().sum();
+    eprintln!(
+        "pairs per level: GPU {gpu_pairs:?}, twin {pairs:?}; capacity {capacity}; GPU keeps \
+         {gpu_fit:?}; {} of {} pages dropped, {} levels cut",
+        counter(&frame, "bin_overflow_pages"),
+        slots.len(),
+        counter(&frame, "bin_levels_cut")
+    );
+    // The counts differ only where a triangle grazes a page within rounding (check_bins).
+    let differ: u64 = pairs
+        .iter()
+        .zip(&gpu_pairs)
+        .map(|(a, b)| a.abs_diff(*b))
+        .sum();
+    assert!(
+        differ as f64 <= 1e-4 * (clip.len() * slots.len()) as f64,
+        "{differ} pairs differ"
+    );
+    let room = u64::from(capacity) - clip.len() as u64;
+    let cpu_fit = twin::bins_fit_levels(&pairs, room).expect("the twin's bins overflow too");
+    assert_eq!(gpu_fit, cpu_fit, "{total} pairs for a room of {room}");
+    let partial = cpu_fit.whole_from.saturating_sub(1);
+    assert!(partial > 0, "nothing cut: make the bins smaller");
+    let binned: BTreeSet<(u32, u32)> = bins.iter().copied().collect();
+    let mut cut_levels = BTreeSet::new();
+    for (slot, info) in slots.iter().enumerate() {
+        let resident = table[info[3] as usize] != 0;
+        let level = info[0];
+        if level >= cpu_fit.whole_from {
+            assert!(
+                resident,
+                "slot {slot} of level {level}, kept whole, left the table"
+            );
+            let want: BTreeSet<_> = expected.iter().filter(|p| p.1 == slot as u32).collect();
+            let got: BTreeSet<_> = binned.iter().filter(|p| p.1 == slot as u32).collect();
+            if slot > 0 {
+                assert!(
+                    want.symmetric_difference(&got).count() <= 1,
+                    "slot {slot}: {} casters binned, {} expected",
+                    got.len(),
+                    want.len()
+                );
+            }
+        } else if level < partial {
+            assert!(
+                !resident,
+                "slot {slot} of level {level}, cut, is in the table"
+            );
+            cut_levels.insert(level);
+        }
+    }
+    assert_eq!(counter(&frame, "bin_levels_cut"), cut_levels.len() as u64);
+    let resident = table.iter().filter(|&&s| s != 0).count() as u64;
+    assert_eq!(
+        resident,
+        counter(&frame, "allocated_pages") - counter(&frame, "bin_overflow_pages"),
+        "dropped pages must be counted"
+    );
+    common::assert_clean(&engine.context().validation());
+}

@@ -25,6 +25,13 @@
 //   (cover_here, page_raster.comp's rules and arithmetic from page_cover.glsl), which saves the
 //   pair's append and the page raster's second projection of the triangle — the 800k grid's
 //   cull + page render 85 -> 70 ms, 586k of its 617k pairs so covered.
+//   When round 0's appends run past the capacity, mode 4 walks again to count its pairs per
+//   level (LEVEL_PAIRS), bin_fit.comp keeps the coarsest levels that fit, and mode 3 walks once
+//   more, appending only theirs (the levels kept whole from one cursor, the next finer one after
+//   them as far as it fits). Neither covers anything (the first walk did). Both are indirect
+//   dispatches, empty without an overflow, of their own shader (bin_later.comp: LATER_WALKS), so
+//   the first walk's is as before: counting in the first walk, or its code for the later modes,
+//   cost the 800k grid's cull 1-2 ms on lavapipe.
 // CPU twin: triangle_overlaps_page() in src/cpu/pages.rs.
 #include "pages.glsl"
 #include "pages_push.glsl"
@@ -68,7 +75,7 @@ uint bin_mode() {
     return pc.mode & 0xffu;
 }
 
-// Whether a walk in mode 2 found the root (round 0's slot 0), whose pair is appended last.
+// Whether a walk in mode 2 or 3 found the root (round 0's slot 0), whose pair is appended last.
 bool hit_root = false;
 // Mode 2: pages the walk covered itself (cover_here).
 uint covered = 0u;
@@ -163,6 +170,16 @@ Projected project(uint tri) {
 const uint WALK_COUNT = 0u;    // mode 0: count the slot's bin
 const uint WALK_SCATTER = 1u;  // mode 1: write the pair at the slot's offset
 const uint WALK_APPEND = 2u;   // mode 2: append the pair (the root's: note it)
+#ifdef LATER_WALKS
+const uint WALK_REWALK = 3u;   // mode 3: append the pair if its level is kept (bin_fit.comp)
+const uint WALK_LEVELS = 4u;   // mode 4: count the non-root pairs per level
+
+// Mode 4: this invocation's non-root pairs so far (their count per level goes to LEVEL_PAIRS).
+// Mode 3: the finest level kept whole (FIT_LEVEL - 1), its whole levels' entries.
+uint appended = 0u;
+uint fit_level = 0u;
+uint fit_whole_end = 0u;
+#endif
 
 // Writes mode 2's pair (tri, slot) at `pos` of the non-root entries, or flags the slot
 // incomplete when that is past the capacity.
@@ -183,8 +200,25 @@ void scatter(uint tri, uint slot) {
     }
 }
 
-// What the walk does with a page the triangle overlaps (slot `slot`); counts it in `binned`.
-void visit(uint tri, uint slot, uint what, inout uint binned) {
+#ifdef LATER_WALKS
+// Mode 3: appends the pair (tri, slot) of a page of `level`: a level kept whole from its cursor
+// (the first walk found as many pairs, so they fit: a pair past them is flagged all the same),
+// the partly kept level after them while room lasts.
+void rewalk_append(uint tri, uint slot, uint level) {
+    uint cursors = pc.pool_pages;
+    if (level >= fit_level) {
+        uint k = atomicAdd(bin_cursor[cursors + REWALK_WHOLE], 1u);
+        append(tri, slot, k < fit_whole_end ? pc.triangles + k : pc.capacity);
+    } else {
+        uint k = atomicAdd(bin_cursor[cursors + REWALK_PARTIAL], 1u);
+        append(tri, slot, pc.triangles + fit_whole_end + k);
+    }
+}
+#endif
+
+// What the walk does with a page the triangle overlaps (slot `slot`, of `level`); counts it in
+// `binned`.
+void visit(uint tri, uint slot, uint level, uint what, inout uint binned) {
     if (what == WALK_COUNT) {
         atomicAdd(bin_count[slot], 1u);
         if (binned == 0u) {
@@ -202,7 +236,15 @@ void visit(uint tri, uint slot, uint what, inout uint binned) {
         // An atomic per pair: a fine mesh's triangle has about one pair (0.76 on an
         // 800k-triangle grid), and keeping the slots for one atomic per triangle took a private
         // array, which lavapipe keeps in memory (a per-lane scatter a write).
+#ifdef LATER_WALKS
+        if (what == WALK_REWALK) {
+            rewalk_append(tri, slot, level);
+        } else {
+            appended += 1u;
+        }
+#else
         append(tri, slot, pc.triangles + atomicAdd(bin_cursor[pc.pool_pages + APPEND_REST], 1u));
+#endif
     }
     binned += 1u;
 }
@@ -211,10 +253,11 @@ void visit(uint tri, uint slot, uint what, inout uint binned) {
 // triangle lies wholly before the near plane and its box holds at most WALK_COVER_TEXELS of
 // the page's texels — what page_raster.comp would do with the pair, bit for bit (the level
 // positions are the walk's, scaled by a power of two: exactly level_position's) — and returns
-// whether it did. A fine mesh's pairs are nearly all such (the 800k grid: 586k of 617k).
+// whether it did. A fine mesh's pairs are nearly all such (the 800k grid: 586k of 617k). Modes 3
+// and 4 cover nothing — the first walk covered the same pages — but skip the same pairs.
 bool cover_here(Projected t, uint slot, uint level, ivec2 page) {
     int limit = int(pc.mode >> 8u);
-    if (bin_mode() != 2u || limit == 0 || !(t.a.z >= 0.0 && t.b.z >= 0.0 && t.c.z >= 0.0)) {
+    if (bin_mode() < 2u || limit == 0 || !(t.a.z >= 0.0 && t.b.z >= 0.0 && t.c.z >= 0.0)) {
         return false;
     }
     float scale = 1.0 / float(1u << level);
@@ -226,6 +269,9 @@ bool cover_here(Projected t, uint slot, uint level, ivec2 page) {
     Tri tr = setup(s0, s1, s2, lo, lo + ps - 1, level);
     if (box_texels(tr) > limit) {
         return false;
+    }
+    if (bin_mode() != 2u) {
+        return true;
     }
     cover_box(tr, lo, ivec2(slot_cell(slot, pc.atlas_cols)) * ps, pc.atlas_cols * pc.page_size);
     bin_count[slot] = 1u;
@@ -248,6 +294,33 @@ uint resident_slot(uint level, ivec2 page, uint first_slot) {
     return s == 0u || s - 1u < first_slot ? 0u : s;
 }
 
+#ifdef LATER_WALKS
+// Mode 4: adds `n` of this invocation's pairs to `level`'s count.
+void count_level_pairs(uint level, uint n) {
+    if (bin_mode() == 4u && n > 0u) {
+        atomicAdd(bin_cursor[pc.pool_pages + LEVEL_PAIRS + level], n);
+    }
+}
+
+// The levels this walk bins into, one bit each: in mode 3 those bin_fit.comp kept (whole, and
+// the next finer one in part), in mode 4 all.
+uint kept_levels() {
+    if (bin_mode() != 3u) {
+        return ~0u;
+    }
+    uint partial = fit_level > 0u ? fit_level - 1u : 0u;
+    return ~((1u << partial) - 1u);
+}
+#define LEVEL_PAIRS_BEFORE(level) uint appended_before = appended
+#define LEVEL_PAIRS_AFTER(level) count_level_pairs(level, appended - appended_before)
+#else
+uint kept_levels() {
+    return ~0u;
+}
+#define LEVEL_PAIRS_BEFORE(level)
+#define LEVEL_PAIRS_AFTER(level)
+#endif
+
 // Walks the resident pages of this round under the triangle: returns how many it overlaps.
 uint walk(uint tri, Projected t, uint what) {
     uint binned = 0u;
@@ -264,12 +337,13 @@ uint walk(uint tri, Projected t, uint what) {
         // all (a pvssm frame has a few such levels; a cluster far from the finest levels' pages
         // skips those).
         uint resident = level_info[pc.round * pc.levels].levels_mask
-                      & cluster_mask[gl_WorkGroupID.x];
+                      & cluster_mask[gl_WorkGroupID.x] & kept_levels();
         for (uint left = resident; left != 0u; left &= left - 1u) {
             // No `continue` in this loop: a divergent one makes the level a per-lane value to
             // the compiler, and the level's bookkeeping below a gather per lane on lavapipe
             // instead of one load.
             uint level = uint(findLSB(left));
+            LEVEL_PAIRS_BEFORE(level);
             LevelInfo info = level_info[pc.round * pc.levels + level];
             float scale = 1.0 / float(1u << level);
             float eps = float(1u << level) / 64.0;
@@ -306,7 +380,7 @@ uint walk(uint tri, Projected t, uint what) {
                             if (cover_here(t, s - 1u, level, lo)) {
                                 covered += 1u;
                             } else {
-                                visit(tri, s - 1u, what, binned);
+                                visit(tri, s - 1u, level, what, binned);
                             }
                         }
                     }
@@ -320,12 +394,13 @@ uint walk(uint tri, Projected t, uint what) {
                             uint s = resident_slot(level, ivec2(px, py), first_slot);
                             if (s != 0u && overlaps_used(t, s - 1u, vec2(px, py) * texels,
                                                          float(1u << level), eps)) {
-                                visit(tri, s - 1u, what, binned);
+                                visit(tri, s - 1u, level, what, binned);
                             }
                         }
                     }
                 }
             }
+            LEVEL_PAIRS_AFTER(level);
         }
         return binned;
     }
@@ -334,9 +409,10 @@ uint walk(uint tri, Projected t, uint what) {
     float v = float(pc.virtual_size);
     for (uint level = 0u; level < pc.levels; ++level) {
         LevelInfo info = level_info[pc.round * pc.levels + level];
-        if (info.end_slot == 0u) {
+        if (info.end_slot == 0u || (kept_levels() & (1u << level)) == 0u) {
             continue;
         }
+        LEVEL_PAIRS_BEFORE(level);
         float texels = float(pc.page_size << level);
         for (int py = int(~info.min_y_not); py <= int(info.max_y); ++py) {
             for (int px = int(~info.min_x_not); px <= int(info.max_x); ++px) {
@@ -345,10 +421,11 @@ uint walk(uint tri, Projected t, uint what) {
                 vec2 rhi = rlo + texels;
                 if (s != 0u && overlaps_clip(t.a, t.b, t.c, rlo / v * 2.0 - 1.0,
                                              rhi / v * 2.0 - 1.0)) {
-                    visit(tri, s - 1u, what, binned);
+                    visit(tri, s - 1u, level, what, binned);
                 }
             }
         }
+        LEVEL_PAIRS_AFTER(level);
     }
     return binned;
 }
@@ -372,22 +449,32 @@ void main() {
             return;
         }
     }
+#ifdef LATER_WALKS
+    if (bin_mode() == 3u) {
+        fit_level = bin_cursor[pc.pool_pages + FIT_LEVEL] - 1u;
+        fit_whole_end = bin_cursor[pc.pool_pages + FIT_WHOLE_END];
+    }
+#endif
     Projected t = project(tri);
     uint binned = walk(tri, t, bin_mode());
     if (bin_mode() == 0u) {
         memo[tri] = uvec2(memo_first, memo_more ? MEMO_MORE : memo_second);
     }
+    // (The later walks cover nothing, and the pairs are counted from the first's cursors.)
+#ifndef LATER_WALKS
     add_summed(C_WALK_COVERED, covered);
+#endif
     if (binned == 0u) {
         return;
     }
     if (bin_mode() == 0u) {
         atomicAdd(counters[C_BINNED], binned);
-    } else if (bin_mode() == 2u) {
+    } else if (bin_mode() == 2u || bin_mode() == 3u) {
         // (The pairs are counted from the cursors by draws.comp: an atomic less per triangle.)
         uint cursors = pc.pool_pages;
         if (hit_root) {
-            entries[atomicAdd(bin_cursor[cursors + APPEND_ROOT], 1u)] = uvec2(tri, 0u);
+            uint root = bin_mode() == 3u ? REWALK_ROOT : APPEND_ROOT;
+            entries[atomicAdd(bin_cursor[cursors + root], 1u)] = uvec2(tri, 0u);
             bin_count[0] = 1u;
         }
     }

@@ -6,7 +6,9 @@
 // (slot 0, at most every triangle once, and the capacity holds that) always fits. After bin.comp's
 // mode 2 (pc.mode's low byte 2: appended, unordered) the slots out are those it flagged
 // incomplete, the root's pairs have their own region, and only the compute raster's arguments are
-// written.
+// written; when round 0's bins overflowed and bin_fit.comp had them walked again (mode 3, coarse
+// levels first), the second walk's entries are the ones drawn, and the pages of the levels finer
+// than the one it kept in part leave the table with those it flagged.
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
 #include "pages_push.glsl"
@@ -33,14 +35,32 @@ uint bin_end(uint slot) {
     return bin_offset[slot] + bin_count[slot];
 }
 
+// After a second walk (bin_fit.comp): the end of the slots of the levels it binned (allocation
+// runs coarse to fine, so they are a prefix of round 0's); else every slot.
+uint kept_slots_end(uint fit_plus1) {
+    if (fit_plus1 == 0u) {
+        return ~0u;
+    }
+    uint partial = fit_plus1 > 1u ? fit_plus1 - 2u : 0u;
+    uint end = 0u;
+    for (uint l = partial; l < pc.levels; ++l) {
+        end = max(end, level_info[l].end_slot);
+    }
+    return end;
+}
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     // This round's slots: [first, end).
     uint first_slot = ROUND_FIRST_SLOT(pc.round);
     uint end_slot = first_slot + counters[(pc.round == 0u ? 0u : C_ROUND1) + C_ALLOCATED];
     bool appended = (pc.mode & 0xffu) == 2u;
+    uint cursors = pc.pool_pages;
+    // FIT_LEVEL + 1 after a second walk of round 0, else 0.
+    uint fit_plus1 = appended && pc.round == 0u ? bin_cursor[cursors + FIT_LEVEL] : 0u;
     if (i >= first_slot && i < end_slot) {
-        if (appended ? bin_cursor[i] != 0u : bin_end(i) > pc.capacity) {
+        if (appended ? bin_cursor[i] != 0u || i >= kept_slots_end(fit_plus1)
+                     : bin_end(i) > pc.capacity) {
             table[slot_info[i].w] = 0u;
             atomicAdd(counters[C_BIN_OVERFLOW], 1u);
         } else if (bin_count[i] > 0u) {
@@ -53,7 +73,6 @@ void main() {
         uint rest_start = 0u;
         uint rest_end = 0u;
         if (appended) {
-            uint cursors = pc.pool_pages;
             uint rest = bin_cursor[cursors + APPEND_REST];
             uint rest_first = 0u;
             if (pc.round == 0u) {
@@ -62,12 +81,25 @@ void main() {
             } else {
                 rest_first = bin_cursor[cursors + APPEND_ROUND1];
             }
+            // The cursors count every pair the walk found, written or not: bin.comp leaves
+            // `triangles_binned` to this (the first walk's, after a second).
+            atomicAdd(counters[C_BINNED], end + rest - rest_first);
             uint room = pc.capacity - pc.triangles;
             rest_start = pc.triangles + min(rest_first, room);
             rest_end = pc.triangles + min(rest, room);
-            // The cursors count every pair the walk found, written or not: bin.comp leaves
-            // `triangles_binned` to this.
-            atomicAdd(counters[C_BINNED], end + rest - rest_first);
+            if (fit_plus1 != 0u) {
+                // The second walk's: the root's again, the levels kept whole, then the one kept
+                // in part as far as it fitted (contiguous: the whole levels filled their entries).
+                end = bin_cursor[cursors + REWALK_ROOT];
+                uint whole = bin_cursor[cursors + FIT_WHOLE_END];
+                uint partial = bin_cursor[cursors + REWALK_PARTIAL];
+                rest_end = pc.triangles + min(whole + partial, room);
+                for (uint l = 0u; l + 2u < fit_plus1; ++l) {
+                    if (level_info[l].end_slot > 0u) {
+                        atomicAdd(counters[C_BIN_LEVELS_CUT], 1u);
+                    }
+                }
+            }
         } else if (end_slot > first_slot) {
             start = bin_offset[first_slot];
             end = max(start, min(bin_end(end_slot - 1u), pc.capacity));

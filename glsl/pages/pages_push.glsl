@@ -12,7 +12,8 @@ layout(push_constant) uniform Push {
     // Bin entries that fit in the bin buffer.
     uint capacity;
     // bin.comp: 0 counts, 1 scatters, 2 appends (covering the pages of triangles of at most
-    // mode >> 8 texels in the walk); draws.comp: 2 after appending, else after the
+    // mode >> 8 texels in the walk); bin_later.comp: 4 counts per level, 3 appends the kept
+    // levels; bin_fit.comp: its stage (0, 1); draws.comp: 2 after appending, else after the
     // scan; page_raster.comp: boxes of more texels go to the rasterizer.
     uint mode;
     // 0: the requests' round; 1: the refinement round, which allocates after round 0's slots,
@@ -54,12 +55,25 @@ struct LevelInfo {
 #define C_WALK_COVERED 9
 // Triangle x level visits the cluster masks spared the walk (cluster_levels.comp), both rounds.
 #define C_CLUSTER_SKIPPED 10
+// Levels whose pages all left the table because round 0's bins ran out (bin_fit.comp).
+#define C_BIN_LEVELS_CUT 11
 
 // Append mode's cursors (bin.comp mode 2), in bin_cursor after the pool's slots: root pairs
 // written, other pairs written (from entry `triangles` on), the latter when round 1 began.
 #define APPEND_ROOT 0u
 #define APPEND_REST 1u
 #define APPEND_ROUND1 2u
+// Round 0's bins past their capacity (bin_fit.comp): the walk again, coarse levels first —
+// its cursors for the root's pairs, the levels kept whole and the partly kept level; the finest
+// level kept whole + 1 (0: the bins fit, no second walk); and the entries the levels kept whole
+// take.
+#define REWALK_ROOT 3u
+#define REWALK_WHOLE 4u
+#define REWALK_PARTIAL 5u
+#define FIT_LEVEL 6u
+#define FIT_WHOLE_END 7u
+// Then round 0's first walk's non-root pairs per level, level 0 first.
+#define LEVEL_PAIRS 8u
 
 // Slots a draw of the compute raster's large triangles gives a viewport each (SLOT_VIEWPORTS in
 // src/gpu/context.rs): the listed entries are grouped by slot / SLOT_VIEWPORTS.

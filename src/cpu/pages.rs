@@ -187,6 +187,41 @@ pub fn allocate_after(allocation: &mut Allocation, marked: &[bool], pool_pages: 
     overflow
 }
 
+/// Which levels appended bins past their capacity keep (`glsl/pages/bin_fit.comp`): the
+/// coarsest levels whose pairs fit together in the room past the root's region are kept whole,
+/// the next finer one (`whole_from - 1`) as far as its pages' pairs fit after them, and every
+/// finer level's pages leave the table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BinFit {
+    /// The finest level kept whole.
+    pub whole_from: u32,
+    /// Bin entries the levels kept whole take.
+    pub whole_entries: u64,
+}
+
+/// [`BinFit`] from round 0's non-root (triangle, page) pairs per level (level 0 first; the
+/// coarsest level, last, holds the root alone, whose pairs have their own region, so it always
+/// fits) and the room past the root's region; `None` when every pair fits.
+pub fn bins_fit_levels(level_pairs: &[u64], room: u64) -> Option<BinFit> {
+    let total: u64 = level_pairs.iter().sum();
+    if total <= room || level_pairs.is_empty() {
+        return None;
+    }
+    let mut fit = BinFit {
+        whole_from: level_pairs.len() as u32 - 1,
+        whole_entries: 0,
+    };
+    for level in (0..level_pairs.len() - 1).rev() {
+        let n = level_pairs[level];
+        if fit.whole_entries + n > room {
+            break;
+        }
+        fit.whole_entries += n;
+        fit.whole_from = level as u32;
+    }
+    Some(fit)
+}
+
 /// Columns of the atlas, `ceil(sqrt(pool_pages))`, computed in integers.
 pub fn atlas_columns(pool_pages: u32) -> u32 {
     // Start from the float root and correct it: f32 loses precision past 2^24.
@@ -432,6 +467,45 @@ mod tests {
     /// Light clip-space vertex at level-0 texel `(x, y)` of a `v`² map, depth 0.5, w = 1.
     fn clip_at(x: f32, y: f32, v: f32) -> Vec4 {
         Vec4::new(x / v * 2.0 - 1.0, y / v * 2.0 - 1.0, 0.5, 1.0)
+    }
+
+    #[test]
+    fn overflowing_bins_keep_the_coarsest_levels_that_fit() {
+        // Levels 0..4 (4: the root's alone, whose pairs have their own region).
+        let pairs = [500, 300, 120, 40, 0];
+        assert_eq!(bins_fit_levels(&pairs, 960), None);
+        assert_eq!(bins_fit_levels(&[0, 0, 0], 0), None);
+        assert_eq!(
+            bins_fit_levels(&pairs, 959),
+            Some(BinFit {
+                whole_from: 1,
+                whole_entries: 460
+            })
+        );
+        // Level 1 does not fit after 2 and 3: it is the level kept in part.
+        assert_eq!(
+            bins_fit_levels(&pairs, 459),
+            Some(BinFit {
+                whole_from: 2,
+                whole_entries: 160
+            })
+        );
+        // Not even the coarsest non-root level: only the root's level is whole.
+        assert_eq!(
+            bins_fit_levels(&pairs, 39),
+            Some(BinFit {
+                whole_from: 4,
+                whole_entries: 0
+            })
+        );
+        // An empty level between two fits as a whole.
+        assert_eq!(
+            bins_fit_levels(&[90, 0, 10, 0], 50),
+            Some(BinFit {
+                whole_from: 1,
+                whole_entries: 10
+            })
+        );
     }
 
     #[test]

@@ -21,8 +21,8 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 use crate::scene::Camera;
 
 pub use super::pages::{
-    allocate, allocate_after, atlas_columns, slot_origin, triangle_overlaps_page, Allocation,
-    PageLayout,
+    allocate, allocate_after, atlas_columns, bins_fit_levels, slot_origin, triangle_overlaps_page,
+    Allocation, BinFit, PageLayout,
 };
 use super::pages::{clip_texel, positive};
 

@@ -320,6 +320,16 @@ fn bins_hold_exactly_the_triangles_that_touch_each_page() {
     common::assert_clean(&engine.context().validation());
 }
 
+/// The scene's triangles in the light's clip space (the twin's overlap test takes them so).
+fn light_clip_triangles(prepared: &PreparedScene) -> Vec<[Vec4; 3]> {
+    let m = prepared.light_view.view_proj;
+    prepared
+        .indices
+        .chunks_exact(3)
+        .map(|t| [0, 1, 2].map(|k| m * prepared.positions[t[k] as usize].extend(1.0)))
+        .collect()
+}
+
 fn check_bins(engine: &Engine, prepared: &PreparedScene, drawer: &str) {
     let gpu = run(
         engine,
@@ -332,12 +342,7 @@ fn check_bins(engine: &Engine, prepared: &PreparedScene, drawer: &str) {
         ],
     );
     let layout = PageLayout::new(2048, 64).expect("layout");
-    let m = prepared.light_view.view_proj;
-    let clip: Vec<[Vec4; 3]> = prepared
-        .indices
-        .chunks_exact(3)
-        .map(|t| [0, 1, 2].map(|k| m * prepared.positions[t[k] as usize].extend(1.0)))
-        .collect();
+    let clip = light_clip_triangles(prepared);
     let binned: BTreeSet<(u32, u32)> = gpu.bins.iter().copied().collect();
     assert_eq!(
         binned.len(),
@@ -592,9 +597,8 @@ fn refinement_allocates_after_round_zero_and_sharpens_edges() {
 /// Appended bins past their capacity keep the coarsest levels whose pairs fit (bin_fit.comp):
 /// the counting walk's pairs per level match the twin's overlap test, the choice matches
 /// [`twin::bins_fit_levels`] on the twin's counts, every page of the levels kept whole stays with
-/// exactly its casters, no page of a level finer than the one kept in part does, and the dropped
-/// pages are counted. Before, the walk's appends ran out in whatever order the triangles came, and
-/// pages of every level were dropped.
+/// exactly its casters, and the pages dropped are counted. Before, the walk's appends ran out in
+/// whatever order the triangles came, and pages of every level were dropped.
 #[test]
 fn overflowing_bins_keep_the_coarsest_levels() {
     let engine = common::engine();
@@ -622,12 +626,7 @@ fn overflowing_bins_keep_the_coarsest_levels() {
         .expect("render");
     let (gpu_fit, gpu_pairs) = fit.expect("the bins overflow");
     let layout = PageLayout::new(virtual_size, page).expect("layout");
-    let m = prepared.light_view.view_proj;
-    let clip: Vec<[Vec4; 3]> = prepared
-        .indices
-        .chunks_exact(3)
-        .map(|t| [0, 1, 2].map(|k| m * prepared.positions[t[k] as usize].extend(1.0)))
-        .collect();
+    let clip = light_clip_triangles(&prepared);
     let levels = layout.levels as usize;
     let mut pairs = vec![0u64; levels];
     let mut expected = BTreeSet::new();
@@ -642,10 +641,9 @@ fn overflowing_bins_keep_the_coarsest_levels() {
     let total: u64 = pairs.iter().sum();
     eprintln!(
         "pairs per level: GPU {gpu_pairs:?}, twin {pairs:?}; capacity {capacity}; GPU keeps \
-         {gpu_fit:?}; {} of {} pages dropped, {} levels cut",
+         {gpu_fit:?}; {} of {} pages dropped",
         counter(&frame, "bin_overflow_pages"),
         slots.len(),
-        counter(&frame, "bin_levels_cut")
     );
     // The counts differ only where a triangle grazes a page within rounding (check_bins).
     let differ: u64 = pairs
@@ -660,11 +658,10 @@ fn overflowing_bins_keep_the_coarsest_levels() {
     let room = u64::from(capacity) - clip.len() as u64;
     let cpu_fit = twin::bins_fit_levels(&pairs, room).expect("the twin's bins overflow too");
     assert_eq!(gpu_fit, cpu_fit, "{total} pairs for a room of {room}");
-    let partial = cpu_fit.whole_from.saturating_sub(1);
-    assert!(partial > 0, "nothing cut: make the bins smaller");
     let binned: BTreeSet<(u32, u32)> = bins.iter().copied().collect();
-    let mut cut_levels = BTreeSet::new();
-    for (slot, info) in slots.iter().enumerate() {
+    let mut whole_levels = BTreeSet::new();
+    let mut finer_kept = 0;
+    for (slot, info) in slots.iter().enumerate().skip(1) {
         let resident = table[info[3] as usize] != 0;
         let level = info[0];
         if level >= cpu_fit.whole_from {
@@ -672,25 +669,31 @@ fn overflowing_bins_keep_the_coarsest_levels() {
                 resident,
                 "slot {slot} of level {level}, kept whole, left the table"
             );
+            whole_levels.insert(level);
+        } else {
+            finer_kept += usize::from(resident);
+        }
+        // A page in the table has every caster (a finer level's page that did not fit left).
+        if resident {
             let want: BTreeSet<_> = expected.iter().filter(|p| p.1 == slot as u32).collect();
             let got: BTreeSet<_> = binned.iter().filter(|p| p.1 == slot as u32).collect();
-            if slot > 0 {
-                assert!(
-                    want.symmetric_difference(&got).count() <= 1,
-                    "slot {slot}: {} casters binned, {} expected",
-                    got.len(),
-                    want.len()
-                );
-            }
-        } else if level < partial {
             assert!(
-                !resident,
-                "slot {slot} of level {level}, cut, is in the table"
+                want.symmetric_difference(&got).count() <= 1,
+                "slot {slot} of level {level}: {} casters binned, {} expected",
+                got.len(),
+                want.len()
             );
-            cut_levels.insert(level);
         }
     }
-    assert_eq!(counter(&frame, "bin_levels_cut"), cut_levels.len() as u64);
+    assert!(
+        cpu_fit.whole_from > 0,
+        "every level kept whole: make the bins smaller"
+    );
+    eprintln!("{finer_kept} pages of the finer levels kept");
+    assert_eq!(
+        counter(&frame, "bin_whole_levels"),
+        whole_levels.len() as u64
+    );
     let resident = table.iter().filter(|&&s| s != 0).count() as u64;
     assert_eq!(
         resident,

@@ -26,9 +26,10 @@
 //   pair's append and the page raster's second projection of the triangle — the 800k grid's
 //   cull + page render 85 -> 70 ms, 586k of its 617k pairs so covered.
 //   When round 0's appends run past the capacity, mode 4 walks again to count its pairs per
-//   level (LEVEL_PAIRS), bin_fit.comp keeps the coarsest levels that fit, and mode 3 walks once
-//   more, appending only theirs (the levels kept whole from one cursor, the next finer one after
-//   them as far as it fits). Neither covers anything (the first walk did). Both are indirect
+//   level (LEVEL_PAIRS), bin_fit.comp picks the coarsest levels whose pairs fit together, and
+//   mode 3 walks once more, appending theirs from one cursor (room reserved: each of their pages
+//   is kept) and the finer levels' after them, in the walk's order as far as they fit. Neither
+//   covers anything (the first walk did). Both are indirect
 //   dispatches, empty without an overflow, of their own shader (bin_later.comp: LATER_WALKS), so
 //   the first walk's is as before: counting in the first walk, or its code for the later modes,
 //   cost the 800k grid's cull 1-2 ms on lavapipe.
@@ -171,7 +172,7 @@ const uint WALK_COUNT = 0u;    // mode 0: count the slot's bin
 const uint WALK_SCATTER = 1u;  // mode 1: write the pair at the slot's offset
 const uint WALK_APPEND = 2u;   // mode 2: append the pair (the root's: note it)
 #ifdef LATER_WALKS
-const uint WALK_REWALK = 3u;   // mode 3: append the pair if its level is kept (bin_fit.comp)
+const uint WALK_REWALK = 3u;   // mode 3: append, the levels kept whole first (bin_fit.comp)
 const uint WALK_LEVELS = 4u;   // mode 4: count the non-root pairs per level
 
 // Mode 4: this invocation's non-root pairs so far (their count per level goes to LEVEL_PAIRS).
@@ -203,14 +204,14 @@ void scatter(uint tri, uint slot) {
 #ifdef LATER_WALKS
 // Mode 3: appends the pair (tri, slot) of a page of `level`: a level kept whole from its cursor
 // (the first walk found as many pairs, so they fit: a pair past them is flagged all the same),
-// the partly kept level after them while room lasts.
+// a finer level's after them while room lasts.
 void rewalk_append(uint tri, uint slot, uint level) {
     uint cursors = pc.pool_pages;
     if (level >= fit_level) {
         uint k = atomicAdd(bin_cursor[cursors + REWALK_WHOLE], 1u);
         append(tri, slot, k < fit_whole_end ? pc.triangles + k : pc.capacity);
     } else {
-        uint k = atomicAdd(bin_cursor[cursors + REWALK_PARTIAL], 1u);
+        uint k = atomicAdd(bin_cursor[cursors + REWALK_FINER], 1u);
         append(tri, slot, pc.triangles + fit_whole_end + k);
     }
 }
@@ -302,21 +303,9 @@ void count_level_pairs(uint level, uint n) {
     }
 }
 
-// The levels this walk bins into, one bit each: in mode 3 those bin_fit.comp kept (whole, and
-// the next finer one in part), in mode 4 all.
-uint kept_levels() {
-    if (bin_mode() != 3u) {
-        return ~0u;
-    }
-    uint partial = fit_level > 0u ? fit_level - 1u : 0u;
-    return ~((1u << partial) - 1u);
-}
 #define LEVEL_PAIRS_BEFORE(level) uint appended_before = appended
 #define LEVEL_PAIRS_AFTER(level) count_level_pairs(level, appended - appended_before)
 #else
-uint kept_levels() {
-    return ~0u;
-}
 #define LEVEL_PAIRS_BEFORE(level)
 #define LEVEL_PAIRS_AFTER(level)
 #endif
@@ -337,7 +326,7 @@ uint walk(uint tri, Projected t, uint what) {
         // all (a pvssm frame has a few such levels; a cluster far from the finest levels' pages
         // skips those).
         uint resident = level_info[pc.round * pc.levels].levels_mask
-                      & cluster_mask[gl_WorkGroupID.x] & kept_levels();
+                      & cluster_mask[gl_WorkGroupID.x];
         for (uint left = resident; left != 0u; left &= left - 1u) {
             // No `continue` in this loop: a divergent one makes the level a per-lane value to
             // the compiler, and the level's bookkeeping below a gather per lane on lavapipe
@@ -409,7 +398,7 @@ uint walk(uint tri, Projected t, uint what) {
     float v = float(pc.virtual_size);
     for (uint level = 0u; level < pc.levels; ++level) {
         LevelInfo info = level_info[pc.round * pc.levels + level];
-        if (info.end_slot == 0u || (kept_levels() & (1u << level)) == 0u) {
+        if (info.end_slot == 0u) {
             continue;
         }
         LEVEL_PAIRS_BEFORE(level);

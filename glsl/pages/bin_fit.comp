@@ -1,21 +1,22 @@
 #version 460
 // After round 0's walk appended its pairs (bin.comp mode 2): when they ran past the bins'
-// capacity, chooses which levels the bins keep — coarse levels first — and sets up the walk
-// again (bin.comp mode 3) to append only those. Why: the first walk appends in whatever order the
-// triangles come, so an overflow drops pages of every level, coarse ones too, and their lookups
-// fall back to the root; `lattice:400@rect` (long thin bars across a full pool) lost 965 of its
-// 1 024 pages so, a penumbra MAE of 0.39. Kept coarse first, a lookup whose fine page was dropped
-// falls back to a coarse page near its own resolution.
+// capacity, chooses the levels the bins keep whole — the coarsest whose pairs fit together — and
+// sets up the walk again (bin_later.comp, mode 3) to append theirs first. Why: the first walk
+// appends in whatever order the triangles come, so an overflow drops pages of every level, coarse
+// ones too, and their lookups fall back to the root; `lattice:400@rect` (long thin bars across a
+// full pool) lost 965 of its 1 024 pages so, a penumbra MAE of 0.39, 0.072 with its coarse levels
+// kept. The finer levels' pairs follow in the walk's order as far as they fit, as before: a page
+// of theirs all of whose casters fit is kept (on `plane-boxes` with bins of one entry a triangle,
+// the pages of bare ground: dropping every finer level outright scored worse there).
 //
-// Run twice. With pc.mode 0, after the first walk: the dispatch of the two later walks (bin.comp
-// modes 4 and 3), of every triangle when the appends ran past the room past the root's region,
-// else empty. With pc.mode 1, after mode 4 counted the pairs per level (LEVEL_PAIRS), on an
-// overflow only: the coarsest levels whose pairs fit all together in that room are kept whole
-// (FIT_LEVEL - 1 is the finest of them; their pairs fill entries [0, FIT_WHOLE_END) of the room),
-// the next finer level as far as its pages' pairs fit after them (a page whose pair does not fit
-// is flagged incomplete and left out, as before), and every finer level's pages leave the table
-// (draws.comp); one invocation a slot clears its slot's incomplete flag for mode 3. CPU twin of
-// the choice: bins_fit_levels() in src/cpu/pages.rs.
+// Run twice. With pc.mode 0, after the first walk: the dispatch of the two later walks (modes 4
+// and 3), of every triangle when the appends ran past the room past the root's region, else
+// empty. With pc.mode 1, after mode 4 counted the pairs per level (LEVEL_PAIRS), on an overflow
+// only: the coarsest levels whose pairs fit all together in that room are kept whole (FIT_LEVEL -
+// 1 is the finest of them; their pairs fill entries [0, FIT_WHOLE_END) of the room; mode 3 appends
+// the finer levels' after them, a page whose pair does not fit flagged incomplete and left out),
+// and one invocation a slot clears its slot's incomplete flag for mode 3. CPU twin of the choice:
+// bins_fit_levels() in src/cpu/pages.rs.
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
 #include "pages_push.glsl"

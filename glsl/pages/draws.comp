@@ -6,9 +6,9 @@
 // (slot 0, at most every triangle once, and the capacity holds that) always fits. After bin.comp's
 // mode 2 (pc.mode's low byte 2: appended, unordered) the slots out are those it flagged
 // incomplete, the root's pairs have their own region, and only the compute raster's arguments are
-// written; when round 0's bins overflowed and bin_fit.comp had them walked again (mode 3, coarse
-// levels first), the second walk's entries are the ones drawn, and the pages of the levels finer
-// than the one it kept in part leave the table with those it flagged.
+// written; when round 0's bins overflowed and bin_fit.comp had them walked again (mode 3, the
+// coarsest levels that fit first), that walk's entries are the ones drawn and its flags the ones
+// that count.
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
 #include "pages_push.glsl"
@@ -35,20 +35,6 @@ uint bin_end(uint slot) {
     return bin_offset[slot] + bin_count[slot];
 }
 
-// After a second walk (bin_fit.comp): the end of the slots of the levels it binned (allocation
-// runs coarse to fine, so they are a prefix of round 0's); else every slot.
-uint kept_slots_end(uint fit_plus1) {
-    if (fit_plus1 == 0u) {
-        return ~0u;
-    }
-    uint partial = fit_plus1 > 1u ? fit_plus1 - 2u : 0u;
-    uint end = 0u;
-    for (uint l = partial; l < pc.levels; ++l) {
-        end = max(end, level_info[l].end_slot);
-    }
-    return end;
-}
-
 void main() {
     uint i = gl_GlobalInvocationID.x;
     // This round's slots: [first, end).
@@ -59,8 +45,7 @@ void main() {
     // FIT_LEVEL + 1 after a second walk of round 0, else 0.
     uint fit_plus1 = appended && pc.round == 0u ? bin_cursor[cursors + FIT_LEVEL] : 0u;
     if (i >= first_slot && i < end_slot) {
-        if (appended ? bin_cursor[i] != 0u || i >= kept_slots_end(fit_plus1)
-                     : bin_end(i) > pc.capacity) {
+        if (appended ? bin_cursor[i] != 0u : bin_end(i) > pc.capacity) {
             table[slot_info[i].w] = 0u;
             atomicAdd(counters[C_BIN_OVERFLOW], 1u);
         } else if (bin_count[i] > 0u) {
@@ -88,15 +73,16 @@ void main() {
             rest_start = pc.triangles + min(rest_first, room);
             rest_end = pc.triangles + min(rest, room);
             if (fit_plus1 != 0u) {
-                // The second walk's: the root's again, the levels kept whole, then the one kept
-                // in part as far as it fitted (contiguous: the whole levels filled their entries).
+                // The last walk's: the root's again, the levels kept whole, then the finer ones'
+                // as far as they fitted (contiguous: the whole levels filled their entries).
                 end = bin_cursor[cursors + REWALK_ROOT];
                 uint whole = bin_cursor[cursors + FIT_WHOLE_END];
-                uint partial = bin_cursor[cursors + REWALK_PARTIAL];
-                rest_end = pc.triangles + min(whole + partial, room);
-                for (uint l = 0u; l + 2u < fit_plus1; ++l) {
+                uint finer = bin_cursor[cursors + REWALK_FINER];
+                rest_end = pc.triangles + min(whole + finer, room);
+                // The levels kept whole, but the root's.
+                for (uint l = fit_plus1 - 1u; l + 1u < pc.levels; ++l) {
                     if (level_info[l].end_slot > 0u) {
-                        atomicAdd(counters[C_BIN_LEVELS_CUT], 1u);
+                        atomicAdd(counters[C_BIN_WHOLE_LEVELS], 1u);
                     }
                 }
             }

@@ -55,8 +55,8 @@ struct LevelInfo {
 #define C_WALK_COVERED 9
 // Triangle x level visits the cluster masks spared the walk (cluster_levels.comp), both rounds.
 #define C_CLUSTER_SKIPPED 10
-// Levels whose pages all left the table because round 0's bins ran out (bin_fit.comp).
-#define C_BIN_LEVELS_CUT 11
+// Levels (but the root's) whose pages round 0's overflowing bins kept whole (bin_fit.comp).
+#define C_BIN_WHOLE_LEVELS 11
 
 // Append mode's cursors (bin.comp mode 2), in bin_cursor after the pool's slots: root pairs
 // written, other pairs written (from entry `triangles` on), the latter when round 1 began.
@@ -64,12 +64,12 @@ struct LevelInfo {
 #define APPEND_REST 1u
 #define APPEND_ROUND1 2u
 // Round 0's bins past their capacity (bin_fit.comp): the walk again, coarse levels first —
-// its cursors for the root's pairs, the levels kept whole and the partly kept level; the finest
-// level kept whole + 1 (0: the bins fit, no second walk); and the entries the levels kept whole
+// its cursors for the root's pairs, the levels kept whole and the finer levels; the finest
+// level kept whole + 1 (0: the bins fit, no later walk); and the entries the levels kept whole
 // take.
 #define REWALK_ROOT 3u
 #define REWALK_WHOLE 4u
-#define REWALK_PARTIAL 5u
+#define REWALK_FINER 5u
 #define FIT_LEVEL 6u
 #define FIT_WHOLE_END 7u
 // Then round 0's first walk's non-root pairs per level, level 0 first.

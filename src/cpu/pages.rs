@@ -187,10 +187,10 @@ pub fn allocate_after(allocation: &mut Allocation, marked: &[bool], pool_pages: 
     overflow
 }
 
-/// Which levels appended bins past their capacity keep (`glsl/pages/bin_fit.comp`): the
-/// coarsest levels whose pairs fit together in the room past the root's region are kept whole,
-/// the next finer one (`whole_from - 1`) as far as its pages' pairs fit after them, and every
-/// finer level's pages leave the table.
+/// Which levels appended bins past their capacity keep whole (`glsl/pages/bin_fit.comp`): the
+/// coarsest levels whose pairs fit together in the room past the root's region; the finer
+/// levels' pairs follow them in the walk's order as far as they fit, and a page of theirs with a
+/// caster left out leaves the table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BinFit {
     /// The finest level kept whole.
@@ -482,7 +482,7 @@ mod tests {
                 whole_entries: 460
             })
         );
-        // Level 1 does not fit after 2 and 3: it is the level kept in part.
+        // Level 1 does not fit after 2 and 3.
         assert_eq!(
             bins_fit_levels(&pairs, 459),
             Some(BinFit {

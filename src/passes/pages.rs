@@ -32,11 +32,11 @@
 //!    lookups fall back instead of reading a page with missing casters (`bin_overflow_pages`);
 //!    the root always fits. The scanned bins keep a prefix of the slots, so coarse pages first;
 //!    appended ones that overflow are walked again, coarse levels first (`pages/bin_fit.comp`,
-//!    round 0: a walk counts the pairs per level, the coarsest levels that fit together are kept
-//!    whole, the next finer one as far as its pages fit, a last walk appends theirs, and the
-//!    finer levels leave the table, `bin_levels_cut`) — before, the walk's order decided, and
-//!    `lattice:400@rect` lost pages of every level to the root's fallback (penumbra MAE 0.39,
-//!    now 0.072). Both walks are empty indirect dispatches when the bins fit;
+//!    round 0: a walk counts the pairs per level, the coarsest levels whose pairs fit together
+//!    are kept whole, and a last walk appends theirs, then the finer levels' as far as they fit,
+//!    `bin_whole_levels`) — before, the walk's order decided, and `lattice:400@rect` lost pages
+//!    of every level to the root's fallback (penumbra MAE 0.39, now 0.072). Both walks are
+//!    empty indirect dispatches when the bins fit;
 //! 4. **render** (`<name>-render`): the atlas is cleared and each level's bins are drawn with
 //!    one `vkCmdDrawIndirect`; the vertex shader pulls each triangle's corners by index, zooms
 //!    the page's part of the light frustum onto its slot and clips it to the slot with
@@ -116,7 +116,7 @@ pub const PAGE_COUNTER_NAMES: [&str; 12] = [
     "refine_overflow_pages",
     "walk_covered_pairs",
     "walk_levels_skipped",
-    "bin_levels_cut",
+    "bin_whole_levels",
 ];
 
 /// How the pages' casters are drawn into the atlas.
@@ -385,7 +385,7 @@ const WALK_COVER_TEXELS: u32 = 16;
 const APPEND_ROOT: usize = 0;
 const APPEND_REST: usize = 1;
 const REWALK_ROOT: usize = 3;
-const REWALK_PARTIAL: usize = 5;
+const REWALK_FINER: usize = 5;
 const FIT_LEVEL: usize = 6;
 const FIT_WHOLE_END: usize = 7;
 const LEVEL_PAIRS: usize = 8;
@@ -1231,13 +1231,10 @@ impl<'a> VirtualPages<'a> {
             let triangles = self.push.triangles as usize;
             let room = self.push.capacity as usize - triangles;
             let word = |k: usize| cursors[pool + k] as usize;
-            // After a second walk (bin_fit.comp), its entries: the root's, then the levels it
-            // kept whole and the one it kept in part.
+            // After the walks of an overflow (bin_fit.comp), the last one's entries: the root's,
+            // then the levels kept whole and the finer levels' that fitted.
             let (root, rest) = if word(FIT_LEVEL) != 0 {
-                (
-                    word(REWALK_ROOT),
-                    word(FIT_WHOLE_END) + word(REWALK_PARTIAL),
-                )
+                (word(REWALK_ROOT), word(FIT_WHOLE_END) + word(REWALK_FINER))
             } else {
                 (word(APPEND_ROOT), word(APPEND_REST))
             };

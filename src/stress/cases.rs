@@ -519,5 +519,24 @@ pub fn cases() -> Vec<Case> {
             knobs: |t| matches!(t, "rmsm" | "pvssm").then(|| vec![("pool_pages", "1")]),
             bound: |_| Bound::Mae(0.05),
         },
+        Case {
+            name: "bins-too-small",
+            summary: "a virtual map's caster bins past their capacity: the coarse levels kept \
+                      whole, fine pages dropped",
+            quick: true,
+            scene: baseline,
+            // One entry a triangle, and every pair binned (the walk covers none itself): the
+            // room past the root's region is the floor's 8 a slot less the triangles.
+            knobs: |t| {
+                matches!(t, "rmsm" | "pvssm").then(|| {
+                    vec![
+                        ("bin_factor", "1"),
+                        ("raster_split", "0"),
+                        ("pool_pages", "512"),
+                    ]
+                })
+            },
+            bound: |_| Bound::Mae(0.05),
+        },
     ]
 }

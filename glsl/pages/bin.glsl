@@ -29,10 +29,10 @@
 //   level (LEVEL_PAIRS), bin_fit.comp picks the coarsest levels whose pairs fit together, and
 //   mode 3 walks once more, appending theirs from one cursor (room reserved: each of their pages
 //   is kept) and the finer levels' after them, in the walk's order as far as they fit. Neither
-//   covers anything (the first walk did). Both are indirect
-//   dispatches, empty without an overflow, of their own shader (bin_later.comp: LATER_WALKS), so
-//   the first walk's is as before: counting in the first walk, or its code for the later modes,
-//   cost the 800k grid's cull 1-2 ms on lavapipe.
+//   covers anything (the first walk did). Both are indirect dispatches, empty without an
+//   overflow, of their own shader (bin_later.comp: LATER_WALKS), so the first walk's is as
+//   before: counting in the first walk, or its code for the later modes, cost the 800k grid's
+//   cull 1-2 ms on lavapipe.
 // CPU twin: triangle_overlaps_page() in src/cpu/pages.rs.
 #include "pages.glsl"
 #include "pages_push.glsl"

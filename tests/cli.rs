@@ -128,6 +128,63 @@ fn render_writes_every_file_with_clean_stats() {
         .is_some_and(|v| (0.0..=1.0).contains(&v)));
 }
 
+/// A frame that left pages out for want of room says so, with the knob that gives more: bins of
+/// 4 entries a triangle or 32 a slot overflow on the lattice's long bars (pvssm's lattice test),
+/// and a pool of 64 pages holds few of its requests.
+#[test]
+fn render_notes_pages_left_out_for_want_of_room() {
+    let dir = out_dir("capacity-notes");
+    let o = penumbra(&[
+        "render",
+        "lattice@rect",
+        "--technique",
+        "pvssm",
+        "--set",
+        "bin_factor=4",
+        "--frames",
+        "1",
+        "--out",
+        dir.to_str().expect("utf-8 path"),
+    ]);
+    assert!(o.status.success(), "render failed: {}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("bin_overflow_pages") && err.contains("larger bin_factor"),
+        "no note of the dropped pages: {err}"
+    );
+    let o = penumbra(&[
+        "render",
+        "lattice@rect",
+        "--technique",
+        "pvssm",
+        "--set",
+        "pool_pages=64",
+        "--frames",
+        "1",
+        "--out",
+        dir.to_str().expect("utf-8 path"),
+    ]);
+    assert!(o.status.success(), "render failed: {}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("overflow_pages") && err.contains("larger pool_pages"),
+        "no note of the pool's overflow: {err}"
+    );
+    // A frame with room for everything says nothing of it.
+    let o = penumbra(&[
+        "render",
+        "scenes/spot-point.toml",
+        "--technique",
+        "pcf",
+        "--frames",
+        "1",
+        "--out",
+        dir.to_str().expect("utf-8 path"),
+    ]);
+    assert!(o.status.success(), "render failed: {}", stderr(&o));
+    assert!(!stderr(&o).contains("note:"), "{}", stderr(&o));
+}
+
 #[test]
 fn techniques_json_lists_names_and_knobs() {
     let o = penumbra(&["techniques", "--json"]);

@@ -227,5 +227,33 @@ pub(crate) fn render(
         h,
         validation_summary(!device.no_validation, &counts)
     );
+    for note in capacity_notes(&frame.stats.counters) {
+        eprintln!("note: {note}");
+    }
     finish_validation(!device.no_validation, &ctx.validation(), out)
+}
+
+/// What a frame left out for want of room, from its counters, each with the knob that gives
+/// more: a virtual map's pages past its pool, or dropped for want of caster-bin room. Their
+/// lookups fell back to coarser pages, so the image is valid but coarser than it asked for.
+fn capacity_notes(counters: &std::collections::BTreeMap<String, u64>) -> Vec<String> {
+    let get = |name: &str| counters.get(name).copied().unwrap_or(0);
+    let mut notes = Vec::new();
+    let pool = get("overflow_pages") + get("refine_overflow_pages");
+    if pool > 0 {
+        notes.push(format!(
+            "{pool} requested pages did not fit the pool (overflow_pages): their lookups fell \
+             back to coarser pages; a larger pool_pages keeps more"
+        ));
+    }
+    let bins = get("bin_overflow_pages");
+    if bins > 0 {
+        let whole = get("bin_whole_levels");
+        notes.push(format!(
+            "{bins} pages were left out for want of caster-bin room (bin_overflow_pages; \
+             {whole} coarse levels kept whole): their lookups fell back to coarser pages; a larger \
+             bin_factor keeps more"
+        ));
+    }
+    notes
 }

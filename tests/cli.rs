@@ -134,55 +134,36 @@ fn render_writes_every_file_with_clean_stats() {
 #[test]
 fn render_notes_pages_left_out_for_want_of_room() {
     let dir = out_dir("capacity-notes");
-    let o = penumbra(&[
-        "render",
-        "lattice@rect",
-        "--technique",
-        "pvssm",
-        "--set",
-        "bin_factor=4",
-        "--frames",
-        "1",
-        "--out",
-        dir.to_str().expect("utf-8 path"),
-    ]);
-    assert!(o.status.success(), "render failed: {}", stderr(&o));
-    let err = stderr(&o);
+    // The render's stderr, after checking it succeeded.
+    let render = |scene: &str, technique: &str, set: &str| {
+        let o = penumbra(&[
+            "render",
+            scene,
+            "--technique",
+            technique,
+            "--set",
+            set,
+            "--frames",
+            "1",
+            "--out",
+            dir.to_str().expect("utf-8 path"),
+        ]);
+        assert!(o.status.success(), "render failed: {}", stderr(&o));
+        stderr(&o)
+    };
+    let err = render("lattice@rect", "pvssm", "bin_factor=4");
     assert!(
         err.contains("bin_overflow_pages") && err.contains("larger bin_factor"),
         "no note of the dropped pages: {err}"
     );
-    let o = penumbra(&[
-        "render",
-        "lattice@rect",
-        "--technique",
-        "pvssm",
-        "--set",
-        "pool_pages=64",
-        "--frames",
-        "1",
-        "--out",
-        dir.to_str().expect("utf-8 path"),
-    ]);
-    assert!(o.status.success(), "render failed: {}", stderr(&o));
-    let err = stderr(&o);
+    let err = render("lattice@rect", "pvssm", "pool_pages=64");
     assert!(
-        err.contains("overflow_pages") && err.contains("larger pool_pages"),
+        err.contains("(overflow_pages)") && err.contains("larger pool_pages"),
         "no note of the pool's overflow: {err}"
     );
     // A frame with room for everything says nothing of it.
-    let o = penumbra(&[
-        "render",
-        "scenes/spot-point.toml",
-        "--technique",
-        "pcf",
-        "--frames",
-        "1",
-        "--out",
-        dir.to_str().expect("utf-8 path"),
-    ]);
-    assert!(o.status.success(), "render failed: {}", stderr(&o));
-    assert!(!stderr(&o).contains("note:"), "{}", stderr(&o));
+    let err = render("scenes/spot-point.toml", "pcf", "map_size=512");
+    assert!(!err.contains("note:"), "{err}");
 }
 
 #[test]

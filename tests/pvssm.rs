@@ -859,7 +859,8 @@ fn a_lattice_fills_the_pool_and_its_bins_hold_every_pair() {
         .penumbra_mae
         .expect("the lattice has a penumbra");
     // 0.084 (lavapipe; against a 4 × 4-sample reference), 0.39 with the pages dropped
-    // (`bin_factor = 4`: 972 of them) in the walk's order, before the bins kept coarse levels first.
+    // (`bin_factor = 4`: 972 of them) in the walk's order, before the bins kept coarse levels
+    // first.
     assert!(mae <= 0.12, "penumbra MAE {mae:.4}");
     // Bins a quarter as large: they overflow, and keep the coarsest levels that fit
     // (bin_fit.comp), so a lookup whose page was dropped falls back to a coarse page near its own

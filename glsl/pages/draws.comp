@@ -42,7 +42,8 @@ void main() {
     uint end_slot = first_slot + counters[(pc.round == 0u ? 0u : C_ROUND1) + C_ALLOCATED];
     bool appended = (pc.mode & 0xffu) == 2u;
     uint cursors = pc.pool_pages;
-    // FIT_LEVEL + 1 after a second walk of round 0, else 0.
+    // After round 0's walks of an overflow, the finest level kept whole + 1 (bin_fit.comp's
+    // FIT_LEVEL word); else 0.
     uint fit_plus1 = appended && pc.round == 0u ? bin_cursor[cursors + FIT_LEVEL] : 0u;
     if (i >= first_slot && i < end_slot) {
         if (appended ? bin_cursor[i] != 0u : bin_end(i) > pc.capacity) {

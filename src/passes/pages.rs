@@ -404,8 +404,8 @@ enum PageDrawer {
 /// (16 × 2 304, as before this floor) the walk's appends ran out: 983 of the 1 024 pages were
 /// dropped and their lookups fell back to the root, a penumbra MAE of 0.41; with room for every
 /// pair, 0.051 (lavapipe, `penumbra render lattice@rect --technique pvssm --compare-to
-/// reference`; `--set bin_factor=4`, 32 768 entries, dropped 980 pages for 0.41 again — 955
-/// for 0.090 since overflowing bins keep the coarse levels, `pages/bin_fit.comp`).
+/// reference`; `--set bin_factor=4`, 32 768 entries, dropped 980 pages for 0.41 again — 962
+/// for 0.090 since overflowing bins keep the coarse levels whole, `pages/bin_fit.comp`).
 const SLOT_BIN_SHARE: u32 = 8;
 
 /// Invocations of a `slot_clear.comp` workgroup (one workgroup a slot).

@@ -390,10 +390,10 @@ fn thin_bars(n: usize, kind: LightKind) -> Built {
 /// The PVSSM paper's Fig. 11 setting: one large grid parallel to the floor, its shadow seen
 /// obliquely so that, toward the horizon, many lattice periods fall in one pixel — where the
 /// paper finds its filter over the pixel's footprint as good as 32 × 32 supersampling (the
-/// README's anti-aliasing section measures it). The
-/// camera looks along the lattice from below its height, so the ground under it is in view
-/// (and one smooth surface, as the anti-aliasing suite scores). The light is above the
-/// lattice's centre, so its shadow map's texels fall evenly on the ground.
+/// README's anti-aliasing section measures it). The camera looks along the lattice from below
+/// its height, so the ground under it is in view (and one smooth surface, as the anti-aliasing
+/// suite scores). The light is above the lattice's centre, so its shadow map's texels fall
+/// evenly on the ground.
 fn lattice(n: usize, kind: LightKind) -> Built {
     const EXTENT: f32 = 24.0;
     const HEIGHT: f32 = 2.0;

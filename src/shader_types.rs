@@ -292,8 +292,8 @@ pub struct PvssmMipPush {
     pub dst_offset: u32,
     /// Side of the level written.
     pub dst_size: u32,
-    /// Padding to the block's declared size.
-    pub pad0: u32,
+    /// 1: reduce the centre-depth map too (`blocker_distance = centre`).
+    pub centre: u32,
 }
 
 /// `glsl/caster_cull/tiles.comp`.

@@ -237,6 +237,13 @@ knob_choices! {
         /// The silhouette's cells (beside a cell that does not block).
         Silhouette => "silhouette",
     }
+    /// `blocker_distance` of `pvssm`: where a blocking cell's distance, for z_avg, is read.
+    BlockerDistance for "blocker_distance" {
+        /// The conservative map's minimum: the caster's nearest point over the cell.
+        Nearest => "nearest",
+        /// The centre-depth map: the caster's plane at the cell's centre.
+        Centre => "centre",
+    }
     /// `page_raster` of `rmsm` and `pvssm`: what draws the pages' casters.
     PageRasterChoice for "page_raster" {
         /// Compute where workgroups run on CPU threads, the rasterizer otherwise.
@@ -369,6 +376,7 @@ mod tests {
             names::<PvssmSkip>(),
             names::<RhoMode>(),
             names::<BlockerDepth>(),
+            names::<BlockerDistance>(),
             names::<PageRasterChoice>(),
             names::<Partition>(),
             names::<Combine>(),

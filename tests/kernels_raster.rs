@@ -418,8 +418,22 @@ fn the_bound_api_rasterizes_scene_geometry() {
         .expect("bind");
     // Twice in one submission: the second recording starts from a cleared map.
     ctx.submit(None, |rec| {
-        raster.record(rec, &binding, light.view_proj, false, RasterBias::default())?;
-        raster.record(rec, &binding, light.view_proj, false, RasterBias::default())
+        raster.record(
+            rec,
+            &binding,
+            light.view_proj,
+            false,
+            RasterBias::default(),
+            true,
+        )?;
+        raster.record(
+            rec,
+            &binding,
+            light.view_proj,
+            false,
+            RasterBias::default(),
+            true,
+        )
     })
     .expect("submit");
     let gpu = penumbra::gpu::f32s(&ctx.read_buffer(binding.depth()).expect("read"));
@@ -540,5 +554,116 @@ fn an_empty_list_leaves_the_map_empty() {
         unbiased(&raster, &[Vec3::ZERO], &[], Mat4::IDENTITY, 16, true).expect("run");
     assert!(gpu.iter().all(|&d| d == 1.0));
     assert_eq!(counters, RasterCounters::default());
+    common::assert_clean(&ctx.validation());
+}
+
+/// The centre-depth map (pvssm's blocker distances): against the twin wherever the twin's
+/// brackets agree (a texel whose coverage or depth changes between EPS/2 and 2·EPS is an edge
+/// tie, left out, at most 2 % of the covered texels), never nearer than the conservative map, and
+/// empty exactly where it is; on one triangle of known plane, the plane at every interior
+/// texel's centre.
+#[test]
+fn the_centre_map_holds_each_caster_at_texel_centres() {
+    let ctx = common::context();
+    let raster = ConservativeRaster::new(&ctx).expect("pipeline");
+    let (positions, indices) = random_triangles(3000, 777);
+    let vp = perspective_light();
+    for (n, clip, bias) in [
+        (128, false, RasterBias::default()),
+        (256, true, RasterBias::default()),
+        (
+            128,
+            false,
+            RasterBias {
+                slope: 2.0,
+                clamp: 0.0,
+            },
+        ),
+    ] {
+        let what = format!("centre-{n}-clip-{clip}-bias-{}", bias.slope);
+        let (depth, centre, _) = raster
+            .run_with_centre(&positions, &indices, vp, n, clip, bias)
+            .expect("run");
+        let twin_at = |eps: f32| {
+            rasterize_biased(
+                &positions,
+                &indices,
+                vp,
+                n,
+                eps,
+                SMALL_TEXELS,
+                clip,
+                (bias.slope, bias.clamp),
+            )
+        };
+        let (tight, loose) = (twin_at(EPS * 0.5), twin_at(EPS * 2.0));
+        let (mut compared, mut ties, mut bad) = (0, 0, Vec::new());
+        for i in 0..depth.len() {
+            assert!(
+                centre[i] >= depth[i] - DEPTH_TOL && (centre[i] == 1.0) == (depth[i] == 1.0),
+                "{what}: texel {i}: centre {} against conservative {}",
+                centre[i],
+                depth[i]
+            );
+            if depth[i] == 1.0 {
+                continue;
+            }
+            if (tight.centre[i] - loose.centre[i]).abs() > DEPTH_TOL {
+                ties += 1;
+                continue;
+            }
+            compared += 1;
+            if (centre[i] - tight.centre[i]).abs() > 4.0 * DEPTH_TOL {
+                bad.push((i % n as usize, i / n as usize, centre[i], tight.centre[i]));
+            }
+        }
+        if !bad.is_empty() {
+            let dir = common::write_diff(&what, n, n, &tight.centre, &centre);
+            panic!(
+                "{what}: {} of {compared} texels differ from the twin (x, y, gpu, twin), first: \
+                 {:?}; images in {}",
+                bad.len(),
+                &bad[..bad.len().min(8)],
+                dir.display()
+            );
+        }
+        assert!(compared > 1000, "{what}: only {compared} texels compared");
+        assert!(
+            ties * 50 <= compared,
+            "{what}: {ties} edge ties of {compared}"
+        );
+    }
+    // One triangle, depth 0.25 + 0.001 x + 0.003 y per texel: every texel whose square lies
+    // inside it holds the plane at its centre, and the conservative map the plane at its lowest
+    // corner (less EPS): the difference is half the gradients' sum.
+    let n = 128;
+    let ndc = |x: f32, y: f32| texel_point(x, y, 0.25 + 0.001 * x + 0.003 * y, n);
+    let tri = [ndc(10.0, 10.0), ndc(90.0, 20.0), ndc(30.0, 100.0)];
+    let (depth, centre, _) = raster
+        .run_with_centre(
+            &tri,
+            &[0, 1, 2],
+            Mat4::IDENTITY,
+            n,
+            false,
+            RasterBias::default(),
+        )
+        .expect("run");
+    let mut interior = 0;
+    for y in 25..60 {
+        for x in 25..50 {
+            let i = y * n as usize + x;
+            let (cx, cy) = (x as f32 + 0.5, y as f32 + 0.5);
+            let plane = 0.25 + 0.001 * cx + 0.003 * cy;
+            assert!(
+                (centre[i] - plane).abs() < 1e-5,
+                "texel ({x}, {y}): centre {} not {plane}",
+                centre[i]
+            );
+            assert!((centre[i] - depth[i] - 0.002).abs() < 1e-5);
+            interior += 1;
+        }
+    }
+    assert!(interior > 500);
     common::assert_clean(&ctx.validation());
 }

@@ -49,11 +49,12 @@ fn blocker_search_matches_cpu() {
                 ("horizon_skip", "0"),
                 ("blocker_depth", depth),
             ]);
-            let (mut shape, mut pyramid) = (vec![], vec![]);
+            let (mut shape, mut pyramid, mut centre) = (vec![], vec![], vec![]);
             engine
                 .render_inspect(&prepared, "pvssm", &set, 1, |t| {
                     shape = common::read_named_buffer(&ctx, t, "shape")?;
                     pyramid = common::read_named_buffer(&ctx, t, "lowres")?;
+                    centre = common::read_named_buffer(&ctx, t, "lowres_centre")?;
                     Ok(())
                 })
                 .expect("render");
@@ -63,8 +64,20 @@ fn blocker_search_matches_cpu() {
                 levels[..] == pyramid[..levels.len()],
                 "{scene}: the min pyramid differs from its twin"
             );
+            // So is the centre-depth map's, and no centre depth lies nearer than its cell's
+            // conservative one.
+            let centre_levels = min_levels(&centre[..(lowres * lowres) as usize], lowres);
+            assert!(
+                centre_levels[..] == centre[..centre_levels.len()],
+                "{scene}: the centre-depth pyramid differs from its twin"
+            );
+            assert!(
+                centre.iter().zip(&pyramid).all(|(c, d)| c >= d),
+                "{scene}: a centre depth nearer than its cell's conservative depth"
+            );
             let pyramid = MinPyramid {
                 depths: &pyramid,
+                centre: &centre,
                 size: lowres,
             };
             let params = SearchParams {

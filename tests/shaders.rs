@@ -484,7 +484,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 src_offset,
                 dst_offset,
                 dst_size,
-                pad0
+                centre
             }),
         ),
         (
@@ -694,7 +694,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 phase,
                 bias_slope,
                 bias_clamp,
-                pad0,
+                centre,
                 pad1,
                 pad2
             }),

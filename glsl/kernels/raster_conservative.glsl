@@ -24,6 +24,11 @@
 // to the light's centre) is drawn as the segment it projects to, at its smallest depth: from
 // the rest of an area light it is not edge-on.
 //
+// Each covered texel also takes the piece's plane at its centre into a second map, `centre_depth`
+// (never nearer than its conservative depth): what an ordinary low-resolution map would hold
+// where the caster covers the centre — the caster's distance for a blocker search's average,
+// where the conservative minimum proves texels empty (pvssm uses both).
+//
 // Bias (push bias_slope, bias_clamp; zero unless asked for): a piece with a plane is moved back
 // by min(bias_slope * max(|dz/dx|, |dz/dy|), bias_clamp) — the slope-scaled part of the depth
 // bias a rasterizer would give it. pvssm asks for its finest page's (src/techniques/pvssm.rs
@@ -104,6 +109,12 @@ layout(set = 0, binding = 2) buffer Depth { uint depth[]; };
 // 2 * triangles entries: a clipped triangle may list two pieces.
 layout(set = 0, binding = 3) buffer Large { uint large[]; };
 layout(set = 0, binding = 4) buffer Counters { uint counters[]; };
+// The centre-depth map, N x N like `depth` (the host fills it with 1.0 too): per texel the least
+// over the pieces covering it of the piece's plane at the texel's centre, never nearer than the
+// conservative depth there (write_texel). Not conservative: a distance, for a blocker search's
+// average, where `depth` holds the piece's nearest point over the texel — up to half the
+// texel's depth spread nearer the light than the caster is at the texel's centre.
+layout(set = 0, binding = 5) buffer CentreDepth { uint centre_depth[]; };
 #include "counter_sum.glsl"
 
 layout(push_constant) uniform Push {
@@ -119,7 +130,8 @@ layout(push_constant) uniform Push {
     // depth gradient per map texel, at most bias_clamp where that is positive (0 and 0: none).
     float bias_slope;
     float bias_clamp;
-    uint pad0;
+    // 1: write the centre-depth map too (write_texel).
+    uint centre;
     uint pad1;
     uint pad2;
 } pc;
@@ -420,7 +432,15 @@ void write_texel(Setup s, int x, int y) {
     if (!(z > 0.0)) {
         z = 0.0;
     }
-    atomicMin(depth[uint(y) * pc.map_size + uint(x)], floatBitsToUint(z));
+    uint at = uint(y) * pc.map_size + uint(x);
+    atomicMin(depth[at], floatBitsToUint(z));
+    // The plane at the texel's centre, never nearer than the conservative depth (a NaN plane,
+    // or a piece whose vertex minimum lies past its plane there, keeps that).
+    if (pc.centre != 0u) {
+        vec2 rc = vec2(float(x) + 0.5, float(y) + 0.5) - s.p0;
+        float zm = s.z0 + s.dz.x * rc.x + s.dz.y * rc.y;
+        atomicMin(centre_depth[at], floatBitsToUint(zm > z ? min(zm, 1.0) : z));
+    }
 }
 
 uint texel_count(Setup s) {

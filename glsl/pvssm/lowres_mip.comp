@@ -14,15 +14,20 @@
 // buffer ends with (pvssm.rs pads it to whole quads), kept empty.
 layout(local_size_x = 8, local_size_y = 8) in;
 
-// The same buffer twice: read a quad, write a pair.
+// The same buffer twice: read a quad, write a pair. Bindings 2 and 3: the centre-depth map's
+// (src/kernels/raster.rs), laid out alike and reduced alike in the same invocations — a cell's
+// least centre depth, the distance its nearest child's caster lies at.
 layout(set = 0, binding = 0) readonly buffer Quads { uvec4 quads[]; };
 layout(set = 0, binding = 1) writeonly buffer Pairs { uvec2 pairs[]; };
+layout(set = 0, binding = 2) readonly buffer CentreQuads { uvec4 centre_quads[]; };
+layout(set = 0, binding = 3) writeonly buffer CentrePairs { uvec2 centre_pairs[]; };
 
 layout(push_constant) uniform Push {
     uint src_offset;
     uint dst_offset;
     uint dst_size;
-    uint pad0;
+    // 1: the centre-depth map too (blocker_distance = centre), else it is left as it is.
+    uint centre;
 } pc;
 
 // The float bits of depth 1.0: "nothing covers this texel" (src/kernels/raster.rs).
@@ -35,6 +40,11 @@ void main() {
             uvec4 q = quads[pc.src_offset >> 2u];
             pairs[pc.dst_offset >> 1u] = uvec2(min(min(q.x, q.y), min(q.z, q.w)),
                                                EMPTY_DEPTH_BITS);
+            if (pc.centre != 0u) {
+                uvec4 c = centre_quads[pc.src_offset >> 2u];
+                centre_pairs[pc.dst_offset >> 1u] = uvec2(min(min(c.x, c.y), min(c.z, c.w)),
+                                                          EMPTY_DEPTH_BITS);
+            }
         }
         return;
     }
@@ -43,7 +53,11 @@ void main() {
     }
     uint src_size = 2u * pc.dst_size;
     uint first = pc.src_offset + 2u * t.y * src_size + 4u * t.x;
+    uint dst = (pc.dst_offset + t.y * pc.dst_size + 2u * t.x) >> 1u;
     uvec4 m = min(quads[first >> 2u], quads[(first + src_size) >> 2u]);
-    pairs[(pc.dst_offset + t.y * pc.dst_size + 2u * t.x) >> 1u] =
-        uvec2(min(m.x, m.y), min(m.z, m.w));
+    pairs[dst] = uvec2(min(m.x, m.y), min(m.z, m.w));
+    if (pc.centre != 0u) {
+        uvec4 c = min(centre_quads[first >> 2u], centre_quads[(first + src_size) >> 2u]);
+        centre_pairs[dst] = uvec2(min(c.x, c.y), min(c.z, c.w));
+    }
 }

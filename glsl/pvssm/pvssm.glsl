@@ -68,6 +68,9 @@ layout(push_constant) uniform Push {
 // The host cleared the visibility image to 1 before the shape pass (it can where the image takes
 // transfers: the engine's own does, a caller's may not): a sample decided lit stores nothing.
 #define OPT_LIT_CLEARED 64u
+// blocker_distance = centre: a blocking cell's distance from the centre-depth map (shape.comp's
+// lowres_centre), else from the conservative map's minimum.
+#define OPT_CENTRE_DISTANCE 128u
 // Bits 20..23: fixed_level + 1 (0: the predicted level).
 #define OPT_FIXED_SHIFT 20u
 // Bits 8..15: the blocker search's cells per side (the push block has no room left).

@@ -35,6 +35,13 @@ layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
 // cells a load made the shape pass 7-10 % faster on lavapipe (Mesa 25; one cell a texel fetch
 // was no faster than the storage buffer; a second load of every cell cost it ~40 %).
 layout(set = 0, binding = 5) uniform usamplerBuffer lowres;
+// The centre-depth map and its pyramid, laid out as `lowres` (src/kernels/raster.rs): each
+// caster's plane at a texel's centre, never nearer than `lowres`. Whether a cell blocks is
+// always `lowres`'s to say (conservative); how far its blocker lies, for the average, is this
+// map's. Why: `lowres` holds a caster's nearest point over a cell, up to half the cell's depth
+// spread nearer the light than the caster lies there, and an average of it put sloped blockers
+// nearer the light and widened the predicted penumbrae (src/techniques/pvssm.rs measures it).
+layout(set = 0, binding = 13) uniform usamplerBuffer lowres_centre;
 
 // Where level `level` of the pyramid starts: the levels before it, (N >> k)^2 texels each.
 uint mip_offset(uint level) {
@@ -105,10 +112,23 @@ float plane_depth(Region r, int i, int j, Receiver rc, float lowres_texel) {
     return rc.z + dot(rc.dz, at - rc.c);
 }
 
-// The min depth of cell (i, j) of the region's level.
-float cell_depth(Region r, int i, int j) {
+// Whether blockers' distances come from the centre-depth map (`blocker_distance = centre`).
+bool centre_distance() {
+    return (pc.options & OPT_CENTRE_DISTANCE) != 0u;
+}
+
+// The quad of the map the blockers' distances come from at quad index q, whose conservative
+// depths are `nearest`.
+vec4 distance_quad(int q, vec4 nearest) {
+    return centre_distance() ? uintBitsToFloat(texelFetch(lowres_centre, q)) : nearest;
+}
+
+// The distance depth of cell (i, j) of the region's level (the least centre depth, or the
+// conservative minimum).
+float cell_distance_depth(Region r, int i, int j) {
     uint k = r.offset + uint(j * r.size + i);
-    uvec4 q = texelFetch(lowres, int(k >> 2u));
+    int at = int(k >> 2u);
+    uvec4 q = centre_distance() ? texelFetch(lowres_centre, at) : texelFetch(lowres, at);
     uint bits = (k & 2u) != 0u ? ((k & 1u) != 0u ? q.w : q.z) : ((k & 1u) != 0u ? q.y : q.x);
     return uintBitsToFloat(bits);
 }
@@ -189,10 +209,12 @@ uvec3 row_blockers(Region r, int j, Receiver rc, float lowres_texel, inout vec2 
             vec4 wx = min(col + 1.0, vec4(r.hi.x)) - max(col, vec4(r.lo.x));
             // A region thinner than a cell still weighs its one cell.
             vec4 w4 = mix(vec4(0.0), max(wx * wy, 1e-6), bvec4(blocks));
-            vec4 dist = vec4(soft_light_distance(d.x, pc.near, pc.far, pc.perspective),
-                             soft_light_distance(d.y, pc.near, pc.far, pc.perspective),
-                             soft_light_distance(d.z, pc.near, pc.far, pc.perspective),
-                             soft_light_distance(d.w, pc.near, pc.far, pc.perspective));
+            // The blockers' distances (from the centre depths: lowres_centre says why).
+            vec4 dc = distance_quad(q, d);
+            vec4 dist = vec4(soft_light_distance(dc.x, pc.near, pc.far, pc.perspective),
+                             soft_light_distance(dc.y, pc.near, pc.far, pc.perspective),
+                             soft_light_distance(dc.z, pc.near, pc.far, pc.perspective),
+                             soft_light_distance(dc.w, pc.near, pc.far, pc.perspective));
             sum += vec2(dot(w4, dist), w4.x + w4.y + w4.z + w4.w);
         }
     }
@@ -214,11 +236,12 @@ vec2 blocker_search(vec2 centre, vec2 half_low, float cells, Receiver rc, float 
 // A silhouette cell's blocker distance from its four children one level finer, where there is
 // one: the min pyramid keeps a cell's nearest depth, and a cell on a silhouette spans the steep
 // part of the caster, so its minimum lies nearer the light than the edge it holds. Also the
-// cell's own distance, `d`: on a level above the map, the least of its children's depths (the
-// pyramid's rule, bit for bit), so that a silhouette cell costs two reads, not three.
+// cell's own distance, `d`: on a level above the map, the least of its children's centre depths
+// (the pyramid's rule, bit for bit), so that a silhouette cell costs four reads, not six. Which
+// children block is `lowres`'s to say, their distances the centre map's.
 float silhouette_distance(Region r, int i, int j, Receiver rc, float lowres_texel, out float d) {
     if (r.cell < 2.0) {
-        d = soft_light_distance(cell_depth(r, i, j), pc.near, pc.far, pc.perspective);
+        d = soft_light_distance(cell_distance_depth(r, i, j), pc.near, pc.far, pc.perspective);
         return d;
     }
     Region c = r;
@@ -234,12 +257,14 @@ float silhouette_distance(Region r, int i, int j, Receiver rc, float lowres_texe
         uint k = c.offset + uint((2 * j + b) * c.size + 2 * i);
         uvec4 q = texelFetch(lowres, int(k >> 2u));
         vec2 pair = uintBitsToFloat((k & 2u) != 0u ? q.zw : q.xy);
-        d_min = min(d_min, min(pair.x, pair.y));
+        vec4 qc = distance_quad(int(k >> 2u), uintBitsToFloat(q));
+        vec2 centre_pair = (k & 2u) != 0u ? qc.zw : qc.xy;
+        d_min = min(d_min, min(centre_pair.x, centre_pair.y));
         for (int a = 0; a < 2; ++a) {
-            float d_child = pair[a];
-            if (d_child < plane_depth(c, 2 * i + a, 2 * j + b, rc, lowres_texel) - c.plane_spread
+            if (pair[a] < plane_depth(c, 2 * i + a, 2 * j + b, rc, lowres_texel) - c.plane_spread
                               - pc.search_bias) {
-                sum += vec2(soft_light_distance(d_child, pc.near, pc.far, pc.perspective), 1.0);
+                sum += vec2(soft_light_distance(centre_pair[a], pc.near, pc.far, pc.perspective),
+                            1.0);
             }
         }
     }

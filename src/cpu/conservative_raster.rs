@@ -8,7 +8,9 @@
 //! edges clipped to the slab) meets `[x − eps, x + 1 + eps]` — exact overlap of a convex
 //! polygon and a square, which the unit tests check against the separating-axis form. Its depth
 //! is `max(min vertex NDC z, min plane depth at the expanded corners)`, clamped to `[0, 1]`;
-//! texels keep the minimum over the pieces, 1.0 where none covers them.
+//! texels keep the minimum over the pieces, 1.0 where none covers them. The centre-depth map
+//! takes at each covered texel `max(that depth, the plane at the texel's centre)` (at most 1),
+//! the minimum over the pieces likewise.
 //!
 //! Pieces: a triangle with every vertex at `w > 0` and `z ≥ 0` is one piece, itself. Any other
 //! triangle not entirely behind the light (every `w ≤ 0`) is clipped in clip space to the cone
@@ -35,6 +37,9 @@ const GUARD: f32 = 2.0;
 pub struct ConservativeDepth {
     /// Conservative minimum depth per texel, row-major, 1.0 where nothing covers it.
     pub depth: Vec<f32>,
+    /// Per texel the least over the covering pieces of the plane's depth at its centre, never
+    /// below the piece's conservative depth there; 1.0 where nothing covers it.
+    pub centre: Vec<f32>,
     /// Triangles read.
     pub triangles: u32,
     /// Triangles skipped (entirely behind the light or past the far plane, or a whole one with
@@ -229,6 +234,19 @@ fn texel_depth(t: &Piece, x: i64, y: i64, eps: f32) -> f32 {
     }
 }
 
+/// The centre-depth map's value of covered texel `(x, y)` under the piece, whose conservative
+/// depth there is `z`: the plane at the texel's centre (at most 1), never below `z` (a NaN
+/// plane keeps `z`, as on the GPU).
+fn centre_depth(t: &Piece, x: i64, y: i64, z: f32) -> f32 {
+    let r = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) - t.p0;
+    let at_centre = t.z0 + t.dz.x * r.x + t.dz.y * r.y;
+    if at_centre > z {
+        at_centre.min(1.0)
+    } else {
+        z
+    }
+}
+
 /// The pieces of one triangle, or why it has none.
 enum Pieces {
     /// Skipped with a vertex at `w ≤ 0`; `may_cast` unless every vertex is there.
@@ -319,6 +337,7 @@ pub fn rasterize_biased(
 ) -> ConservativeDepth {
     let mut out = ConservativeDepth {
         depth: vec![1.0; n as usize * n as usize],
+        centre: vec![1.0; n as usize * n as usize],
         triangles: 0,
         skipped: 0,
         behind_light: 0,
@@ -367,7 +386,9 @@ pub fn rasterize_biased(
                 for x in cols.0..=cols.1 {
                     out.texels += 1;
                     let i = (y * n as i64 + x) as usize;
-                    out.depth[i] = out.depth[i].min(texel_depth(&t, x, y, eps));
+                    let z = texel_depth(&t, x, y, eps);
+                    out.depth[i] = out.depth[i].min(z);
+                    out.centre[i] = out.centre[i].min(centre_depth(&t, x, y, z));
                 }
             }
         }

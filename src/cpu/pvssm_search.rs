@@ -3,8 +3,9 @@
 //! sample fully lit, the average blocker distance over a region, the refined search over the
 //! kernel the first z_avg predicts, and the refined search over the silhouette's cells
 //! (`blocker_depth = silhouette`). It reads the GPU's own conservative low-resolution map and
-//! pyramid (the rasterizer has its own twin, [`crate::cpu::conservative_raster`]), so a
-//! comparison tests the search alone.
+//! pyramid, and its centre-depth map and pyramid (the rasterizer has its own twin,
+//! [`crate::cpu::conservative_raster`]), so a comparison tests the search alone: whether a cell
+//! blocks is the conservative map's to say, how far its blocker lies the centre map's.
 //!
 //! Receivers are planes of constant depth here (`tangent_plane = 0`, as
 //! [`crate::cpu::pvssm::coverage_filter`]'s test takes them): `dz = 0`, so a cell blocks when its
@@ -22,10 +23,13 @@
 use glam::{IVec2, Vec2};
 
 /// The conservative map's min pyramid as `lowres_mip.comp` lays it out: level k's
-/// `(size >> k)²` minimum depths after the levels before it.
+/// `(size >> k)²` minimum depths after the levels before it; and the centre-depth map's, laid
+/// out alike.
 pub struct MinPyramid<'a> {
-    /// Every level's depths, level 0 first, row-major.
+    /// Every level's depths, level 0 first, row-major: what blocks.
     pub depths: &'a [f32],
+    /// The centre-depth map's pyramid in the same layout: how far a blocking cell's caster lies.
+    pub centre: &'a [f32],
     /// Level 0's texels per side (a power of two).
     pub size: u32,
 }
@@ -114,6 +118,10 @@ fn min_depth(pyramid: &MinPyramid, r: &Region, i: i32, j: i32) -> f32 {
     pyramid.depths[r.offset + (j * r.size + i) as usize]
 }
 
+fn centre_depth(pyramid: &MinPyramid, r: &Region, i: i32, j: i32) -> f32 {
+    pyramid.centre[r.offset + (j * r.size + i) as usize]
+}
+
 fn blocks(pyramid: &MinPyramid, r: &Region, i: i32, j: i32, z: f32, bias: f32) -> bool {
     min_depth(pyramid, r, i, j) < z - bias
 }
@@ -148,7 +156,7 @@ fn region_search(
             if !blocks(pyramid, &r, i, j, z, bias) {
                 continue;
             }
-            let d = distance(min_depth(pyramid, &r, i, j));
+            let d = distance(centre_depth(pyramid, &r, i, j));
             let w = weight(&r, i, j);
             all += Vec2::new(w * d, w);
             let Some(far_enough) = far_enough else {
@@ -200,7 +208,7 @@ fn silhouette_distance(
         for a in 0..2 {
             let (ci, cj) = (2 * i + a, 2 * j + b);
             if blocks(pyramid, &child, ci, cj, z, bias) {
-                sum += Vec2::new(distance(min_depth(pyramid, &child, ci, cj)), 1.0);
+                sum += Vec2::new(distance(centre_depth(pyramid, &child, ci, cj)), 1.0);
             }
         }
     }
@@ -345,6 +353,7 @@ mod tests {
         let clear = pyramid(64, |_, _| 1.0);
         let p = MinPyramid {
             depths: &clear,
+            centre: &clear,
             size: 64,
         };
         let footprint = |_: f32| Vec2::splat(4.0);
@@ -364,6 +373,7 @@ mod tests {
         let half = pyramid(64, |i, _| if i < 32 { 0.3 } else { 1.0 });
         let p = MinPyramid {
             depths: &half,
+            centre: &half,
             size: 64,
         };
         for silhouette in [false, true] {
@@ -380,6 +390,7 @@ mod tests {
         let far = pyramid(64, |i, _| if i < 12 { 0.3 } else { 1.0 });
         let p = MinPyramid {
             depths: &far,
+            centre: &far,
             size: 64,
         };
         let footprint = |_: f32| Vec2::splat(4.0);
@@ -410,6 +421,7 @@ mod tests {
         });
         let p = MinPyramid {
             depths: &dome,
+            centre: &dome,
             size: 64,
         };
         let footprint = |d: f32| Vec2::splat(200.0 * (1.0 / d - 1.0 / 1.8));

@@ -12,6 +12,15 @@
 //! the expanded square)` clamped to `[0, 1]` (NDC z is affine in screen x, y for a planar
 //! polygon, so the minimum is at a corner). Texels combine with `atomicMin` on the float bits.
 //!
+//! A second map of the same layout, [`RasterBinding::centre_depth`], takes at every covered texel
+//! the plane's depth at the texel's centre, never nearer than the conservative depth there, by
+//! the same `atomicMin`: what an ordinary rasterized map would hold where the caster covers the
+//! centre. It is not conservative; it is the caster's *distance*, for a blocker search's average.
+//! Why: the conservative depth is the caster's nearest point over the texel, up to half the
+//! texel's depth spread nearer the light than the caster is there, so an average of it puts
+//! sloped blockers nearer the light than they are and widens the penumbrae pvssm predicts
+//! (`src/techniques/pvssm.rs` has the measurement).
+//!
 //! The polygon: a triangle with every vertex in front of the near plane (`w > 0`, `z ≥ 0`) is
 //! itself. With `clip` ([`ConservativeRaster::record`]), one reaching before the near plane or
 //! behind the light's plane is clipped in clip space to the cone `|x|, |y| ≤ 2w` (what it drops
@@ -106,8 +115,8 @@ pub struct RasterPush {
     pub bias_slope: f32,
     /// [`RasterBias::clamp`].
     pub bias_clamp: f32,
-    /// Padding.
-    pub pad0: u32,
+    /// 1: write the centre-depth map too; 0: leave it empty.
+    pub centre: u32,
     /// Padding.
     pub pad1: u32,
     /// Padding.
@@ -174,6 +183,7 @@ pub struct RasterBinding<'a> {
     // The same bindings for the clipping shader.
     clip_set: DescriptorSet,
     depth: Buffer,
+    centre_depth: Buffer,
     counters: Buffer,
     _large: Buffer,
     _geometry: (&'a Buffer, &'a Buffer),
@@ -193,6 +203,13 @@ impl RasterBinding<'_> {
     /// The depth map: N² `u32`, the float bits of each texel's conservative minimum depth.
     pub fn depth(&self) -> &Buffer {
         &self.depth
+    }
+
+    /// The centre-depth map, laid out as [`RasterBinding::depth`] (spare texels included): per
+    /// texel the least plane depth at its centre over the pieces covering it, never nearer than
+    /// the conservative depth; 1.0 where nothing covers it. A distance, not a bound.
+    pub fn centre_depth(&self) -> &Buffer {
+        &self.centre_depth
     }
 
     /// The counters buffer ([`RasterCounters`] layout), written by each recording.
@@ -264,7 +281,8 @@ impl ConservativeRaster {
     ///
     /// `spare_texels` more `u32` follow the map in the same buffer, for the caller to derive
     /// from it in place (pvssm keeps the map's min pyramid there); [`ConservativeRaster::record`]
-    /// fills them with 1.0 too.
+    /// fills them with 1.0 too. The binding owns the centre-depth map
+    /// ([`RasterBinding::centre_depth`]) too, of the same size.
     pub fn bind<'a>(
         &self,
         vertices: &'a Buffer,
@@ -290,10 +308,17 @@ impl ConservativeRaster {
         check_buffer(NAME, indices, 12 * triangles as u64)?;
         // Also a texel buffer: a reader whose loads sit in loops takes them through a texel view
         // (pvssm's blocker search; `src/techniques/pvssm.rs` says why).
+        let map_bytes = 4 * (map_size as u64 * map_size as u64 + spare_texels);
         let depth = Buffer::storage_with(
             &self.ctx,
             "conservative depth",
-            4 * (map_size as u64 * map_size as u64 + spare_texels),
+            map_bytes,
+            vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+        )?;
+        let centre_depth = Buffer::storage_with(
+            &self.ctx,
+            "conservative raster centre depth",
+            map_bytes,
             vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
         )?;
         if triangles > 0 {
@@ -316,6 +341,7 @@ impl ConservativeRaster {
             Binding::Buffer(&depth),
             Binding::Buffer(&large),
             Binding::Buffer(&counters),
+            Binding::Buffer(&centre_depth),
         ];
         let set = DescriptorSet::new(&self.ctx, &self.pipeline, &bindings)?;
         let clip_set = DescriptorSet::new(&self.ctx, &self.clip_pipeline, &bindings)?;
@@ -325,13 +351,16 @@ impl ConservativeRaster {
             set,
             clip_set,
             depth,
+            centre_depth,
             counters,
             _large: large,
             _geometry: (vertices, indices),
         })
     }
 
-    /// Records the rasterization: fills the depth buffer with [`EMPTY_DEPTH_BITS`] and the
+    /// Records the rasterization: fills both depth buffers with [`EMPTY_DEPTH_BITS`] (the
+    /// centre-depth map is written only with `centre`: a second `atomicMin` a covered texel,
+    /// `pvssm-lowres` on teapot-rect ~4 → ~6 ms on lavapipe) and the
     /// counters with 0, then the per-triangle and the large-triangle dispatches. With `clip`,
     /// triangles reaching before the near plane or behind the light are clipped and drawn (the
     /// map then holds every caster between the light's plane and the far plane); without, those
@@ -349,8 +378,10 @@ impl ConservativeRaster {
         light_view_proj: Mat4,
         clip: bool,
         bias: RasterBias,
+        centre: bool,
     ) -> Result<()> {
         rec.fill(&binding.depth, EMPTY_DEPTH_BITS);
+        rec.fill(&binding.centre_depth, EMPTY_DEPTH_BITS);
         rec.fill(&binding.counters, 0);
         let mut push = RasterPush {
             light_view_proj,
@@ -359,7 +390,7 @@ impl ConservativeRaster {
             phase: 0,
             bias_slope: bias.slope,
             bias_clamp: bias.clamp,
-            pad0: 0,
+            centre: u32::from(centre),
             pad1: 0,
             pad2: 0,
         };
@@ -387,6 +418,22 @@ impl ConservativeRaster {
         clip: bool,
         bias: RasterBias,
     ) -> Result<(Vec<f32>, RasterCounters)> {
+        let (depth, _, counters) =
+            self.run_with_centre(positions, indices, light_view_proj, map_size, clip, bias)?;
+        Ok((depth, counters))
+    }
+
+    /// [`ConservativeRaster::run`] that also reads back the centre-depth map: (depths, centre
+    /// depths, counters).
+    pub fn run_with_centre(
+        &self,
+        positions: &[Vec3],
+        indices: &[u32],
+        light_view_proj: Mat4,
+        map_size: u32,
+        clip: bool,
+        bias: RasterBias,
+    ) -> Result<(Vec<f32>, Vec<f32>, RasterCounters)> {
         if indices.len() % 3 != 0 || indices.iter().any(|&i| i as usize >= positions.len()) {
             return Err(param_error(
                 "conservative raster",
@@ -405,7 +452,7 @@ impl ConservativeRaster {
         let index_buffer = self.ctx.buffer_with("raster indices", usage, indices)?;
         let binding = self.bind(&vertices, &index_buffer, triangles, map_size, 0)?;
         self.ctx.submit(None, |rec| {
-            self.record(rec, &binding, light_view_proj, clip, bias)
+            self.record(rec, &binding, light_view_proj, clip, bias, true)
         })?;
         let counters = binding.read_counters(&self.ctx)?;
         if counters.cut > 0 {
@@ -417,9 +464,12 @@ impl ConservativeRaster {
                 ),
             });
         }
+        let texels = map_size as usize * map_size as usize;
         let mut out = f32s(&self.ctx.read_buffer(binding.depth())?);
-        out.truncate(map_size as usize * map_size as usize);
-        Ok((out, counters))
+        out.truncate(texels);
+        let mut centre = f32s(&self.ctx.read_buffer(binding.centre_depth())?);
+        centre.truncate(texels);
+        Ok((out, centre, counters))
     }
 }
 

@@ -25,7 +25,26 @@
 //!    nearer the light than the silhouette that bounds its shadow, so the average over every
 //!    blocker widened the penumbra (teapot-rect's ground shadow too bright inside, too dark
 //!    outside): penumbra MAE teapot-rect 0.0268 → 0.0152, bunny-rect 0.0387 → 0.0300 for ~15 %
-//!    more shape pass (`--set blocker_depth=average|silhouette`). Then the light
+//!    more shape pass (`--set blocker_depth=average|silhouette`). Whether a cell blocks is the
+//!    conservative map's to say; how far its caster lies is read from a second map the raster
+//!    writes beside it, each caster's plane at the texel's *centre* (`blocker_distance =
+//!    centre`, [`crate::kernels::raster`]): the conservative map holds a caster's nearest point
+//!    over a texel, up to half its depth spread there nearer the light, so z_avg leaned toward
+//!    the light and the penumbrae came out too wide wherever casters slope in the light's view.
+//!    A coarser virtual map had shown it: `virtual_size=2048` gave teapot-rect 0.0107 against
+//!    16384's 0.0128, and with `lowres_bias=0` 0.0142 against 0.0141 — the larger slope bias
+//!    of coarser finest pages had moved z_avg back, not their texels. Penumbra MAE (lavapipe,
+//!    `penumbra bench --no-validation --scenes SCENES --techniques pvssm --set antialias=1
+//!    --set rho_scale=1 --set blocker_distance=nearest,centre --light-scale 1,4 --frames 1`):
+//!    teapot-rect 0.0128 → 0.0110, bunny-rect 0.0284 → 0.0263 (× 4: 0.0221 → 0.0220, 0.0409 →
+//!    0.0403), `thin-bars@rect` 0.0827 → 0.0726 (× 4: 0.0285 → 0.0212), `lattice@rect` 0.0506
+//!    → 0.0459, `plane-boxes@rect` 0.0156 → 0.0136, `grid:800000@rect` 0.0097 → 0.0095; point
+//!    lights unchanged (no z_avg in their kernels); the lit decisions of the first search the
+//!    same, the kernels and so the pages moved with z_avg (teapot-rect 463 → 453 pages,
+//!    bunny-rect 682 → 692); for
+//!    ~1 ms more `pvssm-lowres` (its second `atomicMin` a texel) and ~1 ms
+//!    more shape pass on teapot-rect (`tools/ab.py`), ~5 ms more low-res pass on the 800k grid.
+//!    Then the light
 //!    kernel s_α and the pixel footprint φ' through the receiver's tangent plane, convolved as
 //!    Gaussians and factored back into a sheared box h (Cholesky); the perceptual metric ρ(n)
 //!    and the texel size it asks for (Eqs. 4–5); and the requests: every page of the predicted
@@ -65,7 +84,9 @@
 //! `rho_scale` (the quality/speed dial: texels across a kernel ×), `antialias`, `max_search`,
 //! `search_cells` (the search's cost bound: cells per side of the min-pyramid level it reads; with
 //! `refine_search` the first search, which only sizes the refined one, reads a quarter as many),
-//! `refine_search`, `blocker_depth` (`average` | `silhouette`), `kernel_proof`, `ancestors`
+//! `refine_search`, `blocker_depth` (`average` | `silhouette`), `blocker_distance` (`nearest` |
+//! `centre`: a blocking cell's distance from the conservative minimum or the centre-depth
+//! map, whose raster and pyramid are skipped with `nearest`), `kernel_proof`, `ancestors`
 //! (render each requested page's coarser ancestors too, so a pool overflow falls back one level
 //! at a time: 1 always, 2 — the default — only when the requests overflow the pool (without an
 //! overflow no lookup falls back, and the ancestors are a fifth of the frame on
@@ -122,7 +143,7 @@ pub const COUNTER_NAMES: [&str; 13] = [
 // same within the noise). rmsm draws whole pages and keeps 64.
 const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(16384.0, 1024.0);
 
-const KNOBS: [Knob; 26] = [
+const KNOBS: [Knob; 27] = [
     Knob::int(
         "lowres_size",
         "conservative low-resolution map for the blocker search, texels per side",
@@ -188,6 +209,16 @@ const KNOBS: [Knob; 26] = [
         1.0,
     )
     .named(&["average", "silhouette"]),
+    Knob::int(
+        "blocker_distance",
+        "how far a blocking low-resolution cell's caster lies, for z_avg: its nearest point over \
+         the cell (the conservative map's minimum) or its depth at the cell's centre (a second \
+         map the raster writes beside it)",
+        1.0,
+        0.0,
+        1.0,
+    )
+    .named(&["nearest", "centre"]),
     Knob::int(
         "ancestors",
         "render requested pages' coarser ancestors too, so a pool overflow falls back one level at \
@@ -270,8 +301,11 @@ pub struct Pvssm<'a> {
     raster: ConservativeRaster,
     // The low-resolution map's bias: the slope-scaled part of level 0's (see `new`).
     lowres_bias: RasterBias,
-    // The shape pass's view of `lowres` (before it: dropped first).
+    // `blocker_distance = centre`: the raster writes its centre-depth map, the searches read it.
+    centre_distance: bool,
+    // The shape pass's views of `lowres` and its centre depths (before it: dropped first).
     _lowres_texels: TexelView,
+    _centre_texels: TexelView,
     /// The conservative low-resolution map and, after it in the same buffer, its min pyramid
     /// level after level: float bits of each texel's minimum depth.
     pub lowres: RasterBinding<'a>,
@@ -353,7 +387,7 @@ impl<'a> Pvssm<'a> {
                 src_offset: offset,
                 dst_offset: next,
                 dst_size: side / 2,
-                pad0: 0,
+                centre: 0,
             });
             offset = next;
             side /= 2;
@@ -369,19 +403,22 @@ impl<'a> Pvssm<'a> {
             u64::from(offset + 1).next_multiple_of(4) - u64::from(lowres_size * lowres_size),
         )?;
         let mip_pipeline = Pipeline::compute(ctx, "pvssm/lowres_mip.comp")?;
-        // The same buffer read as quads and written as pairs (lowres_mip.comp).
+        // Each buffer read as quads and written as pairs (lowres_mip.comp): the conservative
+        // map's and the centre-depth map's pyramids, in the same invocations.
         let mip_set = DescriptorSet::new(
             ctx,
             &mip_pipeline,
             &[
                 Binding::Buffer(lowres.depth()),
                 Binding::Buffer(lowres.depth()),
+                Binding::Buffer(lowres.centre_depth()),
+                Binding::Buffer(lowres.centre_depth()),
             ],
         )?;
-        // The searches read the pyramid four texels a fetch (shape.comp says why).
-        let lowres_texels = lowres
-            .depth()
-            .texel_view(ash::vk::Format::R32G32B32A32_UINT, 16)?;
+        // The searches read the pyramids four texels a fetch (shape.comp says why).
+        let quads = ash::vk::Format::R32G32B32A32_UINT;
+        let lowres_texels = lowres.depth().texel_view(quads, 16)?;
+        let centre_texels = lowres.centre_depth().texel_view(quads, 16)?;
         let camera_buffer =
             virtual_map::view_camera(ctx, "pvssm camera", setup, params.u32("tangent_plane")?)?;
         let samples = setup.view;
@@ -424,6 +461,7 @@ impl<'a> Pvssm<'a> {
                 Binding::Buffer(&filter_args),
                 Binding::Buffer(&filter_list),
                 Binding::Buffer(&pages.entry_bands),
+                Binding::Texels(&centre_texels),
             ],
         )?;
         let filter_pipeline = Pipeline::compute(ctx, "pvssm/filter.comp")?;
@@ -463,6 +501,10 @@ impl<'a> Pvssm<'a> {
         }
         if params.u32("kernel_proof")? == 1 {
             options |= 32;
+        }
+        let centre_distance = params.u32("blocker_distance")? == 1;
+        if centre_distance {
+            options |= 128;
         }
         // The visibility cleared to 1 by a transfer, so the decided lit samples store nothing
         // (where the image allows it: a caller's may lack the usage).
@@ -528,9 +570,11 @@ impl<'a> Pvssm<'a> {
             pages,
             raster,
             lowres_bias,
+            centre_distance,
             lowres,
             mip: (mip_pipeline, mip_set),
             _lowres_texels: lowres_texels,
+            _centre_texels: centre_texels,
             mip_levels,
             shape,
             shape_pass: (shape_pipeline, shape_set),
@@ -556,12 +600,17 @@ impl Pvssm<'_> {
             self.push.light_view_proj,
             false,
             self.lowres_bias,
+            self.centre_distance,
         )?;
         let (pipeline, set) = &self.mip;
         for level in &self.mip_levels {
+            let level = PvssmMipPush {
+                centre: u32::from(self.centre_distance),
+                ..*level
+            };
             // Two texels of a row an invocation.
             let pairs = (level.dst_size / 2).max(1);
-            rec.dispatch(pipeline, set, level, [pairs, level.dst_size, 1])?;
+            rec.dispatch(pipeline, set, &level, [pairs, level.dst_size, 1])?;
         }
         Ok(())
     }
@@ -643,6 +692,10 @@ impl Technique for Pvssm<'_> {
     }
 
     fn buffers(&self) -> Vec<(&'static str, &crate::gpu::Buffer)> {
-        vec![("lowres", self.lowres.depth()), ("shape", &self.shape)]
+        vec![
+            ("lowres", self.lowres.depth()),
+            ("lowres_centre", self.lowres.centre_depth()),
+            ("shape", &self.shape),
+        ]
     }
 }

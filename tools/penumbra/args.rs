@@ -158,7 +158,7 @@ pub(crate) enum Command {
         reference: Vec<String>,
         /// Light-size factors, comma-separated: each scene also runs with its light scaled
         /// (rect edges, angular diameter; point lights are run once; 0 turns a rect light into a
-        /// point light at its centre, and leaves a directional one out).
+        /// point light at its centre, and a directional one into a hard sun).
         #[arg(long, default_value = "1", value_delimiter = ',')]
         light_scale: Vec<f32>,
         /// Camera-distance factors, comma-separated: each scene also runs with its camera moved

@@ -295,8 +295,8 @@ struct SkipRun {
 }
 
 /// Scales a light's size by `s` (rect edges, angular diameter); false for a point light. A
-/// rect light scaled by 0 becomes a point light at its centre (the same scene lit hard, to
-/// compare a technique's soft and hard costs).
+/// rect light scaled by 0 becomes a point light at its centre, a sun a hard sun (angular
+/// diameter 0): the same scene lit hard, to compare a technique's soft and hard costs.
 pub(crate) fn scale_light(light: &mut penumbra::scene::Light, s: f32) -> bool {
     use penumbra::scene::Light;
     match light {
@@ -312,7 +312,6 @@ pub(crate) fn scale_light(light: &mut penumbra::scene::Light, s: f32) -> bool {
             *v *= s;
             true
         }
-        Light::Directional { .. } if s == 0.0 => false,
         Light::Directional {
             angular_diameter_deg,
             ..
@@ -381,7 +380,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         .iter()
         .find(|s| !(s.is_finite() && **s >= 0.0 && **s <= 100.0))
     {
-        anyhow::bail!("--light-scale {bad}: expected a factor in [0, 100] (0: a rect light's centre as a point light)");
+        anyhow::bail!("--light-scale {bad}: expected a factor in [0, 100] (0: a rect light's centre as a point light, a hard sun)");
     }
     if let Some(bad) = args
         .camera_scales
@@ -933,4 +932,38 @@ pub fn run_kernels(
         anyhow::bail!("a primitive did not match its CPU twin");
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::scale_light;
+    use glam::Vec3;
+    use penumbra::scene::Light;
+
+    #[test]
+    fn light_scale_zero_lights_the_scene_hard() {
+        let mut rect = Light::Rect {
+            position: Vec3::Y,
+            u: Vec3::X,
+            v: Vec3::Z,
+        };
+        assert!(scale_light(&mut rect, 0.0));
+        assert!(matches!(rect, Light::Point { position } if position == Vec3::Y));
+        let mut sun = Light::Directional {
+            direction: -Vec3::Y,
+            angular_diameter_deg: 0.5,
+        };
+        assert!(scale_light(&mut sun, 4.0));
+        assert!(
+            matches!(sun, Light::Directional { angular_diameter_deg, .. } if angular_diameter_deg == 2.0)
+        );
+        assert!(scale_light(&mut sun, 0.0));
+        assert!(
+            matches!(sun, Light::Directional { angular_diameter_deg, .. } if angular_diameter_deg == 0.0)
+        );
+        let mut point = Light::Point {
+            position: Vec3::ZERO,
+        };
+        assert!(!scale_light(&mut point, 2.0));
+    }
 }

@@ -1,4 +1,4 @@
-// Page-table geometry and lookups of a virtual shadow map (src/passes/pages.rs).
+// Page-table geometry and lookups of a virtual shadow map (src/passes/pages/).
 //
 // A V x V level-0 texel map is split into p x p pages, with a mip chain of levels 0 .. L-1
 // (L = log2(V/p) + 1): level l has V / (p 2^l) pages per side and the top level is one page, the

@@ -1,4 +1,4 @@
-// Reads through a virtual shadow map's page table into its atlas (src/passes/pages.rs), shared by
+// Reads through a virtual shadow map's page table into its atlas (src/passes/pages/), shared by
 // rmsm and pvssm. The including shader's push block must have `virtual_size`, `page_size`,
 // `levels` and `atlas_cols`; it defines VIRTUAL_ATLAS to bind the atlas, and TABLE_ACCESS empty
 // to write the table (the marking passes).

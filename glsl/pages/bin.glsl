@@ -55,7 +55,7 @@ layout(set = 0, binding = 8) buffer Counters { uint counters[]; };
 layout(set = 0, binding = 9) buffer Memo { uvec2 memo[]; };
 
 const uint MEMO_MORE = 0xffffffffu;
-// The compute page raster's depths (pages.rs binds the drawer's buffer, or one word when the
+// The compute page raster's depths (pages/build.rs binds the drawer's buffer, or one word when the
 // rasterizer draws the pages): mode 2 covers a tiny triangle's one page here, in the walk.
 layout(set = 0, binding = 10) buffer Atlas { uint atlas_bits[]; };
 // Per cluster (this workgroup's CLUSTER_TRIANGLES = 64 triangles): the levels its box may bin
@@ -70,7 +70,7 @@ layout(set = 0, binding = 12) readonly buffer SlotBands { uint slot_bands[]; };
 #include "page_cover.glsl"
 
 // pc.mode's low byte is the mode; in mode 2 the bits above it are the most texels of a page box
-// the walk covers itself (cover_here: 0 none; pages.rs's WALK_COVER_TEXELS, or raster_split
+// the walk covers itself (cover_here: 0 none; pages/mod.rs's WALK_COVER_TEXELS, or raster_split
 // when smaller, so the walk covers only what the page raster would).
 uint bin_mode() {
     return pc.mode & 0xffu;

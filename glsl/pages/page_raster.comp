@@ -1,5 +1,5 @@
 #version 460
-// Page rendering in compute (`page_raster = compute`, src/passes/pages.rs): one invocation per
+// Page rendering in compute (`page_raster = compute`, src/passes/pages/): one invocation per
 // bin entry (triangle, slot) rasterizes the triangle into its slot's page with the graphics
 // path's rules as far as they matter to a shadow test — a texel is covered when its centre lies
 // inside the projected triangle (edges owned by a top-left rule), its depth is the triangle's
@@ -8,7 +8,7 @@
 // depth, clamped like vkCmdSetDepthBias), clamped to [0, 1]; the near plane clips the triangle
 // (z >= 0, as Vulkan's clip volume), the far plane discards texels past depth 1. Texels combine
 // with atomicMin on the float bits (non-negative, so they order as unsigned integers) in a
-// buffer laid out as the atlas, which pages.rs then copies into the depth atlas.
+// buffer laid out as the atlas, which pages/record.rs then copies into the depth atlas.
 //
 // Everything is computed in the level's texel coordinates (shadow_coord's, divided by 2^level),
 // never relative to the page, so a texel gets the same coverage and depth in whichever page of
@@ -37,7 +37,7 @@ layout(set = 0, binding = 5) buffer RasterArgs { uint raster_args[]; };
 layout(set = 0, binding = 6) writeonly buffer LargeList { uint large_list[]; };
 // Per group of SLOT_VIEWPORTS slots, its listed entries (zeroed before the dispatch), and each
 // listed entry's rank in its group: slot_groups.comp and slot_scatter.comp order the list by
-// group for the draws that give each slot a viewport of its own (pages.rs).
+// group for the draws that give each slot a viewport of its own (pages/record.rs).
 layout(set = 0, binding = 7) buffer GroupCount { uint group_count[]; };
 layout(set = 0, binding = 8) writeonly buffer LargeRank { uint large_rank[]; };
 // Per slot, the bands of its page to draw (allocate.comp; pages.glsl): texels outside their

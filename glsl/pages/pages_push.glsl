@@ -42,7 +42,7 @@ struct LevelInfo {
     uint pad1;
 };
 
-// Counter slots of the page machinery (PAGE_COUNTER_NAMES in src/passes/pages.rs); round 1's
+// Counter slots of the page machinery (PAGE_COUNTER_NAMES in src/passes/pages/mod.rs); round 1's
 // unique/allocated/overflow follow round 0's.
 #define C_UNIQUE 0
 #define C_ALLOCATED 1

@@ -1,4 +1,4 @@
-//! CPU twin of the page machinery (`src/passes/pages.rs`, `glsl/pages/`): the page-table
+//! CPU twin of the page machinery (`src/passes/pages/`, `glsl/pages/`): the page-table
 //! layout (coarsest level first, the root is entry 0), allocation from a fixed pool (coarse
 //! first, and the refinement round's after round 0's slots), the atlas placement of a slot, and
 //! the caster-culling test of a triangle against a page, and the levels a cluster of triangles

@@ -3,12 +3,13 @@
 // blocker search over the light's pyramid (widened by the pixel footprint) in the conservative
 // low-resolution map — at the level of its min pyramid where the region spans at most
 // `search_cells` (32) cells a side, so its cost is bounded for any light; the average blocker
-// distance is then that of the cells' minima — gives z_avg (searched again over the kernel it
-// predicts, `refine_search` times: the first region, the light at the near plane, averages in
-// casters whose shadow misses the sample; the refined search averages the silhouette's cells,
-// silhouette_search), or proves the sample fully lit — no texel of any caster lies nearer than
-// its tangent plane there, and the map is conservative, so V = 1 and it is skipped from then
-// on. Otherwise the light kernel s_alpha (Eq. 1) and the pixel footprint phi' (pixel axes
+// distance is then that of the blocking cells' casters, read from the centre-depth map's
+// pyramid (`blocker_distance`; lowres_centre below) — gives z_avg (searched again over the
+// kernel it predicts, `refine_search` times: the first region, the light at the near plane,
+// averages in casters whose shadow misses the sample; the refined search averages the
+// silhouette's cells, silhouette_search), or proves the sample fully lit — no texel of any
+// caster lies nearer than its tangent plane there, and the map is conservative, so V = 1 and
+// it is skipped from then on. Otherwise the light kernel s_alpha (Eq. 1) and the pixel footprint phi' (pixel axes
 // through the tangent plane) are convolved into the filter h (Eq. 3), rho predicts the texel
 // size (Eqs. 4-5), and every page of that level the kernel's box touches is marked, with its
 // ancestors — not only the page under the kernel's centre (notes A4's seeding pitfall).

@@ -9,10 +9,11 @@
 // averages in casters whose shadow misses the sample; the refined search averages the
 // silhouette's cells, silhouette_search), or proves the sample fully lit — no texel of any
 // caster lies nearer than its tangent plane there, and the map is conservative, so V = 1 and
-// it is skipped from then on. Otherwise the light kernel s_alpha (Eq. 1) and the pixel footprint phi' (pixel axes
-// through the tangent plane) are convolved into the filter h (Eq. 3), rho predicts the texel
-// size (Eqs. 4-5), and every page of that level the kernel's box touches is marked, with its
-// ancestors — not only the page under the kernel's centre (notes A4's seeding pitfall).
+// it is skipped from then on. Otherwise the light kernel s_alpha (Eq. 1) and the pixel
+// footprint phi' (pixel axes through the tangent plane) are convolved into the filter h
+// (Eq. 3), rho predicts the texel size (Eqs. 4-5), and every page of that level the kernel's
+// box touches is marked, with its ancestors — not only the page under the kernel's centre
+// (notes A4's seeding pitfall).
 // CPU twins: src/cpu/pvssm_search.rs (the search), src/cpu/pvssm.rs (the kernel and the level).
 #extension GL_GOOGLE_include_directive : require
 #define TABLE_ACCESS

@@ -161,8 +161,8 @@ fn render_notes_pages_left_out_for_want_of_room() {
         err.contains("(overflow_pages)") && err.contains("larger pool_pages"),
         "no note of the pool's overflow: {err}"
     );
-    // A frame with room for everything says nothing of it.
-    let err = render("scenes/spot-point.toml", "pcf", "map_size=512");
+    // A frame of pages with room for all of them says nothing of it.
+    let err = render("scenes/spot-point.toml", "pvssm", "pool_pages=1024");
     assert!(!err.contains("note:"), "{err}");
 }
 

@@ -416,26 +416,21 @@ fn the_bound_api_rasterizes_scene_geometry() {
     let binding = raster
         .bind(&geometry.vertices, &geometry.indices, triangles, n, 0)
         .expect("bind");
-    // Twice in one submission: the second recording starts from a cleared map.
+    // Twice in one submission: the second recording starts from cleared maps, and without
+    // `centre` leaves the centre-depth map empty.
     ctx.submit(None, |rec| {
-        raster.record(
-            rec,
-            &binding,
-            light.view_proj,
-            false,
-            RasterBias::default(),
-            true,
-        )?;
-        raster.record(
-            rec,
-            &binding,
-            light.view_proj,
-            false,
-            RasterBias::default(),
-            true,
-        )
+        for centre in [true, false] {
+            let bias = RasterBias::default();
+            raster.record(rec, &binding, light.view_proj, false, bias, centre)?;
+        }
+        Ok(())
     })
     .expect("submit");
+    let centre = penumbra::gpu::f32s(&ctx.read_buffer(binding.centre_depth()).expect("read"));
+    assert!(
+        centre.iter().all(|&c| c == 1.0),
+        "the centre-depth map was written without `centre`"
+    );
     let gpu = penumbra::gpu::f32s(&ctx.read_buffer(binding.depth()).expect("read"));
     let counters = binding.read_counters(&ctx).expect("counters");
     let (positions, indices) = scene.merged();

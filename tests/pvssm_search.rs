@@ -5,12 +5,13 @@
 mod common;
 
 /// The blocker search against its CPU twin (`src/cpu/pvssm_search.rs`) reading the GPU's own
-/// conservative low-resolution map and pyramid (whose levels above the map must equal the
-/// twin's `min_levels`, bit for bit): every sample the shape pass decides fully lit the twin
+/// conservative low-resolution map and pyramid and its centre-depth map and pyramid (whose
+/// levels above the maps must equal the twin's `min_levels`, bit for bit): every sample the shape pass decides fully lit the twin
 /// finds unblocked or proves lit by its kernel's reach (`kernel_proof`, with the twin's level
 /// prediction), and every other sample's kernel widths (without anti-aliasing, half the
 /// light's footprint through the final z_avg) agree to relative 1e-3 (the twin's module note
-/// says why not tighter) — both z_avg choices, on both rect scenes, receivers flat
+/// says why not tighter) — both z_avg choices, the silhouette's with both `blocker_distance`
+/// maps, on both rect scenes, receivers flat
 /// (`tangent_plane = 0`), every sample evaluated (`horizon_skip = 0`), with the silhouette's
 /// z_avg differing from the average's on at least a tenth of the blocked samples (measured: two
 /// thirds), so its own path is what agrees. Ties (a cell's minimum within rounding of the
@@ -38,7 +39,13 @@ fn blocker_search_matches_cpu() {
         let view = &prepared.receiver_light_view;
         let setup = PcssSetup::new(&prepared.light, view, v_size);
         let m = view.view_proj;
-        for depth in ["average", "silhouette"] {
+        // Both z_avg choices with the centre depths, and the silhouette's with the conservative
+        // minima (`blocker_distance = nearest`: the twin then reads the same map for both).
+        for (depth, distance) in [
+            ("average", "centre"),
+            ("silhouette", "centre"),
+            ("silhouette", "nearest"),
+        ] {
             let v_text = v_size.to_string();
             let l_text = lowres.to_string();
             let set = common::knobs(&[
@@ -48,6 +55,7 @@ fn blocker_search_matches_cpu() {
                 ("antialias", "0"),
                 ("horizon_skip", "0"),
                 ("blocker_depth", depth),
+                ("blocker_distance", distance),
             ]);
             let (mut shape, mut pyramid, mut centre) = (vec![], vec![], vec![]);
             engine
@@ -64,8 +72,8 @@ fn blocker_search_matches_cpu() {
                 levels[..] == pyramid[..levels.len()],
                 "{scene}: the min pyramid differs from its twin"
             );
-            // So is the centre-depth map's, and no centre depth lies nearer than its cell's
-            // conservative one.
+            // So is the centre-depth map's (left empty with `nearest`), and no centre depth lies
+            // nearer than its cell's conservative one.
             let centre_levels = min_levels(&centre[..(lowres * lowres) as usize], lowres);
             assert!(
                 centre_levels[..] == centre[..centre_levels.len()],
@@ -75,9 +83,19 @@ fn blocker_search_matches_cpu() {
                 centre.iter().zip(&pyramid).all(|(c, d)| c >= d),
                 "{scene}: a centre depth nearer than its cell's conservative depth"
             );
+            if distance == "nearest" {
+                assert!(
+                    centre.iter().all(|&c| c == 1.0),
+                    "{scene}: centre map written"
+                );
+            }
             let pyramid = MinPyramid {
                 depths: &pyramid,
-                centre: &centre,
+                centre: if distance == "nearest" {
+                    &pyramid
+                } else {
+                    &centre
+                },
                 size: lowres,
             };
             let params = SearchParams {
@@ -155,7 +173,7 @@ fn blocker_search_matches_cpu() {
                 off += usize::from(!agrees);
             }
             eprintln!(
-                "{scene} {depth}: {searched} samples, {lit} fully lit by the twin, {off} off, \
+                "{scene} {depth} {distance}: {searched} samples, {lit} fully lit by the twin, {off} off, \
                  {moved} whose silhouette z_avg is not the average's"
             );
             // The silhouette path is exercised, not only its fallback to the average.

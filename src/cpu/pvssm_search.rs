@@ -380,6 +380,19 @@ mod tests {
             let (d, _) = run(&p, silhouette).expect("blocked");
             assert!((d - 1.3).abs() < 1e-6, "{silhouette}: {d}");
         }
+        // The same blockers with their centre depths at 0.5, and a centre map that puts a
+        // (non-blocking) 0.1 where the conservative map is empty: which cells block is the
+        // conservative map's to say, their distance the centre map's.
+        let centre = pyramid(64, |i, _| if i < 32 { 0.5 } else { 0.1 });
+        let p = MinPyramid {
+            depths: &half,
+            centre: &centre,
+            size: 64,
+        };
+        for silhouette in [false, true] {
+            let (d, _) = run(&p, silhouette).expect("blocked");
+            assert!((d - 1.5).abs() < 1e-6, "{silhouette}: {d}");
+        }
     }
 
     /// A blocker inside the light's pyramid but far outside the kernel the searches predict:

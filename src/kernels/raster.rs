@@ -360,7 +360,8 @@ impl ConservativeRaster {
 
     /// Records the rasterization: fills both depth buffers with [`EMPTY_DEPTH_BITS`] (the
     /// centre-depth map is written only with `centre`: a second `atomicMin` a covered texel,
-    /// `pvssm-lowres` on teapot-rect ~4 → ~6 ms on lavapipe) and the
+    /// `pvssm-lowres` 3.5 → 4.5 ms on teapot-rect and 21.7 → 26.3 ms on `grid:800000@rect` on
+    /// lavapipe, `tools/ab.py` with pvssm's `blocker_distance=nearest` against the default) and the
     /// counters with 0, then the per-triangle and the large-triangle dispatches. With `clip`,
     /// triangles reaching before the near plane or behind the light are clipped and drawn (the
     /// map then holds every caster between the light's plane and the far plane); without, those

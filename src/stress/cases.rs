@@ -521,12 +521,16 @@ pub fn cases() -> Vec<Case> {
         },
         Case {
             name: "bins-too-small",
-            summary: "a virtual map's caster bins past their capacity: the coarse levels kept \
-                      whole, fine pages dropped",
+            summary: "a virtual map's caster bins past their capacity: pages whose casters do not \
+                      all fit are dropped (counted), their lookups falling back to coarser pages",
             quick: true,
             scene: baseline,
             // One entry a triangle, and every pair binned (the walk covers none itself): the
-            // room past the root's region is the floor's 8 a slot less the triangles.
+            // room past the root's region is the floor's 8 a slot less the triangles. On the
+            // baseline scene no level but the root's fits whole (`bin_whole_levels` 0): the
+            // pages compete in the walk's order, 98 (pvssm) and 287 (rmsm) of them dropped
+            // (`bin_overflow_pages` in stress.json; 60 and 74 with `--quick`); tests/rmsm.rs
+            // covers the levels kept whole.
             knobs: |t| {
                 matches!(t, "rmsm" | "pvssm").then(|| {
                     vec![

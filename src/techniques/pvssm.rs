@@ -13,54 +13,51 @@
 //!    such a sample takes its pixel's kernel for the pages to decide.
 //! 2. `pvssm-shape` — per view sample, the blocker search over the light's pyramid in that map
 //!    (z_avg, or "fully lit": then V = 1 and the sample is skipped from then on), searched again
-//!    over the kernel that z_avg predicts (`refine_search` times, default once: the light's
-//!    pyramid at the near plane is wider than any kernel, and casters whose shadow does not
-//!    reach the sample widened its penumbra — penumbra MAE on teapot-rect 0.035 → 0.027,
-//!    bunny-rect 0.048 → 0.039, `penumbra render scenes/bunny-rect.toml --technique pvssm
-//!    --set refine_search=0|1 --compare-to reference`, lavapipe). The refined search averages
-//!    the *silhouette* (`blocker_depth = silhouette`, the default): blocker cells beside one that
-//!    does not block, each read one pyramid level finer, leaving out those nearer the receiver
-//!    than a quarter of the predicted z_avg's distance to it (the receiver's own surface
-//!    crossing its tangent plane). The map from the light's centre sees a rounded caster's top,
-//!    nearer the light than the silhouette that bounds its shadow, so the average over every
-//!    blocker widened the penumbra (teapot-rect's ground shadow too bright inside, too dark
-//!    outside): penumbra MAE teapot-rect 0.0268 → 0.0152, bunny-rect 0.0387 → 0.0300 for ~15 %
-//!    more shape pass (`--set blocker_depth=average|silhouette`). Whether a cell blocks is the
-//!    conservative map's to say; how far its caster lies is read from a second map the raster
-//!    writes beside it, each caster's plane at the texel's *centre* (`blocker_distance =
-//!    centre`, [`crate::kernels::raster`]): the conservative map holds a caster's nearest point
-//!    over a texel, up to half its depth spread there nearer the light, so z_avg leaned toward
-//!    the light and the penumbrae came out too wide wherever casters slope in the light's view.
-//!    A coarser virtual map had shown it: `virtual_size=2048` gave teapot-rect 0.0107 against
-//!    16384's 0.0128, and with `lowres_bias=0` 0.0142 against 0.0141 — the larger slope bias
-//!    of coarser finest pages had moved z_avg back, not their texels. Penumbra MAE (lavapipe,
-//!    `penumbra bench --no-validation --scenes SCENES --techniques pvssm --set antialias=1
-//!    --set rho_scale=1 --set blocker_distance=nearest,centre --light-scale 1,4 --frames 1`):
-//!    teapot-rect 0.0128 → 0.0110, bunny-rect 0.0284 → 0.0263 (× 4: 0.0221 → 0.0220, 0.0409 →
-//!    0.0403), `thin-bars@rect` 0.0827 → 0.0726 (× 4: 0.0285 → 0.0212), `lattice@rect` 0.0506
-//!    → 0.0459, `plane-boxes@rect` 0.0156 → 0.0136, `grid:800000@rect` 0.0097 → 0.0095; point
-//!    lights unchanged (no z_avg in their kernels); the lit decisions of the first search the
-//!    same, the kernels and so the pages moved with z_avg (teapot-rect 463 → 453 pages,
-//!    bunny-rect 682 → 692); for
-//!    ~1 ms more `pvssm-lowres` (its second `atomicMin` a texel) and ~1 ms
-//!    more shape pass on teapot-rect (`tools/ab.py`), ~5 ms more low-res pass on the 800k grid.
-//!    Then the light
-//!    kernel s_α and the pixel footprint φ' through the receiver's tangent plane, convolved as
-//!    Gaussians and factored back into a sheared box h (Cholesky); the perceptual metric ρ(n)
-//!    and the texel size it asks for (Eqs. 4–5); and the requests: every page of the predicted
-//!    level under h's box (with its ancestors, when asked for or when the pool overflows).
-//!    Before requesting, a sample whose refined search found no blocker has its kernel's own
-//!    reach (h's box and a texel of its level around it: every texel the filter would read)
-//!    looked at in the conservative map (`kernel_proof`): none there proves V = 1 as the
+//!    over the kernel that z_avg predicts (`refine_search` times, default once: the light's pyramid
+//!    at the near plane is wider than any kernel, and casters whose shadow does not reach the
+//!    sample widened its penumbra — penumbra MAE on teapot-rect 0.035 → 0.027, bunny-rect 0.048 →
+//!    0.039, `penumbra render scenes/bunny-rect.toml --technique pvssm --set refine_search=0|1
+//!    --compare-to reference`, lavapipe). The refined search averages the *silhouette*
+//!    (`blocker_depth = silhouette`, the default): blocker cells beside one that does not block,
+//!    each read one pyramid level finer, leaving out those nearer the receiver than a quarter of
+//!    the predicted z_avg's distance to it (the receiver's own surface crossing its tangent plane).
+//!    The map from the light's centre sees a rounded caster's top, nearer the light than the
+//!    silhouette that bounds its shadow, so the average over every blocker widened the penumbra
+//!    (teapot-rect's ground shadow too bright inside, too dark outside): penumbra MAE teapot-rect
+//!    0.0268 → 0.0152, bunny-rect 0.0387 → 0.0300 for ~15 % more shape pass (`--set
+//!    blocker_depth=average|silhouette`). Whether a cell blocks is the conservative map's to say;
+//!    how far its caster lies is read from a second map the raster writes beside it, each caster's
+//!    plane at the texel's *centre* (`blocker_distance = centre`, [`crate::kernels::raster`]): the
+//!    conservative map holds a caster's nearest point over a texel, up to half its depth spread
+//!    there nearer the light, so z_avg leaned toward the light and the penumbrae came out too wide
+//!    wherever casters slope in the light's view. A coarser virtual map had shown it (with
+//!    `blocker_distance=nearest`): `virtual_size=2048` gave teapot-rect 0.0107 against 16384's
+//!    0.0128, and with `lowres_bias=0` too 0.0142 against 0.0141 — the larger slope bias of
+//!    coarser finest pages had moved z_avg back, not their texels (the README's item 5 has the
+//!    command). Penumbra MAE (lavapipe, `penumbra bench --no-validation --scenes SCENES
+//!    --techniques pvssm --set antialias=1 --set rho_scale=1 --set blocker_distance=nearest,centre
+//!    --light-scale 1,4 --frames 1`): teapot-rect 0.0128 → 0.0110, bunny-rect 0.0284 → 0.0263 (× 4:
+//!    0.0221 → 0.0220, 0.0409 → 0.0403), `thin-bars@rect` 0.0827 → 0.0726 (× 4: 0.0285 → 0.0212),
+//!    `lattice@rect` 0.0506 → 0.0459, `plane-boxes@rect` 0.0156 → 0.0136, `grid:800000@rect` 0.0097
+//!    → 0.0095; point lights unchanged (no z_avg in their kernels); the lit decisions of the first
+//!    search the same, the kernels and so the pages moved with z_avg (teapot-rect 463 → 453 pages,
+//!    bunny-rect 682 → 692); for ~1 ms more `pvssm-lowres` (its second `atomicMin` a texel) and ~1
+//!    ms more shape pass on teapot-rect (`tools/ab.py`), ~5 ms more low-res pass on the 800k grid.
+//!    Then the light kernel s_α and the pixel footprint φ' through the receiver's tangent plane,
+//!    convolved as Gaussians and factored back into a sheared box h (Cholesky); the perceptual
+//!    metric ρ(n) and the texel size it asks for (Eqs. 4–5); and the requests: every page of the
+//!    predicted level under h's box (with its ancestors, when asked for or when the pool
+//!    overflows). Before requesting, a sample whose refined search found no blocker has its
+//!    kernel's own reach (h's box and a texel of its level around it: every texel the filter would
+//!    read) looked at in the conservative map (`kernel_proof`): none there proves V = 1 as the
 //!    filter would find it, in the search's terms (its receiver plane and bias: the fully-lit
-//!    flag's gap), and the sample is decided lit without pages or filtering (counter
-//!    `kernel_lit`). The first search's region is the light's pyramid at the near plane, wider
-//!    than most kernels: on `grid:800000@rect` (a wavy sheet whose own crests sit in every
-//!    pyramid) 45.7k of 146k samples are decided so, filtered texels 11.2 M → 4.6 M and
-//!    `pvssm-filter` 28.8 → 16.0 ms for 2.2 ms more shape pass; teapot-rect filter 16.4 → 14.2
-//!    ms; images byte-identical on the grid and the teapot, the bunny's errors the same to five
-//!    digits (`penumbra render SCENE --technique pvssm --no-validation --frames 3 --set
-//!    kernel_proof=0|1`, lavapipe).
+//!    flag's gap), and the sample is decided lit without pages or filtering (counter `kernel_lit`).
+//!    The first search's region is the light's pyramid at the near plane, wider than most kernels:
+//!    on `grid:800000@rect` (a wavy sheet whose own crests sit in every pyramid) 45.7k of 146k
+//!    samples are decided so, filtered texels 11.2 M → 4.6 M and `pvssm-filter` 28.8 → 16.0 ms for
+//!    2.2 ms more shape pass; teapot-rect filter 16.4 → 14.2 ms; images byte-identical on the grid
+//!    and the teapot, the bunny's errors the same to five digits (`penumbra render SCENE
+//!    --technique pvssm --no-validation --frames 3 --set kernel_proof=0|1`, lavapipe).
 //! 3. The virtual map's pages ([`crate::passes::pages`], `pvssm-compact|allocate|cull|render`)
 //!    in place of the paper's SMTG, CPU KD-tree and tiles: the same prediction decides the
 //!    resolution, without a readback, and a page is a tile of fixed size at a power-of-two
@@ -377,6 +374,9 @@ impl<'a> Pvssm<'a> {
                 message: format!("lowres_size {lowres_size} must be a power of two"),
             });
         }
+        // `blocker_distance = centre`: the raster writes its centre-depth map and the mip
+        // reduces it too.
+        let centre_distance = params.u32("blocker_distance")? == 1;
         // The pyramid's levels above the map, each read from the one below.
         let mut mip_levels = Vec::new();
         let mut offset = 0u32;
@@ -387,7 +387,7 @@ impl<'a> Pvssm<'a> {
                 src_offset: offset,
                 dst_offset: next,
                 dst_size: side / 2,
-                centre: 0,
+                centre: u32::from(centre_distance),
             });
             offset = next;
             side /= 2;
@@ -502,7 +502,6 @@ impl<'a> Pvssm<'a> {
         if params.u32("kernel_proof")? == 1 {
             options |= 32;
         }
-        let centre_distance = params.u32("blocker_distance")? == 1;
         if centre_distance {
             options |= 128;
         }
@@ -604,13 +603,9 @@ impl Pvssm<'_> {
         )?;
         let (pipeline, set) = &self.mip;
         for level in &self.mip_levels {
-            let level = PvssmMipPush {
-                centre: u32::from(self.centre_distance),
-                ..*level
-            };
             // Two texels of a row an invocation.
             let pairs = (level.dst_size / 2).max(1);
-            rec.dispatch(pipeline, set, &level, [pairs, level.dst_size, 1])?;
+            rec.dispatch(pipeline, set, level, [pairs, level.dst_size, 1])?;
         }
         Ok(())
     }

@@ -33,9 +33,8 @@
 //! pages of 64² (finer pages waste less of the pool on the thin regions along edges than 128²
 //! pages: 9 against 19 misclassified on `spot-point` with the same memory, `--set
 //! page_size=128 --set pool_pages=256`), `lod_bias` −1, `refine` 4 — were measured on the
-//! bundled scenes with
-//! `penumbra render SCENE --technique rmsm --compare-to reference` (misclassified × samples in
-//! `stats.json`). CPU twin of the request, allocation, culling and fallback rules:
+//! bundled scenes with `penumbra render SCENE --technique rmsm --compare-to reference`
+//! (misclassified × samples in `stats.json`). CPU twin of the request, allocation, culling and fallback rules:
 //! [`crate::cpu::rmsm`].
 
 use glam::IVec2;

@@ -6,6 +6,7 @@ use super::{
     PAGE_COUNTER_NAMES, REWALK_FINER, REWALK_ROOT,
 };
 use crate::error::Result;
+use crate::gpu::Buffer;
 
 impl VirtualPages<'_> {
     /// Counters of the last frame: [`PAGE_COUNTER_NAMES`], then `drawn_pages` (allocated in
@@ -27,22 +28,21 @@ impl VirtualPages<'_> {
 
     /// The last frame's compacted page list (the marked entries, ascending): for tests.
     pub fn read_page_list(&self) -> Result<Vec<u32>> {
-        let n = crate::gpu::u32s(&self.ctx.read_buffer(&self.count)?)
-            .first()
-            .copied()
-            .unwrap_or(0) as usize;
-        let mut list = crate::gpu::u32s(&self.ctx.read_buffer(&self.list)?);
-        list.truncate(n);
-        Ok(list)
+        self.read_compacted(&self.list, &self.count)
     }
 
     /// The last frame's compacted refinement list (ascending): for tests.
     pub fn read_refine_list(&self) -> Result<Vec<u32>> {
-        let n = crate::gpu::u32s(&self.ctx.read_buffer(&self.refine_count)?)
+        self.read_compacted(&self.refine_list, &self.refine_count)
+    }
+
+    /// A compaction's output: the first `count[0]` words of `list`.
+    fn read_compacted(&self, list: &Buffer, count: &Buffer) -> Result<Vec<u32>> {
+        let n = crate::gpu::u32s(&self.ctx.read_buffer(count)?)
             .first()
             .copied()
             .unwrap_or(0) as usize;
-        let mut list = crate::gpu::u32s(&self.ctx.read_buffer(&self.refine_list)?);
+        let mut list = crate::gpu::u32s(&self.ctx.read_buffer(list)?);
         list.truncate(n);
         Ok(list)
     }

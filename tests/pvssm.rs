@@ -438,13 +438,15 @@ fn larger_lights_need_fewer_pages() {
 /// kernel shapes and pages: every filtered sample's V equals the twin's coverage filter over the
 /// same atlas texels at the level the twin finds served (1e-4; depth ties capped at 1 % of the
 /// samples), its predicted level is the twin's from the same kernel (levels within rounding of
-/// a power of two excepted, same cap), and its kernel's box lies inside the drawn part of every
-/// page it reads (the bands the shape pass marked; `pages.glsl`), none excepted.
+/// a power of two excepted, same cap), and its kernel's part of every page it reads
+/// (`src/cpu/pvssm_footprint.rs`) lies inside that page's drawn part (the bands the shape pass
+/// marked; `pages.glsl`), none excepted.
 #[test]
 fn filter_and_prediction_match_cpu() {
     use glam::Vec2;
     use penumbra::cpu::pages::{atlas_columns, page_used_rect, PageLayout};
     use penumbra::cpu::pvssm as twin;
+    use penumbra::cpu::pvssm_footprint::{kernel_pages, PagePart};
     use penumbra::cpu::shadow_map::shadow_coord;
     let engine = common::engine();
     let ctx = engine.context().clone();
@@ -516,64 +518,46 @@ fn filter_and_prediction_match_cpu() {
         if twin::predicted_level(r, layout.levels) != wanted {
             off_level += 1;
         }
-        // The served level: the first whose pages hold the kernel's box.
+        // The served level: the first whose pages the kernel reads (the footprint twin's) are
+        // all resident.
+        let served = |level: u32| -> Vec<(PagePart, Option<[i64; 4]>)> {
+            kernel_pages(
+                Vec2::new(c.x, c.y),
+                u_h,
+                v_h,
+                level,
+                page,
+                v_size >> level,
+                0,
+            )
+            .into_iter()
+            .map(|q| {
+                let slot = slot_of(level, q.lo[0], q.lo[1]).filter(|&s| s != 0);
+                let drawn =
+                    slot.map(|s| page_used_rect(bands[s as usize - 1], page).map(i64::from));
+                (q, drawn)
+            })
+            .collect()
+        };
+        let holds = |q: &PagePart, r: &[i64; 4]| {
+            let o = [q.page[0] * p, q.page[1] * p];
+            q.lo[0] - o[0] >= r[0]
+                && q.lo[1] - o[1] >= r[1]
+                && q.hi[0] - o[0] <= r[2]
+                && q.hi[1] - o[1] <= r[3]
+        };
         let mut level = wanted;
-        while level + 1 < layout.levels {
-            let sc = (1u32 << level) as f32;
-            let half = Vec2::new(u_h.x, u_h.y.abs() + v_h.y) / sc;
-            let centre = Vec2::new(c.x, c.y) / sc;
-            let (lo, hi) = ((centre - half).floor(), (centre + half).ceil() - 1.0);
-            let mut all = true;
-            let mut j = lo.y as i64;
-            while j <= hi.y as i64 && all {
-                let mut i = lo.x as i64;
-                while i <= hi.x as i64 && all {
-                    all = slot_of(level, i, j).is_none_or(|s| s != 0);
-                    i += p;
-                }
-                all = all && slot_of(level, hi.x as i64, j).is_none_or(|s| s != 0);
-                j += p;
-            }
-            let mut i = lo.x as i64;
-            while i <= hi.x as i64 && all {
-                all = slot_of(level, i, hi.y as i64).is_none_or(|s| s != 0);
-                i += p;
-            }
-            all = all && slot_of(level, hi.x as i64, hi.y as i64).is_none_or(|s| s != 0);
-            if all {
-                break;
-            }
+        while level + 1 < layout.levels && !served(level).iter().all(|(_, drawn)| drawn.is_some()) {
             level += 1;
         }
         // The served pages were drawn over the part the shape pass's bands describe, and the
-        // kernel's box lies inside it wherever it lies in the level: what the filter relies on
-        // when it reads them (texels outside that part are never drawn).
-        {
-            let sc = (1u32 << level) as f32;
-            let half = Vec2::new(u_h.x, u_h.y.abs() + v_h.y) / sc;
-            let centre = Vec2::new(c.x, c.y) / sc;
-            let (lo, hi) = ((centre - half).floor(), (centre + half).ceil() - 1.0);
-            let last = i64::from(v_size >> level) - 1;
-            let (lo, hi) = (
-                [(lo.x as i64).max(0), (lo.y as i64).max(0)],
-                [(hi.x as i64).min(last), (hi.y as i64).min(last)],
-            );
-            for py in lo[1].div_euclid(p)..=hi[1].div_euclid(p) {
-                for px in lo[0].div_euclid(p)..=hi[0].div_euclid(p) {
-                    let Some(s) = slot_of(level, px * p, py * p).filter(|&s| s != 0) else {
-                        continue;
-                    };
-                    let r = page_used_rect(bands[s as usize - 1], page).map(i64::from);
-                    partial_pages += usize::from(r != [0, 0, p - 1, p - 1]);
-                    let a = [lo[0].max(px * p) - px * p, lo[1].max(py * p) - py * p];
-                    let b = [
-                        hi[0].min(px * p + p - 1) - px * p,
-                        hi[1].min(py * p + p - 1) - py * p,
-                    ];
-                    if a[0] < r[0] || a[1] < r[1] || b[0] > r[2] || b[1] > r[3] {
-                        outside_drawn += 1;
-                    }
-                }
+        // kernel's part of each lies inside it: what the filter relies on when it reads them
+        // (texels outside that part are never drawn).
+        for (q, drawn) in served(level) {
+            let Some(r) = drawn else { continue };
+            partial_pages += usize::from(r != [0, 0, p - 1, p - 1]);
+            if !holds(&q, &r) {
+                outside_drawn += 1;
             }
         }
         let depth = |i: i64, j: i64| -> f32 {

@@ -2,10 +2,11 @@
 // pvssm filtering (§5.2 step 8): each sample the shape pass left undecided filters its sheared
 // kernel h with the exact texel-coverage weights (Eq. 2) — each one-texel column of the kernel
 // taken as an axis-aligned box at the column's centre (§4.2) — at its predicted level, or at the
-// first coarser level whose pages cover the whole kernel box when the pool ran out. Texels are
+// first coarser level whose pages cover the whole kernel when the pool ran out. Texels are
 // read through the page table, so a kernel straddling pages sums (sum c*o, sum c) over all of
 // them and divides once: splitting the map into pages changes nothing (the paper's tile merge).
-// CPU twin: coverage_filter() in src/cpu/pvssm.rs.
+// CPU twins: coverage_filter() in src/cpu/pvssm.rs, kernel_pages() (the pages it reads) in
+// src/cpu/pvssm_footprint.rs.
 #extension GL_GOOGLE_include_directive : require
 #define VIRTUAL_ATLAS
 #include "pvssm.glsl"
@@ -34,22 +35,27 @@ layout(set = 0, binding = 12) readonly buffer SlotBands { uint slot_bands[]; };
 // only `fixed_level` reaches this.
 const int MAX_SPAN = 256;
 
-// Whether every page under the kernel's box at `level` is resident with the box's part of it
-// drawn (texels off the level need none). A kernel's own pages hold its box (the shape pass
-// described it); a coarser page it falls back to may have been drawn over another kernel's part
-// only, and then the fallback goes on to a coarser one (the root is whole).
-bool kernel_covered(ivec4 box, uint level) {
+// Whether every page the kernel touches at `level` (shape.comp's request_pages: kernel_band,
+// page column by page column) is resident with the kernel's part of it drawn (texels off the
+// level need none). A kernel's own pages hold its part (the shape pass described it); a coarser
+// page it falls back to may have been drawn over another kernel's part only, and then the
+// fallback goes on to a coarser one (the root is whole).
+bool kernel_covered(vec2 c, vec2 u_h, vec2 v_h, uint level) {
     int size = int(pc.virtual_size >> level);
-    ivec2 a = max(box.xy, ivec2(0));
-    ivec2 b = min(box.zw, ivec2(size - 1));
-    if (any(greaterThan(a, b))) {
-        return true;
-    }
+    int ps = int(pc.page_size);
     int shift = int(page_shift(pc.page_size));
-    ivec2 pa = a >> shift;
-    ivec2 pb = b >> shift;
-    for (int py = pa.y; py <= pb.y; ++py) {
-        for (int px = pa.x; px <= pb.x; ++px) {
+    ivec4 box = kernel_texels(c, u_h, v_h, level);
+    int px_a = max((box.x - 1) >> shift, 0);
+    int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
+    int px_b = min((box.z + 1) >> shift, n_side - 1);
+    for (int px = px_a; px <= px_b; ++px) {
+        ivec4 band = kernel_band(c, u_h, v_h, level, px * ps - 1, px * ps + ps);
+        ivec2 a = max(band.xy, ivec2(px * ps, 0));
+        ivec2 b = min(band.zw, ivec2(px * ps + ps - 1, size - 1));
+        if (any(greaterThan(a, b))) {
+            continue;
+        }
+        for (int py = a.y >> shift; py <= b.y >> shift; ++py) {
             uvec2 page = uvec2(px, py);
             uint s = table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page)];
             if (s == 0u) {
@@ -58,7 +64,7 @@ bool kernel_covered(ivec4 box, uint level) {
             ivec2 origin = ivec2(page) << shift;
             ivec4 used = page_used_rect(slot_bands[s - 1u], pc.page_size);
             ivec2 lo = max(a - origin, ivec2(0));
-            ivec2 hi = min(b - origin, ivec2(int(pc.page_size) - 1));
+            ivec2 hi = min(b - origin, ivec2(ps - 1));
             if (any(lessThan(lo, used.xy)) || any(greaterThan(hi, used.zw))) {
                 return false;
             }
@@ -89,7 +95,7 @@ void main() {
         uint wanted = uint(k.w);
         uint level = wanted;
         for (int m = 0; m < MAX_PAGE_LEVELS && level + 1u < pc.levels
-                        && !kernel_covered(kernel_texels(c.xy, u_h, v_h, level), level);
+                        && !kernel_covered(c.xy, u_h, v_h, level);
              ++m) {
             level += 1u;
         }

@@ -165,3 +165,24 @@ ivec4 kernel_texels(vec2 c, vec2 u_h, vec2 v_h, uint level) {
     vec2 centre = c / s;
     return ivec4(floor_int(centre - half_ext), -floor_int(-(centre + half_ext)) - 1);
 }
+
+// The kernel's texels over the level's columns x_first..x_last: the parallelogram's rows there
+// (its centre line's extremes over those columns, plus v_h), with a row of margin each side for
+// the filter's per-column rounding. (lo, hi) inclusive, in level texels; lo.x > hi.x where the
+// kernel misses the columns. A needle across the map's axes touches a thin band of its box.
+ivec4 kernel_band(vec2 c, vec2 u_h, vec2 v_h, uint level, int x_first, int x_last) {
+    float s = float(1u << level);
+    vec2 centre = c / s;
+    vec2 u = u_h / s;
+    float vy = v_h.y / s;
+    float xa = max(centre.x - u.x, float(x_first));
+    float xb = min(centre.x + u.x, float(x_last + 1));
+    if (!(xa < xb)) {
+        return ivec4(1, 1, 0, 0);
+    }
+    float slope = u.y / u.x;
+    float ya = centre.y + (xa - centre.x) * slope;
+    float yb = centre.y + (xb - centre.x) * slope;
+    return ivec4(floor_int(xa), floor_int(min(ya, yb) - vy) - 1,
+                 -floor_int(-xb) - 1, -floor_int(-(max(ya, yb) + vy)));
+}

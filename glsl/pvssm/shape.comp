@@ -11,10 +11,11 @@
 // caster lies nearer than its tangent plane there, and the map is conservative, so V = 1 and
 // it is skipped from then on. Otherwise the light kernel s_alpha (Eq. 1) and the pixel
 // footprint phi' (pixel axes through the tangent plane) are convolved into the filter h
-// (Eq. 3), rho predicts the texel size (Eqs. 4-5), and every page of that level the kernel's
-// box touches is marked, with its ancestors — not only the page under the kernel's centre
-// (notes A4's seeding pitfall).
-// CPU twins: src/cpu/pvssm_search.rs (the search), src/cpu/pvssm.rs (the kernel and the level).
+// (Eq. 3), rho predicts the texel size (Eqs. 4-5), and every page of that level the kernel
+// touches is marked, with its ancestors — not only the page under the kernel's centre (notes
+// A4's seeding pitfall).
+// CPU twins: src/cpu/pvssm_search.rs (the search), src/cpu/pvssm.rs (the kernel and the level),
+// src/cpu/pvssm_footprint.rs (the pages a kernel touches).
 #extension GL_GOOGLE_include_directive : require
 #define TABLE_ACCESS
 // Per page-table entry, the bands of the page its kernels read (pages.glsl's box_bands; zeroed
@@ -338,26 +339,37 @@ void decide(ivec2 pixel, float v) {
     }
 }
 
-// Marks every page of `level` under the kernel's box (one texel of margin for the panel
-// approximation's rounding), and their ancestors when asked for; counts the marks.
+// Marks every page of `level` the kernel's parallelogram touches (kernel_band, page column by
+// page column, with a row of margin each side), with the bands of its part there, and their
+// ancestors when asked for; counts the marks. (Its box, which an earlier version asked for,
+// holds many more pages where the kernel is a needle across the map's axes: the pixel's
+// footprint on a grazing receiver, teapot-rect's terminator.)
 void request_pages(vec2 c, vec2 u_h, vec2 v_h, uint level) {
     ivec4 box = kernel_texels(c, u_h, v_h, level);
     int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
+    int ps = int(pc.page_size);
     // (A shift floors where a division truncates: the same after the clamp to 0.)
     int shift = int(page_shift(pc.page_size));
-    ivec2 pa = clamp((box.xy - 1) >> shift, ivec2(0), ivec2(n_side - 1));
-    ivec2 pb = clamp((box.zw + 1) >> shift, ivec2(0), ivec2(n_side - 1));
+    int size = int(pc.virtual_size >> level);
+    int px_a = max((box.x - 1) >> shift, 0);
+    int px_b = min((box.z + 1) >> shift, n_side - 1);
     uint marks = 0u;
-    for (int py = pa.y; py <= pb.y; ++py) {
-        for (int px = pa.x; px <= pb.x; ++px) {
+    for (int px = px_a; px <= px_b; ++px) {
+        ivec4 band = kernel_band(c, u_h, v_h, level, px * ps - 1, px * ps + ps);
+        // Its part in this page column on the level (texels off it are read as lit, from no
+        // page).
+        ivec2 a = max(band.xy, ivec2(px * ps, 0));
+        ivec2 b = min(band.zw, ivec2(px * ps + ps - 1, size - 1));
+        if (any(greaterThan(a, b))) {
+            continue;
+        }
+        for (int py = a.y >> shift; py <= b.y >> shift; ++py) {
             uvec2 page = uvec2(px, py);
             uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page);
             table[e] = 1u;
-            // The texels the filter reads here: the box and the texel of margin the page
-            // choice above takes, in the page's own coordinates.
+            // The texels the filter reads here, in the page's own coordinates.
             ivec2 origin = ivec2(page) << shift;
-            atomicOr(entry_bands[e], box_bands(box.xy - 1 - origin, box.zw + 1 - origin,
-                                               pc.page_size));
+            atomicOr(entry_bands[e], box_bands(a - origin, b - origin, pc.page_size));
             if ((pc.options & OPT_ANCESTORS) != 0u) {
                 mark_ancestors(level, page);
             }

@@ -28,6 +28,7 @@ pub mod pcf_coverage;
 pub mod pcf_poisson;
 pub mod pcss;
 pub mod pvssm;
+pub mod pvssm_footprint;
 pub mod pvssm_search;
 pub mod raster;
 pub mod ray_cast;

@@ -57,11 +57,11 @@
 //!
 //! **Used parts.** A technique that knows which texels of a page its lookups read ORs their
 //! *bands* into [`VirtualPages::entry_bands`] (16 columns and 16 rows of a page,
-//! `box_bands` in `glsl/include/pages.glsl`; pvssm's shape pass, a kernel box each); allocation
-//! keeps them per slot ([`VirtualPages::slot_bands`]) and every later step works on their
-//! bounding rectangle only: the walk bins the triangles that reach it, the slot clear empties
-//! it, the compute raster clamps to it and the rasterizer cuts to it by clip distances (in the
-//! viewport draw only on the sides inside the page). A page nobody described, and every
+//! `box_bands` in `glsl/include/pages.glsl`; pvssm's shape pass, a kernel's part of each page
+//! it touches); allocation keeps them per slot ([`VirtualPages::slot_bands`]) and every later
+//! step works on their bounding rectangle only: the walk bins the triangles that reach it, the
+//! slot clear empties it, the compute raster clamps to it and the rasterizer cuts to it by clip
+//! distances (in the viewport draw only on the sides inside the page). A page nobody described, and every
 //! ancestor (a fallback may read it anywhere), is drawn whole. A lookup must stay inside its
 //! page's rectangle, or fall back (pvssm's filter checks). Why: a page's kernels read about a
 //! third of it on teapot-rect, and filling the rest was most of its page render (teapot-rect

@@ -414,7 +414,7 @@ fn the_bound_api_rasterizes_scene_geometry() {
     let n = 64;
     let triangles = geometry.index_count / 3;
     let binding = raster
-        .bind(&geometry.vertices, &geometry.indices, triangles, n, 0)
+        .bind(&geometry.vertices, &geometry.indices, triangles, n, 0, true)
         .expect("bind");
     // Twice in one submission: the second recording starts from cleared maps, and without
     // `centre` leaves the centre-depth map empty.
@@ -451,11 +451,55 @@ fn the_bound_api_rasterizes_scene_geometry() {
             triangles,
             penumbra::kernels::raster::MAX_MAP_SIZE + 1,
             0,
+            true,
         )
         .is_err());
     assert!(raster
-        .bind(&geometry.vertices, &geometry.indices, triangles, 0, 0)
+        .bind(&geometry.vertices, &geometry.indices, triangles, 0, 0, true)
         .is_err());
+    // A binding without the centre-depth map holds a placeholder and refuses to write one,
+    // before anything is recorded.
+    let without = raster
+        .bind(
+            &geometry.vertices,
+            &geometry.indices,
+            triangles,
+            n,
+            0,
+            false,
+        )
+        .expect("bind without centre");
+    assert_eq!(without.centre_depth().size, 16);
+    let refused = ctx.submit(None, |rec| {
+        raster.record(
+            rec,
+            &without,
+            light.view_proj,
+            false,
+            RasterBias::default(),
+            true,
+        )
+    });
+    assert!(
+        matches!(refused, Err(penumbra::Error::Parameter { .. })),
+        "{refused:?}"
+    );
+    ctx.submit(None, |rec| {
+        raster.record(
+            rec,
+            &without,
+            light.view_proj,
+            false,
+            RasterBias::default(),
+            false,
+        )
+    })
+    .expect("submit without centre");
+    let depth = penumbra::gpu::f32s(&ctx.read_buffer(without.depth()).expect("read"));
+    assert_eq!(
+        depth, gpu,
+        "the map is the same without the centre-depth map"
+    );
     common::assert_clean(&ctx.validation());
 }
 

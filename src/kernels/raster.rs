@@ -184,6 +184,8 @@ pub struct RasterBinding<'a> {
     clip_set: DescriptorSet,
     depth: Buffer,
     centre_depth: Buffer,
+    // Whether `centre_depth` is the map (bind's `centre`) or a placeholder.
+    has_centre: bool,
     counters: Buffer,
     _large: Buffer,
     _geometry: (&'a Buffer, &'a Buffer),
@@ -207,7 +209,8 @@ impl RasterBinding<'_> {
 
     /// The centre-depth map, laid out as [`RasterBinding::depth`] (spare texels included): per
     /// texel the least plane depth at its centre over the pieces covering it, never nearer than
-    /// the conservative depth; 1.0 where nothing covers it. A distance, not a bound.
+    /// the conservative depth; 1.0 where nothing covers it. A distance, not a bound. A 16-byte
+    /// placeholder where the binding was made without it.
     pub fn centre_depth(&self) -> &Buffer {
         &self.centre_depth
     }
@@ -281,8 +284,9 @@ impl ConservativeRaster {
     ///
     /// `spare_texels` more `u32` follow the map in the same buffer, for the caller to derive
     /// from it in place (pvssm keeps the map's min pyramid there); [`ConservativeRaster::record`]
-    /// fills them with 1.0 too. The binding owns the centre-depth map
-    /// ([`RasterBinding::centre_depth`]) too, of the same size.
+    /// fills them with 1.0 too. With `centre` the binding owns the centre-depth map
+    /// ([`RasterBinding::centre_depth`]) too, of the same size; without, a 16-byte placeholder
+    /// stands in its binding and [`ConservativeRaster::record`] refuses to write it.
     pub fn bind<'a>(
         &self,
         vertices: &'a Buffer,
@@ -290,6 +294,7 @@ impl ConservativeRaster {
         triangles: u32,
         map_size: u32,
         spare_texels: u64,
+        centre: bool,
     ) -> Result<RasterBinding<'a>> {
         const NAME: &str = "conservative raster";
         if map_size == 0 || map_size > MAX_MAP_SIZE {
@@ -315,10 +320,11 @@ impl ConservativeRaster {
             map_bytes,
             vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
         )?;
+        // (One RGBA32UI texel where there is no centre map: readers may still view it.)
         let centre_depth = Buffer::storage_with(
             &self.ctx,
             "conservative raster centre depth",
-            map_bytes,
+            if centre { map_bytes } else { 16 },
             vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
         )?;
         if triangles > 0 {
@@ -352,6 +358,7 @@ impl ConservativeRaster {
             clip_set,
             depth,
             centre_depth,
+            has_centre: centre,
             counters,
             _large: large,
             _geometry: (vertices, indices),
@@ -381,6 +388,13 @@ impl ConservativeRaster {
         bias: RasterBias,
         centre: bool,
     ) -> Result<()> {
+        if centre && !binding.has_centre {
+            return Err(param_error(
+                "conservative raster",
+                "the centre-depth map was asked for, but the binding has none (bind's `centre`)"
+                    .into(),
+            ));
+        }
         rec.fill(&binding.depth, EMPTY_DEPTH_BITS);
         rec.fill(&binding.centre_depth, EMPTY_DEPTH_BITS);
         rec.fill(&binding.counters, 0);
@@ -451,7 +465,7 @@ impl ConservativeRaster {
         let flat: Vec<f32> = positions.iter().flat_map(|p| p.to_array()).collect();
         let vertices = self.ctx.buffer_with("raster vertices", usage, &flat)?;
         let index_buffer = self.ctx.buffer_with("raster indices", usage, indices)?;
-        let binding = self.bind(&vertices, &index_buffer, triangles, map_size, 0)?;
+        let binding = self.bind(&vertices, &index_buffer, triangles, map_size, 0, true)?;
         self.ctx.submit(None, |rec| {
             self.record(rec, &binding, light_view_proj, clip, bias, true)
         })?;

@@ -401,6 +401,8 @@ impl<'a> Pvssm<'a> {
             lowres_size,
             // Whole quads: the shape pass reads four texels a fetch (shape.comp).
             u64::from(offset + 1).next_multiple_of(4) - u64::from(lowres_size * lowres_size),
+            // The centre-depth map and its pyramid only where the searches read them.
+            centre_distance,
         )?;
         let mip_pipeline = Pipeline::compute(ctx, "pvssm/lowres_mip.comp")?;
         // Each buffer read as quads and written as pairs (lowres_mip.comp): the conservative

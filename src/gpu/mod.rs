@@ -3,7 +3,8 @@
 //! only [`Context`] (to wrap a device) and [`Image::borrowed`] (to hand penumbra an image).
 //!
 //!
-//! - [`Context`]: instance, device, queue, allocator, validation log (`context.rs`).
+//! - [`Context`]: instance, device, queue, allocator, validation log (`context.rs`); what it
+//!   knows of a device, [`DeviceInfo`] and [`EnabledFeatures`] (`device_info.rs`).
 //! - [`Buffer`], [`Image`], [`Sampler`]: RAII resources (`resources.rs`).
 //! - [`Pipeline`], [`DescriptorSet`]: built from embedded SPIR-V and its reflected interface.
 //! - [`Recorder`]: command recording with automatic barriers from per-resource state tracking.
@@ -11,6 +12,8 @@
 
 mod commands;
 mod context;
+mod device_info;
+mod instance;
 mod pipeline;
 pub mod reflect;
 mod resources;

@@ -73,6 +73,10 @@ layout(push_constant) uniform Push {
 #define OPT_CENTRE_DISTANCE 128u
 // Bits 20..23: fixed_level + 1 (0: the predicted level).
 #define OPT_FIXED_SHIFT 20u
+// lit_flag = conservative: a sample the blocker search finds unblocked is decided lit only where
+// no cell of its region lies nearer than the receiver plane's *highest* depth over the cell
+// (may_have_blocker: what the filter's per-texel test could find), not its lowest (shape.comp).
+#define OPT_LIT_CONSERVATIVE (1u << 24u)
 // Bits 8..15: the blocker search's cells per side (the push block has no room left).
 #define OPT_CELLS_SHIFT 8u
 

@@ -452,7 +452,16 @@ void main() {
             } else {
                 count(C_SKIPPED_LIT, 1u);
             }
-            if (sum.y == 0.0 && lit_proof) {
+            // The search compares each cell with the plane's lowest depth over it, which the
+            // filter's texels, tested at their own centres, may undercut: with `lit_flag =
+            // conservative` an unblocked region is decided lit only where the plane's highest
+            // depth finds nothing either, as the coarse look's and the kernel's proofs test.
+            // The others take the kernel of their pixel (z_avg at the receiver), and the pages
+            // decide them.
+            bool conservative = (pc.options & OPT_LIT_CONSERVATIVE) != 0u;
+            if (sum.y == 0.0 && lit_proof
+                && !(conservative
+                     && may_have_blocker(centre, half_low, first_cells, rc, lowres_texel))) {
                 count(C_FULLY_LIT, 1u);
                 decide(pixel, 1.0);
             } else {

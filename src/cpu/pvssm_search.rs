@@ -264,6 +264,8 @@ pub fn blocker_distance(
         }
     }
     let first = region_search(pyramid, centre, half, first_cells, z, bias, None, distance);
+    // The shader's `lit_flag = conservative` (its default) also asks the plane's highest depth
+    // over each cell to find nothing; with the flat receivers here (dz = 0) that is this test.
     if first.y == 0.0 && params.lit_proof {
         return None;
     }

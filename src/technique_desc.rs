@@ -244,6 +244,14 @@ knob_choices! {
         /// The centre-depth map: the caster's plane at the cell's centre.
         Centre => "centre",
     }
+    /// `lit_flag` of `pvssm`: which blocker-free search decides a sample lit.
+    LitFlag for "lit_flag" {
+        /// No low-res cell nearer than the receiver plane's lowest depth over it (the search's
+        /// own test).
+        Search => "search",
+        /// Nor than its highest: nothing the filter's texels could find.
+        Conservative => "conservative",
+    }
     /// `page_raster` of `rmsm` and `pvssm`: what draws the pages' casters.
     PageRasterChoice for "page_raster" {
         /// Compute where workgroups run on CPU threads, the rasterizer otherwise.
@@ -377,6 +385,7 @@ mod tests {
             names::<RhoMode>(),
             names::<BlockerDepth>(),
             names::<BlockerDistance>(),
+            names::<LitFlag>(),
             names::<PageRasterChoice>(),
             names::<Partition>(),
             names::<Combine>(),

@@ -1,4 +1,4 @@
-//! `atty` under validation: against its CPU twin (`src/cpu/atty.rs`: |ΔV| ≤ 10⁻³ away from
+//! `atty` under validation: against its CPU twin (`src/cpu/atty/`: |ΔV| ≤ 10⁻³ away from
 //! ties, at most 10 % of the samples ties, counters within the twin's slack) for several knob
 //! sets, both light projections and both sides (the back map for the twin rendered here with the
 //! technique's light view and bias); two sides never lightening a sample; skipping on and off

@@ -1,4 +1,4 @@
-//! `bitmask` under validation: against its CPU twin (`src/cpu/bitmask.rs`: |ΔV| ≤ 2/n with
+//! `bitmask` under validation: against its CPU twin (`src/cpu/bitmask/`: |ΔV| ≤ 2/n with
 //! OR-ed masks, 1e-3 with `combine = add`, away from ties, at most 10 % of the samples ties) for
 //! several knob sets and both light projections, with and without the tangent-plane clipping of
 //! the light samples; skipping on and off bit for bit identical; the per-axis tables against

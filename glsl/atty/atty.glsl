@@ -1,6 +1,6 @@
 // atty: the parameter block, the receiver buffer and the helpers shared by receivers.comp,
 // ssm.comp and lookup.comp. Rust block: AttyParams in src/techniques/atty.rs; CPU twin:
-// src/cpu/atty.rs. Keep the three in step.
+// src/cpu/atty/. Keep the three in step.
 
 #ifndef PENUMBRA_ATTY_GLSL
 #define PENUMBRA_ATTY_GLSL

@@ -6,7 +6,7 @@
 // distance of the sample's (a texel holding another surface — the occluder above a ground sample
 // — would bleed its own value across the edge). If none does, the sample's own texel's closer
 // layer (counted as `nearest_fallback`); it always holds the sample itself. V = 1 - occlusion.
-// CPU twin: src/cpu/atty.rs.
+// CPU twin: src/cpu/atty/.
 #extension GL_GOOGLE_include_directive : require
 #include "shadow_map.glsl"
 #include "soft_light.glsl"

@@ -6,7 +6,7 @@
 // complement: depths are in [0, 1], whose bit patterns order like the values, and every field
 // starts at all ones, one fill); phase 1 picks, among the samples at
 // exactly those depths, the lowest pixel index — deterministic representatives. CPU twin:
-// src/cpu/atty.rs.
+// src/cpu/atty/.
 #extension GL_GOOGLE_include_directive : require
 #include "shadow_map.glsl"
 #include "soft_light.glsl"

@@ -14,7 +14,7 @@
 // plane, capped at max_width; its minimum depth (N-buffer with skip on, a scan with skip off: the
 // same value) shrinks it to the footprint through the nearest texel, or, at or behind every
 // receiver-plane depth, proves that nothing blocks (`skipped_lit`, with skip on). The back map's
-// texels lie behind the front map's, so the front minimum bounds both. CPU twin: src/cpu/atty.rs.
+// texels lie behind the front map's, so the front minimum bounds both. CPU twin: src/cpu/atty/.
 
 layout(local_size_x = 8, local_size_y = 8) in;
 

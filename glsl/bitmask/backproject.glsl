@@ -21,7 +21,7 @@
 // its group's visible samples to the pixel's running count (and, in the first, the additive
 // mode's hidden area); the last writes V and the counters. Gap filling is a compile-time switch
 // (GAP_FILL, set by bitmask.comp and bitmask_gap_fill.comp): as a run-time branch, even one no
-// invocation takes, it made lavapipe's loop 60 % slower. CPU twin: src/cpu/bitmask.rs.
+// invocation takes, it made lavapipe's loop 60 % slower. CPU twin: src/cpu/bitmask/.
 #include "shadow_map.glsl"
 #include "soft_light.glsl"
 #include "backprojection.glsl"

@@ -1,5 +1,5 @@
 // bitmask: the parameter block and helpers of bitmask.comp. Rust block: BitmaskParams in
-// src/techniques/bitmask.rs; CPU twin: src/cpu/bitmask.rs. Keep the three in step.
+// src/techniques/bitmask.rs; CPU twin: src/cpu/bitmask/. Keep the three in step.
 
 #ifndef PENUMBRA_BITMASK_GLSL
 #define PENUMBRA_BITMASK_GLSL

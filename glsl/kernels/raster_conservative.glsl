@@ -31,7 +31,7 @@
 //
 // Bias (push bias_slope, bias_clamp; zero unless asked for): a piece with a plane is moved back
 // by min(bias_slope * max(|dz/dx|, |dz/dy|), bias_clamp) — the slope-scaled part of the depth
-// bias a rasterizer would give it. pvssm asks for its finest page's (src/techniques/pvssm.rs
+// bias a rasterizer would give it. pvssm asks for its finest page's (src/techniques/pvssm/mod.rs
 // says why): the map then holds each caster no nearer than any page of the virtual map will.
 //
 // phase 0: one invocation per TRIS_PER_INVOCATION (4) consecutive triangles (a SIMD group's

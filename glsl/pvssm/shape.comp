@@ -43,7 +43,7 @@ layout(set = 0, binding = 5) uniform usamplerBuffer lowres;
 // always `lowres`'s to say (conservative); how far its blocker lies, for the average, is this
 // map's. Why: `lowres` holds a caster's nearest point over a cell, up to half the cell's depth
 // spread nearer the light than the caster lies there, and an average of it put sloped blockers
-// nearer the light and widened the predicted penumbrae (src/techniques/pvssm.rs measures it).
+// nearer the light and widened the predicted penumbrae (src/techniques/pvssm/mod.rs measures it).
 layout(set = 0, binding = 13) uniform usamplerBuffer lowres_centre;
 
 // Where level `level` of the pyramid starts: the levels before it, (N >> k)^2 texels each.

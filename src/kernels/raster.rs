@@ -19,7 +19,7 @@
 //! Why: the conservative depth is the caster's nearest point over the texel, up to half the
 //! texel's depth spread nearer the light than the caster is there, so an average of it puts
 //! sloped blockers nearer the light than they are and widens the penumbrae pvssm predicts
-//! (`src/techniques/pvssm.rs` has the measurement).
+//! (`src/techniques/pvssm/mod.rs` has the measurement).
 //!
 //! The polygon: a triangle with every vertex in front of the near plane (`w > 0`, `z ≥ 0`) is
 //! itself. With `clip` ([`ConservativeRaster::record`]), one reaching before the near plane or
@@ -312,7 +312,7 @@ impl ConservativeRaster {
         }
         check_buffer(NAME, indices, 12 * triangles as u64)?;
         // Also a texel buffer: a reader whose loads sit in loops takes them through a texel view
-        // (pvssm's blocker search; `src/techniques/pvssm.rs` says why).
+        // (pvssm's blocker search; `src/techniques/pvssm/mod.rs` says why).
         let map_bytes = 4 * (map_size as u64 * map_size as u64 + spare_texels);
         let depth = Buffer::storage_with(
             &self.ctx,

@@ -1,7 +1,8 @@
 //! Where `pvssm`'s pages go: per level of the virtual map, the view samples the shape pass left
 //! undecided (predicted at that level), how the filter then classed them (lit, umbra,
-//! penumbra), the pages allocated there, and the share of those pages' texels their used
-//! rectangles hold (the part the kernels read, `glsl/include/pages.glsl`'s bands) — the figures
+//! penumbra), the median of their kernels' half-axes (u_h.x, |u_h.y|, v_h.y, level-0 texels: a
+//! needle across the map's axes has a small v_h.y), the pages allocated there, and the share of
+//! those pages' texels their used rectangles hold (the part the kernels read, `glsl/include/pages.glsl`'s bands) — the figures
 //! the README's `pvssm` section quotes for the low-resolution map's bias and the pages' used
 //! parts. With a light scale the scene's rect light is scaled about its centre (0: a point
 //! light there); `key=value` arguments are `pvssm`'s knobs (`lowres_bias=0`, `light_clip=0`, …).
@@ -64,6 +65,8 @@ fn main() -> Result<(), Failure> {
     }
     // Per level: undecided samples as [lit, umbra, penumbra] after the filter.
     let mut samples: BTreeMap<u32, [u32; 3]> = BTreeMap::new();
+    // Per level: the kernels' half-axes (u_h.x, |u_h.y|, v_h.y).
+    let mut axes: BTreeMap<u32, [Vec<f32>; 3]> = BTreeMap::new();
     for (k, s) in shape.chunks_exact(4).enumerate() {
         if s[3] < 0.0 {
             continue;
@@ -77,6 +80,10 @@ fn main() -> Result<(), Failure> {
             2
         };
         samples.entry(s[3] as u32).or_default()[class] += 1;
+        let a = axes.entry(s[3] as u32).or_default();
+        a[0].push(s[0]);
+        a[1].push(s[1].abs());
+        a[2].push(s[2]);
     }
     // Per level: pages and the texels their used rectangles hold.
     let mut pages: BTreeMap<u32, (u32, u64)> = BTreeMap::new();
@@ -87,7 +94,15 @@ fn main() -> Result<(), Failure> {
         entry.1 += u64::from(r[2] - r[0] + 1) * u64::from(r[3] - r[1] + 1);
     }
     println!("{spec}, light × {scale}, knobs {knobs:?}");
-    println!("level  undecided (lit / umbra / penumbra after the filter)  pages  used texels");
+    println!(
+        "level  undecided (lit / umbra / penumbra after the filter)  median u_h.x |u_h.y| v_h.y  \
+         pages  used texels"
+    );
+    let median = |v: &[f32]| {
+        let mut v = v.to_vec();
+        v.sort_by(f32::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(0.0)
+    };
     let levels: std::collections::BTreeSet<u32> =
         samples.keys().chain(pages.keys()).copied().collect();
     let page_texels = u64::from(page_size) * u64::from(page_size);
@@ -102,10 +117,17 @@ fn main() -> Result<(), Failure> {
         } else {
             0.0
         };
+        let m = axes
+            .get(&level)
+            .map_or([0.0; 3], |a| [median(&a[0]), median(&a[1]), median(&a[2])]);
         println!(
-            "{level:5}  {:9} ({lit} / {umbra} / {penumbra}){:>w$}  {n:5}  {share:5.1} %",
+            "{level:5}  {:9} ({lit} / {umbra} / {penumbra}){:>w$}  {:6.1} {:6.1} {:6.2}  \
+             {n:5}  {share:5.1} %",
             lit + umbra + penumbra,
             "",
+            m[0],
+            m[1],
+            m[2],
             w = 28usize.saturating_sub(format!("{lit} / {umbra} / {penumbra}").len()),
         );
     }

@@ -46,14 +46,20 @@ struct Scored {
 
 impl Scored {
     fn new(engine: &Engine, scene: &str) -> Scored {
-        let prepared = engine.prepare(&common::small(scene)).expect("prepare");
+        Scored::of(engine, &common::small(scene), 8)
+    }
+
+    /// `scene` and its reference of `samples`² light samples.
+    fn of(engine: &Engine, scene: &penumbra::scene::Scene, samples: u32) -> Scored {
+        let prepared = engine.prepare(scene).expect("prepare");
         let positions = prepared
             .view
             .read_positions(engine.context())
             .expect("positions");
         let is_sample = positions.iter().map(|p| p.w > 0.0).collect();
+        let samples = samples.to_string();
         let reference = engine
-            .render(&prepared, "reference", &knobs(&[("samples", "8")]), 1)
+            .render(&prepared, "reference", &knobs(&[("samples", &samples)]), 1)
             .expect("reference");
         Scored {
             prepared,
@@ -62,17 +68,28 @@ impl Scored {
         }
     }
 
-    /// `pvssm`'s penumbra MAE against the reference with the knobs `set`.
-    fn penumbra_mae(&self, engine: &Engine, set: &[(&str, &str)]) -> f64 {
+    /// `pvssm` with the knobs `set` against the reference, and its frame.
+    fn score(
+        &self,
+        engine: &Engine,
+        set: &[(&str, &str)],
+    ) -> (penumbra::metrics::ErrorMetrics, Frame) {
         let frame = render(engine, &self.prepared, set);
-        penumbra::metrics::compare(
+        let metrics = penumbra::metrics::compare(
             &self.reference.visibility,
             &frame.visibility,
             &self.is_sample,
         )
-        .expect("metrics")
-        .penumbra_mae
-        .expect("the scene has a penumbra")
+        .expect("metrics");
+        (metrics, frame)
+    }
+
+    /// `pvssm`'s penumbra MAE against the reference with the knobs `set`.
+    fn penumbra_mae(&self, engine: &Engine, set: &[(&str, &str)]) -> f64 {
+        self.score(engine, set)
+            .0
+            .penumbra_mae
+            .expect("the scene has a penumbra")
     }
 }
 
@@ -714,21 +731,10 @@ fn conservative_lit_flag_is_no_further_from_the_reference() {
             panic!("{scene} has a rect light");
         };
         point.light = penumbra::scene::Light::Point { position };
-        let prepared = engine.prepare(&point).expect("prepare");
-        let positions = prepared
-            .view
-            .read_positions(engine.context())
-            .expect("positions");
-        let is_sample: Vec<bool> = positions.iter().map(|p| p.w > 0.0).collect();
-        let reference = engine
-            .render(&prepared, "reference", &knobs(&[("samples", "1")]), 1)
-            .expect("reference");
+        let hard = Scored::of(&engine, &point, 1);
         let score = |flag: &str| {
-            let frame = render(&engine, &prepared, &[("lit_flag", flag)]);
-            let m =
-                penumbra::metrics::compare(&reference.visibility, &frame.visibility, &is_sample)
-                    .expect("metrics");
-            (m.rmse, counter(&frame, "fully_lit"))
+            let (metrics, frame) = hard.score(&engine, &[("lit_flag", flag)]);
+            (metrics.rmse, counter(&frame, "fully_lit"))
         };
         let (search, search_lit) = score("search");
         let (conservative, conservative_lit) = score("conservative");

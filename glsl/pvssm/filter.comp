@@ -35,27 +35,21 @@ layout(set = 0, binding = 12) readonly buffer SlotBands { uint slot_bands[]; };
 // only `fixed_level` reaches this.
 const int MAX_SPAN = 256;
 
-// Whether every page the kernel touches at `level` (shape.comp's request_pages: kernel_band,
-// page column by page column) is resident with the kernel's part of it drawn (texels off the
+// Whether every page the kernel touches at `level` (shape.comp's request_pages: its
+// kernel_column_parts) is resident with the kernel's part of it drawn (texels off the
 // level need none). A kernel's own pages hold its part (the shape pass described it); a coarser
 // page it falls back to may have been drawn over another kernel's part only, and then the
 // fallback goes on to a coarser one (the root is whole).
 bool kernel_covered(vec2 c, vec2 u_h, vec2 v_h, uint level) {
-    int size = int(pc.virtual_size >> level);
     int ps = int(pc.page_size);
     int shift = int(page_shift(pc.page_size));
-    ivec4 box = kernel_texels(c, u_h, v_h, level);
-    int px_a = max((box.x - 1) >> shift, 0);
-    int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
-    int px_b = min((box.z + 1) >> shift, n_side - 1);
-    for (int px = px_a; px <= px_b; ++px) {
-        ivec4 band = kernel_band(c, u_h, v_h, level, px * ps - 1, px * ps + ps);
-        ivec2 a = max(band.xy, ivec2(px * ps, 0));
-        ivec2 b = min(band.zw, ivec2(px * ps + ps - 1, size - 1));
-        if (any(greaterThan(a, b))) {
+    ivec2 columns = kernel_page_columns(c, u_h, v_h, level);
+    for (int px = columns.x; px <= columns.y; ++px) {
+        ivec4 part = kernel_column_part(c, u_h, v_h, level, px);
+        if (any(greaterThan(part.xy, part.zw))) {
             continue;
         }
-        for (int py = a.y >> shift; py <= b.y >> shift; ++py) {
+        for (int py = part.y >> shift; py <= part.w >> shift; ++py) {
             uvec2 page = uvec2(px, py);
             uint s = table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page)];
             if (s == 0u) {
@@ -63,8 +57,8 @@ bool kernel_covered(vec2 c, vec2 u_h, vec2 v_h, uint level) {
             }
             ivec2 origin = ivec2(page) << shift;
             ivec4 used = page_used_rect(slot_bands[s - 1u], pc.page_size);
-            ivec2 lo = max(a - origin, ivec2(0));
-            ivec2 hi = min(b - origin, ivec2(ps - 1));
+            ivec2 lo = max(part.xy - origin, ivec2(0));
+            ivec2 hi = min(part.zw - origin, ivec2(ps - 1));
             if (any(lessThan(lo, used.xy)) || any(greaterThan(hi, used.zw))) {
                 return false;
             }

@@ -190,3 +190,23 @@ ivec4 kernel_band(vec2 c, vec2 u_h, vec2 v_h, uint level, int x_first, int x_las
     return ivec4(floor_int(xa), floor_int(min(ya, yb) - vy) - 1,
                  -floor_int(-xb) - 1, -floor_int(-(max(ya, yb) + vy)));
 }
+
+// The page columns of `level` the kernel's box may reach (a texel of margin each side), clamped
+// to the level: (first, last).
+ivec2 kernel_page_columns(vec2 c, vec2 u_h, vec2 v_h, uint level) {
+    ivec4 box = kernel_texels(c, u_h, v_h, level);
+    int shift = int(page_shift(pc.page_size));
+    int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
+    return ivec2(max((box.x - 1) >> shift, 0), min((box.z + 1) >> shift, n_side - 1));
+}
+
+// The kernel's part in page column px of `level`: kernel_band's texels there, clipped to the
+// column and to the level (texels off it are read as lit, from no page). (lo, hi) inclusive, in
+// level texels; lo > hi in some component where the kernel has none there. The shape pass asks
+// for the pages of these parts and the filter checks them, page column by page column.
+ivec4 kernel_column_part(vec2 c, vec2 u_h, vec2 v_h, uint level, int px) {
+    int ps = int(pc.page_size);
+    int size = int(pc.virtual_size >> level);
+    ivec4 band = kernel_band(c, u_h, v_h, level, px * ps - 1, px * ps + ps);
+    return ivec4(max(band.xy, ivec2(px * ps, 0)), min(band.zw, ivec2(px * ps + ps - 1, size - 1)));
+}

@@ -339,37 +339,27 @@ void decide(ivec2 pixel, float v) {
     }
 }
 
-// Marks every page of `level` the kernel's parallelogram touches (kernel_band, page column by
-// page column, with a row of margin each side), with the bands of its part there, and their
-// ancestors when asked for; counts the marks. (Its box, which an earlier version asked for,
+// Marks every page of `level` the kernel's parallelogram touches (kernel_column_part, page
+// column by page column, with a row of margin each side), with the bands of its part there, and
+// their ancestors when asked for; counts the marks. (Its box, which an earlier version asked for,
 // holds many more pages where the kernel is a needle across the map's axes: the pixel's
 // footprint on a grazing receiver, teapot-rect's terminator.)
 void request_pages(vec2 c, vec2 u_h, vec2 v_h, uint level) {
-    ivec4 box = kernel_texels(c, u_h, v_h, level);
-    int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
-    int ps = int(pc.page_size);
-    // (A shift floors where a division truncates: the same after the clamp to 0.)
     int shift = int(page_shift(pc.page_size));
-    int size = int(pc.virtual_size >> level);
-    int px_a = max((box.x - 1) >> shift, 0);
-    int px_b = min((box.z + 1) >> shift, n_side - 1);
+    ivec2 columns = kernel_page_columns(c, u_h, v_h, level);
     uint marks = 0u;
-    for (int px = px_a; px <= px_b; ++px) {
-        ivec4 band = kernel_band(c, u_h, v_h, level, px * ps - 1, px * ps + ps);
-        // Its part in this page column on the level (texels off it are read as lit, from no
-        // page).
-        ivec2 a = max(band.xy, ivec2(px * ps, 0));
-        ivec2 b = min(band.zw, ivec2(px * ps + ps - 1, size - 1));
-        if (any(greaterThan(a, b))) {
+    for (int px = columns.x; px <= columns.y; ++px) {
+        ivec4 part = kernel_column_part(c, u_h, v_h, level, px);
+        if (any(greaterThan(part.xy, part.zw))) {
             continue;
         }
-        for (int py = a.y >> shift; py <= b.y >> shift; ++py) {
+        for (int py = part.y >> shift; py <= part.w >> shift; ++py) {
             uvec2 page = uvec2(px, py);
             uint e = page_entry(pc.virtual_size, pc.page_size, pc.levels, level, page);
             table[e] = 1u;
             // The texels the filter reads here, in the page's own coordinates.
             ivec2 origin = ivec2(page) << shift;
-            atomicOr(entry_bands[e], box_bands(a - origin, b - origin, pc.page_size));
+            atomicOr(entry_bands[e], box_bands(part.xy - origin, part.zw - origin, pc.page_size));
             if ((pc.options & OPT_ANCESTORS) != 0u) {
                 mark_ancestors(level, page);
             }

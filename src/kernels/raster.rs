@@ -184,7 +184,8 @@ pub struct RasterBinding<'a> {
     clip_set: DescriptorSet,
     depth: Buffer,
     centre_depth: Buffer,
-    // Whether `centre_depth` is the map (bind's `centre`) or a placeholder.
+    // Whether `centre_depth` is the map (bind's `centre`), which recordings write, or a
+    // placeholder.
     has_centre: bool,
     counters: Buffer,
     _large: Buffer,
@@ -285,8 +286,8 @@ impl ConservativeRaster {
     /// `spare_texels` more `u32` follow the map in the same buffer, for the caller to derive
     /// from it in place (pvssm keeps the map's min pyramid there); [`ConservativeRaster::record`]
     /// fills them with 1.0 too. With `centre` the binding owns the centre-depth map
-    /// ([`RasterBinding::centre_depth`]) too, of the same size; without, a 16-byte placeholder
-    /// stands in its binding and [`ConservativeRaster::record`] refuses to write it.
+    /// ([`RasterBinding::centre_depth`]) too, of the same size, and every recording writes it;
+    /// without, a 16-byte placeholder stands in its binding, left empty.
     pub fn bind<'a>(
         &self,
         vertices: &'a Buffer,
@@ -366,7 +367,7 @@ impl ConservativeRaster {
     }
 
     /// Records the rasterization: fills both depth buffers with [`EMPTY_DEPTH_BITS`] (the
-    /// centre-depth map is written only with `centre`: a second `atomicMin` a covered texel,
+    /// centre-depth map is written where the binding has one: a second `atomicMin` a covered texel,
     /// `pvssm-lowres` 3.5 → 4.5 ms on teapot-rect and 21.7 → 26.3 ms on `grid:800000@rect` on
     /// lavapipe, `tools/ab.py` with pvssm's `blocker_distance=nearest` against the default) and the
     /// counters with 0, then the per-triangle and the large-triangle dispatches. With `clip`,
@@ -386,15 +387,7 @@ impl ConservativeRaster {
         light_view_proj: Mat4,
         clip: bool,
         bias: RasterBias,
-        centre: bool,
     ) -> Result<()> {
-        if centre && !binding.has_centre {
-            return Err(param_error(
-                "conservative raster",
-                "the centre-depth map was asked for, but the binding has none (bind's `centre`)"
-                    .into(),
-            ));
-        }
         rec.fill(&binding.depth, EMPTY_DEPTH_BITS);
         rec.fill(&binding.centre_depth, EMPTY_DEPTH_BITS);
         rec.fill(&binding.counters, 0);
@@ -405,7 +398,7 @@ impl ConservativeRaster {
             phase: 0,
             bias_slope: bias.slope,
             bias_clamp: bias.clamp,
-            centre: u32::from(centre),
+            centre: u32::from(binding.has_centre),
             pad1: 0,
             pad2: 0,
         };
@@ -467,7 +460,7 @@ impl ConservativeRaster {
         let index_buffer = self.ctx.buffer_with("raster indices", usage, indices)?;
         let binding = self.bind(&vertices, &index_buffer, triangles, map_size, 0, true)?;
         self.ctx.submit(None, |rec| {
-            self.record(rec, &binding, light_view_proj, clip, bias, true)
+            self.record(rec, &binding, light_view_proj, clip, bias)
         })?;
         let counters = binding.read_counters(&self.ctx)?;
         if counters.cut > 0 {

@@ -89,7 +89,8 @@
 //! `refine_search` the first search, which only sizes the refined one, reads a quarter as many),
 //! `refine_search`, `blocker_depth` (`average` | `silhouette`), `blocker_distance` (`nearest` |
 //! `centre`: a blocking cell's distance from the conservative minimum or the centre-depth
-//! map, whose raster and pyramid are skipped with `nearest`), `kernel_proof`, `ancestors`
+//! map, whose raster and pyramid are skipped with `nearest`), `lit_flag` (`search` |
+//! `conservative`), `kernel_proof`, `ancestors`
 //! (render each requested page's coarser ancestors too, so a pool overflow falls back one level
 //! at a time: 1 always, 2 — the default — only when the requests overflow the pool (without an
 //! overflow no lookup falls back, and the ancestors are a fifth of the frame on
@@ -134,8 +135,6 @@ pub struct Pvssm<'a> {
     raster: ConservativeRaster,
     // The low-resolution map's bias: the slope-scaled part of level 0's (see `new`).
     lowres_bias: RasterBias,
-    // `blocker_distance = centre`: the raster writes its centre-depth map, the searches read it.
-    centre_distance: bool,
     // The shape pass's views of `lowres` and its centre depths (before it: dropped first).
     _lowres_texels: TexelView,
     _centre_texels: TexelView,
@@ -410,7 +409,6 @@ impl<'a> Pvssm<'a> {
             pages,
             raster,
             lowres_bias,
-            centre_distance,
             lowres,
             mip: (mip_pipeline, mip_set),
             _lowres_texels: lowres_texels,
@@ -440,7 +438,6 @@ impl Pvssm<'_> {
             self.push.light_view_proj,
             false,
             self.lowres_bias,
-            self.centre_distance,
         )?;
         let (pipeline, set) = &self.mip;
         for level in &self.mip_levels {

@@ -7,7 +7,7 @@
 #include "receiver_depth.glsl"
 
 // A uniform block, not push constants or a storage buffer: lavapipe reads it with scalar loads
-// inside loops and branches (see src/techniques/izb.rs).
+// inside loops and branches (see src/techniques/izb/mod.rs).
 layout(set = 0, binding = 2, std140) uniform Params {
     mat4 light_view_proj;
     // World -> light view space (the tangent-plane test of the light samples).

@@ -3,7 +3,7 @@
 // lane took it or not, but skipped a loop that no lane entered; other compilers treat the two
 // alike. Mesa 25's lavapipe (tools/setup.sh's) skips an `if` no lane takes too, and there the
 // loop costs the SIMD group more: izb's test passes went 20-30 % faster with plain `if`s
-// (src/techniques/izb.rs, "Branches"), so compute shaders use `if`. Kept in the view samples'
+// (src/techniques/izb/mod.rs, "Branches"), so compute shaders use `if`. Kept in the view samples'
 // fragment shader, where an `if` measured no faster.
 
 #ifndef PENUMBRA_WHEN_GLSL

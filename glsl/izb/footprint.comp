@@ -5,7 +5,7 @@
 // listed ones (workgroups share a triangle's cells); phases 2 and 3 write the pairs the same two
 // ways at the cell's first pair (the prefix sum of the counts) plus a per-cell cursor.
 //
-// Footprint (src/techniques/izb.rs, "Footprints"): the triangle's projection, grown for a rect
+// Footprint (src/techniques/izb/mod.rs, "Footprints"): the triangle's projection, grown for a rect
 // light by the light's half extents times k = 1/z_tri - 1/z_cell, z_tri its nearest depth and
 // z_cell the cell's deepest sample; every vertex nearer than the depth floor: every cell.
 // Cells whose samples all lie nearer the light than the whole triangle are skipped.

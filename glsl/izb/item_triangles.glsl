@@ -1,7 +1,7 @@
 // The test passes' reads of a work item's triangles, shared by test_hard.glsl and
 // test_soft.glsl: entry k of the cell triangle lists and its three vertices (xyz, and w the
 // vertex's light-space depth), through texel views rather than storage buffers
-// (src/techniques/izb.rs says why).
+// (src/techniques/izb/mod.rs says why).
 
 #ifndef PENUMBRA_IZB_ITEM_TRIANGLES_GLSL
 #define PENUMBRA_IZB_ITEM_TRIANGLES_GLSL

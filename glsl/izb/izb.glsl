@@ -1,5 +1,5 @@
 // izb and izb-soft's shared parts: the parameter block, the bindings, the counters and the
-// light-space grid. Design: src/techniques/izb.rs. CPU twin: src/cpu/izb.rs.
+// light-space grid. Design: src/techniques/izb/mod.rs. CPU twin: src/cpu/izb.rs.
 
 #extension GL_GOOGLE_include_directive : require
 
@@ -65,8 +65,8 @@ layout(set = 0, binding = 26) buffer TriRange { uvec4 tri_range[]; };
 // its grid box grown by twice CELL_MARGIN and by the rect light's spread times 1/z_min,
 // (lo.xy, hi.xy); a work item
 // whose deepest sample has 1/z = w finds the triangle's soft footprint for it by shrinking
-// this by w times the spread (izb.rs, "Item bounds"). Infinite for a triangle that reaches
-// every sample.
+// this by w times the spread (src/techniques/izb/mod.rs, "Item bounds"). Infinite for a
+// triangle that reaches every sample.
 layout(set = 0, binding = 28) buffer TriBounds { vec4 tri_bounds[]; };
 
 layout(push_constant) uniform Push {
@@ -96,7 +96,7 @@ layout(push_constant) uniform Push {
 // Soft footprints: relative margin on the depth factor k.
 #define K_MARGIN 1e-4
 
-// Counter slots (src/techniques/izb.rs COUNTER_NAMES, same order).
+// Counter slots (src/techniques/izb/mod.rs COUNTER_NAMES, same order).
 #define C_VIEW_SAMPLES 0
 #define C_BINNED 1
 #define C_BEHIND 2

@@ -42,7 +42,7 @@ void main() {
                 vec3 vb = subgroupShuffle(lb, i);
                 vec3 vc = subgroupShuffle(lc, i);
                 // Skipped by the whole SIMD group once every sample is shadowed (Mesa 25's
-                // lavapipe skips an `if` no lane takes; src/techniques/izb.rs, "Branches").
+                // lavapipe skips an `if` no lane takes; src/techniques/izb/mod.rs, "Branches").
                 if (!shadowed) {
                     vec4 w;
                     rays += 1u;

@@ -13,7 +13,7 @@
 // the stores dominate what is left (with min and max in two R32F images, dropping one store saved
 // ~15 %; one RG32F image a level since 2026-12-05, minmax_level.glsl). The loads
 // of a pair's right texel and of the row below sat under `if`s (inside the image or not); on
-// lavapipe a load under a branch is dearer (src/techniques/izb.rs records the same of storage
+// lavapipe a load under a branch is dearer (src/techniques/izb/mod.rs records the same of storage
 // reads), so both are now read clamped to the image and dropped by a select, outside all control
 // flow but the chain's loop — alternating `penumbra bench --suite kernels --quick` runs
 // (2026-12-03; both versions' times are bimodal on this VM, ~50 or ~100 ms): 10 levels of 1024²

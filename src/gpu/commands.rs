@@ -1,4 +1,5 @@
-//! Command recording, submit-and-wait, upload and readback.
+//! Command recording: dispatches, draws, copies, uploads and passes, each with the barriers its
+//! resources need ([`super::submit`] submits and waits, [`super::readback`] reads back).
 //!
 //! penumbra records one command buffer per submission and waits on a fence: techniques are
 //! measured per frame, and waiting keeps resource lifetimes trivial (nothing is in flight when a
@@ -14,7 +15,7 @@ use super::pipeline::{DescriptorSet, Pipeline, Resource};
 use super::sync::{Access, Tracker, Transition};
 use super::timestamps::Timestamps;
 use super::{Buffer, Context, Image, MemoryLocation};
-use crate::error::{Error, Result, VkResultExt};
+use crate::error::{Error, Result};
 
 /// Records commands into one command buffer. Made by [`Context::submit`].
 pub struct Recorder<'a> {
@@ -56,6 +57,36 @@ fn barrier(ctx: &Context, cmd: vk::CommandBuffer, t: Transition, resource: &Reso
             let dep = vk::DependencyInfo::default().image_memory_barriers(&b);
             unsafe { ctx.device().cmd_pipeline_barrier2(cmd, &dep) };
         }
+    }
+}
+
+impl<'a> Recorder<'a> {
+    /// A recorder over `cmd` (begun, outside a render pass); with `timestamps`, their pool is
+    /// reset first, and each pass opened with [`Recorder::begin_pass`] is timed.
+    pub(super) fn begin(
+        ctx: &'a Context,
+        cmd: vk::CommandBuffer,
+        timestamps: Option<&'a mut Timestamps>,
+    ) -> Self {
+        let mut rec = Recorder {
+            ctx,
+            cmd,
+            timestamps,
+            open_pass: None,
+            keep_alive: Vec::new(),
+            external: Vec::new(),
+        };
+        if let Some(ts) = rec.timestamps.as_deref_mut() {
+            ts.reset(ctx, cmd);
+        }
+        rec
+    }
+
+    /// Ends the recording ([`Recorder::finish`]) and hands back the staging buffers that must
+    /// live until the submission completes.
+    pub(super) fn end(mut self) -> Vec<Buffer> {
+        self.finish();
+        std::mem::take(&mut self.keep_alive)
     }
 }
 
@@ -424,7 +455,7 @@ impl Recorder<'_> {
 
     /// Copies the whole of `src`, tightly packed, into `dst` (a raw buffer handle at least
     /// `src.byte_size()` long) after the barrier `src` needs; `dst` is the caller's to order.
-    fn copy_image_into(&mut self, src: &Image, dst: vk::Buffer) {
+    pub(super) fn copy_image_into(&mut self, src: &Image, dst: vk::Buffer) {
         self.use_image(src, Access::TransferRead);
         let region = vk::BufferImageCopy::default()
             .image_subresource(src.subresource_layers())
@@ -578,315 +609,6 @@ impl Recorder<'_> {
     }
 }
 
-impl Context {
-    /// Records commands with `record`, submits them and waits for completion. With `timestamps`,
-    /// its pool is reset first and each pass opened with [`Recorder::begin_pass`] is timed.
-    pub fn submit<R>(
-        &self,
-        timestamps: Option<&mut Timestamps>,
-        record: impl FnOnce(&mut Recorder<'_>) -> Result<R>,
-    ) -> Result<R> {
-        let device = self.device();
-        let (cmd, fence) = self.take_submit_slot()?;
-        let result = (|| {
-            let begin = vk::CommandBufferBeginInfo::default()
-                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-            unsafe { device.begin_command_buffer(cmd, &begin) }.vk("vkBeginCommandBuffer")?;
-            let mut rec = Recorder {
-                ctx: self,
-                cmd,
-                timestamps,
-                open_pass: None,
-                keep_alive: Vec::new(),
-                external: Vec::new(),
-            };
-            if let Some(ts) = rec.timestamps.as_deref_mut() {
-                ts.reset(self, cmd);
-            }
-            let out = record(&mut rec);
-            rec.finish();
-            let out = out?;
-            unsafe { device.end_command_buffer(cmd) }.vk("vkEndCommandBuffer")?;
-            let cmds = [cmd];
-            let submit = vk::SubmitInfo::default().command_buffers(&cmds);
-            {
-                let queue = self.queue();
-                unsafe { device.queue_submit(*queue, &[submit], fence) }.vk("vkQueueSubmit")?;
-            }
-            unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }.vk("vkWaitForFences")?;
-            drop(rec.keep_alive);
-            Ok(out)
-        })();
-        self.return_submit_slot(cmd, fence, result.is_ok());
-        result
-    }
-
-    /// Records with `record` into `cmd`, a command buffer the caller owns, already begun and
-    /// not yet ended, and returns without submitting: the caller submits it and must not
-    /// release anything recorded into it before that submission completes. Nothing is timed
-    /// (passes still get debug labels), and a pass that would upload through a staging buffer
-    /// fails with [`Error::InvalidArgument`], since the staging buffer could not be kept alive.
-    ///
-    /// # Safety
-    /// `cmd` must be a primary command buffer of this context's device, in the recording state,
-    /// from a pool of the queue family penumbra was created for, and outside a render pass.
-    pub unsafe fn record_into<R>(
-        &self,
-        cmd: vk::CommandBuffer,
-        record: impl FnOnce(&mut Recorder<'_>) -> Result<R>,
-    ) -> Result<R> {
-        let mut rec = Recorder {
-            ctx: self,
-            cmd,
-            timestamps: None,
-            open_pass: None,
-            keep_alive: Vec::new(),
-            external: Vec::new(),
-        };
-        let out = record(&mut rec);
-        rec.finish();
-        if !rec.keep_alive.is_empty() {
-            // Dropping the staging now would free memory the caller's submission reads.
-            let _ = unsafe { self.device().device_wait_idle() };
-            return Err(Error::InvalidArgument(
-                "a pass uploaded data while recording into the caller's command buffer".into(),
-            ));
-        }
-        out
-    }
-
-    /// A command buffer (reset on begin: the pool allows it) and an unsignalled fence from the
-    /// pool of completed submissions, or new ones when none is free.
-    fn take_submit_slot(&self) -> Result<(vk::CommandBuffer, vk::Fence)> {
-        let pooled = self
-            .shared
-            .submit_slots
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .pop();
-        if let Some(slot) = pooled {
-            return Ok(slot);
-        }
-        let device = self.device();
-        let pool = self
-            .shared
-            .command_pool
-            .lock()
-            .unwrap_or_else(|e| e.into_inner());
-        let alloc = vk::CommandBufferAllocateInfo::default()
-            .command_pool(*pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        let cmd =
-            unsafe { device.allocate_command_buffers(&alloc) }.vk("vkAllocateCommandBuffers")?[0];
-        let fence = match unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) } {
-            Ok(f) => f,
-            Err(result) => {
-                unsafe { device.free_command_buffers(*pool, &[cmd]) };
-                return Err(Error::Vulkan {
-                    call: "vkCreateFence",
-                    result,
-                });
-            }
-        };
-        self.shared.counts.object();
-        self.shared.counts.object();
-        Ok((cmd, fence))
-    }
-
-    /// Puts a slot back for the next submit. After a failure the command buffer may still be
-    /// recording or pending and the fence signalled or not, so the slot is destroyed instead
-    /// (after the device is idle, so nothing in flight uses it).
-    fn return_submit_slot(&self, cmd: vk::CommandBuffer, fence: vk::Fence, completed: bool) {
-        let device = self.device();
-        let reset = completed && unsafe { device.reset_fences(&[fence]) }.is_ok();
-        if reset {
-            self.shared
-                .submit_slots
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .push((cmd, fence));
-            return;
-        }
-        unsafe {
-            // Nothing better to do if the device is lost: destroy anyway.
-            let _ = device.device_wait_idle();
-            device.destroy_fence(fence, None);
-        }
-        let pool = self
-            .shared
-            .command_pool
-            .lock()
-            .unwrap_or_else(|e| e.into_inner());
-        unsafe { device.free_command_buffers(*pool, &[cmd]) };
-    }
-
-    /// Creates a device-local storage buffer holding `data`.
-    pub fn buffer_with<T: Pod>(
-        &self,
-        name: &str,
-        usage: vk::BufferUsageFlags,
-        data: &[T],
-    ) -> Result<Buffer> {
-        let bytes: &[u8] = bytemuck::cast_slice(data);
-        let buffer = Buffer::new(
-            self,
-            name,
-            bytes.len() as u64,
-            usage | vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::GpuOnly,
-        )?;
-        self.submit(None, |rec| rec.upload(&buffer, bytes))?;
-        Ok(buffer)
-    }
-
-    /// Reads a whole buffer back to the host, through the context's readback buffer (grown on
-    /// demand and kept, so repeated reads allocate nothing).
-    pub fn read_buffer(&self, src: &Buffer) -> Result<Vec<u8>> {
-        self.read_back(&src.name, src.size, |rec, dst| {
-            rec.use_buffer(src, Access::TransferRead);
-            let region = vk::BufferCopy {
-                src_offset: 0,
-                dst_offset: 0,
-                size: src.size,
-            };
-            unsafe {
-                rec.ctx
-                    .device()
-                    .cmd_copy_buffer(rec.cmd, src.raw, dst, &[region])
-            };
-        })
-    }
-
-    /// Reads a whole image back to the host, tightly packed, through the context's readback
-    /// buffer.
-    pub fn read_image(&self, src: &Image) -> Result<Vec<u8>> {
-        let size = src.byte_size().ok_or_else(|| Error::Unsupported {
-            device: self.info().name.clone(),
-            feature: format!("readback of format {:?}", src.desc.format),
-        })?;
-        self.read_back(&src.name, size, |rec, dst| rec.copy_image_into(src, dst))
-    }
-
-    /// Records `copy` into the readback buffer (at least `size` bytes), submits, waits, and
-    /// returns the first `size` bytes.
-    fn read_back(
-        &self,
-        name: &str,
-        size: u64,
-        copy: impl FnOnce(&mut Recorder<'_>, vk::Buffer),
-    ) -> Result<Vec<u8>> {
-        let mut staging = self
-            .shared
-            .readback
-            .lock()
-            .unwrap_or_else(|e| e.into_inner());
-        staging.reserve(self, size)?;
-        let dst = staging.raw;
-        self.submit(None, |rec| {
-            // The host's reads of the previous contents happened before this submit, which
-            // orders them before the copy: only the copy's write needs a barrier, to the host.
-            copy(rec, dst);
-            let b = [vk::MemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
-                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-                .dst_access_mask(vk::AccessFlags2::HOST_READ)];
-            let dep = vk::DependencyInfo::default().memory_barriers(&b);
-            unsafe { rec.ctx.device().cmd_pipeline_barrier2(rec.cmd, &dep) };
-            Ok(())
-        })?;
-        let bytes = staging
-            .allocation
-            .as_ref()
-            .and_then(|a| a.mapped_slice())
-            .map(|s| &s[..size as usize]);
-        mapped_bytes(&self.info().name, &format!("{name} (readback)"), bytes)
-    }
-}
-
-/// The host-visible buffer every [`Context::read_buffer`] and [`Context::read_image`] copies
-/// into: raw handles rather than a [`Buffer`], which would hold the context that holds it.
-#[derive(Default)]
-pub(crate) struct ReadbackStaging {
-    raw: vk::Buffer,
-    allocation: Option<gpu_allocator::vulkan::Allocation>,
-    size: u64,
-}
-
-impl ReadbackStaging {
-    /// Makes it hold at least `size` bytes (grown to the next power of two, so a few growths
-    /// cover every size a run reads).
-    fn reserve(&mut self, ctx: &Context, size: u64) -> Result<()> {
-        if size <= self.size && self.allocation.is_some() {
-            return Ok(());
-        }
-        let device = ctx.device();
-        self.destroy(device, &mut ctx.allocator());
-        let size = size.max(256).next_power_of_two();
-        let info = vk::BufferCreateInfo::default()
-            .size(size)
-            .usage(vk::BufferUsageFlags::TRANSFER_DST)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE);
-        let raw = unsafe { device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
-        let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
-        let allocation = match super::resources::allocate_uncounted(
-            ctx,
-            "readback",
-            requirements,
-            MemoryLocation::GpuToCpu,
-            true,
-        ) {
-            Ok(a) => a,
-            Err(e) => {
-                unsafe { device.destroy_buffer(raw, None) };
-                return Err(e);
-            }
-        };
-        let bound =
-            unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
-                .vk("vkBindBufferMemory");
-        self.raw = raw;
-        self.allocation = Some(allocation);
-        self.size = size;
-        ctx.set_name(raw, "readback");
-        if let Err(e) = bound {
-            self.destroy(device, &mut ctx.allocator());
-            return Err(e);
-        }
-        Ok(())
-    }
-
-    /// Frees it (the device must be idle or the buffer unused).
-    pub(crate) fn destroy(
-        &mut self,
-        device: &ash::Device,
-        allocator: &mut gpu_allocator::vulkan::Allocator,
-    ) {
-        if let Some(a) = self.allocation.take() {
-            // Freeing only fails for an allocation from another allocator.
-            let _ = allocator.free(a);
-        }
-        if self.raw != vk::Buffer::null() {
-            unsafe { device.destroy_buffer(self.raw, None) };
-        }
-        self.raw = vk::Buffer::null();
-        self.size = 0;
-    }
-}
-
-/// The bytes of a readback buffer, or an error when its memory is not mapped. An unmapped
-/// readback buffer must not read as "no data": callers would then report counters of 0 and
-/// empty images as if the GPU had produced them.
-fn mapped_bytes(device: &str, buffer: &str, mapped: Option<&[u8]>) -> Result<Vec<u8>> {
-    mapped
-        .map(<[u8]>::to_vec)
-        .ok_or_else(|| Error::Unsupported {
-            device: device.to_string(),
-            feature: format!("host-mapped memory to read back '{buffer}'"),
-        })
-}
-
 /// That `bytes` of indirect arguments at `offset` (4-byte aligned, as Vulkan requires) fit
 /// `args`.
 fn check_indirect(pipeline: &Pipeline, args: &Buffer, offset: u64, bytes: u64) -> Result<()> {
@@ -900,39 +622,4 @@ fn check_indirect(pipeline: &Pipeline, args: &Buffer, offset: u64, bytes: u64) -
         });
     }
     Ok(())
-}
-
-/// Reinterprets read-back bytes as `f32`s (copying: the bytes need not be aligned).
-pub fn f32s(bytes: &[u8]) -> Vec<f32> {
-    bytes
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect()
-}
-
-/// Reinterprets read-back bytes as `u32`s.
-pub fn u32s(bytes: &[u8]) -> Vec<u32> {
-    bytes
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn unmapped_readback_is_an_error_not_empty_data() {
-        // lavapipe always maps GpuToCpu memory, so the unmapped case is tested on the helper.
-        let e = mapped_bytes("dev", "counters (readback)", None).unwrap_err();
-        assert!(
-            matches!(&e, Error::Unsupported { feature, .. } if feature.contains("counters (readback)")),
-            "{e}"
-        );
-        assert_eq!(
-            mapped_bytes("dev", "x", Some(&[1, 2, 3])).expect("mapped"),
-            vec![1, 2, 3]
-        );
-    }
 }

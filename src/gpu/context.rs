@@ -93,7 +93,7 @@ pub(crate) struct DeviceShared {
     pub(crate) pipeline_cache: vk::PipelineCache,
     pipeline_cache_path: Option<std::path::PathBuf>,
     /// The host-visible buffer reads go through, grown on demand and kept.
-    pub(crate) readback: Mutex<super::commands::ReadbackStaging>,
+    pub(crate) readback: Mutex<super::readback::ReadbackStaging>,
     /// What has been created on the device so far ([`Context::creation_counts`]).
     pub(crate) counts: CreationCounters,
     pub(crate) info: DeviceInfo,

@@ -15,13 +15,15 @@ mod context;
 mod device_info;
 mod instance;
 mod pipeline;
+mod readback;
 pub mod reflect;
 mod resources;
+mod submit;
 mod sync;
 mod timestamps;
 mod validation;
 
-pub use commands::{f32s, u32s, Recorder};
+pub use commands::Recorder;
 pub use context::{
     enumerate_devices, Context, ContextDesc, CreationCounts, DeviceInfo, EnabledFeatures,
     RawDevice, SLOT_VIEWPORTS,
@@ -29,6 +31,7 @@ pub use context::{
 pub use pipeline::{
     shader_interface, shader_names, shader_spirv, Binding, DescriptorSet, GraphicsDesc, Pipeline,
 };
+pub use readback::{f32s, u32s};
 pub use resources::{Buffer, Image, ImageDesc, MemoryLocation, Sampler, TexelView};
 pub use sync::Access;
 pub use timestamps::{PassTime, Timestamps};

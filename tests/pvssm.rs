@@ -476,6 +476,7 @@ fn filter_and_prediction_match_cpu() {
         ("page_size", "64"),
         ("pool_pages", "1024"),
         ("tangent_plane", "0"),
+        ("max_anisotropy", "16"),
     ]);
     for (k, v) in common::KERNEL_ONLY {
         set.insert(k.into(), v.into());
@@ -508,6 +509,8 @@ fn filter_and_prediction_match_cpu() {
     };
     let width = prepared.view.width as usize;
     let (mut filtered, mut off_v, mut off_level) = (0usize, 0usize, 0usize);
+    // Samples the anisotropy cap moved to a coarser level than Eq. 5's.
+    let mut coarsened = 0usize;
     // Kernel boxes reaching past the part of a served page that was drawn (its bands).
     let (mut outside_drawn, mut partial_pages) = (0usize, 0usize);
     let mut worst = 0.0f32;
@@ -532,7 +535,12 @@ fn filter_and_prediction_match_cpu() {
         );
         let n = twin::screen_sizes(axes, u_h, v_h);
         let r = twin::required_texel(u_h, v_h, n, twin::Rho::Dynamic, 1.0);
-        if twin::predicted_level(r, layout.levels) != wanted {
+        let n_u = twin::column_screen_size(axes, u_h);
+        let capped = twin::anisotropy_cap(r, u_h, n_u, twin::Rho::Dynamic, 1.0, 16);
+        if twin::predicted_level(capped, layout.levels) != twin::predicted_level(r, layout.levels) {
+            coarsened += 1;
+        }
+        if twin::predicted_level(capped, layout.levels) != wanted {
             off_level += 1;
         }
         // The served level: the first whose pages the kernel reads (the footprint twin's) are
@@ -599,9 +607,10 @@ fn filter_and_prediction_match_cpu() {
     }
     eprintln!(
         "{filtered} filtered samples: {off_v} differ from the twin by more than 1e-4 (max {worst}), \
-         {off_level} predicted at another level"
+         {off_level} predicted at another level, {coarsened} coarsened by the anisotropy cap"
     );
     assert!(filtered > 1000, "only {filtered} samples filtered");
+    assert!(coarsened > 0, "no kernel here is a needle the cap coarsens");
     eprintln!(
         "{partial_pages} (sample, page) reads of pages drawn in part, {outside_drawn} past it"
     );
@@ -907,7 +916,8 @@ fn ancestors_are_drawn_only_when_the_pool_overflows() {
 /// They must all fit (a page dropped for want of bin room falls back to a coarser one: with 16
 /// entries a triangle, 983 of `lattice@rect`'s 1 024 pages at 512×384 fell to the root, a
 /// penumbra MAE of 0.41), and the result stays near the reference. At 256×192: at 128×96 the
-/// requests do not fill the pool.
+/// requests do not fill the pool; nor do they with the anisotropy cap (`max_anisotropy`, 790 of
+/// 1 024 pages: the bars' grazing faces ask for coarser ones), so it is off here.
 #[test]
 fn a_lattice_fills_the_pool_and_its_bins_hold_every_pair() {
     let engine = common::engine();
@@ -916,7 +926,7 @@ fn a_lattice_fills_the_pool_and_its_bins_hold_every_pair() {
     scene.camera.height = 192;
     let triangles = scene.triangle_count() as u64;
     let prepared = engine.prepare(&scene).expect("prepare");
-    let frame = render(&engine, &prepared, &[]);
+    let frame = render(&engine, &prepared, &[("max_anisotropy", "0")]);
     eprintln!(
         "{} triangles, {} pairs binned, {} pages allocated of {} unique, {} bin overflows, \
          {} fallback lookups",
@@ -953,7 +963,11 @@ fn a_lattice_fills_the_pool_and_its_bins_hold_every_pair() {
     // Bins a quarter as large: they overflow, and keep the coarsest levels that fit
     // (bin_fit.comp), so a lookup whose page was dropped falls back to a coarse page near its own
     // resolution rather than to the root.
-    let small_bins = render(&engine, &prepared, &[("bin_factor", "4")]);
+    let small_bins = render(
+        &engine,
+        &prepared,
+        &[("bin_factor", "4"), ("max_anisotropy", "0")],
+    );
     let small_mae =
         penumbra::metrics::compare(&reference.visibility, &small_bins.visibility, &is_sample)
             .expect("metrics")
@@ -970,5 +984,44 @@ fn a_lattice_fills_the_pool_and_its_bins_hold_every_pair() {
         small_mae <= 0.15,
         "penumbra MAE {small_mae:.4} with bins past their capacity"
     );
+    common::assert_clean(&engine.context().validation());
+}
+
+/// The anisotropy cap (`max_anisotropy`) takes needle kernels to coarser pages: fewer pages on
+/// the rect scenes at about the same penumbra error, and on the rocker arm under its sun (whose
+/// thin penumbrae at this size are a few hundred pixels: its RMSE is the steadier measure) at
+/// an RMSE a few per cent higher — the blur across a needle's thin axis the cap allows. At
+/// 512×384 on lavapipe: pages teapot-rect 424 -> 316, bunny-rect 661 -> 524, rocker arm 410 ->
+/// 288; penumbra MAE 0.0110 -> 0.0111, 0.0263 -> 0.0259, 0.2167 -> 0.2209.
+#[test]
+fn anisotropy_cap_asks_for_fewer_pages_at_about_the_same_error() {
+    let engine = common::engine();
+    for (scene, allowance) in [
+        ("scenes/teapot-rect.toml", 1.02),
+        ("scenes/bunny-rect.toml", 1.02),
+        ("scenes/rocker-arm-directional.toml", 1.05),
+    ] {
+        let scored = Scored::new(&engine, scene);
+        let score = |cap: &str| {
+            let (metrics, frame) = scored.score(&engine, &[("max_anisotropy", cap)]);
+            let mae = metrics.penumbra_mae.expect("the scene has a penumbra");
+            (mae, metrics.rmse, counter(&frame, "allocated_pages"))
+        };
+        let (open, open_rmse, open_pages) = score("0");
+        let (capped, capped_rmse, capped_pages) = score("16");
+        eprintln!(
+            "{scene}: pages {open_pages} -> {capped_pages}, penumbra MAE {open:.5} -> \
+             {capped:.5}, RMSE {open_rmse:.5} -> {capped_rmse:.5}"
+        );
+        assert!(capped_pages < open_pages, "{scene}");
+        if scene.contains("rocker") {
+            assert!(
+                capped_rmse <= allowance * open_rmse,
+                "{scene}: RMSE {open_rmse} -> {capped_rmse}"
+            );
+        } else {
+            assert!(capped <= allowance * open, "{scene}: {open} -> {capped}");
+        }
+    }
     common::assert_clean(&engine.context().validation());
 }

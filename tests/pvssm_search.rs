@@ -23,7 +23,8 @@ fn blocker_search_matches_cpu() {
     use penumbra::cpu::pages::PageLayout;
     use penumbra::cpu::pcss::PcssSetup;
     use penumbra::cpu::pvssm::{
-        pixel_axes, predicted_level, required_texel, screen_sizes, Rho, MIN_HALF,
+        anisotropy_cap, column_screen_size, pixel_axes, predicted_level, required_texel,
+        screen_sizes, Rho, MIN_HALF,
     };
     use penumbra::cpu::pvssm_search::{blocker_distance, min_levels, MinPyramid, SearchParams};
     use penumbra::cpu::shadow_map::{inside_map, shadow_coord};
@@ -56,6 +57,7 @@ fn blocker_search_matches_cpu() {
                 ("horizon_skip", "0"),
                 ("blocker_depth", depth),
                 ("blocker_distance", distance),
+                ("max_anisotropy", "16"),
             ]);
             let (mut shape, mut pyramid, mut centre) = (vec![], vec![], vec![]);
             engine
@@ -136,6 +138,8 @@ fn blocker_search_matches_cpu() {
                     let v_h = Vec2::new(0.0, (0.5 * w.y).max(MIN_HALF));
                     let n = screen_sizes(axes, u_h, v_h);
                     let r = required_texel(u_h, v_h, n, Rho::Dynamic, 1.0);
+                    let n_u = column_screen_size(axes, u_h);
+                    let r = anisotropy_cap(r, u_h, n_u, Rho::Dynamic, 1.0, 16);
                     let level = predicted_level(r, levels);
                     Vec2::new(u_h.x, u_h.y.abs() + v_h.y) + (1u32 << level) as f32
                 };

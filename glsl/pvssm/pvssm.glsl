@@ -77,6 +77,8 @@ layout(push_constant) uniform Push {
 // no cell of its region lies nearer than the receiver plane's *highest* depth over the cell
 // (may_have_blocker: what the filter's per-texel test could find), not its lowest (shape.comp).
 #define OPT_LIT_CONSERVATIVE (1u << 24u)
+// Bits 25..28: log2(max_anisotropy) + 1, or 0 for no cap (predicted_level).
+#define OPT_ANISO_SHIFT 25u
 // Bits 8..15: the blocker search's cells per side (the push block has no room left).
 #define OPT_CELLS_SHIFT 8u
 
@@ -133,29 +135,44 @@ float rho(float n) {
 }
 
 // Eq. 4: the kernel's full widths along the map's axes, in pixels, through the pixel footprint
-// F = [2 u_phi, 2 v_phi]; +inf where the footprint is undefined or singular.
-vec2 screen_sizes(bool has_pixel, vec2 u_phi, vec2 v_phi, vec2 u_h, vec2 v_h) {
+// F = [2 u_phi, 2 v_phi] — n0 = |F^-1 (2 u_h.x, 0)|, n1 = |F^-1 (0, 2 v_h.y)| — and, for the
+// anisotropy cap, the screen length of the kernel's first column, n_u = |F^-1 (2 u_h)| (the
+// second column is (0, 2 v_h.y): n1); +inf where the footprint is undefined or singular.
+vec3 screen_sizes(bool has_pixel, vec2 u_phi, vec2 v_phi, vec2 u_h, vec2 v_h) {
     const float INF = 1.0 / 0.0;
     vec2 f0 = 2.0 * u_phi;
     vec2 f1 = 2.0 * v_phi;
     float det = f0.x * f1.y - f1.x * f0.y;
-    float scale = dot(f0, f0) + dot(f1, f1);
-    if (!has_pixel || abs(det) < 1e-12 * (scale * scale + 1e-30)) {
-        return vec2(INF);
+    float norm2 = dot(f0, f0) + dot(f1, f1);
+    if (!has_pixel || !(abs(det) >= 1e-12 * (norm2 + 1e-30))) {
+        return vec3(INF);
     }
     // F^-1 = [[f1.y, -f1.x], [-f0.y, f0.x]] / det, applied to (W0, 0) and (0, W1).
     float w0 = 2.0 * u_h.x;
     float w1 = 2.0 * v_h.y;
     vec2 n0 = vec2(f1.y, -f0.y) * (w0 / det);
     vec2 n1 = vec2(-f1.x, f0.x) * (w1 / det);
-    return vec2(length(n0), length(n1));
+    vec2 n_u = vec2(f1.y, -f0.y) * (w0 / det) + vec2(-f1.x, f0.x) * (2.0 * u_h.y / det);
+    return vec3(length(n0), length(n1), length(n_u));
 }
 
-// Eq. 5 and the level whose texels are no larger than the required size.
-uint predicted_level(vec2 u_h, vec2 v_h, vec2 n) {
+// Eq. 5 and the level whose texels are no larger than the required size — no smaller than the
+// anisotropy cap's floor either (`max_anisotropy`, options bits OPT_ANISO_SHIFT): the larger of
+// the kernel's two columns' own required sizes (|2 u_h| through n_u, 2 v_h.y through n1) over
+// the cap. Why: Eq. 5 sizes texels by the kernel's thinner width, and where the pixel's
+// footprint on a grazing receiver makes the kernel a needle (teapot-rect's terminator: 38 x 1
+// level-0 texels) that asked for the finest pages along the whole terminator for a few samples
+// each; as a texture's anisotropic filter does, the cap lets the thin axis blur over up to
+// max_anisotropy texels' worth of the long one's resolution instead (cpu::pvssm::anisotropy_cap).
+uint predicted_level(vec2 u_h, vec2 v_h, vec3 n) {
     float r0 = 2.0 * u_h.x / (pc.rho_scale * rho(n.x));
     float r1 = 2.0 * v_h.y / (pc.rho_scale * rho(n.y));
     float r = min(r0, r1);
+    uint cap = (pc.options >> OPT_ANISO_SHIFT) & 0xfu;
+    if (cap != 0u) {
+        float r_u = 2.0 * length(u_h) / (pc.rho_scale * rho(n.z));
+        r = max(r, max(r_u, r1) / float(1u << (cap - 1u)));
+    }
     if (!(r > 1.0)) {
         return 0u;
     }

@@ -28,7 +28,7 @@ pub const COUNTER_NAMES: [&str; 13] = [
 // same within the noise). rmsm draws whole pages and keeps 64.
 const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(16384.0, 1024.0);
 
-const KNOBS: [Knob; 28] = [
+const KNOBS: [Knob; 29] = [
     Knob::int(
         "lowres_size",
         "conservative low-resolution map for the blocker search, texels per side",
@@ -55,6 +55,15 @@ const KNOBS: [Knob; 28] = [
         16.0,
     )
     .real(),
+    Knob::int(
+        "max_anisotropy",
+        "most times the kernel's long axis may ask for finer texels than its thin one (0: no \
+         cap, Eq. 5's thinner width alone; else a power of two): a needle kernel, the pixel's \
+         footprint on a grazing receiver, then reads coarser pages, blurred across its thin axis",
+        16.0,
+        0.0,
+        1024.0,
+    ),
     Knob::int(
         "antialias",
         "1: convolve the kernel with the pixel's footprint (analytic anti-aliasing); 0: light only",

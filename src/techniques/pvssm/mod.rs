@@ -51,9 +51,24 @@
 //!    bunny-rect 0.0746 → 0.0620 (`conservative_lit_flag_is_no_further_from_the_reference`).
 //!    Then the light kernel s_α and the pixel footprint φ' through the receiver's tangent plane,
 //!    convolved as Gaussians and factored back into a sheared box h (Cholesky); the perceptual
-//!    metric ρ(n) and the texel size it asks for (Eqs. 4–5); and the requests: every page of the
-//!    predicted level h's parallelogram crosses (with its ancestors, when asked for or when the
-//!    pool overflows). Before requesting, a sample whose refined search found no blocker has its
+//!    metric ρ(n) and the texel size it asks for (Eqs. 4–5), no finer than the anisotropy cap
+//!    allows (`max_anisotropy`, default 16: the larger of the kernel's two columns' own texel
+//!    sizes over the cap — as a texture's anisotropic filter, a needle kernel blurs across its
+//!    thin axis rather than asking for the finest level along its whole length; the pixel's
+//!    footprint on a grazing receiver makes such needles, teapot-rect's terminator asked for
+//!    315 of its 424 pages at levels 0–2 for 2.2k of 26k filtered samples). Pages teapot-rect
+//!    424 → 316, bunny-rect 661 → 524, rocker arm 410 → 288, spot-point 248 → 158; penumbra
+//!    MAE teapot-rect 0.0110 → 0.0111, bunny-rect 0.0263 → 0.0259 (× 4 0.0403 → 0.0402),
+//!    `plane-boxes@rect` 0.0136 → 0.0132, grid, lattice and thin bars the same; the rocker
+//!    arm's sun edges on its grazing faces blur: RMSE 0.0199 → 0.0206, penumbra MAE 0.2167 →
+//!    0.2209 (× 4 0.0937 → 0.0974; hard sun RMSE 0.0240 → 0.0251); frame teapot-rect 54.1 →
+//!    51.1 ms, bunny-rect 87.7 → 81.3 (minima of five interleaved rounds, `tools/ab.py SCENE
+//!    pvssm BIN::max_anisotropy=0 BIN::max_anisotropy=16`; errors and pages `penumbra bench
+//!    --no-validation --scenes SCENES --techniques pvssm --set antialias=1 --set rho_scale=1
+//!    --set max_anisotropy=0,16 --light-scale 0,1,4`, lavapipe). Without anti-aliasing the
+//!    kernels are the light's boxes and the cap changes nothing. And the requests: every page
+//!    of the predicted level h's parallelogram crosses (with its ancestors, when asked for or
+//!    when the pool overflows). Before requesting, a sample whose refined search found no blocker has its
 //!    kernel's own reach (h's box and a texel of its level around it: every texel the filter would
 //!    read) looked at in the conservative map (`kernel_proof`): none there proves V = 1 as the
 //!    filter would find it, in the search's terms (its receiver plane and bias: the fully-lit
@@ -84,7 +99,8 @@
 //! reruns at `6e6191b` and `5f11b84`).
 //!
 //! Knobs: `lowres_size`, `virtual_size`, `page_size`, `pool_pages`, `rho` (`dynamic` | `static`),
-//! `rho_scale` (the quality/speed dial: texels across a kernel ×), `antialias`, `max_search`,
+//! `rho_scale` (the quality/speed dial: texels across a kernel ×), `max_anisotropy`,
+//! `antialias`, `max_search`,
 //! `search_cells` (the search's cost bound: cells per side of the min-pyramid level it reads; with
 //! `refine_search` the first search, which only sizes the refined one, reads a quarter as many),
 //! `refine_search`, `blocker_depth` (`average` | `silhouette`), `blocker_distance` (`nearest` |
@@ -344,6 +360,19 @@ impl<'a> Pvssm<'a> {
         }
         if params.u32("lit_flag")? == 1 {
             options |= 1 << 24;
+        }
+        // Bits 25..28: log2(max_anisotropy) + 1, 0 for no cap (pvssm.glsl's predicted_level).
+        let max_anisotropy = params.u32("max_anisotropy")?;
+        if max_anisotropy != 0 {
+            if !max_anisotropy.is_power_of_two() {
+                return Err(Error::Parameter {
+                    technique: "pvssm".into(),
+                    message: format!(
+                        "max_anisotropy {max_anisotropy} must be 0 (no cap) or a power of two"
+                    ),
+                });
+            }
+            options |= (max_anisotropy.trailing_zeros() + 1) << 25;
         }
         // The visibility cleared to 1 by a transfer, so the decided lit samples store nothing
         // (where the image allows it: a caller's may lack the usage).

@@ -4,7 +4,9 @@
 mod antialiasing;
 mod args;
 mod bench;
+mod bench_output;
 mod bench_page;
+mod bench_plan;
 mod compare;
 mod render;
 mod reuse;

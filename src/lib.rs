@@ -78,7 +78,7 @@
 //! # }
 //! ```
 //!
-//! `examples/deferred_shadows.rs` is the full embedding: an engine with its own instance,
+//! `examples/deferred_shadows/` is the full embedding: an engine with its own instance,
 //! device, G-buffer pipeline and command buffer.
 //!
 //! # Modules

@@ -1,10 +1,10 @@
-//! The embedding example (`examples/deferred_shadows.rs`) as a test: an engine that owns its
+//! The embedding example (`examples/deferred_shadows/`) as a test: an engine that owns its
 //! instance, device, G-buffer and command buffer calls penumbra for the best soft technique and
 //! shades with the result; under validation with synchronization validation, with penumbra
 //! dropped before the engine destroys its device (the object tracker reports any object
 //! penumbra left), the whole run reports 0 errors and 0 warnings.
 
-#[path = "../examples/deferred_shadows.rs"]
+#[path = "../examples/deferred_shadows/main.rs"]
 #[allow(dead_code, reason = "the example's `main` is not called here")]
 mod example;
 

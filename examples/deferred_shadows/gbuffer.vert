@@ -1,7 +1,7 @@
 #version 460
-// The host engine's G-buffer pass (examples/deferred_shadows.rs): positions in, world position
-// out to the fragment stage. Not part of penumbra: compiled to gbuffer.vert.spv next to it by
-// `compile-shaders`, like the library's own shaders.
+// The host engine's G-buffer pass (examples/deferred_shadows/main.rs): positions in, world
+// position out to the fragment stage. Not part of penumbra: compiled to gbuffer.vert.spv next to
+// it by `compile-shaders`, like the library's own shaders.
 
 layout(location = 0) in vec3 position;
 layout(location = 0) out vec3 world;

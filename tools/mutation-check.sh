@@ -13,10 +13,10 @@ export PATH="$HOME/.cargo/bin:$PATH"
 
 # name | file | perl substitution (applied once, must change the file) | test file
 mutations=(
-  "filtered: far plane 1 % too far|src/techniques/filtered/mod.rs|s/far: view.far,/far: view.far * 1.01,/|filtered"
-  "filtered: perspective flag inverted|src/techniques/filtered/mod.rs|s/LightProjection::Perspective \{ .. \}\) as i32/LightProjection::Orthographic { .. }) as i32/|filtered"
-  "filtered: radius clamped to 1|src/techniques/filtered/mod.rs|s/config.radius.min\(MAX_RADIUS\)/config.radius.min(1)/|filtered"
-  "csm: group's first term off by one|src/techniques/filtered/mod.rs|s/Mode::Csm => \(2 \* group \+ 1\)/Mode::Csm => (2 * group + 2)/|filtered"
+  "filtered: far plane 1 % too far|src/techniques/filtered/config.rs|s/far: view.far,/far: view.far * 1.01,/|filtered"
+  "filtered: perspective flag inverted|src/techniques/filtered/config.rs|s/LightProjection::Perspective \{ .. \}\) as i32/LightProjection::Orthographic { .. }) as i32/|filtered"
+  "filtered: radius clamped to 1|src/techniques/filtered/config.rs|s/config.radius.min\(MAX_RADIUS\)/config.radius.min(1)/|filtered"
+  "csm: group's first term off by one|src/techniques/filtered/config.rs|s/Mode::Csm => \(2 \* group \+ 1\)/Mode::Csm => (2 * group + 2)/|filtered"
   "csm: automatic offset negated|src/techniques/filtered/csm.rs|s/o if o < 0.0 => s.offset,/o if o < 0.0 => -s.offset,/|filtered"
   "csm: remap margin doubled|src/techniques/filtered/csm.rs|s/s.epsilon \+ REMAP_MARGIN/s.epsilon + 2.0 * REMAP_MARGIN/|filtered"
   "esm: exponent scaled by 0.9|src/techniques/filtered/esm.rs|s/params.f32\(\"exponent\"\)\?/0.9 * params.f32(\"exponent\")?/|filtered"

@@ -1,9 +1,10 @@
 // The shadow-ray triangle test every exact technique shares (the reference's BVH traversal,
 // izb): Woop, Benthin and Wald's watertight test, division-free and `precise`, so a CPU twin
-// (src/cpu/ray_cast.rs) computes the same bits and two techniques that use it agree ray by ray.
+// (src/cpu/ray_cast/watertight.rs) computes the same bits and two techniques that use it agree
+// ray by ray.
 
 // A dot product written out so that the order of the additions is the CPU twins' (`dot3` of
-// src/cpu/ray_cast.rs): the tangent-plane test of a light sample.
+// src/cpu/ray_cast/watertight.rs): the tangent-plane test of a light sample.
 float dot3(vec3 a, vec3 b) {
     precise float r = a.x * b.x + a.y * b.y + a.z * b.z;
     return r;

@@ -141,6 +141,19 @@ pub fn rho(n: f32, which: Rho) -> f32 {
     p[0] + x * (p[1] + x * (p[2] + x * p[3]))
 }
 
+/// `F⁻¹` of the full-pixel matrix `F = [2u_φ | 2v_φ]` as `adj(F)`'s columns and `det F`
+/// (`F⁻¹ = adj(F) / det F`), or `None` where the footprint is undefined or singular (the test
+/// [`screen_sizes`] states).
+fn footprint_inverse(pixel: Option<(Vec2, Vec2)>) -> Option<(Vec2, Vec2, f32)> {
+    let (u_p, v_p) = pixel?;
+    let (a, b) = (2.0 * u_p, 2.0 * v_p); // the columns of F
+    let det = a.x * b.y - b.x * a.y;
+    let norm2 = a.length_squared() + b.length_squared();
+    // Written so that a NaN determinant counts as singular too.
+    let regular = det.abs() >= 1e-12 * (norm2 + 1e-30);
+    regular.then_some((Vec2::new(b.y, -a.y), Vec2::new(-b.x, a.x), det))
+}
+
 /// Screen sizes n0, n1 of the kernel in pixels (Eq. 4, spec 4); +∞ when undefined or singular.
 ///
 /// With the full-pixel matrix `F = [2u_φ | 2v_φ]` (pixel units → texels) and the kernel's full
@@ -148,43 +161,23 @@ pub fn rho(n: f32, which: Rho) -> f32 {
 /// singular when `|det F| < 1e-12·(|F|² + 1e-30)`, `|F|²` the sum of its squared entries (the
 /// Frobenius norm), which also catches a NaN determinant.
 pub fn screen_sizes(pixel: Option<(Vec2, Vec2)>, u_h: Vec2, v_h: Vec2) -> (f32, f32) {
-    let Some((u_p, v_p)) = pixel else {
+    let Some((c0, c1, det)) = footprint_inverse(pixel) else {
         return (f32::INFINITY, f32::INFINITY);
     };
-    let (a, b) = (2.0 * u_p, 2.0 * v_p); // the columns of F
-    let det = a.x * b.y - b.x * a.y;
-    let norm2 = a.length_squared() + b.length_squared();
-    // Written so that a NaN determinant counts as singular too.
-    let regular = det.abs() >= 1e-12 * (norm2 + 1e-30);
-    if !regular {
-        return (f32::INFINITY, f32::INFINITY);
-    }
-    // F⁻¹ = adj(F)/det; its columns are (b.y, −a.y)/det and (−b.x, a.x)/det.
     let w0 = 2.0 * u_h.x;
     let w1 = 2.0 * v_h.y;
-    let n0 = (Vec2::new(b.y, -a.y) * (w0 / det)).length();
-    let n1 = (Vec2::new(-b.x, a.x) * (w1 / det)).length();
-    (n0, n1)
+    ((c0 * (w0 / det)).length(), (c1 * (w1 / det)).length())
 }
 
 /// Screen length in pixels of the kernel's first column `2u_h` through the pixel footprint,
 /// `n_u = |F⁻¹ 2u_h|` (as [`screen_sizes`]' n0 is of `(2u_h.x, 0)`; the second column,
 /// `(0, 2v_h.y)`, is its n1); +∞ where the footprint is undefined or singular (the same test).
 pub fn column_screen_size(pixel: Option<(Vec2, Vec2)>, u_h: Vec2) -> f32 {
-    let Some((u_p, v_p)) = pixel else {
+    let Some((c0, c1, det)) = footprint_inverse(pixel) else {
         return f32::INFINITY;
     };
-    let (a, b) = (2.0 * u_p, 2.0 * v_p);
-    let det = a.x * b.y - b.x * a.y;
-    let norm2 = a.length_squared() + b.length_squared();
-    // Written so that a NaN determinant counts as singular too.
-    let regular = det.abs() >= 1e-12 * (norm2 + 1e-30);
-    if !regular {
-        return f32::INFINITY;
-    }
     // F⁻¹ (2u_h.x, 0) + F⁻¹ (0, 2u_h.y), each as screen_sizes computes its own.
-    (Vec2::new(b.y, -a.y) * (2.0 * u_h.x / det) + Vec2::new(-b.x, a.x) * (2.0 * u_h.y / det))
-        .length()
+    (c0 * (2.0 * u_h.x / det) + c1 * (2.0 * u_h.y / det)).length()
 }
 
 /// The anisotropy cap (`max_anisotropy`; 0: none, Eq. 5 alone): the required texel sizes

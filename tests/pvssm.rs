@@ -1025,3 +1025,29 @@ fn anisotropy_cap_asks_for_fewer_pages_at_about_the_same_error() {
     }
     common::assert_clean(&engine.context().validation());
 }
+
+/// `max_anisotropy` is 0 or a power of two up to 1024; anything else is a typed parameter error
+/// naming the knob, and the refused set-up leaves nothing behind.
+#[test]
+fn max_anisotropy_outside_its_values_is_refused() {
+    let engine = common::engine();
+    let prepared = engine
+        .prepare(&common::small("scenes/teapot-rect.toml"))
+        .expect("prepare");
+    for value in ["3", "24", "2048", "-1", "1.5"] {
+        let e = engine
+            .render(&prepared, "pvssm", &knobs(&[("max_anisotropy", value)]), 1)
+            .err()
+            .expect("refused");
+        assert!(
+            matches!(e, penumbra::Error::Parameter { .. }),
+            "{value}: {e:?}"
+        );
+        assert!(e.to_string().contains("max_anisotropy"), "{e}");
+    }
+    for value in ["0", "1", "1024"] {
+        render(&engine, &prepared, &[("max_anisotropy", value)]);
+    }
+    drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}

@@ -57,8 +57,8 @@ const KNOBS: [Knob; 29] = [
     .real(),
     Knob::int(
         "max_anisotropy",
-        "most times the kernel's long axis may ask for finer texels than its thin one (0: no \
-         cap, Eq. 5's thinner width alone; else a power of two): a needle kernel, the pixel's \
+        "how many times finer than its long axis asks for a kernel's texels may be (0: no cap, \
+         Eq. 5's thinner width alone; else a power of two): a needle kernel, the pixel's \
          footprint on a grazing receiver, then reads coarser pages, blurred across its thin axis",
         16.0,
         0.0,

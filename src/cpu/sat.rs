@@ -179,7 +179,7 @@ pub fn build_f64(source: &[f32], width: u32, height: u32, offset: f32) -> SatTab
 const TILE_INVOCATIONS: usize = 256;
 /// Rakers of a tile's 256 invocation totals, 16 consecutive totals each.
 const RAKERS: usize = 16;
-/// Rows per column chunk (`BLOCKED_CHUNK_ROWS` in `src/kernels/sat.rs`).
+/// Rows per column chunk (`BLOCKED_CHUNK_ROWS` in `src/kernels/sat_push.rs`).
 const CHUNK_ROWS: usize = 32;
 
 /// A table built in the blocked layout's order of additions (`sat_rows_blocked.glsl`,

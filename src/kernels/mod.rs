@@ -13,6 +13,7 @@ pub mod roofline;
 pub mod sat;
 mod sat_bench;
 mod sat_precision;
+mod sat_push;
 pub mod scan;
 mod scan_bench;
 pub mod sort;

@@ -57,10 +57,11 @@ pub struct SatColsBlockedPush {
     pub pad: [i32; 2],
 }
 
-/// Invocations per row workgroup of [`SatLayout::Blocked`] (`SAT_GROUP`); each sums 4 texels
-/// of a tile.
+/// Invocations per row workgroup of the blocked layout
+/// ([`SatLayout::Blocked`](super::sat_precision::SatLayout::Blocked), `SAT_GROUP`); each sums 4
+/// texels of a tile.
 pub const BLOCKED_GROUP: u32 = 256;
-/// Rows per column chunk of [`SatLayout::Blocked`](super::sat_precision::SatLayout::Blocked) (pushed to `sat_cols_blocked.glsl`).
+/// Rows per column chunk of the blocked layout (pushed to `sat_cols_blocked.glsl`).
 pub const BLOCKED_CHUNK_ROWS: u32 = 32;
 
 /// `sat_row_sums.comp` and `sat_mean.comp` push constants.

@@ -1,6 +1,8 @@
 //! Test harness: a validated context, the validation oracle, and diff images on failure.
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
+pub mod pvssm;
+
 use std::path::PathBuf;
 
 use penumbra::gpu::ValidationLog;

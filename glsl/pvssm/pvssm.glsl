@@ -152,7 +152,7 @@ vec3 screen_sizes(bool has_pixel, vec2 u_phi, vec2 v_phi, vec2 u_h, vec2 v_h) {
     float w1 = 2.0 * v_h.y;
     vec2 n0 = vec2(f1.y, -f0.y) * (w0 / det);
     vec2 n1 = vec2(-f1.x, f0.x) * (w1 / det);
-    vec2 n_u = vec2(f1.y, -f0.y) * (w0 / det) + vec2(-f1.x, f0.x) * (2.0 * u_h.y / det);
+    vec2 n_u = n0 + vec2(-f1.x, f0.x) * (2.0 * u_h.y / det);
     return vec3(length(n0), length(n1), length(n_u));
 }
 
@@ -162,8 +162,9 @@ vec3 screen_sizes(bool has_pixel, vec2 u_phi, vec2 v_phi, vec2 u_h, vec2 v_h) {
 // the cap. Why: Eq. 5 sizes texels by the kernel's thinner width, and where the pixel's
 // footprint on a grazing receiver makes the kernel a needle (teapot-rect's terminator: 38 x 1
 // level-0 texels) that asked for the finest pages along the whole terminator for a few samples
-// each; as a texture's anisotropic filter does, the cap lets the thin axis blur over up to
-// max_anisotropy texels' worth of the long one's resolution instead (cpu::pvssm::anisotropy_cap).
+// each. As a texture's anisotropic filter does, the cap keeps texels no smaller than a
+// max_anisotropy-th of the size the long axis asks for: across a thinner axis they are wider
+// than it, which blurs it (twin: cpu::pvssm::anisotropy_cap).
 uint predicted_level(vec2 u_h, vec2 v_h, vec3 n) {
     float r0 = 2.0 * u_h.x / (pc.rho_scale * rho(n.x));
     float r1 = 2.0 * v_h.y / (pc.rho_scale * rho(n.y));

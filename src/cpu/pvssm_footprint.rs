@@ -1,10 +1,10 @@
 //! CPU twin of the pages a `pvssm` kernel needs at one level: `kernel_band` and
 //! `kernel_column_part` in `glsl/pvssm/pvssm.glsl`, whose pages the shape pass's `request_pages`
-//! marks and the filter's `kernel_covered` checks. The kernel is a parallelogram with one pair of vertical sides (its
-//! columns are the filter's panels, [`super::pvssm::coverage_filter`]); across the map's axes it
-//! is a band of its bounding box — a needle kernel at the terminator (the pixel's footprint on a
-//! grazing tangent plane, about a level-0 texel wide and tens long) touches a few pages of the
-//! many its box holds. Page column by page column, the band is the rows the kernel's centre line
+//! marks and the filter's `kernel_covered` checks. The kernel is a parallelogram with one pair
+//! of vertical sides (its columns are the filter's panels, [`super::pvssm::coverage_filter`]);
+//! across the map's axes it is a band of its bounding box — a needle kernel at the terminator
+//! (the pixel's footprint on a grazing tangent plane, about a level-0 texel wide and tens long)
+//! touches a few pages of the many its box holds. Page column by page column, the band is the rows the kernel's centre line
 //! spans over that column's x range (with one column of margin each side), widened by `v_h.y`
 //! and, on the GPU, by a row of margin each side for the filter's per-column rounding
 //! ([`SHAPE_ROW_MARGIN`]; with none the band holds exactly the rows the twin's coverage filter

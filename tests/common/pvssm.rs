@@ -15,11 +15,13 @@ pub fn counter(frame: &Frame, name: &str) -> u64 {
         .unwrap_or_else(|| panic!("no counter {name}"))
 }
 
-/// `pvssm` with the knobs `set`, one frame, checked for NaN and values outside [0, 1].
+/// `pvssm` with the knobs `set`, one frame, checked for NaN, values outside [0, 1] and any
+/// validation message so far.
 pub fn render(engine: &Engine, prepared: &PreparedScene, set: &[(&str, &str)]) -> Frame {
     let frame = engine
         .render(prepared, "pvssm", &knobs(set), 1)
         .expect("render");
+    super::assert_clean(&engine.context().validation());
     assert_eq!(frame.stats.nan_count, 0, "NaN with {set:?}");
     assert_eq!(
         frame.stats.out_of_range_count, 0,
@@ -53,6 +55,7 @@ impl Scored {
         let reference = engine
             .render(&prepared, "reference", &knobs(&[("samples", &samples)]), 1)
             .expect("reference");
+        super::assert_clean(&engine.context().validation());
         Scored {
             prepared,
             reference,

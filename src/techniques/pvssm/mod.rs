@@ -68,11 +68,12 @@
 //!    --set max_anisotropy=0,16 --light-scale 0,1,4`, lavapipe). Without anti-aliasing the
 //!    kernels are the light's boxes and the cap changes nothing. And the requests: every page
 //!    of the predicted level h's parallelogram crosses (with its ancestors, when asked for or
-//!    when the pool overflows). Before requesting, a sample whose refined search found no blocker has its
-//!    kernel's own reach (h's box and a texel of its level around it: every texel the filter would
-//!    read) looked at in the conservative map (`kernel_proof`): none there proves V = 1 as the
-//!    filter would find it, in the search's terms (its receiver plane and bias: the fully-lit
-//!    flag's gap), and the sample is decided lit without pages or filtering (counter `kernel_lit`).
+//!    when the pool overflows). Before requesting, a sample whose refined search found no
+//!    blocker has its kernel's own reach (h's box and a texel of its level around it: every
+//!    texel the filter would read) looked at in the conservative map (`kernel_proof`): none
+//!    there proves V = 1 as the filter would find it, in the search's terms (its receiver plane
+//!    and bias: the fully-lit flag's gap), and the sample is decided lit without pages or
+//!    filtering (counter `kernel_lit`).
 //!    The first search's region is the light's pyramid at the near plane, wider than most kernels:
 //!    on `grid:800000@rect` (a wavy sheet whose own crests sit in every pyramid) 45.7k of 146k
 //!    samples are decided so, filtered texels 11.2 M → 4.6 M and `pvssm-filter` 28.8 → 16.0 ms for

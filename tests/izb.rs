@@ -6,6 +6,8 @@
 
 mod common;
 
+use common::counter;
+
 use std::collections::BTreeMap;
 
 use glam::{Mat4, Vec3};
@@ -26,14 +28,6 @@ fn render(
     assert_eq!(frame.stats.nan_count, 0);
     assert_eq!(frame.stats.out_of_range_count, 0);
     frame
-}
-
-fn counter(frame: &Frame, name: &str) -> u64 {
-    *frame
-        .stats
-        .counters
-        .get(name)
-        .unwrap_or_else(|| panic!("no counter {name}"))
 }
 
 /// Pixels whose visibility differs (bit for bit), writing a diff image when there are any.

@@ -8,7 +8,8 @@
 
 mod common;
 
-use common::pvssm::{counter, knobs, render};
+use common::pvssm::render;
+use common::{counter, knobs};
 
 /// PCSS's assumptions hold exactly on parallel planes: V is the linear ramp of width
 /// w·h/(H − h); the width grows linearly with the light; touching, the ramp shrinks to the step.

@@ -5,7 +5,8 @@
 
 mod common;
 
-use common::pvssm::{counter, knobs, render, Scored};
+use common::pvssm::{render, Scored};
+use common::{counter, knobs};
 
 /// Both skips — the coarse look before the blocker search (`skip`) and the receivers' horizon
 /// umbra (`horizon_skip`) — change the work, never the output: every pixel bit-identical with

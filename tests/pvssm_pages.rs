@@ -3,7 +3,8 @@
 
 mod common;
 
-use common::pvssm::{counter, knobs, render};
+use common::pvssm::render;
+use common::{counter, knobs};
 
 /// `fixed_level` (the paper's Table 2 baseline: one whole map of one resolution for every
 /// kernel): every page of that level is resident whatever the kernels touch, and the result

@@ -12,6 +12,8 @@
 
 mod common;
 
+use common::counter;
+
 use std::collections::{BTreeMap, BTreeSet};
 
 use glam::{IVec2, Vec2, Vec4};
@@ -43,14 +45,6 @@ fn knobs(set: &[(&str, &str)]) -> BTreeMap<String, String> {
         m.entry(k.into()).or_insert(v.to_string());
     }
     m
-}
-
-fn counter(frame: &Frame, name: &str) -> u64 {
-    *frame
-        .stats
-        .counters
-        .get(name)
-        .unwrap_or_else(|| panic!("no counter {name}"))
 }
 
 fn run(engine: &Engine, prepared: &PreparedScene, set: &[(&str, &str)]) -> Run {

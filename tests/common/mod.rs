@@ -98,6 +98,15 @@ pub fn write_diff(
 /// light view fitted to the scene (what `prepared.light_view` holds).
 pub const KERNEL_ONLY: [(&str, &str); 2] = [("light_clip", "0"), ("fit", "scene")];
 
+/// A counter of `frame`; panics when the technique has none of that name.
+pub fn counter(frame: &penumbra::Frame, name: &str) -> u64 {
+    *frame
+        .stats
+        .counters
+        .get(name)
+        .unwrap_or_else(|| panic!("no counter {name}"))
+}
+
 /// Knob overrides from `(key, value)` pairs.
 pub fn knobs(pairs: &[(&str, &str)]) -> std::collections::BTreeMap<String, String> {
     pairs

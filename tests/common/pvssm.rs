@@ -4,16 +4,7 @@
 use penumbra::engine::PreparedScene;
 use penumbra::{Engine, Frame};
 
-pub use super::knobs;
-
-/// A counter of `frame`; panics when the technique has none of that name.
-pub fn counter(frame: &Frame, name: &str) -> u64 {
-    *frame
-        .stats
-        .counters
-        .get(name)
-        .unwrap_or_else(|| panic!("no counter {name}"))
-}
+use super::knobs;
 
 /// `pvssm` with the knobs `set`, one frame, checked for NaN, values outside [0, 1] and any
 /// validation message so far.

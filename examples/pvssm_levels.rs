@@ -3,9 +3,11 @@
 //! penumbra), the median of their kernels' half-axes (u_h.x, |u_h.y|, v_h.y, level-0 texels: a
 //! needle across the map's axes has a small v_h.y), the pages allocated there, and the share of
 //! those pages' texels their used rectangles hold (the part the kernels read,
-//! `glsl/include/pages.glsl`'s bands) — the figures the README's `pvssm` section quotes for the
-//! low-resolution map's bias, the pages' used parts and the terminator's needles. With a light scale the scene's rect light is scaled about its centre (0: a point
-//! light there); `key=value` arguments are `pvssm`'s knobs (`lowres_bias=0`, `light_clip=0`, …).
+//! `glsl/include/pages.glsl`'s bands) — the figures the `pvssm` section of the README and
+//! `docs/pvssm-log.md` quote for the low-resolution map's bias, the pages' used parts and the
+//! terminator's needles. With a light scale the scene's rect light is scaled about its centre
+//! (0: a point light there); `key=value` arguments are `pvssm`'s knobs (`lowres_bias=0`,
+//! `light_clip=0`, …).
 //!
 //! Run: `cargo run --release --example pvssm_levels -- SCENE [LIGHT_SCALE] [KNOB=VALUE ...]`,
 //! e.g. `cargo run --release --example pvssm_levels -- scenes/teapot-rect.toml 1 lowres_bias=0`.

@@ -13,6 +13,8 @@ named command):
     python3 tools/readme_tables.py selection DIR        # DIR from `bench --suite selection`
     python3 tools/readme_tables.py reuse DIR            # DIR from `bench --suite reuse`
 
+(The `pvssm` section's tables come from tools/pvssm_tables.py.)
+
 `receivers`: per technique, the configuration with clipping on that has the lowest penumbra MAE
 on teapot-rect (lowest RMSE on spot-point), with the same configuration's clip-off figures and
 the light leak of docs/bench-full-lavapipe-2026-11-22.csv. `soft`: per scene (and light scale),

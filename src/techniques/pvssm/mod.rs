@@ -96,8 +96,8 @@
 //! the shape pass. So a decided sample stores as little as it can: the kernel shapes are a
 //! buffer a memset marks decided, the visibility is cleared to 1 first where the image allows a
 //! transfer, a sample is counted once (the host sums `lit` and `view_samples`), and the filter
-//! never visits it (teapot-rect's shape + filter 43 → 31 ms between the README's `pvssm` bench
-//! reruns at `6e6191b` and `5f11b84`).
+//! never visits it (teapot-rect's shape + filter 43 → 31 ms between the `pvssm` bench
+//! reruns at `6e6191b` and `5f11b84`, `docs/pvssm-log.md`).
 //!
 //! Knobs: `lowres_size`, `virtual_size`, `page_size`, `pool_pages`, `rho` (`dynamic` | `static`),
 //! `rho_scale` (the quality/speed dial: texels across a kernel ×), `max_anisotropy`,

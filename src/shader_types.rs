@@ -1,10 +1,10 @@
 //! Structs shared with GLSL, one per push-constant block, `#[repr(C)]` + `Pod`.
 //!
 //! Each mirrors a `layout(push_constant)` block field by field (std430 offsets: `mat4` 64 bytes,
-//! `vec4` 16, `ivec2` 8), with the GLSL member names. `tests/shaders.rs` compares every field's
-//! name, offset and size with the block as reflected from the committed SPIR-V (as it does for
-//! the push structs in `kernels`, `reference` and `techniques`), and recording a draw or dispatch
-//! checks the size against the block the SPIR-V declares.
+//! `vec4` 16, `ivec2` 8), with the GLSL member names. `tests/shaders_push.rs` compares every
+//! field's name, offset and size with the block as reflected from the committed SPIR-V (as it
+//! does for the push structs in `kernels`, `reference` and `techniques`), and recording a draw or
+//! dispatch checks the size against the block the SPIR-V declares.
 
 use bytemuck::{Pod, Zeroable};
 use glam::{IVec2, Mat4, Vec4};

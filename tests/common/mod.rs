@@ -1,7 +1,10 @@
 //! Test harness: a validated context, the validation oracle, and diff images on failure.
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
+pub mod cli;
+pub mod push_twins;
 pub mod pvssm;
+pub mod reference;
 
 use std::path::PathBuf;
 

@@ -258,7 +258,7 @@ mod tests {
         // 128 bytes: the smallest maxPushConstantsSize Vulkan guarantees.
         assert_eq!(size_of::<FilteredPush>(), 128);
         // Every filtered shader's block against these fields, member by member:
-        // tests/shaders.rs (every_push_struct_matches_its_reflected_block_member_by_member).
+        // tests/shaders_push.rs (every_push_struct_matches_its_reflected_block_member_by_member).
     }
 
     #[test]

@@ -45,7 +45,7 @@
 //! render … --set blur_layout=shared|staged`, medians of three frames for `vsm`, one frame for
 //! `msm` and `csm`). Both layouts add the same taps in the same order
 //! and divide by the same total, so they give the same bits
-//! (`tests/filtered.rs::staged_and_shared_blurs_give_the_same_bits`).
+//! (`tests/filtered_properties.rs::staged_and_shared_blurs_give_the_same_bits`).
 //!
 //! The filtered map is an image, not a storage buffer: its `maxStorageBufferRange` is 128 MiB on
 //! lavapipe, which a buffer of 16 B per texel would hit at 2896² — images go to

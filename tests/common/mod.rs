@@ -2,6 +2,7 @@
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
 pub mod cli;
+pub mod library_api;
 pub mod pcf_family;
 pub mod push_twins;
 pub mod pvssm;

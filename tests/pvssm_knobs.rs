@@ -1,5 +1,6 @@
 //! `pvssm`'s choices under validation: the knobs that change only the work (the coarse skip,
-//! the kernel's proof, a visibility image without transfers) give the same bits, and the ones
+//! the kernel's proof and its first try, a visibility image without transfers) give the same
+//! bits, and the ones
 //! that change the answer (the refined search, the silhouette's depth, the centre distance, the
 //! conservative lit flag, the anisotropy cap) against the ray-cast reference. Small inputs.
 
@@ -152,6 +153,52 @@ fn kernel_proof_changes_the_work_not_the_output() {
             differing * 1000 <= on.visibility.len(),
             "{scene}: {differing} pixels changed (max {worst})"
         );
+    }
+    common::assert_clean(&engine.context().validation());
+}
+
+/// The kernel's proof tried first (`kernel_proof = 2`, the default): before the refined search,
+/// over that search's region and the kernel's reach together at the first search's level. Where
+/// it finds no blocker the refined search would have found none either (a coarser cell's
+/// minimum is no larger, its receiver plane's maximum no smaller), so z_avg, the kernel and the
+/// later proof's verdict are what they were: every pixel and every counter the same as with the
+/// proof after the refined search only (`kernel_proof = 1`), on both rect scenes and under a
+/// light four times as wide, where most of the proved samples are proved first.
+#[test]
+fn kernel_proof_first_makes_the_same_decisions() {
+    let engine = common::engine();
+    for (scene, light_scale) in [
+        ("scenes/teapot-rect.toml", 1.0),
+        ("scenes/bunny-rect.toml", 1.0),
+        ("scenes/teapot-rect.toml", 4.0),
+    ] {
+        let mut spec = common::small(scene);
+        if let penumbra::scene::Light::Rect { u, v, .. } = &mut spec.light {
+            *u *= light_scale;
+            *v *= light_scale;
+        }
+        let prepared = engine.prepare(&spec).expect("prepare");
+        let first = render(&engine, &prepared, &[]);
+        let after = render(&engine, &prepared, &[("kernel_proof", "1")]);
+        let (differing, worst) =
+            penumbra::metrics::bitwise_difference(&first.visibility, &after.visibility);
+        let proved_first = counter(&first, "kernel_lit_first");
+        eprintln!(
+            "{scene} x{light_scale}: {proved_first} of {} proved lit before the refined search",
+            counter(&first, "kernel_lit")
+        );
+        assert_eq!(differing, 0, "{scene} x{light_scale}: max {worst}");
+        assert!(proved_first > 0, "{scene} x{light_scale}");
+        assert_eq!(counter(&after, "kernel_lit_first"), 0);
+        for (name, value) in &first.stats.counters {
+            if name != "kernel_lit_first" {
+                assert_eq!(
+                    counter(&after, name),
+                    *value,
+                    "{scene} x{light_scale}: {name}"
+                );
+            }
+        }
     }
     common::assert_clean(&engine.context().validation());
 }

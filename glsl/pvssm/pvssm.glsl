@@ -62,6 +62,9 @@ layout(push_constant) uniform Push {
 // kernel_proof: a sample whose kernel's reach holds no blocker in the conservative map is
 // decided lit in the shape pass (shape.comp).
 #define OPT_KERNEL_PROOF 32u
+// kernel_proof = 2: that proof tried first, before the refined search, over its region and the
+// reach together (shape.comp: the same decisions, without the refined search where it holds).
+#define OPT_KERNEL_PROOF_FIRST (1u << 29u)
 // Of the predicted z_avg's distance to the receiver, the least a silhouette cell's may have
 // (0.1-0.5 measured: penumbra MAE teapot-rect 0.0152-0.0159, bunny-rect 0.0295-0.0307).
 #define SILHOUETTE_GAP 0.25
@@ -104,7 +107,9 @@ layout(push_constant) uniform Push {
 #define C_SKIPPED_LIT 11
 // Samples the kernel's own reach proved lit after the refined search (`kernel_proof`).
 #define C_KERNEL_LIT 12
-#define COUNTERS 13
+// Of those, the ones proved before it (`kernel_proof = 2`): counted in C_KERNEL_LIT too.
+#define C_KERNEL_LIT_FIRST 13
+#define COUNTERS 14
 
 // Smallest kernel half-axis, level-0 texels: a point light without anti-aliasing still filters
 // a finite box.

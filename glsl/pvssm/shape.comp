@@ -369,6 +369,30 @@ void request_pages(vec2 c, vec2 u_h, vec2 v_h, uint level) {
     count(C_REQUESTED, marks);
 }
 
+// The filter h of a light footprint `w` (Eq. 1's s_alpha) convolved with the pixel's footprint
+// (Eq. 3; with `antialias`), each axis at least MIN_HALF, and its level: predicted (Eqs. 4-5,
+// with the anisotropy cap) or the fixed one.
+uint kernel_of(vec2 w, bool has_pixel, vec2 u_phi, vec2 v_phi, uint fixed_plus1, out vec2 u_h,
+               out vec2 v_h) {
+    vec2 u_s = vec2(0.5 * w.x, 0.0);
+    vec2 v_s = vec2(0.0, 0.5 * w.y);
+    u_h = u_s;
+    v_h = v_s;
+    if ((pc.options & OPT_ANTIALIAS) != 0u && has_pixel) {
+        convolve(u_phi, v_phi, u_s, v_s, u_h, v_h);
+    }
+    u_h.x = max(u_h.x, MIN_HALF);
+    v_h.y = max(v_h.y, MIN_HALF);
+    uint level = predicted_level(u_h, v_h, screen_sizes(has_pixel, u_phi, v_phi, u_h, v_h));
+    return fixed_plus1 != 0u ? min(fixed_plus1 - 1u, pc.levels - 1u) : level;
+}
+
+// The kernel's reach, half-extents in level-0 texels: its box and a texel of its level on every
+// side (the texels the exact filter reads).
+vec2 kernel_reach(vec2 u_h, vec2 v_h, uint level) {
+    return vec2(u_h.x, abs(u_h.y) + v_h.y) + float(1u << level);
+}
+
 void main() {
     invocation_counts_clear();
 
@@ -458,44 +482,58 @@ void main() {
                 float d_avg = sum.y > 0.0 ? sum.x / sum.y : dr;
                 vec2 w = soft_light_footprint(pc.light_size, pc.perspective, dr, d_avg);
                 bool silhouette = (pc.options & OPT_SILHOUETTE) != 0u;
-                // Whether the last refined search found blockers over (about) the kernel: then
-                // its reach holds some, and the proof below is not tried.
-                bool refined_found = false;
-                for (uint k = 0u; k < refinements; ++k) {
-                    vec2 half2 = (0.5 * w + abs(u_phi) + abs(v_phi)) / lowres_texel;
-                    half2 = min(half2, half_low);
-                    vec2 sum2 = silhouette
-                        ? silhouette_search(centre, half2, cells, rc, lowres_texel, dr, d_avg)
-                        : blocker_search(centre, half2, cells, rc, lowres_texel);
-                    refined_found = sum2.y > 0.0;
-                    if (sum2.y > 0.0) {
-                        d_avg = sum2.x / sum2.y;
-                        w = soft_light_footprint(pc.light_size, pc.perspective, dr, d_avg);
+                bool kernel_proof = lit_proof && (pc.options & OPT_KERNEL_PROOF) != 0u;
+                vec2 u_h;
+                vec2 v_h;
+                uint level;
+                // The kernel's proof below, tried first (`kernel_proof = 2`, the default) over
+                // its reach and the refined search's
+                // region together (the kernel the first z_avg predicts): no blocker there at the
+                // first search's level, against the plane's highest depth over each cell, means
+                // none at the refined search's finer level against the lowest either (a cell's
+                // minimum is no larger than its children's, its plane maximum no smaller), so
+                // the refined search would find nothing, keep z_avg and this kernel, and the
+                // proof would hold — the same decision without the refined search, the shape
+                // pass's largest part (on `grid:800000@rect` most of its undecided samples end
+                // so).
+                bool proved = false;
+                if (kernel_proof && refinements > 0u
+                    && (pc.options & OPT_KERNEL_PROOF_FIRST) != 0u) {
+                    level = kernel_of(w, has_pixel, u_phi, v_phi, fixed_plus1, u_h, v_h);
+                    vec2 half2 = min((0.5 * w + abs(u_phi) + abs(v_phi)) / lowres_texel, half_low);
+                    vec2 reach = kernel_reach(u_h, v_h, level) / lowres_texel;
+                    proved = !may_have_blocker(centre, max(half2, reach), first_cells, rc,
+                                               lowres_texel);
+                    if (proved) {
+                        count(C_KERNEL_LIT_FIRST, 1u);
                     }
                 }
-                vec2 u_s = vec2(0.5 * w.x, 0.0);
-                vec2 v_s = vec2(0.0, 0.5 * w.y);
-                vec2 u_h = u_s;
-                vec2 v_h = v_s;
-                if ((pc.options & OPT_ANTIALIAS) != 0u && has_pixel) {
-                    convolve(u_phi, v_phi, u_s, v_s, u_h, v_h);
+                if (!proved) {
+                    // Whether the last refined search found blockers over (about) the kernel:
+                    // then its reach holds some, and the proof below is not tried.
+                    bool refined_found = false;
+                    for (uint k = 0u; k < refinements; ++k) {
+                        vec2 half2 = (0.5 * w + abs(u_phi) + abs(v_phi)) / lowres_texel;
+                        half2 = min(half2, half_low);
+                        vec2 sum2 = silhouette
+                            ? silhouette_search(centre, half2, cells, rc, lowres_texel, dr, d_avg)
+                            : blocker_search(centre, half2, cells, rc, lowres_texel);
+                        refined_found = sum2.y > 0.0;
+                        if (sum2.y > 0.0) {
+                            d_avg = sum2.x / sum2.y;
+                            w = soft_light_footprint(pc.light_size, pc.perspective, dr, d_avg);
+                        }
+                    }
+                    level = kernel_of(w, has_pixel, u_phi, v_phi, fixed_plus1, u_h, v_h);
+                    // The kernel's own reach (kernel_reach: the texels the exact filter reads)
+                    // holding no blocker in the conservative map proves V = 1 as the filter would
+                    // find it, in the search's terms (its receiver plane and bias, the same gap
+                    // the fully-lit flag above has): decided lit, without pages.
+                    proved = kernel_proof && !refined_found
+                        && !may_have_blocker(centre, kernel_reach(u_h, v_h, level) / lowres_texel,
+                                             first_cells, rc, lowres_texel);
                 }
-                u_h.x = max(u_h.x, MIN_HALF);
-                v_h.y = max(v_h.y, MIN_HALF);
-                uint level = predicted_level(u_h, v_h,
-                                             screen_sizes(has_pixel, u_phi, v_phi, u_h, v_h));
-                if (fixed_plus1 != 0u) {
-                    level = min(fixed_plus1 - 1u, pc.levels - 1u);
-                }
-                // The kernel's own reach (its box and a texel of its level on every side: the
-                // texels the exact filter reads) holding no blocker in the conservative map proves
-                // V = 1 as the filter would find it, in the search's terms (its receiver plane and
-                // bias, the same gap the fully-lit flag above has): decided lit, without pages.
-                float reach_texel = float(1u << level);
-                vec2 reach = vec2(u_h.x, abs(u_h.y) + v_h.y) + reach_texel;
-                if (lit_proof && (pc.options & OPT_KERNEL_PROOF) != 0u && !refined_found
-                    && !may_have_blocker(centre, reach / lowres_texel, first_cells, rc,
-                                         lowres_texel)) {
+                if (proved) {
                     count(C_KERNEL_LIT, 1u);
                     decide(pixel, 1.0);
                 } else {

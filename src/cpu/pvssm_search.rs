@@ -126,6 +126,20 @@ fn blocks(pyramid: &MinPyramid, r: &Region, i: i32, j: i32, z: f32, bias: f32) -
     min_depth(pyramid, r, i, j) < z - bias
 }
 
+/// Whether any cell of the region centre ± `half` at the level of `cells` cells a side blocks: the
+/// coarse look's and the kernel proof's test (a cell's minimum against the receiver's depth).
+fn any_blocker(
+    pyramid: &MinPyramid,
+    centre: Vec2,
+    half: Vec2,
+    cells: f32,
+    z: f32,
+    bias: f32,
+) -> bool {
+    let r = region(pyramid, centre, half, cells);
+    (r.a.y..=r.b.y).any(|j| (r.a.x..=r.b.x).any(|i| blocks(pyramid, &r, i, j, z, bias)))
+}
+
 // The weight of cell (i, j): its overlap with the region, at least 1e-6.
 fn weight(r: &Region, i: i32, j: i32) -> f32 {
     let wy = (j as f32 + 1.0).min(r.hi.y) - (j as f32).max(r.lo.y);
@@ -256,10 +270,7 @@ pub fn blocker_distance(
     if params.coarse_skip && params.lit_proof {
         // A coarse cell's minimum is no larger than any of its children's: nothing here means
         // nothing finer either.
-        let r = region(pyramid, centre, half, COARSE_CELLS);
-        let any =
-            (r.a.y..=r.b.y).any(|j| (r.a.x..=r.b.x).any(|i| blocks(pyramid, &r, i, j, z, bias)));
-        if !any {
+        if !any_blocker(pyramid, centre, half, COARSE_CELLS, z, bias) {
             return None;
         }
     }
@@ -272,6 +283,18 @@ pub fn blocker_distance(
     let dr = distance(z);
     let mut d_avg = if first.y > 0.0 { first.x / first.y } else { dr };
     let mut w = footprint(d_avg);
+    let kernel_proof = params.kernel_proof && params.lit_proof;
+    // The shader (with `kernel_proof = 2`, its default) tries the kernel's proof first over the
+    // refined search's region and the kernel's reach together, at the first search's cells: nothing there means the refined
+    // search finds nothing (a coarser cell's minimum is no larger), so z_avg, the kernel and the
+    // proof's verdict are those below — the same decision without the refined search.
+    if kernel_proof && params.refinements > 0 {
+        let half2 = ((0.5 * w + pixel) / params.lowres_texel).min(half);
+        let both = half2.max(reach(w) / params.lowres_texel);
+        if !any_blocker(pyramid, centre, both, first_cells, z, bias) {
+            return None;
+        }
+    }
     let mut refined_found = false;
     for _ in 0..params.refinements {
         let half2 = ((0.5 * w + pixel) / params.lowres_texel).min(half);
@@ -285,15 +308,20 @@ pub fn blocker_distance(
             w = footprint(d_avg);
         }
     }
-    if params.kernel_proof && params.lit_proof && !refined_found {
-        // The coarse look's test (a cell's minimum against the receiver's depth), over the
-        // kernel's reach: nothing there, nothing the filter reads blocks.
-        let r = region(pyramid, centre, reach(w) / params.lowres_texel, first_cells);
-        let any =
-            (r.a.y..=r.b.y).any(|j| (r.a.x..=r.b.x).any(|i| blocks(pyramid, &r, i, j, z, bias)));
-        if !any {
-            return None;
-        }
+    // The coarse look's test over the kernel's reach: nothing there, nothing the filter reads
+    // blocks.
+    if kernel_proof
+        && !refined_found
+        && !any_blocker(
+            pyramid,
+            centre,
+            reach(w) / params.lowres_texel,
+            first_cells,
+            z,
+            bias,
+        )
+    {
+        return None;
     }
     Some((d_avg, w))
 }

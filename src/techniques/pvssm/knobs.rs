@@ -5,7 +5,7 @@ use super::Pvssm;
 use crate::techniques::{virtual_map, Knob, TechniqueInfo};
 
 /// Counter names, in the order of `glsl/pvssm/pvssm.glsl`'s `C_*` slots.
-pub const COUNTER_NAMES: [&str; 13] = [
+pub const COUNTER_NAMES: [&str; 14] = [
     "view_samples",
     "outside_light",
     "lit",
@@ -19,6 +19,7 @@ pub const COUNTER_NAMES: [&str; 13] = [
     "filter_cut",
     "skipped_lit",
     "kernel_lit",
+    "kernel_lit_first",
 ];
 
 // raster_split 1024: pvssm's pages are drawn over the part their kernels read (a third of a page
@@ -143,10 +144,12 @@ const KNOBS: [Knob; 29] = [
     Knob::int(
         "kernel_proof",
         "1: decide a sample lit when the conservative map holds no blocker within its kernel's \
-         reach (the texels the filter would read), without pages or filtering",
-        1.0,
+         reach (the texels the filter would read), without pages or filtering; 2: also try it \
+         before the refined search, over that search's region too (the same decisions, the \
+         refined search skipped where it holds)",
+        2.0,
         0.0,
-        1.0,
+        2.0,
     ),
     Knob::int(
         "fixed_level",

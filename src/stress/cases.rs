@@ -529,7 +529,7 @@ pub fn cases() -> Vec<Case> {
             // room past the root's region is the floor's 8 a slot less the triangles. On the
             // baseline scene no level but the root's fits whole (`bin_whole_levels` 0): the
             // pages compete in the walk's order, 98 (pvssm) and 287 (rmsm) of them dropped
-            // (`bin_overflow_pages` in stress.json; 60 and 74 with `--quick`); tests/rmsm.rs
+            // (`bin_overflow_pages` in stress.json; 60 and 74 with `--quick`); tests/rmsm_bins.rs
             // covers the levels kept whole.
             knobs: |t| {
                 matches!(t, "rmsm" | "pvssm").then(|| {

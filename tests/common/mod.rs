@@ -2,11 +2,13 @@
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
 pub mod cli;
+pub mod kernels_sat;
 pub mod library_api;
 pub mod pcf_family;
 pub mod push_twins;
 pub mod pvssm;
 pub mod reference;
+pub mod rmsm;
 
 use std::path::PathBuf;
 

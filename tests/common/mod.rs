@@ -2,6 +2,7 @@
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
 pub mod cli;
+pub mod kernels_raster;
 pub mod kernels_sat;
 pub mod library_api;
 pub mod pcf_family;

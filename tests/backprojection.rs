@@ -2,7 +2,8 @@
 //! the book's parallel-plane ramp (§6.2.1) at every width, and converges to
 //! `reference-single-layer` — the occluders seen from the light's centre, which is what a map
 //! from the centre can reconstruct — as its light samples grow from 16 to 1024. `atty`'s own
-//! properties are in `tests/atty.rs`, `bitmask`'s twin and skip tests in `tests/bitmask.rs`.
+//! properties are in `tests/atty.rs`, `bitmask`'s twin tests in `tests/bitmask.rs` and its skip
+//! test in `tests/bitmask_properties.rs`.
 
 mod common;
 

@@ -1,6 +1,7 @@
 //! Test harness: a validated context, the validation oracle, and diff images on failure.
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
+pub mod bitmask;
 pub mod cli;
 pub mod kernels_raster;
 pub mod kernels_sat;

@@ -11,32 +11,32 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 export PATH="$HOME/.cargo/bin:$PATH"
 
-# name | file | perl substitution (applied once, must change the file) | test file
+# name | file | perl substitution (applied once, must change the file) | test files (space-separated)
 mutations=(
-  "filtered: far plane 1 % too far|src/techniques/filtered/config.rs|s/far: view.far,/far: view.far * 1.01,/|filtered"
-  "filtered: perspective flag inverted|src/techniques/filtered/config.rs|s/LightProjection::Perspective \{ .. \}\) as i32/LightProjection::Orthographic { .. }) as i32/|filtered"
-  "filtered: radius clamped to 1|src/techniques/filtered/config.rs|s/config.radius.min\(MAX_RADIUS\)/config.radius.min(1)/|filtered"
-  "csm: group's first term off by one|src/techniques/filtered/config.rs|s/Mode::Csm => \(2 \* group \+ 1\)/Mode::Csm => (2 * group + 2)/|filtered"
-  "csm: automatic offset negated|src/techniques/filtered/csm.rs|s/o if o < 0.0 => s.offset,/o if o < 0.0 => -s.offset,/|filtered"
-  "csm: remap margin doubled|src/techniques/filtered/csm.rs|s/s.epsilon \+ REMAP_MARGIN/s.epsilon + 2.0 * REMAP_MARGIN/|filtered"
-  "esm: exponent scaled by 0.9|src/techniques/filtered/esm.rs|s/params.f32\(\"exponent\"\)\?/0.9 * params.f32(\"exponent\")?/|filtered"
-  "evsm: negative exponent halved|src/techniques/filtered/evsm.rs|s/params.f32\(\"exponent_negative\"\)\?/0.5 * params.f32(\"exponent_negative\")?/|filtered"
-  "evsm: components 2 and 4 swapped|src/techniques/filtered/evsm.rs|s/<= 2 \{ 2 \} else \{ 4 \}/<= 2 { 4 } else { 2 }/|filtered"
-  "msm: depth bias sign flipped|src/techniques/filtered/msm.rs|s/params.f32\(\"depth_bias\"\)\?/-params.f32(\"depth_bias\")?/|filtered"
+  "filtered: far plane 1 % too far|src/techniques/filtered/config.rs|s/far: view.far,/far: view.far * 1.01,/|filtered filtered_properties"
+  "filtered: perspective flag inverted|src/techniques/filtered/config.rs|s/LightProjection::Perspective \{ .. \}\) as i32/LightProjection::Orthographic { .. }) as i32/|filtered filtered_properties"
+  "filtered: radius clamped to 1|src/techniques/filtered/config.rs|s/config.radius.min\(MAX_RADIUS\)/config.radius.min(1)/|filtered filtered_properties"
+  "csm: group's first term off by one|src/techniques/filtered/config.rs|s/Mode::Csm => \(2 \* group \+ 1\)/Mode::Csm => (2 * group + 2)/|filtered filtered_properties"
+  "csm: automatic offset negated|src/techniques/filtered/csm.rs|s/o if o < 0.0 => s.offset,/o if o < 0.0 => -s.offset,/|filtered filtered_properties"
+  "csm: remap margin doubled|src/techniques/filtered/csm.rs|s/s.epsilon \+ REMAP_MARGIN/s.epsilon + 2.0 * REMAP_MARGIN/|filtered filtered_properties"
+  "esm: exponent scaled by 0.9|src/techniques/filtered/esm.rs|s/params.f32\(\"exponent\"\)\?/0.9 * params.f32(\"exponent\")?/|filtered filtered_properties"
+  "evsm: negative exponent halved|src/techniques/filtered/evsm.rs|s/params.f32\(\"exponent_negative\"\)\?/0.5 * params.f32(\"exponent_negative\")?/|filtered filtered_properties"
+  "evsm: components 2 and 4 swapped|src/techniques/filtered/evsm.rs|s/<= 2 \{ 2 \} else \{ 4 \}/<= 2 { 4 } else { 2 }/|filtered filtered_properties"
+  "msm: depth bias sign flipped|src/techniques/filtered/msm.rs|s/params.f32\(\"depth_bias\"\)\?/-params.f32(\"depth_bias\")?/|filtered filtered_properties"
   "savsm: perspective flag inverted|src/techniques/savsm.rs|s/LightProjection::Perspective \{ .. \}\) as i32/LightProjection::Orthographic { .. }) as i32/|savsm"
   "savsm: box one texel wider|src/techniques/savsm.rs|s/kernel: params.f32\(\"kernel\"\)\?,/kernel: params.f32(\"kernel\")? + 1.0,/|savsm"
-  "reference: sun radius from the full diameter|src/reference/mod.rs|s/\(0.5 \* angular_diameter_deg\)/(angular_diameter_deg)/|reference"
-  "reference: ray offset doubled|src/reference/mod.rs|s/offset: settings.ray_offset \* scale,/offset: 2.0 * settings.ray_offset * scale,/|reference"
-  "average-maps: rect samples mirrored in v|src/passes/light_view.rs|s/v \* \(b - 0.5\)/v * (0.5 - b)/|gpu_vs_cpu"
-  "pcf: kernel one wider|src/techniques/pcf.rs|s/let kernel = params.u32\(\"kernel\"\)\? as i32;/let kernel = params.u32(\"kernel\")? as i32 + 1;/|gpu_vs_cpu"
-  "pcf-coverage: kernel floored at 1|src/techniques/pcf_coverage.rs|s/let kernel = params.f32\(\"kernel\"\)\?;/let kernel = params.f32(\"kernel\")?.max(1.0);/|pcf_family"
-  "pcf-poisson: taps one fewer|src/techniques/pcf_poisson.rs|s/taps: disk_points.len\(\) as i32,/taps: disk_points.len() as i32 - 1,/|pcf_family"
+  "reference: sun radius from the full diameter|src/reference/mod.rs|s/\(0.5 \* angular_diameter_deg\)/(angular_diameter_deg)/|reference reference_geometry"
+  "reference: ray offset doubled|src/reference/mod.rs|s/offset: settings.ray_offset \* scale,/offset: 2.0 * settings.ray_offset * scale,/|reference reference_geometry"
+  "average-maps: rect samples mirrored in v|src/passes/light_view.rs|s/v \* \(b - 0.5\)/v * (0.5 - b)/|gpu_vs_cpu average_maps"
+  "pcf: kernel one wider|src/techniques/pcf.rs|s/let kernel = params.u32\(\"kernel\"\)\? as i32;/let kernel = params.u32(\"kernel\")? as i32 + 1;/|gpu_vs_cpu average_maps"
+  "pcf-coverage: kernel floored at 1|src/techniques/pcf_coverage.rs|s/let kernel = params.f32\(\"kernel\"\)\?;/let kernel = params.f32(\"kernel\")?.max(1.0);/|pcf_family pcf_family_properties"
+  "pcf-poisson: taps one fewer|src/techniques/pcf_poisson.rs|s/taps: disk_points.len\(\) as i32,/taps: disk_points.len() as i32 - 1,/|pcf_family pcf_family_properties"
   "pcss: light size halved|src/techniques/pcss.rs|s/light_size: light.size,/light_size: light.size * 0.5,/|pcss"
   "pcss: near plane 1 % farther|src/techniques/pcss.rs|s/near: setup.light_view.near,/near: setup.light_view.near * 1.01,/|pcss"
   "soft light: rect extent from one edge only|src/techniques/soft_light.rs|s/Vec2::new\(u.x.abs\(\) \+ v.x.abs\(\), u.y.abs\(\) \+ v.y.abs\(\)\)/Vec2::new(u.x.abs(), u.y.abs())/|pcss"
   "vssm: light size 10 % larger|src/techniques/vssm.rs|s/light_size: soft_light\(light, view, map_size\)\?.size,/light_size: soft_light(light, view, map_size)?.size * 1.1,/|vssm"
   "essm: light size 10 % larger|src/techniques/essm.rs|s/light_size: soft_light\(light, view, map_size\)\?.size,/light_size: soft_light(light, view, map_size)?.size * 1.1,/|essm"
-  "shadow maps: constant and slope bias swapped|src/techniques/pcf.rs|s/constant: params.f32\(\"bias_constant\"\)\?,\n(\s*)slope: params.f32\(\"bias_slope\"\)\?,/constant: params.f32(\"bias_slope\")?,\n\$1slope: params.f32(\"bias_constant\")?,/|gpu_vs_cpu"
+  "shadow maps: constant and slope bias swapped|src/techniques/pcf.rs|s/constant: params.f32\(\"bias_constant\"\)\?,\n(\s*)slope: params.f32\(\"bias_slope\"\)\?,/constant: params.f32(\"bias_slope\")?,\n\$1slope: params.f32(\"bias_constant\")?,/|gpu_vs_cpu average_maps"
 )
 
 backup="$(mktemp -d)"
@@ -57,7 +57,9 @@ for m in "${mutations[@]}"; do
     continue
   fi
   log="$backup/log"
-  cargo test --test "$test" -- --test-threads 1 >"$log" 2>&1
+  targets=()
+  for t in $test; do targets+=(--test "$t"); done
+  cargo test --no-fail-fast "${targets[@]}" -- --test-threads 1 >"$log" 2>&1
   cp "$backup/file" "$file"
   failed=$(grep -E '^test .* FAILED$' "$log" | sed -E 's/^test (.*) \.\.\. FAILED$/\1/' | paste -sd, - | sed 's/,/, /g')
   if grep -q -E '^error(\[E[0-9]+\])?: could not compile|^error\[E' "$log"; then

@@ -256,8 +256,63 @@ fn bad_input_fails_cleanly() {
         &["render", "grid:0", "--technique", "pcf", "--out", out],
         &["grid:0"],
     );
+    for scale in ["-1", "NaN", "inf"] {
+        assert_fails_with(
+            &[
+                "render",
+                "scenes/teapot-rect.toml",
+                "--technique",
+                "pcf",
+                &format!("--light-scale={scale}"),
+                "--out",
+                out,
+            ],
+            &["--light-scale", "finite scale >= 0"],
+        );
+    }
+    assert_fails_with(
+        &[
+            "render",
+            "scenes/spot-point.toml",
+            "--technique",
+            "pcf",
+            "--light-scale",
+            "2",
+            "--out",
+            out,
+        ],
+        &["scenes/spot-point.toml", "point light", "no size to scale"],
+    );
     // Nothing half-done: a failed render leaves no output directory behind.
     assert!(!dir.exists(), "a failed render created {}", dir.display());
+}
+
+/// `render --light-scale` scales the scene's light as the bench's `--light-scale` does: 0 turns
+/// teapot-rect's rect light into a point light (stats.json says so), 2 keeps a rect light.
+#[test]
+fn render_scales_the_light() {
+    for (scale, kind) in [("0", "point"), ("2", "rect")] {
+        let dir = out_dir(&format!("light-scale-{scale}"));
+        let o = penumbra(&[
+            "render",
+            "scenes/teapot-rect.toml",
+            "--technique",
+            "pcf",
+            "--set",
+            "map_size=512",
+            "--frames",
+            "1",
+            "--light-scale",
+            scale,
+            "--out",
+            dir.to_str().expect("utf-8 path"),
+        ]);
+        assert!(o.status.success(), "render failed: {}", stderr(&o));
+        let stats: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("stats.json")).expect("stats"))
+                .expect("stats.json parses");
+        assert_eq!(stats["light"], kind, "--light-scale {scale}");
+    }
 }
 
 /// Validation that was asked for but cannot run (here: the loader finds no layer) fails the

@@ -17,6 +17,13 @@ A variant is a penumbra binary, optionally with knobs after `::` (comma-separate
 
 Copy the binary before a change to a path of its own (`cp target/release/penumbra
 /tmp/pen_before`): the build overwrites target/release/penumbra.
+
+`--light-scales 0,1,4` runs every variant at each scale of the scene's light (`penumbra render
+--light-scale`: 0 is a point light at a rect light's centre, or a hard sun) in the same rounds —
+the README's soft-against-hard runs:
+
+    python3 tools/ab.py scenes/teapot-rect.toml pvssm target/release/penumbra \\
+        --light-scales 0,1,2,4 --rounds 5
 """
 
 import argparse
@@ -29,6 +36,7 @@ import tempfile
 
 
 def run(variant, scene, technique, frames, sets):
+    variant, _, light_scale = variant.partition(" light x")
     exe, _, extra = variant.partition("::")
     knobs = [kv for kv in extra.split(",") if kv] + sets
     with tempfile.TemporaryDirectory() as out:
@@ -36,6 +44,8 @@ def run(variant, scene, technique, frames, sets):
                "--frames", str(frames), "--out", out]
         for kv in knobs:
             cmd += ["--set", kv]
+        if light_scale:
+            cmd += ["--light-scale", light_scale]
         done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         if done.returncode != 0:
             sys.exit(f"{variant}: render failed ({done.returncode}):\n{done.stderr}")
@@ -53,7 +63,11 @@ def main():
     p.add_argument("--set", action="append", default=[], help="knob for every variant")
     p.add_argument("--pass", dest="passes", action="append", default=[],
                    help="report only passes whose name holds this (repeatable)")
+    p.add_argument("--light-scales", default="",
+                   help="comma-separated light scales to run every variant at")
     a = p.parse_args()
+    if a.light_scales:
+        a.variants = [f"{v} light x{x}" for v in a.variants for x in a.light_scales.split(",")]
 
     def shown(name):
         return not a.passes or any(s in name for s in a.passes)

@@ -74,6 +74,11 @@ pub(crate) enum Command {
         /// Timed frames after one warm-up frame; times are medians.
         #[arg(long, default_value_t = 3)]
         frames: u32,
+        /// Scale the scene's light as `bench --light-scale` does: a rect light's sides or a
+        /// sun's angular diameter; 0 makes a rect light a point light at its centre and a sun a
+        /// hard one. A point light has nothing to scale.
+        #[arg(long, default_value_t = 1.0)]
+        light_scale: f32,
         /// Compare with a ground truth (`reference` or `reference-single-layer`): adds `error` to
         /// stats.json and writes reference.exr and error.png.
         #[arg(long, value_name = "REFERENCE")]

@@ -300,6 +300,7 @@ fn main() {
             set,
             out,
             frames,
+            light_scale,
             compare_to,
             reference_samples,
             device,
@@ -314,6 +315,7 @@ fn main() {
             set,
             out,
             *frames,
+            *light_scale,
             device,
             cache.dir(),
             compare_to.as_deref().map(|r| Comparison {

@@ -29,6 +29,7 @@ pub(crate) fn render(
     sets: &[String],
     out: &Path,
     frames: u32,
+    light_scale: f32,
     device: &DeviceArgs,
     cache_dir: Option<PathBuf>,
     compare: Option<Comparison<'_>>,
@@ -58,7 +59,15 @@ pub(crate) fn render(
     }
     let bar = progress(if compare.is_some() { 6 } else { 5 });
     bar.set_message(format!("loading {scene_spec}"));
-    let scene = Scene::open(scene_spec)?;
+    let mut scene = Scene::open(scene_spec)?;
+    if light_scale != 1.0 {
+        if !(light_scale.is_finite() && light_scale >= 0.0) {
+            bail!("--light-scale {light_scale}: expected a finite scale >= 0");
+        }
+        if !crate::bench_plan::scale_light(&mut scene.light, light_scale) {
+            bail!("--light-scale {light_scale}: {scene_spec}'s light is a point light, which has no size to scale");
+        }
+    }
     if let Some(info) = info {
         info.params(&overrides, &scene.defaults)?;
     }

@@ -188,34 +188,18 @@ pub fn receiver_map(positions: &[Vec4], setup: &AttySetup) -> ReceiverMap {
     }
     let band = 2.0 * DEPTH_EPSILON;
     for (k, list) in members.iter().enumerate() {
-        if list.iter().all(|s| s.certain) {
-            // Only samples within the band of an extreme may trade places.
-            if m.near_pixel[k] == NONE {
-                continue;
-            }
-            let (near, far) = (
-                f32::from_bits(m.near_bits[k]),
-                f32::from_bits(m.far_bits[k]),
-            );
-            for s in list {
-                if s.pixel != m.near_pixel[k] && s.z <= near + band {
+        // All certain: only samples within the band of an extreme may trade places. Else some
+        // sample may join or leave: every sample within the band of an extreme, or beyond it if
+        // it may join, and where a representative may leave, the next one.
+        let certain = list.iter().all(|s| s.certain);
+        if m.near_pixel[k] == NONE {
+            if !certain {
+                m.occupancy_uncertain[k] = true;
+                m.depth_uncertain[k] = true;
+                for s in list {
                     m.alternatives[k][0].push(s.pixel);
-                }
-                if s.pixel != m.far_pixel[k] && s.z >= far - band {
                     m.alternatives[k][1].push(s.pixel);
                 }
-            }
-            continue;
-        }
-        // Some sample may join or leave: every sample within the band of an extreme, or beyond
-        // it if it may join, and where a representative may leave, the next one.
-        let kept: Vec<&Member> = list.iter().filter(|s| s.certain).collect();
-        if m.near_pixel[k] == NONE {
-            m.occupancy_uncertain[k] = true;
-            m.depth_uncertain[k] = true;
-            for s in list {
-                m.alternatives[k][0].push(s.pixel);
-                m.alternatives[k][1].push(s.pixel);
             }
             continue;
         }
@@ -234,6 +218,10 @@ pub fn receiver_map(positions: &[Vec4], setup: &AttySetup) -> ReceiverMap {
                 m.depth_uncertain[k] = true;
             }
         }
+        if certain {
+            continue;
+        }
+        let kept: Vec<&Member> = list.iter().filter(|s| s.certain).collect();
         let rep_leaves = |pixel: u32| list.iter().any(|s| s.pixel == pixel && !s.certain);
         let key = |s: &&&Member| (s.z.to_bits(), s.pixel);
         for (layer, rep) in [(0, m.near_pixel[k]), (1, m.far_pixel[k])] {

@@ -487,15 +487,14 @@ void main() {
                 vec2 v_h;
                 uint level;
                 // The kernel's proof below, tried first (`kernel_proof = 2`, the default) over
-                // its reach and the refined search's
-                // region together (the kernel the first z_avg predicts): no blocker there at the
-                // first search's level, against the plane's highest depth over each cell, means
-                // none at the refined search's finer level against the lowest either (a cell's
-                // minimum is no larger than its children's, its plane maximum no smaller), so
-                // the refined search would find nothing, keep z_avg and this kernel, and the
-                // proof would hold — the same decision without the refined search, the shape
-                // pass's largest part (on `grid:800000@rect` most of its undecided samples end
-                // so).
+                // its reach and the refined search's region together (the kernel the first
+                // z_avg predicts): no blocker there at the first search's level, against the
+                // plane's highest depth over each cell, means none at the refined search's finer
+                // level against the lowest either (a cell's minimum is no larger than its
+                // children's, its plane maximum no smaller), so the refined search would find
+                // nothing, keep z_avg and this kernel, and the proof would hold — the same
+                // decision without the refined search, the shape pass's largest part (on
+                // `grid:800000@rect` most of its undecided samples end so).
                 bool proved = false;
                 if (kernel_proof && refinements > 0u
                     && (pc.options & OPT_KERNEL_PROOF_FIRST) != 0u) {

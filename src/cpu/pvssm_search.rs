@@ -285,9 +285,10 @@ pub fn blocker_distance(
     let mut w = footprint(d_avg);
     let kernel_proof = params.kernel_proof && params.lit_proof;
     // The shader (with `kernel_proof = 2`, its default) tries the kernel's proof first over the
-    // refined search's region and the kernel's reach together, at the first search's cells: nothing there means the refined
-    // search finds nothing (a coarser cell's minimum is no larger), so z_avg, the kernel and the
-    // proof's verdict are those below — the same decision without the refined search.
+    // refined search's region and the kernel's reach together, at the first search's cells:
+    // nothing there means the refined search finds nothing (a coarser cell's minimum is no
+    // larger), so z_avg, the kernel and the proof's verdict are those below — the same decision
+    // without the refined search.
     if kernel_proof && params.refinements > 0 {
         let half2 = ((0.5 * w + pixel) / params.lowres_texel).min(half);
         let both = half2.max(reach(w) / params.lowres_texel);

@@ -14,6 +14,7 @@ use glam::{Mat4, Vec3};
 use penumbra::cpu::average_maps::{behind_plane, sample_lights};
 use penumbra::passes::{light_samples, LightProjection, LightView};
 use penumbra::scene::{Aabb, Light, Scene};
+use penumbra::{Engine, Frame, PreparedScene};
 
 /// With `light_clip = 0` average-maps is the plain average of K hard shadow maps, bit for bit as
 /// before the clip existed: the count of lit `hard` results, each rendered with the scene's light
@@ -77,14 +78,31 @@ fn average_maps_without_clip_is_the_mean_of_hard_maps() {
     common::assert_clean(&engine.context().validation());
 }
 
-/// Adds `light_clip = 0` to `hard`'s knobs if `hard` has that knob, so that comparisons of
-/// unclipped average-maps with `hard` stay unclipped on both sides.
 /// `set` for `hard` as average-maps sees a light sample: no tangent-plane clipping and the map
 /// fitted to the scene (average-maps fits each sample's map to the scene).
 fn hard_knobs(set: &BTreeMap<String, String>) -> BTreeMap<String, String> {
     let mut hard = set.clone();
     hard.extend(common::knobs(&common::KERNEL_ONLY));
     hard
+}
+
+/// `hard` and `average-maps` of `samples` light samples without its tangent-plane clip (`hard`
+/// has none), both with 512² maps: what the comparisons of a single map with `hard` render.
+fn hard_and_unclipped_average(
+    engine: &Engine,
+    prepared: &PreparedScene,
+    samples: &str,
+) -> (Frame, Frame) {
+    let mut set = common::knobs(&[("map_size", "512")]);
+    let hard = engine
+        .render(prepared, "hard", &hard_knobs(&set), 1)
+        .expect("hard");
+    set.insert("samples".to_string(), samples.to_string());
+    set.insert("light_clip".to_string(), "0".to_string());
+    let avg = engine
+        .render(prepared, "average-maps", &set, 1)
+        .expect("average-maps");
+    (hard, avg)
 }
 
 /// On a point light (one sample) the clip changes exactly the view samples whose normal faces
@@ -160,16 +178,7 @@ fn average_maps_of_a_point_light_is_hard() {
         .expect("prepare");
     let light = prepared.light;
     assert!(matches!(light, Light::Point { .. }), "{light:?}");
-    // Unclipped: `hard` has no tangent-plane test.
-    let mut set = common::knobs(&[("map_size", "512")]);
-    let hard = engine
-        .render(&prepared, "hard", &hard_knobs(&set), 1)
-        .expect("hard");
-    set.insert("samples".to_string(), "5".to_string());
-    set.insert("light_clip".to_string(), "0".to_string());
-    let avg = engine
-        .render(&prepared, "average-maps", &set, 1)
-        .expect("average-maps");
+    let (hard, avg) = hard_and_unclipped_average(&engine, &prepared, "5");
     let twin_count = sample_lights(&light, 5).len() as u64;
     assert_eq!(twin_count, 1);
     assert_eq!(avg.stats.counters["light_samples"], twin_count);
@@ -341,17 +350,7 @@ fn average_maps_with_one_sample_is_hard() {
     scene.camera.width = 128;
     scene.camera.height = 96;
     let prepared = engine.prepare(&scene).expect("prepare");
-    // Unclipped: `hard` has no tangent-plane test.
-    let mut set = BTreeMap::new();
-    set.insert("map_size".to_string(), "512".to_string());
-    let hard = engine
-        .render(&prepared, "hard", &hard_knobs(&set), 1)
-        .expect("hard");
-    set.insert("samples".to_string(), "1".to_string());
-    set.insert("light_clip".to_string(), "0".to_string());
-    let avg = engine
-        .render(&prepared, "average-maps", &set, 1)
-        .expect("average-maps");
+    let (hard, avg) = hard_and_unclipped_average(&engine, &prepared, "1");
     assert!(
         hard.visibility == avg.visibility,
         "average-maps differs from hard"

@@ -496,9 +496,12 @@ void main() {
                 // decision without the refined search, the shape pass's largest part (on
                 // `grid:800000@rect` most of its undecided samples end so).
                 bool proved = false;
+                // Whether u_h, v_h and level hold the kernel of the current w.
+                bool have_kernel = false;
                 if (kernel_proof && refinements > 0u
                     && (pc.options & OPT_KERNEL_PROOF_FIRST) != 0u) {
                     level = kernel_of(w, has_pixel, u_phi, v_phi, fixed_plus1, u_h, v_h);
+                    have_kernel = true;
                     vec2 half2 = min((0.5 * w + abs(u_phi) + abs(v_phi)) / lowres_texel, half_low);
                     vec2 reach = kernel_reach(u_h, v_h, level) / lowres_texel;
                     proved = !may_have_blocker(centre, max(half2, reach), first_cells, rc,
@@ -521,9 +524,12 @@ void main() {
                         if (sum2.y > 0.0) {
                             d_avg = sum2.x / sum2.y;
                             w = soft_light_footprint(pc.light_size, pc.perspective, dr, d_avg);
+                            have_kernel = false;
                         }
                     }
-                    level = kernel_of(w, has_pixel, u_phi, v_phi, fixed_plus1, u_h, v_h);
+                    if (!have_kernel) {
+                        level = kernel_of(w, has_pixel, u_phi, v_phi, fixed_plus1, u_h, v_h);
+                    }
                     // The kernel's own reach (kernel_reach: the texels the exact filter reads)
                     // holding no blocker in the conservative map proves V = 1 as the filter would
                     // find it, in the search's terms (its receiver plane and bias, the same gap

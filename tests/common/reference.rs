@@ -1,5 +1,6 @@
 //! Helpers of the `reference` tests (`tests/reference*.rs`): the reference's knobs and a checked
-//! render, small hand-built scenes (meshes, camera, placement) and the view samples read back.
+//! render, small hand-built scenes (meshes, camera, placement) and the view samples read back —
+//! validation checked clean after each render and read-back.
 
 use std::collections::BTreeMap;
 
@@ -18,6 +19,7 @@ pub fn render(engine: &Engine, prepared: &PreparedScene, technique: &str, sample
     let frame = engine
         .render(prepared, technique, &knobs(samples, 1), 1)
         .expect("render");
+    super::assert_clean(&engine.context().validation());
     assert_eq!(frame.stats.nan_count + frame.stats.out_of_range_count, 0);
     frame
 }
@@ -66,8 +68,10 @@ pub fn at(x: f32, y: f32, z: f32) -> Mat4 {
 /// The view samples' positions and normals, read back.
 pub fn samples_of(engine: &Engine, prepared: &PreparedScene) -> (Vec<Vec4>, Vec<Vec4>) {
     let ctx = engine.context();
-    (
+    let samples = (
         prepared.view.read_positions(ctx).expect("positions"),
         prepared.view.read_normals(ctx).expect("normals"),
-    )
+    );
+    super::assert_clean(&ctx.validation());
+    samples
 }

@@ -44,6 +44,7 @@ pub fn run(engine: &Engine, prepared: &PreparedScene, set: &[(&str, &str)]) -> R
             Ok(())
         })
         .expect("render");
+    super::assert_clean(&engine.context().validation());
     assert_eq!(frame.stats.nan_count, 0, "NaN with {set:?}");
     assert_eq!(
         frame.stats.out_of_range_count, 0,

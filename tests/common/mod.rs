@@ -333,8 +333,8 @@ pub fn ramp_width(samples: &[(f32, f32)], band: f32) -> f32 {
     (sxx / sxv) as f32
 }
 
-/// Renders `technique` with `knobs` on [`parallel_planes`]`(w, h, big_h)`, asserting no NaN and
-/// no V outside [0, 1]; returns the frame and the view samples' positions.
+/// Renders `technique` with `knobs` on [`parallel_planes`]`(w, h, big_h)`, asserting clean
+/// validation, no NaN and no V outside [0, 1]; returns the frame and the view samples' positions.
 pub fn render_parallel_planes(
     engine: &Engine,
     technique: &str,
@@ -351,6 +351,7 @@ pub fn render_parallel_planes(
         .view
         .read_positions(engine.context())
         .expect("positions");
+    assert_clean(&engine.context().validation());
     assert_eq!(frame.stats.nan_count, 0, "{technique}: NaN");
     assert_eq!(
         frame.stats.out_of_range_count, 0,
@@ -410,6 +411,7 @@ pub fn caster_pass(
     .expect("caster pass");
     let positions = prepared.view.read_positions(ctx).expect("positions");
     let normals = prepared.view.read_normals(ctx).expect("normals");
+    assert_clean(&ctx.validation());
     let (w, h) = (prepared.view.width as usize, prepared.view.height as usize);
     let tiles = penumbra::cpu::caster_cull::tile_bounds(&positions, &normals, w, h);
     (pass, eps, tiles)

@@ -15,6 +15,12 @@ A variant is a penumbra binary, optionally with knobs after `::` (comma-separate
     python3 tools/ab.py 'grid:800000@rect' pvssm target/release/penumbra \\
         target/release/penumbra::page_raster=graphics --rounds 5 --pass cull --pass render
 
+A variant's `technique=NAME` knob runs that technique instead of the command line's, so two
+techniques' times interleave too (the README's `pvssm` against `average-maps` on the 800k grid):
+
+    python3 tools/ab.py 'grid:800000@rect' pvssm target/release/penumbra \\
+        'target/release/penumbra::technique=average-maps,samples=64,map_size=1024' --rounds 5
+
 Copy the binary before a change to a path of its own (`cp target/release/penumbra
 /tmp/pen_before`): the build overwrites target/release/penumbra.
 
@@ -39,6 +45,10 @@ def run(variant, scene, technique, frames, sets):
     variant, _, light_scale = variant.partition(" light x")
     exe, _, extra = variant.partition("::")
     knobs = [kv for kv in extra.split(",") if kv] + sets
+    # A variant may name its own technique (`::technique=average-maps,samples=64`).
+    technique = next((kv.split("=", 1)[1] for kv in knobs if kv.startswith("technique=")),
+                     technique)
+    knobs = [kv for kv in knobs if not kv.startswith("technique=")]
     with tempfile.TemporaryDirectory() as out:
         cmd = [exe, "render", scene, "--technique", technique, "--no-validation",
                "--frames", str(frames), "--out", out]

@@ -143,7 +143,8 @@ pub(crate) enum Command {
         /// Techniques, comma-separated; default: every technique except the references.
         #[arg(long, value_delimiter = ',')]
         techniques: Vec<String>,
-        /// Sweep a knob: `key=v1,v2,...` (repeatable); replaces the default sweep of that knob.
+        /// Sweep a knob: `key=v1,v2,...` (repeatable); replaces the default sweep of that knob in
+        /// every technique that has it, or in one only as `technique.key=v1,v2,...`.
         #[arg(long = "set", value_name = "KEY=V1,V2")]
         set: Vec<String>,
         /// Small images, short sweeps, 8×8-sample references: a few minutes on lavapipe.

@@ -225,12 +225,28 @@ pub(crate) fn variants(args: &BenchArgs) -> anyhow::Result<Vec<(f32, f32, f32)>>
 }
 
 /// Every (technique, knob overrides) a scene variant runs: each technique's default sweep, a
-/// knob of `user_sweep` in place of its own where the technique has that knob.
+/// knob of `user_sweep` in place of its own where the technique has that knob. A knob scoped
+/// `TECHNIQUE.KEY` goes to that technique only, over an unscoped one of the same name (so
+/// `--set samples=64 --set reference.samples=32` sweeps `average-maps`'s 64 maps and times the
+/// reference at its own rays); its technique must be one of those run, and have the knob.
 pub(crate) fn runs(
     techniques: &[String],
     user_sweep: &BTreeMap<String, Vec<String>>,
     quick: bool,
 ) -> anyhow::Result<Vec<(String, BTreeMap<String, String>)>> {
+    for key in user_sweep.keys() {
+        if let Some((technique, knob)) = key.split_once('.') {
+            anyhow::ensure!(
+                techniques.iter().any(|t| t == technique),
+                "--set {key}: '{technique}' is not one of the techniques run"
+            );
+            let info = penumbra::techniques::find(technique)?;
+            anyhow::ensure!(
+                info.all_knobs().iter().any(|kn| kn.name == knob),
+                "--set {key}: '{technique}' has no knob '{knob}'"
+            );
+        }
+    }
     let mut plan = Vec::new();
     for t in techniques {
         let info = penumbra::techniques::find(t)?;
@@ -238,10 +254,17 @@ pub(crate) fn runs(
             .into_iter()
             .map(|(k, vs)| (k.to_string(), vs.iter().map(|v| v.to_string()).collect()))
             .collect();
+        let knobs = info.all_knobs();
         for (k, vs) in user_sweep {
-            if info.all_knobs().iter().any(|kn| kn.name == k) {
-                sweep.retain(|(sk, _)| sk != k);
-                sweep.push((k.clone(), vs.clone()));
+            let knob = match k.split_once('.') {
+                Some((technique, knob)) if technique == t => knob,
+                // An unscoped knob, unless this technique has it scoped too.
+                None if !user_sweep.contains_key(&format!("{t}.{k}")) => k.as_str(),
+                _ => continue,
+            };
+            if knobs.iter().any(|kn| kn.name == knob) {
+                sweep.retain(|(sk, _)| sk != knob);
+                sweep.push((knob.to_string(), vs.clone()));
             }
         }
         for combo in combinations(&sweep) {
@@ -414,7 +437,7 @@ pub(crate) fn scale_light(light: &mut penumbra::scene::Light, s: f32) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::scale_light;
+    use super::{runs, scale_light, user_sweep};
     use glam::Vec3;
     use penumbra::scene::Light;
 
@@ -443,5 +466,34 @@ mod tests {
             position: Vec3::ZERO,
         };
         assert!(!scale_light(&mut point, 2.0));
+    }
+
+    #[test]
+    fn a_scoped_knob_goes_to_its_technique_only() {
+        let techniques = ["average-maps".to_string(), "reference".to_string()];
+        let sets = [
+            "samples=64".to_string(),
+            "reference.samples=8,16".to_string(),
+        ];
+        let plan = runs(&techniques, &user_sweep(&sets).unwrap(), false).unwrap();
+        let samples: Vec<(&str, &str)> = plan
+            .iter()
+            .map(|(t, knobs)| (t.as_str(), knobs["samples"].as_str()))
+            .collect();
+        assert_eq!(
+            samples,
+            [
+                ("average-maps", "64"),
+                ("reference", "8"),
+                ("reference", "16")
+            ]
+        );
+        // A scope names a technique that is run, and a knob it has.
+        for bad in ["pcss.samples=4", "reference.map_size=512"] {
+            let err = runs(&techniques, &user_sweep(&[bad.to_string()]).unwrap(), false)
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(bad.split('=').next().unwrap()), "{err}");
+        }
     }
 }

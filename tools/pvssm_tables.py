@@ -11,11 +11,11 @@ own (medians over runs where a table says so), nothing is rescaled or dropped.
     python3 tools/pvssm_tables.py fixed FIXED/bench.json
     python3 tools/pvssm_tables.py antialiasing AA/antialiasing.json
 
-`main` is the comparison with `pcss` and `average-maps` (the issue's ratios per run), `passes`
-the paper's Table 1 (per-pass GPU ms, medians), `dial` the 800k-triangle grid's quality dial
-against `average-maps`, `light` the paper's Fig. 10 (point light or hard sun against soft
-lights, per run), `fixed` its Table 2 (adaptive pages against one 4096² map) and
-`antialiasing` its Fig. 11.
+`main` is the comparison with `pcss`, `cssm`, `average-maps` and the reference (the issue's
+ratios per run), `passes` the paper's Table 1 (per-pass GPU ms, medians), `dial` the
+800k-triangle grid's quality dial against `average-maps`, `light` the paper's Fig. 10 (point
+light or hard sun against soft lights, per run), `fixed` its Table 2 (adaptive pages against one
+4096² map) and `antialiasing` its Fig. 11.
 """
 
 import argparse
@@ -90,7 +90,7 @@ def main_table(runs):
     for (scene, tech, label), rs in groups:
         t = times(rs)
         knobs = " ".join(kv for kv in label.split()
-                         if kv.split("=")[0] in ("rho_scale", "refine_search", "samples", "skip"))
+                         if kv.split("=")[0] in ("rho_scale", "refine_search", "samples", "skip", "terms"))
         ratio = "—"
         if tech != "average-maps" and scene in avg and len(avg[scene]) == len(t):
             ratio = " / ".join(f"{a / b:.1f}" for a, b in zip(avg[scene], t))

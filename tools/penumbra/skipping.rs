@@ -51,12 +51,14 @@ pub struct SkippingArgs {
 
 /// Counters of view samples decided without the technique's full work, summed into the
 /// `skipped_samples` column: horizon umbra, lit/umbra classification, receivers outside the
-/// light (a caster skip decides every sample; it is listed with the other skips).
-const SAMPLE_SKIPS: [&str; 4] = [
+/// light, `pvssm`'s kernel proof (a caster skip decides every sample; it is listed with the
+/// other skips).
+const SAMPLE_SKIPS: [&str; 5] = [
     "horizon_umbra",
     "skipped_lit",
     "skipped_umbra",
     "outside_light",
+    "kernel_lit",
 ];
 
 /// Counters of other skipped work (not in samples), listed by name in the `other_skips` column.
@@ -222,6 +224,11 @@ fn off_switches(technique: &str) -> anyhow::Result<Vec<(String, String)>> {
     }
     if knobs.iter().any(|k| k.name == "cluster_skip") {
         off.push(("cluster_skip".to_string(), "0".to_string()));
+    }
+    // pvssm's proof that a kernel's own reach holds no blocker: its samples then go through
+    // pages and the exact filter, which finds them lit.
+    if knobs.iter().any(|k| k.name == "kernel_proof") {
+        off.push(("kernel_proof".to_string(), "0".to_string()));
     }
     Ok(off)
 }

@@ -283,6 +283,27 @@ fn bad_input_fails_cleanly() {
         ],
         &["scenes/spot-point.toml", "point light", "no size to scale"],
     );
+    // A bench knob scoped to one technique (`TECHNIQUE.KEY`) names one that is run, and a knob
+    // it has; checked before any work.
+    for (set, needle) in [
+        ("pcss.kernel=3", "'pcss' is not one of the techniques run"),
+        ("pcf.radius=2", "'pcf' has no knob 'radius'"),
+    ] {
+        assert_fails_with(
+            &[
+                "bench",
+                "--scenes",
+                "scenes/spot-point.toml",
+                "--techniques",
+                "pcf",
+                "--set",
+                set,
+                "--out",
+                out,
+            ],
+            &[needle],
+        );
+    }
     // Nothing half-done: a failed render leaves no output directory behind.
     assert!(!dir.exists(), "a failed render created {}", dir.display());
 }

@@ -406,6 +406,22 @@ def skipping(directory):
         print(f"| `{t}` | {off} | " + " | ".join(row.get(s, "") for s in scenes) + f" | {d_cell} |")
 
 
+
+def scaling(directory):
+    d = json.loads((Path(directory) / "scaling.json").read_text())
+    print("| technique | k triangles | ms, 1k → 1M | k view samples | ms, 256² → 2048² | k light "
+          "| ms, ×0.25 → ×4 |")
+    print("|---|---|---|---|---|---|---|")
+    for t in sorted(d["exponents"]):
+        cells = []
+        for sweep in ("triangles", "resolution", "light"):
+            pts = sorted((r["x"], r["gpu_ms"]) for r in d["rows"]
+                         if r["technique"] == t and r["sweep"] == sweep and r.get("gpu_ms"))
+            k = d["exponents"][t].get(sweep)
+            span = f"{pts[0][1]:.0f} → {pts[-1][1]:.0f}" if pts else "—"
+            cells += [fmt(k, 2), span]
+        print(f"| `{t}` | " + " | ".join(cells) + " |")
+
 def reuse(directory):
     import statistics
     d = json.loads((Path(directory) / "reuse.json").read_text())
@@ -460,6 +476,9 @@ if __name__ == "__main__":
         sys.exit(0)
     if len(sys.argv) == 3 and sys.argv[1] == "selection":
         selection(sys.argv[2])
+        sys.exit(0)
+    if len(sys.argv) == 3 and sys.argv[1] == "scaling":
+        scaling(sys.argv[2])
         sys.exit(0)
     if len(sys.argv) == 3 and sys.argv[1] == "reuse":
         reuse(sys.argv[2])

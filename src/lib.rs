@@ -121,7 +121,7 @@ pub mod techniques;
 
 pub use engine::{Engine, Frame, FrameStats, PreparedScene};
 pub use error::{Error, Result};
-pub use gpu::{Context, ContextDesc, CreationCounts, Image};
+pub use gpu::{Context, ContextDesc, CreationCounts, Division, Image};
 pub use passes::{ViewSamples, VisibilityCounts};
 pub use renderer::{Retuned, ShadowRenderer};
 pub use scene::{Camera, Light, Scene};

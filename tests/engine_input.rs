@@ -71,7 +71,7 @@ fn a_missing_device_name_is_a_clear_error() {
     let e = penumbra::Context::new(&penumbra::ContextDesc {
         validation: true,
         device: Some("no such device 1234".into()),
-        pipeline_cache: None,
+        ..Default::default()
     })
     .expect_err("no device matches");
     assert!(matches!(e, Error::NoDevice(_)), "{e:?}");

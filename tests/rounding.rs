@@ -138,3 +138,81 @@ fn share_count_rounds_like_the_cpu_for_every_count_up_to_1024() {
         }
     });
 }
+
+/// The specialization constant that lets `div_rn` be the plain quotient reaches the shaders as
+/// the context decided it: measured on one context, forced to the correction on another.
+#[test]
+fn plain_division_constant_follows_the_contexts_decision() {
+    use penumbra::gpu::Division;
+    let measured = common::context();
+    let corrected = penumbra::Context::new(&penumbra::ContextDesc {
+        correctly_rounded_division: true,
+        ..penumbra::ContextDesc::validated()
+    })
+    .expect("context");
+    assert_eq!(corrected.division(), Division::CorrectlyRounded);
+    assert_eq!(corrected.division_measurement(), None);
+    let m = measured
+        .division_measurement()
+        .expect("a measured context keeps its measurement");
+    assert!(m.cases > 16_000);
+    assert_eq!(measured.division(), m.division());
+    println!(
+        "{}: {} of {} quotients off the CPU's (e.g. {:?}): {:?}",
+        measured.info().name,
+        m.wrong,
+        m.cases,
+        m.example,
+        m.division()
+    );
+    for (ctx, plain) in [
+        (&measured, measured.division() == Division::Plain),
+        (&corrected, false),
+    ] {
+        assert_eq!(run(ctx, &[[0, 0, 0, 3]]), vec![u32::from(plain)]);
+        common::assert_clean(&ctx.validation());
+    }
+}
+
+/// Where the device's division measured correctly rounded, the plain quotient the shaders then
+/// use gives the bits the correction gave: every technique whose shaders divide through `div_rn`
+/// or `share_count` renders the same visibility on a measured and on a corrected context.
+#[test]
+fn plain_division_renders_what_the_correction_renders() {
+    use penumbra::{Engine, TechniqueDesc, TechniqueKind};
+    let measured = Engine::from_context(common::context());
+    if measured.context().division() != penumbra::gpu::Division::Plain {
+        println!("division not measured correctly rounded here: nothing to compare");
+        return;
+    }
+    let corrected = Engine::new(&penumbra::ContextDesc {
+        correctly_rounded_division: true,
+        ..penumbra::ContextDesc::validated()
+    })
+    .expect("engine");
+    let scene = common::small("scenes/teapot-rect.toml");
+    let visibility = |engine: &Engine, technique: &str| {
+        let prepared = engine.prepare(&scene).expect("prepare");
+        let desc = TechniqueDesc::new(TechniqueKind::from_name(technique).expect("kind"));
+        let mut renderer = engine.renderer_for(&prepared, &desc).expect("renderer");
+        renderer.render().expect("frame");
+        renderer.read_visibility().expect("read")
+    };
+    for technique in [
+        "hard", "pcf", "pcss", "vssm", "cssm", "rmsm", "pvssm", "izb-soft", "bitmask",
+    ] {
+        let plain = visibility(&measured, technique);
+        let exact = visibility(&corrected, technique);
+        let differing = plain
+            .iter()
+            .zip(&exact)
+            .filter(|(a, b)| a.to_bits() != b.to_bits())
+            .count();
+        if differing > 0 {
+            common::write_diff(&format!("division-{technique}"), 128, 96, &exact, &plain);
+        }
+        assert_eq!(differing, 0, "{technique}: {differing} samples differ");
+    }
+    common::assert_clean(&measured.context().validation());
+    common::assert_clean(&corrected.context().validation());
+}

@@ -21,7 +21,7 @@ fn a_context_without_validation_cannot_be_called_clean() {
     let ctx = Context::new(&ContextDesc {
         validation: false,
         device: None,
-        pipeline_cache: None,
+        ..Default::default()
     })
     .expect("context without validation");
     let log = ctx.validation();

@@ -6,8 +6,9 @@
 // Case i: (a bits, b bits, ulps as int, mode); mode 0: div_rn of floats a / b; mode 1:
 // share_count of counts a / b; mode 2: div_rn's last step alone (nearest_of), which the Newton
 // step before it leaves little to do, from the quotient whose bits the case's third word holds
-// (the CPU's, an ulp off: the device's own may be further, and that step corrects one ulp).
-// Result: the float's bits.
+// (the CPU's, an ulp off: the device's own may be further, and that step corrects one ulp);
+// mode 3: the PLAIN_DIVISION specialization constant the pipeline was built with, as 0 or 1.
+// Result: the float's bits (mode 3: the constant).
 #extension GL_GOOGLE_include_directive : require
 #include "div_rn.glsl"
 #include "share.glsl"
@@ -28,6 +29,10 @@ void main() {
         return;
     }
     uvec4 c = cases[i];
+    if (c.w == 3u) {
+        results[i] = PLAIN_DIVISION ? 1u : 0u;
+        return;
+    }
     int k = int(c.z);
     float r;
     if (c.w == 0u) {

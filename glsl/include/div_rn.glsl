@@ -12,9 +12,20 @@
 // about 2^-22 ulp of a rounding midpoint. For finite a and b != 0 with a normal quotient and
 // |q b| < 8e34; anything else returns the device's quotient. tests/rounding.rs checks it from
 // quotients up to 3 ulp off.
+//
+// All of that is wasted on a device whose own division already rounds to nearest (lavapipe's),
+// and lavapipe compiles it on the calling thread: three of them in shadow_coord cost a rebuilt
+// `pcf` renderer ~20 ms of host time. So `div_rn` is the plain quotient when the specialization
+// constant PLAIN_DIVISION is true, which every pipeline penumbra builds sets from a measurement
+// of the device's division at context creation (src/gpu/division.rs); the driver then drops
+// the correction as dead code. `div_rn_exact` always corrects (the rounding tests run it).
 
 #ifndef PENUMBRA_DIV_RN_GLSL
 #define PENUMBRA_DIV_RN_GLSL
+
+// Specialization constant 1000 (src/gpu/division.rs, DIVISION_CONSTANT_ID): the device's `a / b`
+// measured correctly rounded.
+layout(constant_id = 1000) const bool PLAIN_DIVISION = false;
 
 // x = hi + lo exactly, hi holding x's top 12 significant bits (Veltkamp's split).
 void split_float(float x, out float hi, out float lo) {
@@ -60,8 +71,14 @@ float div_rn_from(float a, float b, float q0) {
     return nearest_of(a, b, q0 + residual(a, q0, b) * (1.0 / b));
 }
 
-float div_rn(float a, float b) {
+// a / b rounded to nearest, corrected whatever the device's division does.
+float div_rn_exact(float a, float b) {
     return div_rn_from(a, b, a / b);
+}
+
+// a / b rounded to nearest: the device's own quotient where it was measured so.
+float div_rn(float a, float b) {
+    return PLAIN_DIVISION ? a / b : div_rn_exact(a, b);
 }
 
 #endif

@@ -29,8 +29,10 @@ float share_count_from(uint part, uint whole, float q0) {
     return part >= whole ? 1.0 : q0 + residual(a, q0, b) * (1.0 / b);
 }
 
+// (With PLAIN_DIVISION, div_rn.glsl's measured correctly rounded division, the quotient as is.)
 float share_count(uint part, uint whole) {
-    return share_count_from(part, whole, float(part) / float(whole));
+    float q = float(part) / float(whole);
+    return PLAIN_DIVISION ? (part >= whole ? 1.0 : q) : share_count_from(part, whole, q);
 }
 
 #endif

@@ -19,6 +19,7 @@ use ash::vk;
 use gpu_allocator::vulkan::Allocator;
 
 pub use super::device_info::{DeviceInfo, EnabledFeatures};
+pub use super::division::{Division, Measurement as DivisionMeasurement};
 pub use super::instance::enumerate_devices;
 use super::validation::ValidationLog;
 use crate::error::{Error, Result, VkResultExt};
@@ -42,6 +43,10 @@ pub struct ContextDesc {
     /// missing, unreadable or foreign file is not an error: the cache is advisory, and the driver
     /// checks the header (vendor, device, cache UUID) and ignores data that is not its own.
     pub pipeline_cache: Option<std::path::PathBuf>,
+    /// Keep `div_rn`'s correction in every shader even where the device's division was measured
+    /// correctly rounded ([`Division`]): for comparing the two, or for a user who trusts no
+    /// measurement. Off: measured.
+    pub correctly_rounded_division: bool,
 }
 
 impl ContextDesc {
@@ -51,6 +56,7 @@ impl ContextDesc {
             validation: true,
             device: None,
             pipeline_cache: None,
+            correctly_rounded_division: false,
         }
     }
 }
@@ -97,6 +103,9 @@ pub(crate) struct DeviceShared {
     /// What has been created on the device so far ([`Context::creation_counts`]).
     pub(crate) counts: CreationCounters,
     pub(crate) info: DeviceInfo,
+    /// How shaders divide: set once, right after creation, from [`super::division::measure`]
+    /// (pipelines built before then — the measurement's own — get the correction).
+    pub(crate) division: std::sync::OnceLock<(Division, Option<DivisionMeasurement>)>,
     owned: bool,
     /// Bytes of device memory held by live buffers and images made through penumbra: lets the
     /// engine measure what a technique allocates instead of each technique declaring it.
@@ -186,6 +195,21 @@ impl Context {
     /// What penumbra knows about the device.
     pub fn info(&self) -> &DeviceInfo {
         &self.shared.info
+    }
+
+    /// How the shaders penumbra builds on this context divide where a CPU twin's bits matter:
+    /// the device's own division where a measurement at creation found it correctly rounded.
+    pub fn division(&self) -> Division {
+        self.shared
+            .division
+            .get()
+            .map_or(Division::CorrectlyRounded, |d| d.0)
+    }
+
+    /// What the device's division did when this context measured it; `None` where
+    /// [`ContextDesc::correctly_rounded_division`] skipped the measurement.
+    pub fn division_measurement(&self) -> Option<DivisionMeasurement> {
+        self.shared.division.get().and_then(|d| d.1)
     }
 
     /// The validation log (errors and warnings seen so far, and whether validation ran at all).

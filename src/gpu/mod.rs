@@ -13,6 +13,7 @@
 mod commands;
 mod context;
 mod device_info;
+mod division;
 mod instance;
 mod pipeline;
 mod readback;
@@ -25,9 +26,10 @@ mod validation;
 
 pub use commands::Recorder;
 pub use context::{
-    enumerate_devices, Context, ContextDesc, CreationCounts, DeviceInfo, EnabledFeatures,
-    RawDevice, SLOT_VIEWPORTS,
+    enumerate_devices, Context, ContextDesc, CreationCounts, DeviceInfo, Division,
+    DivisionMeasurement, EnabledFeatures, RawDevice, SLOT_VIEWPORTS,
 };
+pub use division::DIVISION_CONSTANT_ID;
 pub use pipeline::{
     shader_interface, shader_names, shader_spirv, Binding, DescriptorSet, GraphicsDesc, Pipeline,
 };

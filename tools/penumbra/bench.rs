@@ -164,6 +164,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                     "technique": technique,
                     "label": label(overrides),
                     "device": ctx.info().name,
+                    "division": ctx.division(),
                     "width": prepared.view.width,
                     "height": prepared.view.height,
                     "triangles": prepared.triangles,
@@ -300,6 +301,7 @@ pub fn run_kernels(
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let json = serde_json::json!({
         "device": ctx.info().name,
+        "division": ctx.division(),
         "quick": quick,
         "primitives": rows.iter().map(|r| {
             let mut v = serde_json::json!(r);

@@ -335,6 +335,7 @@ pub fn run(args: &CompareArgs<'_>) -> anyhow::Result<()> {
         "triangles": prepared.triangles,
         "light": prepared.light.kind(),
         "device": ctx.info().name,
+        "division": ctx.division(),
         "driver": ctx.info().driver,
         "command": command,
         "reference": {

@@ -259,10 +259,21 @@ pub(crate) fn engine_with_pipeline_cache(
         Some(v) if !v.is_empty() => Some(PathBuf::from(v)),
         _ => penumbra::cache::default_dir().map(|d| d.join("pipelines.bin")),
     };
+    // `PENUMBRA_DIVISION=correctly-rounded` keeps div_rn's correction on a device whose own
+    // division measured correctly rounded (to compare the two; see `Context::division`).
+    let correctly_rounded_division = match std::env::var("PENUMBRA_DIVISION") {
+        Ok(v) if v == "correctly-rounded" => true,
+        Ok(v) if v.is_empty() || v == "measured" => false,
+        Ok(v) => anyhow::bail!(
+            "PENUMBRA_DIVISION={v}: expected `measured` (the default) or `correctly-rounded`"
+        ),
+        Err(_) => false,
+    };
     Ok(CliEngine(Engine::new(&ContextDesc {
         validation,
         device,
         pipeline_cache,
+        correctly_rounded_division,
     })?))
 }
 

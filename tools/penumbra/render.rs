@@ -192,6 +192,7 @@ pub(crate) fn render(
         "technique": frame.stats.technique,
         "params": frame.stats.params,
         "device": ctx.info().name,
+        "division": ctx.division(),
         "driver": ctx.info().driver,
         "width": w,
         "height": h,

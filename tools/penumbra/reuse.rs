@@ -197,6 +197,7 @@ pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {
     let json = serde_json::json!({
         "suite": "reuse",
         "device": ctx.info().name,
+        "division": ctx.division(),
         "driver": ctx.info().driver,
         "command": penumbra::report::command_line(),
         "claim": "a second frame of the same renderer spends under half the host (calling-thread) \

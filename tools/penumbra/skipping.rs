@@ -460,6 +460,7 @@ pub fn run(args: &SkippingArgs) -> anyhow::Result<()> {
     }
     let json = serde_json::json!({
         "device": ctx.info().name,
+        "division": ctx.division(),
         "driver": ctx.info().driver,
         "quick": args.quick,
         "frames": args.frames,

@@ -129,6 +129,7 @@ pub fn run(args: &StressArgs) -> anyhow::Result<()> {
     let failed = rows.iter().filter(|r| !r.pass).count();
     let json = serde_json::json!({
         "device": ctx.info().name,
+        "division": ctx.division(),
         "driver": ctx.info().driver,
         "quick": args.quick,
         "width": size.0,

@@ -10,6 +10,8 @@ use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
 use super::{Context, ContextDesc, CreationCounters, DeviceShared, RawDevice};
 use crate::error::{Error, Result, VkResultExt};
+use crate::gpu::division::{measure, Division};
+
 use crate::gpu::device_info::{find_queue_family, query_info, DeviceInfo, EnabledFeatures};
 use crate::gpu::instance::{choose_device, create_instance, load_entry};
 use crate::gpu::validation::ValidationLog;
@@ -55,9 +57,12 @@ impl Context {
             Ok(shared) => {
                 let mut shared = shared;
                 shared.messenger = messenger;
-                Ok(Context {
+                let ctx = Context {
                     shared: Arc::new(shared),
-                })
+                };
+                // Dropping the context on failure tears everything down.
+                ctx.decide_division(desc.correctly_rounded_division)?;
+                Ok(ctx)
             }
             Err(e) => {
                 unsafe { device.destroy_device(None) };
@@ -197,9 +202,25 @@ impl Context {
             unsafe { ManuallyDrop::drop(&mut shared.allocator) };
             shared.allocator = ManuallyDrop::new(a);
         }
-        Ok(Context {
+        let ctx = Context {
             shared: Arc::new(shared),
-        })
+        };
+        ctx.decide_division(false)?;
+        Ok(ctx)
+    }
+
+    /// Measures the device's division (unless `correct` asks for the correction anyway) and
+    /// fixes how every later pipeline divides ([`Context::division`]).
+    fn decide_division(&self, correct: bool) -> Result<()> {
+        let division = if correct {
+            (Division::CorrectlyRounded, None)
+        } else {
+            let m = measure(self)?;
+            (m.division(), Some(m))
+        };
+        // Set once here, before the context is handed out: nothing else can have set it.
+        let _ = self.shared.division.set(division);
+        Ok(())
     }
 
     #[allow(
@@ -272,6 +293,7 @@ impl Context {
             readback: Mutex::new(Default::default()),
             counts: CreationCounters::default(),
             info,
+            division: std::sync::OnceLock::new(),
             owned,
             live_bytes: std::sync::atomic::AtomicU64::new(0),
             log,

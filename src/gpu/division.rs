@@ -40,13 +40,6 @@ pub enum Division {
     CorrectlyRounded,
 }
 
-impl Division {
-    /// The value of the `PLAIN_DIVISION` specialization constant.
-    pub(crate) fn constant(self) -> vk::Bool32 {
-        vk::Bool32::from(self == Division::Plain)
-    }
-}
-
 /// What the device's division did at context creation ([`super::Context::division_measurement`]).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Measurement {

@@ -12,7 +12,7 @@ use ash::vk;
 
 use super::reflect::{reflect, words_from_bytes, BindingInfo, ShaderInterface};
 use super::sync::{Access, Tracker};
-use super::{Buffer, Context, Image, Sampler, TexelView};
+use super::{Buffer, Context, Division, Image, Sampler, TexelView};
 use crate::error::{Error, Result, VkResultExt};
 
 include!(concat!(env!("OUT_DIR"), "/embedded_spirv.rs"));
@@ -43,30 +43,22 @@ pub fn shader_interface(name: &str) -> Result<(Vec<u32>, ShaderInterface)> {
 
 /// The specialization every stage gets: `PLAIN_DIVISION` from [`Context::division`] (a shader
 /// that does not include `div_rn.glsl` ignores it).
-struct DivisionConstant {
-    info: vk::SpecializationInfo<'static>,
-}
-
-impl DivisionConstant {
-    fn new(ctx: &Context) -> Self {
-        const ENTRY: [vk::SpecializationMapEntry; 1] = [vk::SpecializationMapEntry {
-            constant_id: super::division::DIVISION_CONSTANT_ID,
-            offset: 0,
-            size: std::mem::size_of::<vk::Bool32>(),
-        }];
-        // The two values live in statics, so the info borrows nothing from this frame.
-        static PLAIN: vk::Bool32 = vk::TRUE;
-        static CORRECTED: vk::Bool32 = vk::FALSE;
-        let value: &'static vk::Bool32 = if ctx.division().constant() == vk::TRUE {
-            &PLAIN
-        } else {
-            &CORRECTED
-        };
-        let info = vk::SpecializationInfo::default()
-            .map_entries(&ENTRY)
-            .data(bytemuck::bytes_of(value));
-        DivisionConstant { info }
-    }
+fn division_constant(ctx: &Context) -> vk::SpecializationInfo<'static> {
+    const ENTRY: [vk::SpecializationMapEntry; 1] = [vk::SpecializationMapEntry {
+        constant_id: super::division::DIVISION_CONSTANT_ID,
+        offset: 0,
+        size: std::mem::size_of::<vk::Bool32>(),
+    }];
+    // The values live in statics, so the info borrows nothing from the caller's frame.
+    static PLAIN: vk::Bool32 = vk::TRUE;
+    static CORRECTED: vk::Bool32 = vk::FALSE;
+    let value = match ctx.division() {
+        Division::Plain => &PLAIN,
+        Division::CorrectlyRounded => &CORRECTED,
+    };
+    vk::SpecializationInfo::default()
+        .map_entries(&ENTRY)
+        .data(bytemuck::bytes_of(value))
 }
 
 struct Module<'a> {
@@ -207,12 +199,12 @@ impl Pipeline {
         }
         let module = Module::new(ctx, shader, &words)?;
         let layout = create_layout(ctx, shader, &[&interface])?;
-        let constants = DivisionConstant::new(ctx);
+        let constants = division_constant(ctx);
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module.raw)
             .name(c"main")
-            .specialization_info(&constants.info);
+            .specialization_info(&constants);
         let info = vk::ComputePipelineCreateInfo::default()
             .stage(stage)
             .layout(layout.layout);
@@ -255,19 +247,19 @@ impl Pipeline {
             interfaces.push(fif);
         }
         let layout = create_layout(ctx, desc.vertex, &interfaces)?;
-        let constants = DivisionConstant::new(ctx);
+        let constants = division_constant(ctx);
         let mut stages = vec![vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::VERTEX)
             .module(vmodule.raw)
             .name(c"main")
-            .specialization_info(&constants.info)];
+            .specialization_info(&constants)];
         if let Some(f) = &fmodule {
             stages.push(
                 vk::PipelineShaderStageCreateInfo::default()
                     .stage(vk::ShaderStageFlags::FRAGMENT)
                     .module(f.raw)
                     .name(c"main")
-                    .specialization_info(&constants.info),
+                    .specialization_info(&constants),
             );
         }
         // Positions only: one tightly packed vec3 stream. Everything else is derived in shaders.

@@ -11,7 +11,6 @@ use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use super::{Context, ContextDesc, CreationCounters, DeviceShared, RawDevice};
 use crate::error::{Error, Result, VkResultExt};
 use crate::gpu::division::{measure, Division};
-
 use crate::gpu::device_info::{find_queue_family, query_info, DeviceInfo, EnabledFeatures};
 use crate::gpu::instance::{choose_device, create_instance, load_entry};
 use crate::gpu::validation::ValidationLog;
@@ -83,6 +82,8 @@ impl Context {
     /// unsupported), and debug labels and object names are off (`VK_EXT_debug_utils` may not be enabled).
     /// Validation messages go to the caller's own messenger, so this context's
     /// [`Context::validation`] log reports that validation did not run (`ran: false`).
+    /// Wrapping already submits once: a small dispatch that measures the device's division
+    /// ([`Context::division`]).
     ///
     /// # Safety
     /// The handles must be valid, from `entry`/`instance`, and outlive the returned context and

@@ -23,7 +23,9 @@
 //! # Ownership
 //!
 //! penumbra owns what it creates — pipelines (through one `VkPipelineCache`), maps, descriptor
-//! sets, a pool of command buffers and fences, one readback buffer — and frees it on drop; it
+//! sets, a pool of command buffers and fences, one readback buffer — and frees it on drop; the
+//! pipelines go with the [`Context`], which keeps each one it built so that a rebuilt renderer
+//! compiles nothing ([`Context::pipelines_built`]), the rest with what made them. It
 //! never destroys the caller's device, images or command buffers. Dropping the engine and
 //! everything made from it while the caller's device lives on leaves no penumbra object behind
 //! (the embedding example checks this with the validation layer's object tracker). A steady-state

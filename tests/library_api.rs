@@ -338,3 +338,23 @@ fn engines_scenes_and_renderers_cross_threads() {
     send::<penumbra::Context>();
     sync::<penumbra::Context>();
 }
+
+#[test]
+fn a_rebuilt_renderer_reuses_the_contexts_pipelines() {
+    let engine = common::engine();
+    let ctx = engine.context();
+    let prepared = engine.prepare(&small_scene()).expect("prepare");
+    for technique in ["pvssm", "pcss", "izb-soft"] {
+        let desc = TechniqueDesc::new(TechniqueKind::from_name(technique).expect("kind"));
+        let first = engine.renderer_for(&prepared, &desc).expect("renderer");
+        let built = ctx.pipelines_built();
+        assert!(built > 0, "{technique}");
+        drop(first);
+        // Dropping the renderer keeps its pipelines; building it again compiles nothing.
+        let mut again = engine.renderer_for(&prepared, &desc).expect("renderer 2");
+        assert_eq!(ctx.pipelines_built(), built, "{technique}");
+        again.render().expect("frame");
+    }
+    drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}

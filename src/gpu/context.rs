@@ -97,6 +97,8 @@ pub(crate) struct DeviceShared {
     /// One cache for every pipeline penumbra builds: a technique rebuilt on the same device (or
     /// in the next run, with [`ContextDesc::pipeline_cache`]) skips the driver's compilation.
     pub(crate) pipeline_cache: vk::PipelineCache,
+    /// Every pipeline built on the context, handed out again by key (`built_pipelines.rs`).
+    pub(crate) built_pipelines: super::built_pipelines::BuiltPipelines,
     pipeline_cache_path: Option<std::path::PathBuf>,
     /// The host-visible buffer reads go through, grown on demand and kept.
     pub(crate) readback: Mutex<super::readback::ReadbackStaging>,
@@ -235,6 +237,12 @@ impl Context {
         }
     }
 
+    /// How many distinct pipelines this context has built and keeps: building one again (a
+    /// rebuilt renderer, another renderer of the same technique) reuses it instead of compiling.
+    pub fn pipelines_built(&self) -> usize {
+        self.shared.built_pipelines.len()
+    }
+
     /// The pipeline cache's contents, as `vkGetPipelineCacheData` returns them.
     pub fn pipeline_cache_data(&self) -> Result<Vec<u8>> {
         unsafe {
@@ -318,6 +326,8 @@ impl Drop for DeviceShared {
             }
             // Freeing the pool frees the pooled command buffers with it.
             self.device.destroy_command_pool(pool, None);
+            // No Pipeline handle is left: each holds the context.
+            self.built_pipelines.destroy_all(&self.device);
             self.device
                 .destroy_pipeline_cache(self.pipeline_cache, None);
             self.readback

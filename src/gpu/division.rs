@@ -30,7 +30,7 @@ use crate::error::Result;
 pub const DIVISION_CONSTANT_ID: u32 = 1000;
 
 /// How shaders divide where a CPU twin's f32 bits matter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Division {
     /// The device's own `a / b`: measured correctly rounded at context creation.

@@ -10,6 +10,7 @@
 //! - [`Recorder`]: command recording with automatic barriers from per-resource state tracking.
 //! - [`Timestamps`]: per-pass GPU time.
 
+mod built_pipelines;
 mod commands;
 mod context;
 mod device_info;

@@ -10,6 +10,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::built_pipelines::{Built, GraphicsKey, PipelineKey};
 use super::reflect::{reflect, words_from_bytes, BindingInfo, ShaderInterface};
 use super::sync::{Access, Tracker};
 use super::{Buffer, Context, Division, Image, Sampler, TexelView};
@@ -86,9 +87,9 @@ impl Drop for Module<'_> {
 }
 
 /// A pipeline layout with its one descriptor-set layout, and the merged interface of its stages.
-struct Layout {
-    set_layout: vk::DescriptorSetLayout,
-    layout: vk::PipelineLayout,
+pub(crate) struct Layout {
+    pub(crate) set_layout: vk::DescriptorSetLayout,
+    pub(crate) layout: vk::PipelineLayout,
     bindings: Vec<(BindingInfo, vk::ShaderStageFlags)>,
     push_constant_size: u32,
     push_stages: vk::ShaderStageFlags,
@@ -173,12 +174,15 @@ fn destroy_layout(ctx: &Context, l: &Layout) {
     }
 }
 
-/// A pipeline of either kind, with its layout; the common part of compute and graphics.
+/// A pipeline of either kind, with its layout; the common part of compute and graphics. A
+/// handle to what the context built ([`Context::pipelines_built`]): building the same pipeline
+/// again on the same context returns the same Vulkan objects, which live until the context goes.
 pub struct Pipeline {
-    ctx: Context,
+    // Keeps the device, and the cache that owns `built`, alive.
+    _ctx: Context,
+    built: Arc<Built>,
     /// The Vulkan pipeline.
     pub raw: vk::Pipeline,
-    layout: Layout,
     /// The bind point (compute or graphics).
     pub bind_point: vk::PipelineBindPoint,
     /// `local_size` of the compute shader (`[1,1,1]` for graphics).
@@ -188,180 +192,225 @@ pub struct Pipeline {
 }
 
 impl Pipeline {
-    /// Builds a compute pipeline from an embedded shader, e.g. `techniques/pcf.comp`.
+    /// Builds a compute pipeline from an embedded shader, e.g. `techniques/pcf.comp` (or hands
+    /// out the one this context built before).
     pub fn compute(ctx: &Context, shader: &str) -> Result<Pipeline> {
-        let (words, interface) = shader_interface(shader)?;
-        if interface.stage != vk::ShaderStageFlags::COMPUTE {
-            return Err(Error::Shader {
-                name: shader.into(),
-                message: "not a compute shader".into(),
+        let key = PipelineKey {
+            shaders: (shader.into(), None),
+            graphics: None,
+            division: ctx.division(),
+        };
+        let built = ctx
+            .shared
+            .built_pipelines
+            .get_or_build(ctx, key, || build_compute(ctx, shader))?;
+        Ok(Pipeline::from_built(ctx, built, shader))
+    }
+
+    /// Builds a graphics pipeline from `desc` (or hands out the one this context built before).
+    pub fn graphics(ctx: &Context, desc: &GraphicsDesc<'_>) -> Result<Pipeline> {
+        let key = PipelineKey {
+            shaders: (desc.vertex.into(), desc.fragment.map(String::from)),
+            graphics: Some(GraphicsKey {
+                color_formats: desc.color_formats.to_vec(),
+                depth_format: desc.depth_format,
+                depth_bias: desc.depth_bias,
+                vertex_input: desc.vertex_input,
+                cull_mode: desc.cull_mode,
+                depth_compare: desc.depth_compare,
+                viewports: desc.viewports,
+            }),
+            division: ctx.division(),
+        };
+        let built = ctx
+            .shared
+            .built_pipelines
+            .get_or_build(ctx, key, || build_graphics(ctx, desc))?;
+        Ok(Pipeline::from_built(ctx, built, desc.vertex))
+    }
+
+    fn from_built(ctx: &Context, built: Arc<Built>, name: &str) -> Pipeline {
+        Pipeline {
+            _ctx: ctx.clone(),
+            raw: built.raw,
+            bind_point: built.bind_point,
+            local_size: built.local_size,
+            name: name.into(),
+            built,
+        }
+    }
+}
+
+fn build_compute(ctx: &Context, shader: &str) -> Result<Built> {
+    let (words, interface) = shader_interface(shader)?;
+    if interface.stage != vk::ShaderStageFlags::COMPUTE {
+        return Err(Error::Shader {
+            name: shader.into(),
+            message: "not a compute shader".into(),
+        });
+    }
+    let module = Module::new(ctx, shader, &words)?;
+    let layout = create_layout(ctx, shader, &[&interface])?;
+    let constants = division_constant(ctx);
+    let stage = vk::PipelineShaderStageCreateInfo::default()
+        .stage(vk::ShaderStageFlags::COMPUTE)
+        .module(module.raw)
+        .name(c"main")
+        .specialization_info(&constants);
+    let info = vk::ComputePipelineCreateInfo::default()
+        .stage(stage)
+        .layout(layout.layout);
+    let raw = match unsafe {
+        ctx.device()
+            .create_compute_pipelines(ctx.shared.pipeline_cache, &[info], None)
+    } {
+        Ok(p) => p[0],
+        Err((_, result)) => {
+            destroy_layout(ctx, &layout);
+            return Err(Error::Vulkan {
+                call: "vkCreateComputePipelines",
+                result,
             });
         }
-        let module = Module::new(ctx, shader, &words)?;
-        let layout = create_layout(ctx, shader, &[&interface])?;
-        let constants = division_constant(ctx);
-        let stage = vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::COMPUTE)
-            .module(module.raw)
-            .name(c"main")
-            .specialization_info(&constants);
-        let info = vk::ComputePipelineCreateInfo::default()
-            .stage(stage)
-            .layout(layout.layout);
-        let raw = match unsafe {
-            ctx.device()
-                .create_compute_pipelines(ctx.shared.pipeline_cache, &[info], None)
-        } {
-            Ok(p) => p[0],
-            Err((_, result)) => {
-                destroy_layout(ctx, &layout);
-                return Err(Error::Vulkan {
-                    call: "vkCreateComputePipelines",
-                    result,
-                });
-            }
-        };
-        ctx.set_name(raw, shader);
-        ctx.shared.counts.object();
-        Ok(Pipeline {
-            ctx: ctx.clone(),
-            raw,
-            layout,
-            bind_point: vk::PipelineBindPoint::COMPUTE,
-            local_size: interface.local_size,
-            name: shader.into(),
-        })
-    }
+    };
+    ctx.set_name(raw, shader);
+    ctx.shared.counts.object();
+    Ok(Built {
+        raw,
+        layout,
+        bind_point: vk::PipelineBindPoint::COMPUTE,
+        local_size: interface.local_size,
+    })
+}
 
-    /// Builds a graphics pipeline from `desc`.
-    pub fn graphics(ctx: &Context, desc: &GraphicsDesc<'_>) -> Result<Pipeline> {
-        let (vwords, vif) = shader_interface(desc.vertex)?;
-        let frag = desc.fragment.map(shader_interface).transpose()?;
-        let vmodule = Module::new(ctx, desc.vertex, &vwords)?;
-        let fmodule = match (&frag, desc.fragment) {
-            (Some((w, _)), Some(n)) => Some(Module::new(ctx, n, w)?),
-            _ => None,
-        };
-        let mut interfaces = vec![&vif];
-        if let Some((_, fif)) = &frag {
-            interfaces.push(fif);
-        }
-        let layout = create_layout(ctx, desc.vertex, &interfaces)?;
-        let constants = division_constant(ctx);
-        let mut stages = vec![vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::VERTEX)
-            .module(vmodule.raw)
-            .name(c"main")
-            .specialization_info(&constants)];
-        if let Some(f) = &fmodule {
-            stages.push(
-                vk::PipelineShaderStageCreateInfo::default()
-                    .stage(vk::ShaderStageFlags::FRAGMENT)
-                    .module(f.raw)
-                    .name(c"main")
-                    .specialization_info(&constants),
-            );
-        }
-        // Positions only: one tightly packed vec3 stream. Everything else is derived in shaders.
-        let vb = [vk::VertexInputBindingDescription {
-            binding: 0,
-            stride: 12,
-            input_rate: vk::VertexInputRate::VERTEX,
-        }];
-        let va = [vk::VertexInputAttributeDescription {
-            location: 0,
-            binding: 0,
-            format: vk::Format::R32G32B32_SFLOAT,
-            offset: 0,
-        }];
-        let vertex_input = if desc.vertex_input {
-            vk::PipelineVertexInputStateCreateInfo::default()
-                .vertex_binding_descriptions(&vb)
-                .vertex_attribute_descriptions(&va)
-        } else {
-            vk::PipelineVertexInputStateCreateInfo::default()
-        };
-        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-        let viewport = vk::PipelineViewportStateCreateInfo::default()
-            .viewport_count(desc.viewports.max(1))
-            .scissor_count(desc.viewports.max(1));
-        let raster = vk::PipelineRasterizationStateCreateInfo::default()
-            .polygon_mode(vk::PolygonMode::FILL)
-            .cull_mode(desc.cull_mode)
-            .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
-            .depth_bias_enable(desc.depth_bias)
-            .line_width(1.0);
-        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
-        let depth = vk::PipelineDepthStencilStateCreateInfo::default()
-            .depth_test_enable(true)
-            .depth_write_enable(true)
-            .depth_compare_op(desc.depth_compare);
-        let attachments: Vec<_> = desc
-            .color_formats
-            .iter()
-            .map(|_| {
-                vk::PipelineColorBlendAttachmentState::default()
-                    .color_write_mask(vk::ColorComponentFlags::RGBA)
-            })
-            .collect();
-        let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&attachments);
-        let mut dynamic_states = vec![vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
-        if desc.depth_bias {
-            dynamic_states.push(vk::DynamicState::DEPTH_BIAS);
-        }
-        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-        let mut rendering = vk::PipelineRenderingCreateInfo::default()
-            .color_attachment_formats(desc.color_formats)
-            .depth_attachment_format(desc.depth_format);
-        let info = vk::GraphicsPipelineCreateInfo::default()
-            .stages(&stages)
-            .vertex_input_state(&vertex_input)
-            .input_assembly_state(&assembly)
-            .viewport_state(&viewport)
-            .rasterization_state(&raster)
-            .multisample_state(&multisample)
-            .depth_stencil_state(&depth)
-            .color_blend_state(&blend)
-            .dynamic_state(&dynamic)
-            .layout(layout.layout)
-            .push_next(&mut rendering);
-        let raw = match unsafe {
-            ctx.device()
-                .create_graphics_pipelines(ctx.shared.pipeline_cache, &[info], None)
-        } {
-            Ok(p) => p[0],
-            Err((_, result)) => {
-                destroy_layout(ctx, &layout);
-                return Err(Error::Vulkan {
-                    call: "vkCreateGraphicsPipelines",
-                    result,
-                });
-            }
-        };
-        ctx.set_name(raw, desc.vertex);
-        ctx.shared.counts.object();
-        Ok(Pipeline {
-            ctx: ctx.clone(),
-            raw,
-            layout,
-            bind_point: vk::PipelineBindPoint::GRAPHICS,
-            local_size: [1, 1, 1],
-            name: desc.vertex.into(),
-        })
+fn build_graphics(ctx: &Context, desc: &GraphicsDesc<'_>) -> Result<Built> {
+    let (vwords, vif) = shader_interface(desc.vertex)?;
+    let frag = desc.fragment.map(shader_interface).transpose()?;
+    let vmodule = Module::new(ctx, desc.vertex, &vwords)?;
+    let fmodule = match (&frag, desc.fragment) {
+        (Some((w, _)), Some(n)) => Some(Module::new(ctx, n, w)?),
+        _ => None,
+    };
+    let mut interfaces = vec![&vif];
+    if let Some((_, fif)) = &frag {
+        interfaces.push(fif);
     }
+    let layout = create_layout(ctx, desc.vertex, &interfaces)?;
+    let constants = division_constant(ctx);
+    let mut stages = vec![vk::PipelineShaderStageCreateInfo::default()
+        .stage(vk::ShaderStageFlags::VERTEX)
+        .module(vmodule.raw)
+        .name(c"main")
+        .specialization_info(&constants)];
+    if let Some(f) = &fmodule {
+        stages.push(
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::FRAGMENT)
+                .module(f.raw)
+                .name(c"main")
+                .specialization_info(&constants),
+        );
+    }
+    // Positions only: one tightly packed vec3 stream. Everything else is derived in shaders.
+    let vb = [vk::VertexInputBindingDescription {
+        binding: 0,
+        stride: 12,
+        input_rate: vk::VertexInputRate::VERTEX,
+    }];
+    let va = [vk::VertexInputAttributeDescription {
+        location: 0,
+        binding: 0,
+        format: vk::Format::R32G32B32_SFLOAT,
+        offset: 0,
+    }];
+    let vertex_input = if desc.vertex_input {
+        vk::PipelineVertexInputStateCreateInfo::default()
+            .vertex_binding_descriptions(&vb)
+            .vertex_attribute_descriptions(&va)
+    } else {
+        vk::PipelineVertexInputStateCreateInfo::default()
+    };
+    let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+    let viewport = vk::PipelineViewportStateCreateInfo::default()
+        .viewport_count(desc.viewports.max(1))
+        .scissor_count(desc.viewports.max(1));
+    let raster = vk::PipelineRasterizationStateCreateInfo::default()
+        .polygon_mode(vk::PolygonMode::FILL)
+        .cull_mode(desc.cull_mode)
+        .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
+        .depth_bias_enable(desc.depth_bias)
+        .line_width(1.0);
+    let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+    let depth = vk::PipelineDepthStencilStateCreateInfo::default()
+        .depth_test_enable(true)
+        .depth_write_enable(true)
+        .depth_compare_op(desc.depth_compare);
+    let attachments: Vec<_> = desc
+        .color_formats
+        .iter()
+        .map(|_| {
+            vk::PipelineColorBlendAttachmentState::default()
+                .color_write_mask(vk::ColorComponentFlags::RGBA)
+        })
+        .collect();
+    let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&attachments);
+    let mut dynamic_states = vec![vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+    if desc.depth_bias {
+        dynamic_states.push(vk::DynamicState::DEPTH_BIAS);
+    }
+    let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+    let mut rendering = vk::PipelineRenderingCreateInfo::default()
+        .color_attachment_formats(desc.color_formats)
+        .depth_attachment_format(desc.depth_format);
+    let info = vk::GraphicsPipelineCreateInfo::default()
+        .stages(&stages)
+        .vertex_input_state(&vertex_input)
+        .input_assembly_state(&assembly)
+        .viewport_state(&viewport)
+        .rasterization_state(&raster)
+        .multisample_state(&multisample)
+        .depth_stencil_state(&depth)
+        .color_blend_state(&blend)
+        .dynamic_state(&dynamic)
+        .layout(layout.layout)
+        .push_next(&mut rendering);
+    let raw = match unsafe {
+        ctx.device()
+            .create_graphics_pipelines(ctx.shared.pipeline_cache, &[info], None)
+    } {
+        Ok(p) => p[0],
+        Err((_, result)) => {
+            destroy_layout(ctx, &layout);
+            return Err(Error::Vulkan {
+                call: "vkCreateGraphicsPipelines",
+                result,
+            });
+        }
+    };
+    ctx.set_name(raw, desc.vertex);
+    ctx.shared.counts.object();
+    Ok(Built {
+        raw,
+        layout,
+        bind_point: vk::PipelineBindPoint::GRAPHICS,
+        local_size: [1, 1, 1],
+    })
+}
 
+impl Pipeline {
     /// The pipeline layout.
     pub fn layout(&self) -> vk::PipelineLayout {
-        self.layout.layout
+        self.built.layout.layout
     }
 
     /// The binding numbers the shaders declare, in order: what a [`DescriptorSet`] for this
     /// pipeline takes (the compiler drops bindings a shader never uses, so passes that include
     /// one shared binding list may each declare a different subset of it).
     pub fn binding_numbers(&self) -> Vec<u32> {
-        self.layout
+        self.built
+            .layout
             .bindings
             .iter()
             .map(|(b, _)| b.binding)
@@ -370,19 +419,12 @@ impl Pipeline {
 
     /// Size of the push-constant block the shaders declare.
     pub fn push_constant_size(&self) -> u32 {
-        self.layout.push_constant_size
+        self.built.layout.push_constant_size
     }
 
     /// Stages that declare the push-constant block (the range's stage flags).
     pub(crate) fn push_stages(&self) -> vk::ShaderStageFlags {
-        self.layout.push_stages
-    }
-}
-
-impl Drop for Pipeline {
-    fn drop(&mut self) {
-        unsafe { self.ctx.device().destroy_pipeline(self.raw, None) };
-        destroy_layout(&self.ctx, &self.layout);
+        self.built.layout.push_stages
     }
 }
 
@@ -451,7 +493,7 @@ impl DescriptorSet {
     /// Binds `resources` to `pipeline`'s bindings, in binding order; fails if the count or a
     /// kind does not match what the shader declares.
     pub fn new(ctx: &Context, pipeline: &Pipeline, resources: &[Binding<'_>]) -> Result<Self> {
-        let declared = &pipeline.layout.bindings;
+        let declared = &pipeline.built.layout.bindings;
         let mismatch = |message: String| Error::Shader {
             name: pipeline.name.clone(),
             message,
@@ -486,7 +528,7 @@ impl DescriptorSet {
             raw: vk::DescriptorSet::null(),
             uses: Vec::new(),
         };
-        let layouts = [pipeline.layout.set_layout];
+        let layouts = [pipeline.built.layout.set_layout];
         let alloc = vk::DescriptorSetAllocateInfo::default()
             .descriptor_pool(pool)
             .set_layouts(&layouts);

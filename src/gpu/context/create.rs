@@ -10,8 +10,8 @@ use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
 use super::{Context, ContextDesc, CreationCounters, DeviceShared, RawDevice};
 use crate::error::{Error, Result, VkResultExt};
-use crate::gpu::division::{measure, Division};
 use crate::gpu::device_info::{find_queue_family, query_info, DeviceInfo, EnabledFeatures};
+use crate::gpu::division::{measure, Division};
 use crate::gpu::instance::{choose_device, create_instance, load_entry};
 use crate::gpu::validation::ValidationLog;
 
@@ -290,6 +290,7 @@ impl Context {
             command_pool: Mutex::new(command_pool),
             submit_slots: Mutex::new(Vec::new()),
             pipeline_cache,
+            built_pipelines: Default::default(),
             pipeline_cache_path,
             readback: Mutex::new(Default::default()),
             counts: CreationCounters::default(),

@@ -2,11 +2,14 @@
 //! next, for a library user who keeps a [`penumbra::ShadowRenderer`] across frames.
 //!
 //! Per scene and technique, three measurements on the same prepared scene:
-//! - **first**: build the renderer (pipelines, maps, descriptor sets) and render one frame;
+//! - **first**: build the renderer (pipelines, maps, descriptor sets) and render one frame. The
+//!   context keeps the pipelines it builds, so only a technique's first scene compiles them
+//!   (the row's `compiled_pipelines`, "cold"); on later scenes the first step builds maps and
+//!   descriptor sets only;
 //! - **second**: render one more frame with the same renderer (nothing is built; the row also
 //!   records how many device allocations and Vulkan objects that frame created: 0 is the claim);
 //! - **rebuilt**: drop it, build a new renderer of the same technique and render one frame —
-//!   what `Engine::render` pays per call, with the pipeline cache and the driver warm.
+//!   what `Engine::render` pays per call, pipelines kept and the driver warm.
 //!
 //! The prepared scene keeps the receiver sets its renderers build, so a technique's first step
 //! includes building them only when no earlier technique of the run needed the same set: first
@@ -18,8 +21,9 @@
 //! software driver such as lavapipe the "GPU" runs on the CPU, in the driver's own threads, so
 //! the process's CPU time also holds the frame's device work — the same in both frames apart from
 //! the first dispatch's shader compilation — while the calling thread's is what the renderer
-//! itself costs the host. The claim checked per row: the second frame's host (calling-thread) CPU
-//! time is under half the first's, and the second frame creates no device memory or object.
+//! itself costs the host. The claim checked per row: the second frame creates no device memory
+//! or object, and where the first step compiled pipelines, the second frame's host
+//! (calling-thread) CPU time is under half the first's.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -98,7 +102,7 @@ pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {
     let mut csv = String::from(
         "scene,technique,first_wall_ms,second_wall_ms,rebuilt_wall_ms,first_cpu_ms,\
          second_cpu_ms,rebuilt_cpu_ms,first_thread_ms,second_thread_ms,rebuilt_thread_ms,\
-         second_over_first_thread,second_frame_allocations,second_frame_objects\n",
+         second_over_first_thread,second_frame_allocations,second_frame_objects,compiled_pipelines\n",
     );
     println!(
         "{:<20} {:<14} {:>10} {:>10} {:>10} {:>8} {:>10} {:>10} {:>8}",
@@ -118,6 +122,7 @@ pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {
         for t in &techniques {
             let none = BTreeMap::new();
             let mut renderer = None;
+            let built_before = ctx.pipelines_built();
             let first = timed(|| {
                 let mut r = engine.renderer(&prepared, t, &none)?;
                 r.render()?;
@@ -135,6 +140,7 @@ pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {
                 }
                 Err(e) => return Err(e).with_context(|| format!("{t} on {}", prepared.name)),
             };
+            let compiled = ctx.pipelines_built() - built_before;
             let mut renderer = renderer.context("the first step keeps its renderer")?;
             let before = ctx.creation_counts();
             let second = timed(|| renderer.render())?;
@@ -147,7 +153,9 @@ pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {
                 (Some(f), Some(s)) if f > 0.0 => Some(s / f),
                 _ => None,
             };
-            let pass = ratio.is_some_and(|r| r < 0.5) && allocations == 0 && objects == 0;
+            let pass = (compiled == 0 || ratio.is_some_and(|r| r < 0.5))
+                && allocations == 0
+                && objects == 0;
             if !pass {
                 failed.push(format!("{t} on {}", prepared.name));
             }
@@ -167,7 +175,7 @@ pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {
             let c = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x:.3}"));
             writeln!(
                 csv,
-                "{},{t},{},{},{},{},{},{},{},{},{},{},{allocations},{objects}",
+                "{},{t},{},{},{},{},{},{},{},{},{},{},{allocations},{objects},{compiled}",
                 prepared.name,
                 c(first[0]),
                 c(second[0]),
@@ -190,6 +198,7 @@ pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {
                 "second_over_first_thread_cpu": ratio,
                 "second_frame_allocations": allocations,
                 "second_frame_objects": objects,
+                "compiled_pipelines": compiled,
                 "pass": pass,
             }));
         }
@@ -200,8 +209,9 @@ pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {
         "division": ctx.division(),
         "driver": ctx.info().driver,
         "command": penumbra::report::command_line(),
-        "claim": "a second frame of the same renderer spends under half the host (calling-thread) \
-                  CPU time of the first and creates no device memory or Vulkan object",
+        "claim": "a second frame of the same renderer creates no device memory or Vulkan object \
+                  and, where the first frame compiled pipelines, spends under half its host \
+                  (calling-thread) CPU time",
         "quick": args.quick,
         "rows": rows,
     });
@@ -218,8 +228,8 @@ pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {
     )?;
     if !failed.is_empty() {
         anyhow::bail!(
-            "{} rows miss the claim (second frame < half the first's host CPU time, nothing \
-             created): {}",
+            "{} rows miss the claim (nothing created by the second frame; under half the first's \
+             host CPU time where the first compiled): {}",
             failed.len(),
             failed.join(", ")
         );

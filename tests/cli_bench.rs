@@ -133,7 +133,10 @@ fn reuse_suite_times_first_second_and_rebuilt_frames() {
         assert_eq!(r["pass"], true, "{t}: {r}");
         // One scene: each technique's first step compiles its pipelines (pcss shares none of
         // hard's), which the claim's half-the-host-time test then applies to.
-        assert!(r["compiled_pipelines"].as_u64().is_some_and(|n| n > 0), "{t}: {r}");
+        assert!(
+            r["compiled_pipelines"].as_u64().is_some_and(|n| n > 0),
+            "{t}: {r}"
+        );
     }
     assert!(dir.join("reuse.csv").is_file());
 }

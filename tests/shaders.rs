@@ -262,3 +262,37 @@ fn the_layout_check_catches_reordered_and_missing_fields() {
     let (_, light_depth) = shader_interface("passes/light_depth.vert").expect("reflect");
     assert!(!compare_push_layout(&light_depth, &fields, size).is_empty());
 }
+
+/// The one specialization constant the shaders declare is div_rn.glsl's `PLAIN_DIVISION`, under
+/// the ID every pipeline maps ([`penumbra::gpu::DIVISION_CONSTANT_ID`]): a shader that divides
+/// through `div_rn` or `share_count` and declared another ID would silently keep the correction.
+#[test]
+fn every_specialization_constant_is_the_division_constant() {
+    const OP_DECORATE: u32 = 71;
+    const SPEC_ID: u32 = 1;
+    let mut declaring = 0;
+    for name in shader_names() {
+        let bytes = penumbra::gpu::shader_spirv(name).expect("spirv");
+        let words = penumbra::gpu::reflect::words_from_bytes(name, bytes).expect("words");
+        let mut i = 5;
+        let mut ids = Vec::new();
+        while i < words.len() {
+            let (count, op) = ((words[i] >> 16) as usize, words[i] & 0xffff);
+            if op == OP_DECORATE && count >= 4 && words[i + 2] == SPEC_ID {
+                ids.push(words[i + 3]);
+            }
+            i += count.max(1);
+        }
+        assert!(
+            ids.iter()
+                .all(|&id| id == penumbra::gpu::DIVISION_CONSTANT_ID),
+            "{name}: specialization constant IDs {ids:?}"
+        );
+        declaring += usize::from(!ids.is_empty());
+    }
+    // shadow_map.glsl's projection includes it: most techniques' lookups.
+    assert!(
+        declaring > 20,
+        "{declaring} shaders declare the division constant"
+    );
+}

@@ -358,3 +358,42 @@ fn a_rebuilt_renderer_reuses_the_contexts_pipelines() {
     drop(prepared);
     common::assert_clean(&engine.context().validation());
 }
+
+#[test]
+fn unused_pipelines_can_be_released_and_are_built_again() {
+    let engine = common::engine();
+    let ctx = engine.context();
+    let prepared = engine.prepare(&small_scene()).expect("prepare");
+    let desc = TechniqueDesc::new(TechniqueKind::Pvssm);
+    let mut kept = engine.renderer_for(&prepared, &desc).expect("renderer");
+    kept.render().expect("frame");
+    let first = kept.read_visibility().expect("read");
+    let pcss = engine
+        .renderer_for(&prepared, &TechniqueDesc::new(TechniqueKind::Pcss))
+        .expect("pcss");
+    let built = ctx.pipelines_built();
+    drop(pcss);
+    // pcss's pipelines go; pvssm's renderer still holds its own.
+    let released = ctx.release_unused_pipelines().expect("release");
+    assert!(released > 0 && released < built, "{released} of {built}");
+    assert_eq!(ctx.pipelines_built(), built - released);
+    kept.render().expect("frame after the release");
+    let again = kept.read_visibility().expect("read");
+    assert!(first
+        .iter()
+        .zip(&again)
+        .all(|(a, b)| a.to_bits() == b.to_bits()));
+    drop(kept);
+    assert!(ctx.release_unused_pipelines().expect("release") > 0);
+    // Built again from nothing, the same frame.
+    let mut rebuilt = engine.renderer_for(&prepared, &desc).expect("rebuilt");
+    rebuilt.render().expect("frame");
+    let third = rebuilt.read_visibility().expect("read");
+    assert!(first
+        .iter()
+        .zip(&third)
+        .all(|(a, b)| a.to_bits() == b.to_bits()));
+    drop(rebuilt);
+    drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}

@@ -103,6 +103,26 @@ impl BuiltPipelines {
         self.lock().len()
     }
 
+    /// Destroys the kept pipelines no [`super::Pipeline`] holds any more; how many.
+    ///
+    /// # Safety
+    /// No pending or recorded-but-unsubmitted command buffer may use them (the caller waits for
+    /// the device to go idle first; a handle's holder keeps its pipeline).
+    pub(crate) unsafe fn release_unused(&self, device: &ash::Device) -> usize {
+        let mut map = self.lock();
+        let before = map.len();
+        map.retain(|_, built| {
+            // Only the map holds it: no Pipeline, so nothing can record it from now on.
+            let unused = Arc::strong_count(built) == 1;
+            if unused {
+                // SAFETY: the caller's contract.
+                unsafe { built.destroy(device) };
+            }
+            !unused
+        });
+        before - map.len()
+    }
+
     /// Destroys every kept pipeline.
     ///
     /// # Safety

@@ -243,6 +243,19 @@ impl Context {
         self.shared.built_pipelines.len()
     }
 
+    /// Destroys the pipelines this context keeps that no renderer or [`super::Pipeline`] holds
+    /// any more (their compiled code is the memory they hold), after waiting for the device to
+    /// go idle; returns how many. A renderer built later compiles what it needs again. As when
+    /// a renderer is dropped, a command buffer it recorded into must have completed or been
+    /// discarded first.
+    pub fn release_unused_pipelines(&self) -> Result<usize> {
+        // Serialize with penumbra's own submissions while waiting.
+        let _queue = self.queue();
+        unsafe { self.device().device_wait_idle() }.vk("vkDeviceWaitIdle")?;
+        // SAFETY: the device is idle, and a pipeline no handle holds cannot be recorded again.
+        Ok(unsafe { self.shared.built_pipelines.release_unused(self.device()) })
+    }
+
     /// The pipeline cache's contents, as `vkGetPipelineCacheData` returns them.
     pub fn pipeline_cache_data(&self) -> Result<Vec<u8>> {
         unsafe {

@@ -11,7 +11,8 @@ use std::sync::Arc;
 use ash::vk;
 use bytemuck::Pod;
 
-use super::pipeline::{DescriptorSet, Pipeline, Resource};
+use super::descriptor_set::{DescriptorSet, Resource};
+use super::pipeline::Pipeline;
 use super::sync::{Access, Tracker, Transition};
 use super::timestamps::Timestamps;
 use super::{Buffer, Context, Image};

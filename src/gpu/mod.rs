@@ -13,6 +13,7 @@
 mod built_pipelines;
 mod commands;
 mod context;
+mod descriptor_set;
 mod device_info;
 mod division;
 mod instance;
@@ -30,10 +31,9 @@ pub use context::{
     enumerate_devices, Context, ContextDesc, CreationCounts, DeviceInfo, Division,
     DivisionMeasurement, EnabledFeatures, RawDevice, SLOT_VIEWPORTS,
 };
+pub use descriptor_set::{Binding, DescriptorSet};
 pub use division::DIVISION_CONSTANT_ID;
-pub use pipeline::{
-    shader_interface, shader_names, shader_spirv, Binding, DescriptorSet, GraphicsDesc, Pipeline,
-};
+pub use pipeline::{shader_interface, shader_names, shader_spirv, GraphicsDesc, Pipeline};
 pub use readback::{f32s, u32s};
 pub use resources::{Buffer, Image, ImageDesc, MemoryLocation, Sampler, TexelView};
 pub use sync::Access;

@@ -359,6 +359,11 @@ fn a_rebuilt_renderer_reuses_the_contexts_pipelines() {
     common::assert_clean(&engine.context().validation());
 }
 
+/// Whether two visibility images are the same bit for bit.
+fn same_bits(a: &[f32], b: &[f32]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
 #[test]
 fn unused_pipelines_can_be_released_and_are_built_again() {
     let engine = common::engine();
@@ -379,20 +384,14 @@ fn unused_pipelines_can_be_released_and_are_built_again() {
     assert_eq!(ctx.pipelines_built(), built - released);
     kept.render().expect("frame after the release");
     let again = kept.read_visibility().expect("read");
-    assert!(first
-        .iter()
-        .zip(&again)
-        .all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(same_bits(&first, &again));
     drop(kept);
     assert!(ctx.release_unused_pipelines().expect("release") > 0);
     // Built again from nothing, the same frame.
     let mut rebuilt = engine.renderer_for(&prepared, &desc).expect("rebuilt");
     rebuilt.render().expect("frame");
     let third = rebuilt.read_visibility().expect("read");
-    assert!(first
-        .iter()
-        .zip(&third)
-        .all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(same_bits(&first, &third));
     drop(rebuilt);
     drop(prepared);
     common::assert_clean(&engine.context().validation());

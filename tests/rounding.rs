@@ -192,10 +192,11 @@ fn plain_division_renders_what_the_correction_renders() {
     })
     .expect("engine");
     let scene = common::small("scenes/teapot-rect.toml");
-    let visibility = |engine: &Engine, technique: &str| {
-        let prepared = engine.prepare(&scene).expect("prepare");
+    let on_measured = measured.prepare(&scene).expect("prepare");
+    let on_corrected = corrected.prepare(&scene).expect("prepare");
+    let visibility = |engine: &Engine, prepared: &penumbra::PreparedScene, technique: &str| {
         let desc = TechniqueDesc::new(TechniqueKind::from_name(technique).expect("kind"));
-        let mut renderer = engine.renderer_for(&prepared, &desc).expect("renderer");
+        let mut renderer = engine.renderer_for(prepared, &desc).expect("renderer");
         renderer.render().expect("frame");
         renderer.read_visibility().expect("read")
     };
@@ -204,8 +205,8 @@ fn plain_division_renders_what_the_correction_renders() {
         .map(|k| k.name())
         .filter(|name| !name.starts_with("reference"));
     for technique in techniques {
-        let plain = visibility(&measured, technique);
-        let exact = visibility(&corrected, technique);
+        let plain = visibility(&measured, &on_measured, technique);
+        let exact = visibility(&corrected, &on_corrected, technique);
         let differing = plain
             .iter()
             .zip(&exact)
@@ -216,6 +217,7 @@ fn plain_division_renders_what_the_correction_renders() {
         }
         assert_eq!(differing, 0, "{technique}: {differing} samples differ");
     }
+    drop((on_measured, on_corrected));
     common::assert_clean(&measured.context().validation());
     common::assert_clean(&corrected.context().validation());
 }

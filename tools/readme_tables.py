@@ -406,7 +406,6 @@ def skipping(directory):
         print(f"| `{t}` | {off} | " + " | ".join(row.get(s, "") for s in scenes) + f" | {d_cell} |")
 
 
-
 def scaling(directory):
     d = json.loads((Path(directory) / "scaling.json").read_text())
     print("| technique | k triangles | ms, 1k → 1M | k view samples | ms, 256² → 2048² | k light "
@@ -421,6 +420,7 @@ def scaling(directory):
             span = f"{pts[0][1]:.0f} → {pts[-1][1]:.0f}" if pts else "—"
             cells += [fmt(k, 2), span]
         print(f"| `{t}` | " + " | ".join(cells) + " |")
+
 
 def reuse(directory):
     import statistics

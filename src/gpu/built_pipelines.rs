@@ -15,7 +15,7 @@ use std::sync::{Arc, Mutex};
 
 use ash::vk;
 
-use super::pipeline::Layout;
+use super::pipeline::{destroy_layout, Layout};
 use super::{Context, Division};
 use crate::error::Result;
 
@@ -33,11 +33,8 @@ impl Built {
     /// # Safety
     /// No command buffer that uses them may be pending, and nothing may use them afterwards.
     unsafe fn destroy(&self, device: &ash::Device) {
-        unsafe {
-            device.destroy_pipeline(self.raw, None);
-            device.destroy_pipeline_layout(self.layout.layout, None);
-            device.destroy_descriptor_set_layout(self.layout.set_layout, None);
-        }
+        unsafe { device.destroy_pipeline(self.raw, None) };
+        destroy_layout(device, &self.layout);
     }
 }
 

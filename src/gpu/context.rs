@@ -105,9 +105,10 @@ pub(crate) struct DeviceShared {
     /// What has been created on the device so far ([`Context::creation_counts`]).
     pub(crate) counts: CreationCounters,
     pub(crate) info: DeviceInfo,
-    /// How shaders divide: set once, right after creation, from [`super::division::measure`]
-    /// (pipelines built before then — the measurement's own — get the correction).
-    pub(crate) division: std::sync::OnceLock<(Division, Option<DivisionMeasurement>)>,
+    /// The measurement of the device's division, set once right after creation (`None`: not
+    /// measured, [`ContextDesc::correctly_rounded_division`]); [`Context::division`] follows
+    /// from it. Pipelines built before it is set — the measurement's own — get the correction.
+    pub(crate) division: std::sync::OnceLock<Option<DivisionMeasurement>>,
     owned: bool,
     /// Bytes of device memory held by live buffers and images made through penumbra: lets the
     /// engine measure what a technique allocates instead of each technique declaring it.
@@ -202,16 +203,14 @@ impl Context {
     /// How the shaders penumbra builds on this context divide where a CPU twin's bits matter:
     /// the device's own division where a measurement at creation found it correctly rounded.
     pub fn division(&self) -> Division {
-        self.shared
-            .division
-            .get()
-            .map_or(Division::CorrectlyRounded, |d| d.0)
+        self.division_measurement()
+            .map_or(Division::CorrectlyRounded, |m| m.division())
     }
 
     /// What the device's division did when this context measured it; `None` where
     /// [`ContextDesc::correctly_rounded_division`] skipped the measurement.
     pub fn division_measurement(&self) -> Option<DivisionMeasurement> {
-        self.shared.division.get().and_then(|d| d.1)
+        self.shared.division.get().copied().flatten()
     }
 
     /// The validation log (errors and warnings seen so far, and whether validation ran at all).

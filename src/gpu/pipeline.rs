@@ -164,12 +164,40 @@ fn create_layout(ctx: &Context, name: &str, stages: &[&ShaderInterface]) -> Resu
     })
 }
 
-fn destroy_layout(ctx: &Context, l: &Layout) {
+/// Destroys a layout's two objects (on a failed build, or with its kept pipeline).
+pub(crate) fn destroy_layout(device: &ash::Device, l: &Layout) {
     unsafe {
-        ctx.device().destroy_pipeline_layout(l.layout, None);
-        ctx.device()
-            .destroy_descriptor_set_layout(l.set_layout, None);
+        device.destroy_pipeline_layout(l.layout, None);
+        device.destroy_descriptor_set_layout(l.set_layout, None);
     }
+}
+
+/// What both builds end with: the pipeline `created` holds, named and counted, or — when the
+/// driver refused it — the layout destroyed and the error naming `call`.
+fn finish(
+    ctx: &Context,
+    created: std::result::Result<Vec<vk::Pipeline>, (Vec<vk::Pipeline>, vk::Result)>,
+    call: &'static str,
+    name: &str,
+    layout: Layout,
+    bind_point: vk::PipelineBindPoint,
+    local_size: [u32; 3],
+) -> Result<Built> {
+    let raw = match created {
+        Ok(p) => p[0],
+        Err((_, result)) => {
+            destroy_layout(ctx.device(), &layout);
+            return Err(Error::Vulkan { call, result });
+        }
+    };
+    ctx.set_name(raw, name);
+    ctx.shared.counts.object();
+    Ok(Built {
+        raw,
+        layout,
+        bind_point,
+        local_size,
+    })
 }
 
 /// A pipeline of either kind, with its layout; the common part of compute and graphics. A
@@ -207,16 +235,28 @@ impl Pipeline {
 
     /// Builds a graphics pipeline from `desc` (or hands out the one this context built before).
     pub fn graphics(ctx: &Context, desc: &GraphicsDesc<'_>) -> Result<Pipeline> {
+        // Every field, by name: a field added to GraphicsDesc must be added to the key too.
+        let GraphicsDesc {
+            vertex,
+            fragment,
+            color_formats,
+            depth_format,
+            depth_bias,
+            vertex_input,
+            cull_mode,
+            depth_compare,
+            viewports,
+        } = *desc;
         let key = PipelineKey {
-            shaders: (desc.vertex.into(), desc.fragment.map(String::from)),
+            shaders: (vertex.into(), fragment.map(String::from)),
             graphics: Some(GraphicsKey {
-                color_formats: desc.color_formats.to_vec(),
-                depth_format: desc.depth_format,
-                depth_bias: desc.depth_bias,
-                vertex_input: desc.vertex_input,
-                cull_mode: desc.cull_mode,
-                depth_compare: desc.depth_compare,
-                viewports: desc.viewports,
+                color_formats: color_formats.to_vec(),
+                depth_format,
+                depth_bias,
+                vertex_input,
+                cull_mode,
+                depth_compare,
+                viewports,
             }),
             division: ctx.division(),
         };
@@ -258,27 +298,19 @@ fn build_compute(ctx: &Context, shader: &str) -> Result<Built> {
     let info = vk::ComputePipelineCreateInfo::default()
         .stage(stage)
         .layout(layout.layout);
-    let raw = match unsafe {
+    let created = unsafe {
         ctx.device()
             .create_compute_pipelines(ctx.shared.pipeline_cache, &[info], None)
-    } {
-        Ok(p) => p[0],
-        Err((_, result)) => {
-            destroy_layout(ctx, &layout);
-            return Err(Error::Vulkan {
-                call: "vkCreateComputePipelines",
-                result,
-            });
-        }
     };
-    ctx.set_name(raw, shader);
-    ctx.shared.counts.object();
-    Ok(Built {
-        raw,
+    finish(
+        ctx,
+        created,
+        "vkCreateComputePipelines",
+        shader,
         layout,
-        bind_point: vk::PipelineBindPoint::COMPUTE,
-        local_size: interface.local_size,
-    })
+        vk::PipelineBindPoint::COMPUTE,
+        interface.local_size,
+    )
 }
 
 fn build_graphics(ctx: &Context, desc: &GraphicsDesc<'_>) -> Result<Built> {
@@ -374,27 +406,19 @@ fn build_graphics(ctx: &Context, desc: &GraphicsDesc<'_>) -> Result<Built> {
         .dynamic_state(&dynamic)
         .layout(layout.layout)
         .push_next(&mut rendering);
-    let raw = match unsafe {
+    let created = unsafe {
         ctx.device()
             .create_graphics_pipelines(ctx.shared.pipeline_cache, &[info], None)
-    } {
-        Ok(p) => p[0],
-        Err((_, result)) => {
-            destroy_layout(ctx, &layout);
-            return Err(Error::Vulkan {
-                call: "vkCreateGraphicsPipelines",
-                result,
-            });
-        }
     };
-    ctx.set_name(raw, desc.vertex);
-    ctx.shared.counts.object();
-    Ok(Built {
-        raw,
+    finish(
+        ctx,
+        created,
+        "vkCreateGraphicsPipelines",
+        desc.vertex,
         layout,
-        bind_point: vk::PipelineBindPoint::GRAPHICS,
-        local_size: [1, 1, 1],
-    })
+        vk::PipelineBindPoint::GRAPHICS,
+        [1, 1, 1],
+    )
 }
 
 impl Pipeline {

@@ -11,7 +11,7 @@ use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use super::{Context, ContextDesc, CreationCounters, DeviceShared, RawDevice};
 use crate::error::{Error, Result, VkResultExt};
 use crate::gpu::device_info::{find_queue_family, query_info, DeviceInfo, EnabledFeatures};
-use crate::gpu::division::{measure, Division};
+use crate::gpu::division::measure;
 use crate::gpu::instance::{choose_device, create_instance, load_entry};
 use crate::gpu::validation::ValidationLog;
 
@@ -213,14 +213,9 @@ impl Context {
     /// Measures the device's division (unless `correct` asks for the correction anyway) and
     /// fixes how every later pipeline divides ([`Context::division`]).
     fn decide_division(&self, correct: bool) -> Result<()> {
-        let division = if correct {
-            (Division::CorrectlyRounded, None)
-        } else {
-            let m = measure(self)?;
-            (m.division(), Some(m))
-        };
+        let measurement = if correct { None } else { Some(measure(self)?) };
         // Set once here, before the context is handed out: nothing else can have set it.
-        let _ = self.shared.division.set(division);
+        let _ = self.shared.division.set(measurement);
         Ok(())
     }
 

@@ -53,24 +53,13 @@ fn average_maps_without_clip_is_the_mean_of_hard_maps() {
         .iter()
         .map(|&c| if c >= k { 1.0 } else { c / k })
         .collect();
-    let differ = mean
-        .iter()
-        .zip(&avg.visibility)
-        .filter(|(a, b)| a.to_bits() != b.to_bits())
-        .count();
-    if differ > 0 {
-        let dir = common::write_diff(
-            "average-maps-noclip",
-            avg.width,
-            avg.height,
-            &mean,
-            &avg.visibility,
-        );
-        panic!(
-            "{differ} pixels differ from the mean of hard maps; images in {}",
-            dir.display()
-        );
-    }
+    common::assert_same_bits(
+        "average-maps-noclip",
+        avg.width,
+        avg.height,
+        &mean,
+        &avg.visibility,
+    );
     assert!(
         mean.iter().any(|&v| v > 0.0 && v < 1.0),
         "no penumbra to compare"

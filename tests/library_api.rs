@@ -81,18 +81,8 @@ fn the_same_frame_twice_is_bit_identical() {
         again.render().expect("frame 3");
         let third = again.read_visibility().expect("read 3");
         for (name, other) in [("second frame", &second), ("second renderer", &third)] {
-            let differing = first
-                .iter()
-                .zip(other.iter())
-                .filter(|(a, b)| a.to_bits() != b.to_bits())
-                .count();
-            if differing > 0 {
-                common::write_diff(&format!("bit-identical-{technique}"), 96, 64, &first, other);
-            }
-            assert_eq!(
-                differing, 0,
-                "{technique}: {name} differs in {differing} pixels"
-            );
+            let label = format!("bit-identical-{technique}-{}", name.replace(' ', "-"));
+            common::assert_same_bits(&label, 96, 64, &first, other);
         }
     }
     assert!(prepared.receiver_sets() <= 3);
@@ -359,11 +349,6 @@ fn a_rebuilt_renderer_reuses_the_contexts_pipelines() {
     common::assert_clean(&engine.context().validation());
 }
 
-/// Whether two visibility images are the same bit for bit.
-fn same_bits(a: &[f32], b: &[f32]) -> bool {
-    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
-}
-
 #[test]
 fn unused_pipelines_can_be_released_and_are_built_again() {
     let engine = common::engine();
@@ -384,14 +369,14 @@ fn unused_pipelines_can_be_released_and_are_built_again() {
     assert_eq!(ctx.pipelines_built(), built - released);
     kept.render().expect("frame after the release");
     let again = kept.read_visibility().expect("read");
-    assert!(same_bits(&first, &again));
+    common::assert_same_bits("pvssm-after-release", 96, 64, &first, &again);
     drop(kept);
     assert!(ctx.release_unused_pipelines().expect("release") > 0);
     // Built again from nothing, the same frame.
     let mut rebuilt = engine.renderer_for(&prepared, &desc).expect("rebuilt");
     rebuilt.render().expect("frame");
     let third = rebuilt.read_visibility().expect("read");
-    assert!(same_bits(&first, &third));
+    common::assert_same_bits("pvssm-rebuilt", 96, 64, &first, &third);
     drop(rebuilt);
     drop(prepared);
     common::assert_clean(&engine.context().validation());

@@ -145,15 +145,7 @@ fn the_callers_images_are_used_in_their_layouts_and_wrong_ones_are_clear_errors(
     for _ in 0..2 {
         renderer.render().expect("frame");
         let got = renderer.read_visibility().expect("read");
-        let differing = expected
-            .iter()
-            .zip(&got)
-            .filter(|(a, b)| a.to_bits() != b.to_bits())
-            .count();
-        if differing > 0 {
-            common::write_diff("caller-images", w, h, &expected, &got);
-        }
-        assert_eq!(differing, 0, "caller images give another visibility");
+        common::assert_same_bits("caller-images", w, h, &expected, &got);
     }
     // The caller's image is still the caller's: penumbra wrote into it.
     let direct = penumbra::gpu::f32s(&ctx.read_image(&visibility).expect("read"));

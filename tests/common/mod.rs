@@ -58,6 +58,24 @@ pub fn diff_dir() -> PathBuf {
     dir
 }
 
+/// Asserts that two `width` × `height` visibility images are the same bit for bit; where they
+/// are not, writes their diff (`write_diff`) under `name` before failing with the count.
+pub fn assert_same_bits(name: &str, width: u32, height: u32, expected: &[f32], actual: &[f32]) {
+    assert_eq!(expected.len(), actual.len(), "{name}: image sizes differ");
+    let differing = expected
+        .iter()
+        .zip(actual)
+        .filter(|(a, b)| a.to_bits() != b.to_bits())
+        .count();
+    if differing > 0 {
+        let dir = write_diff(name, width, height, expected, actual);
+        panic!(
+            "{name}: {differing} samples differ; images in {}",
+            dir.display()
+        );
+    }
+}
+
 /// Writes `expected`, `actual` and a red/green diff of two grey images as PNGs; returns the dir.
 pub fn write_diff(
     name: &str,

@@ -74,6 +74,16 @@ pub struct PreparedScene {
     casters: std::sync::OnceLock<Option<SceneGeometry>>,
 }
 
+impl crate::techniques::HostSamples for PreparedScene {
+    fn positions(&self, ctx: &Context) -> Result<Vec<Vec4>> {
+        self.sample_positions(ctx)
+    }
+
+    fn normals(&self, ctx: &Context) -> Result<Vec<Vec4>> {
+        self.sample_normals(ctx)
+    }
+}
+
 impl PreparedScene {
     /// The view samples' positions on the host (row-major; w > 0 marks a sample): read back once
     /// for penumbra's own view samples, on every call for the caller's (which may have changed).

@@ -185,6 +185,7 @@ impl<'a> ShadowRenderer<'a> {
             positions: &prepared.positions,
             indices: &prepared.indices,
             view: &prepared.view,
+            host_samples: prepared,
             receivers: receivers.map_or(&prepared.view.positions, |r| &r.lookup),
             light: &prepared.light,
             camera: &prepared.camera,

@@ -45,7 +45,7 @@
 //! yellow (m ≈ 2.8) to red at m ≥ 8 (under-sampled); from green to blue at m ≤ ⅛
 //! (over-sampled); black for background, dark grey for samples outside every grid.
 
-use glam::{DMat4, DVec3, DVec4, Mat4, Vec3, Vec4};
+use glam::{DVec3, DVec4, Mat4, Vec3, Vec4};
 
 use crate::scene::Camera;
 
@@ -149,7 +149,7 @@ pub struct SampleError {
 }
 
 impl SampleError {
-    const DEGENERATE: SampleError = SampleError {
+    pub(crate) const DEGENERATE: SampleError = SampleError {
         m: f64::INFINITY,
         columns: [f64::INFINITY; 2],
         projection: f64::INFINITY,
@@ -163,153 +163,9 @@ impl SampleError {
     }
 }
 
-/// The camera's ray through continuous pixel coordinates: origin, direction (unnormalized:
-/// its component along the view axis is 1) and the direction's derivatives by pixel x and y.
-struct CameraRays {
-    eye: DVec3,
-    forward: DVec3,
-    right: DVec3,
-    up: DVec3,
-    /// ∂d/∂x and ∂d/∂y.
-    dx: DVec3,
-    dy: DVec3,
-    width: f64,
-    height: f64,
-    tan_x: f64,
-    tan_y: f64,
-}
-
-impl CameraRays {
-    fn new(camera: &Camera) -> CameraRays {
-        // Camera::view is look_at_rh: its rows are right, up and −forward.
-        let view = camera.view().as_dmat4();
-        let right = view.row(0).truncate();
-        let up = view.row(1).truncate();
-        let forward = -view.row(2).truncate();
-        let width = f64::from(camera.width.max(1));
-        let height = f64::from(camera.height.max(1));
-        // Camera::projection's aspect (in f32, as the pass used it).
-        let aspect = f64::from(camera.width as f32 / camera.height.max(1) as f32);
-        let tan_y = (f64::from(camera.fov_y_deg.to_radians()) * 0.5).tan();
-        let tan_x = tan_y * aspect;
-        CameraRays {
-            eye: camera.position.as_dvec3(),
-            forward,
-            right,
-            up,
-            dx: right * (2.0 * tan_x / width),
-            dy: up * (-2.0 * tan_y / height),
-            width,
-            height,
-            tan_x,
-            tan_y,
-        }
-    }
-
-    /// The direction through pixel coordinates (x, y) (pixel centres at .5).
-    fn direction(&self, x: f64, y: f64) -> DVec3 {
-        let nx = x / self.width * 2.0 - 1.0;
-        let ny = y / self.height * 2.0 - 1.0;
-        // NDC y grows down the image: view-space y = −ny·tan θ.
-        self.forward + self.right * (nx * self.tan_x) - self.up * (ny * self.tan_y)
-    }
-}
-
-/// The sampling error of the view sample at `pixel` (its world `position` and camera-facing
-/// `normal`) in `grid`, for `camera`. Degenerate samples (see the module doc) get m = +∞.
-pub fn sample_error(
-    camera: &Camera,
-    pixel: (u32, u32),
-    position: Vec3,
-    normal: Vec3,
-    grid: &SamplingGrid,
-) -> SampleError {
-    sample_error_with(
-        &CameraRays::new(camera),
-        centre_of_projection(grid.view_proj),
-        pixel,
-        position,
-        normal,
-        grid,
-    )
-}
-
-fn sample_error_with(
-    rays: &CameraRays,
-    light: Option<LightCentre>,
-    pixel: (u32, u32),
-    position: Vec3,
-    normal: Vec3,
-    grid: &SamplingGrid,
-) -> SampleError {
-    let Some(light) = light else {
-        return SampleError::DEGENERATE;
-    };
-    let n = normal.as_dvec3();
-    let p = position.as_dvec3();
-    let n_len = n.length();
-    if !(n_len.is_finite() && n_len > 0.0 && p.is_finite()) {
-        return SampleError::DEGENERATE;
-    }
-    let n = n / n_len;
-    // The ray through the pixel centre and its hit with the tangent plane.
-    let d = rays.direction(f64::from(pixel.0) + 0.5, f64::from(pixel.1) + 0.5);
-    let nd = n.dot(d);
-    if nd.abs() <= 1e-6 * d.length() {
-        return SampleError::DEGENERATE;
-    }
-    let t = n.dot(p - rays.eye) / nd;
-    if !(t.is_finite() && t > 0.0) {
-        return SampleError::DEGENERATE;
-    }
-    let x = rays.eye + d * t;
-    // Ray differentials on the plane.
-    let dxdpx = (rays.dx - d * (n.dot(rays.dx) / nd)) * t;
-    let dxdpy = (rays.dy - d * (n.dot(rays.dy) / nd)) * t;
-    // The projective map world → texel and its derivative (quotient rule).
-    let m: DMat4 = grid.view_proj.as_dmat4();
-    let c = m * x.extend(1.0);
-    if !(c.w > 0.0 && c.is_finite()) {
-        return SampleError::DEGENERATE;
-    }
-    let half = 0.5 * grid.size.as_dvec2();
-    let row_w = m.row(3).truncate();
-    let grad = |i: usize| (m.row(i).truncate() * c.w - row_w * c[i]) * (half[i] / (c.w * c.w));
-    let (gs, gt) = (grad(0), grad(1));
-    let g = [
-        [gs.dot(dxdpx), gs.dot(dxdpy)],
-        [gt.dot(dxdpx), gt.dot(dxdpy)],
-    ];
-    let det = g[0][0] * g[1][1] - g[0][1] * g[1][0];
-    let big = g.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
-    if !(det.is_finite() && big.is_finite() && det.abs() > 1e-12 * big * big) {
-        return SampleError::DEGENERATE;
-    }
-    // G⁻¹ = [[g11, −g01], [−g10, g00]] / det: its columns are a texel step along the map's x
-    // and y in pixels.
-    let col_s = (g[1][1].hypot(g[1][0])) / det.abs();
-    let col_t = (g[0][1].hypot(g[0][0])) / det.abs();
-    let err = col_s.max(col_t);
-    // Components.
-    let to_eye = (rays.eye - x).normalize();
-    let to_light = match light {
-        LightCentre::Point(l) => (l - x).normalize(),
-        LightCentre::Direction(dir) => dir,
-    };
-    let cos_eye = n.dot(to_eye).abs();
-    let cos_light = n.dot(to_light).abs();
-    let projection = cos_eye / cos_light;
-    if !(err.is_finite() && projection.is_finite() && projection > 0.0) {
-        return SampleError::DEGENERATE;
-    }
-    SampleError {
-        m: err,
-        columns: [col_s, col_t],
-        projection,
-        perspective: err / projection,
-        g,
-    }
-}
+mod footprint;
+pub use footprint::{sample_error, SampleFootprints};
+use footprint::{sample_error_with, CameraRays};
 
 /// Statistics of the sampling error over the view samples charged to a grid.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -33,6 +33,7 @@ fn setup<'a>(
         positions: &prepared.positions,
         indices: &prepared.indices,
         view: &prepared.view,
+        host_samples: prepared,
         receivers: &prepared.view.positions,
         light: &prepared.light,
         camera: &prepared.camera,

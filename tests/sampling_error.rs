@@ -323,6 +323,52 @@ fn first_grid_charged_and_outside_counted() {
 /// On the GPU under validation: `hard` at map sizes 256 and 512 gives per-sample maps in ratio
 /// exactly 2 (the window test and the derivative scale by the size exactly); the summary is in
 /// `FrameStats` for `hard`, `pcf` and `pcss`, and absent for `izb`, which has no map.
+/// `SampleFootprints` (the camera's half computed once, for `cascades`' thirteen tile shapes): each
+/// sample's m in the first grid that holds it is `sample_error`'s, bit for bit, for two sets of
+/// grids over the same footprints; samples no grid holds are left out, and a degenerate sample
+/// (zero normal) gives +∞ as `sample_error` does.
+#[test]
+fn footprints_give_sample_errors_bits() {
+    let camera = camera(40, 30);
+    let [(_, wide), (_, persp)] = grids();
+    let narrow = SamplingGrid {
+        view_proj: Mat4::orthographic_rh(-0.5, 0.5, -0.5, 0.5, 0.5, 30.0)
+            * Mat4::look_at_rh(Vec3::new(0.0, 10.0, 0.0), Vec3::ZERO, Vec3::Z),
+        size: glam::UVec2::new(2048, 1024),
+    };
+    let mut samples = Vec::new();
+    for py in 0..camera.height {
+        for px in 0..camera.width {
+            let (x, y) = (f64::from(px) + 0.5, f64::from(py) + 0.5);
+            let p = hit(&camera, x, y, DVec3::ZERO, DVec3::Y).as_vec3();
+            // Tilted normals, and a zero one now and then.
+            let n = match (px + 3 * py) % 7 {
+                0 => Vec3::ZERO,
+                k => Vec3::new(0.1 * k as f32, 1.0, -0.05 * k as f32),
+            };
+            samples.push(((px, py), p, n));
+        }
+    }
+    let footprints = penumbra::sampling_error::SampleFootprints::new(&camera, samples.clone());
+    for grids in [vec![narrow, wide], vec![persp], vec![narrow, persp, wide]] {
+        let expected: Vec<f32> = samples
+            .iter()
+            .filter_map(|&(pixel, p, n)| {
+                let g = grids.iter().find(|g| g.texel(p).is_some())?;
+                Some(sample_error(&camera, pixel, p, n, g).m as f32)
+            })
+            .collect();
+        let got = footprints.first_grid_m(&grids);
+        assert!(expected.len() > 100 && expected.len() < samples.len());
+        assert!(expected.iter().any(|m| m.is_infinite()));
+        let same = expected
+            .iter()
+            .zip(&got)
+            .all(|(a, b)| a.to_bits() == b.to_bits());
+        assert!(same && expected.len() == got.len(), "{} grids", grids.len());
+    }
+}
+
 #[test]
 fn gpu_frames_carry_the_map_and_scale_with_map_size() {
     let engine = common::engine();

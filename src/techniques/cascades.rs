@@ -28,7 +28,7 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{IVec2, IVec4, Mat4, UVec2, Vec2, Vec3, Vec4};
 
-use crate::sampling_error::{nearest_rank, sample_error, SamplingGrid};
+use crate::sampling_error::{nearest_rank, SampleFootprints, SamplingGrid};
 
 use super::pcf::{shadow_map_desc, FILTER, KERNEL};
 use super::{Knob, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS};
@@ -233,13 +233,19 @@ pub fn fit(
     normals: &[Vec4],
 ) -> Result<(Vec<Cascade>, UVec2)> {
     let width = camera.width.max(1) as usize;
-    let picked: Vec<(usize, Vec3, Vec3)> = positions
-        .iter()
-        .zip(normals)
-        .enumerate()
-        .filter(|(i, (p, _))| p.w > 0.0 && (i % width) % 4 == 0 && (i / width) % 4 == 0)
-        .map(|(i, (p, n))| (i, p.truncate(), n.truncate()))
-        .collect();
+    // Every fourth sample a side, their footprints on their planes once for all tile shapes.
+    let picked = SampleFootprints::new(
+        camera,
+        positions
+            .iter()
+            .zip(normals)
+            .enumerate()
+            .filter(|(i, (p, _))| p.w > 0.0 && (i % width) % 4 == 0 && (i / width) % 4 == 0)
+            .map(|(i, (p, n))| {
+                let pixel = ((i % width) as u32, (i / width) as u32);
+                (pixel, p.truncate(), n.truncate())
+            }),
+    );
     let mut best: Option<(f32, Vec<Cascade>, UVec2)> = None;
     for tile in cascade_fit::tile_candidates(desc.map_size) {
         let cascades =
@@ -252,14 +258,7 @@ pub fn fit(
                 size: tile,
             })
             .collect();
-        let mut m: Vec<f32> = picked
-            .iter()
-            .filter_map(|&(i, p, n)| {
-                let g = grids.iter().find(|g| g.texel(p).is_some())?;
-                let pixel = ((i % width) as u32, (i / width) as u32);
-                Some(sample_error(camera, pixel, p, n, g).m as f32)
-            })
-            .collect();
+        let mut m = picked.first_grid_m(&grids);
         m.sort_by(f32::total_cmp);
         let p95 = if m.is_empty() {
             0.0
@@ -401,8 +400,8 @@ impl<'a> Cascades<'a> {
             None
         };
         let hist = histogram.as_ref().map(|h| h.read(ctx)).transpose()?;
-        let positions = setup.view.read_positions(ctx)?;
-        let normals = setup.view.read_normals(ctx)?;
+        let positions = setup.host_samples.positions(ctx)?;
+        let normals = setup.host_samples.normals(ctx)?;
         let (cascades, tile) = fit(
             setup.camera,
             &bounds(setup.positions),

@@ -37,7 +37,17 @@ use crate::error::{Error, Result};
 use crate::gpu::{Context, Image, Recorder};
 use crate::passes::{LightView, ReceiverBounds, SceneGeometry, ViewSamples};
 use crate::scene::{Camera, Light};
-use glam::Vec3;
+use glam::{Vec3, Vec4};
+
+/// The view samples' positions and normals on the host, for a technique that fits something to
+/// them on the CPU (`cascades`' tile shape): a prepared scene reads its own samples back once and
+/// keeps them ([`crate::PreparedScene::sample_positions`]), a caller's on every call.
+pub trait HostSamples {
+    /// Positions, row-major (w > 0 marks a sample).
+    fn positions(&self, ctx: &Context) -> Result<Vec<Vec4>>;
+    /// Normals (w: linear view depth).
+    fn normals(&self, ctx: &Context) -> Result<Vec<Vec4>>;
+}
 
 /// What a technique is built against: the scene's GPU inputs and the output image.
 pub struct TechniqueSetup<'a> {
@@ -55,6 +65,8 @@ pub struct TechniqueSetup<'a> {
     pub indices: &'a [u32],
     /// The view samples to shade.
     pub view: &'a ViewSamples,
+    /// The same view samples on the host, read back at most once per prepared scene.
+    pub host_samples: &'a dyn HostSamples,
     /// Where to look each view sample up: `view.positions` itself, or the receivers pass's
     /// positions (pushed along the normal by the normal offset; w = 0 for a sample whose light is
     /// entirely behind its tangent plane, which the technique skips like background). Every

@@ -65,7 +65,8 @@ pub struct TechniqueSetup<'a> {
     pub indices: &'a [u32],
     /// The view samples to shade.
     pub view: &'a ViewSamples,
-    /// The same view samples on the host, read back at most once per prepared scene.
+    /// The same view samples on the host: penumbra's own read back once per prepared scene, a
+    /// caller's on every call.
     pub host_samples: &'a dyn HostSamples,
     /// Where to look each view sample up: `view.positions` itself, or the receivers pass's
     /// positions (pushed along the normal by the normal offset; w = 0 for a sample whose light is

@@ -90,7 +90,7 @@ pub(super) fn sample_error_with(
     grid: &SamplingGrid,
 ) -> SampleError {
     match PlaneFootprint::new(rays, pixel, position, normal) {
-        Some(footprint) => footprint.error(light, grid),
+        Some(footprint) => footprint.error(&GridProjection::new(grid, light)),
         None => SampleError::DEGENERATE,
     }
 }
@@ -120,20 +120,45 @@ impl SampleFootprints {
     /// Each sample's m in the first of `grids` whose window holds it, in the samples' order (the
     /// samples no grid holds left out): [`sample_error`]'s value, to the bit.
     pub fn first_grid_m(&self, grids: &[SamplingGrid]) -> Vec<f32> {
-        let lights: Vec<Option<LightCentre>> = grids
+        let projections: Vec<GridProjection> = grids
             .iter()
-            .map(|g| centre_of_projection(g.view_proj))
+            .map(|g| GridProjection::new(g, centre_of_projection(g.view_proj)))
             .collect();
         self.samples
             .iter()
             .filter_map(|(p, footprint)| {
                 let k = grids.iter().position(|g| g.texel(*p).is_some())?;
                 Some(match footprint {
-                    Some(f) => f.error(lights[k], &grids[k]).m as f32,
+                    Some(f) => f.error(&projections[k]).m as f32,
                     None => f64::INFINITY as f32,
                 })
             })
             .collect()
+    }
+}
+
+/// A grid's half of [`sample_error`], what does not depend on the sample: its projection in
+/// f64, the rows the derivative takes (x, y and w), half its size and its light's centre.
+struct GridProjection {
+    m: DMat4,
+    rows: [DVec3; 3],
+    half: glam::DVec2,
+    light: Option<LightCentre>,
+}
+
+impl GridProjection {
+    fn new(grid: &SamplingGrid, light: Option<LightCentre>) -> GridProjection {
+        let m = grid.view_proj.as_dmat4();
+        GridProjection {
+            m,
+            rows: [
+                m.row(0).truncate(),
+                m.row(1).truncate(),
+                m.row(3).truncate(),
+            ],
+            half: 0.5 * grid.size.as_dvec2(),
+            light,
+        }
     }
 }
 
@@ -186,8 +211,8 @@ impl PlaneFootprint {
     }
 
     /// The grid's half: the footprint through the grid's projection, and the components.
-    fn error(&self, light: Option<LightCentre>, grid: &SamplingGrid) -> SampleError {
-        let Some(light) = light else {
+    fn error(&self, grid: &GridProjection) -> SampleError {
+        let Some(light) = grid.light else {
             return SampleError::DEGENERATE;
         };
         let PlaneFootprint {
@@ -198,14 +223,13 @@ impl PlaneFootprint {
             cos_eye,
         } = *self;
         // The projective map world → texel and its derivative (quotient rule).
-        let m: DMat4 = grid.view_proj.as_dmat4();
-        let c = m * x.extend(1.0);
+        let c = grid.m * x.extend(1.0);
         if !(c.w > 0.0 && c.is_finite()) {
             return SampleError::DEGENERATE;
         }
-        let half = 0.5 * grid.size.as_dvec2();
-        let row_w = m.row(3).truncate();
-        let grad = |i: usize| (m.row(i).truncate() * c.w - row_w * c[i]) * (half[i] / (c.w * c.w));
+        let half = grid.half;
+        let row_w = grid.rows[2];
+        let grad = |i: usize| (grid.rows[i] * c.w - row_w * c[i]) * (half[i] / (c.w * c.w));
         let (gs, gt) = (grad(0), grad(1));
         let g = [
             [gs.dot(dxdpx), gs.dot(dxdpy)],

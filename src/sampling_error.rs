@@ -165,7 +165,7 @@ impl SampleError {
 
 mod footprint;
 pub use footprint::{sample_error, SampleFootprints};
-use footprint::{sample_error_with, CameraRays};
+use footprint::{CameraRays, GridSet, PlaneFootprint};
 
 /// Statistics of the sampling error over the view samples charged to a grid.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -250,10 +250,7 @@ pub fn sampling_error(
         return (map, None);
     }
     let rays = CameraRays::new(camera);
-    let lights: Vec<Option<LightCentre>> = grids
-        .iter()
-        .map(|g| centre_of_projection(g.view_proj))
-        .collect();
+    let set = GridSet::new(grids);
     let (mut errors, mut perspective, mut projection) = (Vec::new(), Vec::new(), Vec::new());
     let (mut outside, mut degenerate, mut under) = (0u64, 0u64, 0u64);
     for (i, (p, nrm)) in positions.iter().zip(normals).enumerate() {
@@ -261,12 +258,13 @@ pub fn sampling_error(
             continue;
         }
         let world = p.truncate();
-        let Some(k) = grids.iter().position(|g| g.texel(world).is_some()) else {
+        let Some(k) = set.first(world) else {
             outside += 1;
             continue;
         };
         let pixel = ((i % width) as u32, (i / width) as u32);
-        let e = sample_error_with(&rays, lights[k], pixel, world, nrm.truncate(), &grids[k]);
+        let footprint = PlaneFootprint::new(&rays, pixel, world, nrm.truncate());
+        let e = set.error(k, footprint.as_ref());
         // f32 of a huge finite m may overflow to +∞: still ordered, still > 1.
         let m = e.m as f32;
         map[i] = m;

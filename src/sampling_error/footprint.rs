@@ -71,33 +71,40 @@ pub fn sample_error(
     normal: Vec3,
     grid: &SamplingGrid,
 ) -> SampleError {
-    sample_error_with(
-        &CameraRays::new(camera),
-        centre_of_projection(grid.view_proj),
-        pixel,
-        position,
-        normal,
-        grid,
-    )
+    let footprint = PlaneFootprint::new(&CameraRays::new(camera), pixel, position, normal);
+    GridSet::new(std::slice::from_ref(grid)).error(0, footprint.as_ref())
 }
 
-pub(super) fn sample_error_with(
-    rays: &CameraRays,
-    light: Option<LightCentre>,
-    pixel: (u32, u32),
-    position: Vec3,
-    normal: Vec3,
-    grid: &SamplingGrid,
-) -> SampleError {
-    match PlaneFootprint::new(rays, pixel, position, normal) {
-        Some(footprint) => footprint.error(&GridProjection::new(grid, light)),
-        None => SampleError::DEGENERATE,
+/// Grids (finest first), each with its half of [`sample_error`] made once: which grid charges a
+/// sample, and the sample's error there. [`super::sampling_error`], [`sample_error`] and
+/// [`SampleFootprints`] all measure through it.
+pub(super) struct GridSet<'a> {
+    grids: &'a [SamplingGrid],
+    projections: Vec<GridProjection>,
+}
+
+impl<'a> GridSet<'a> {
+    pub(super) fn new(grids: &'a [SamplingGrid]) -> GridSet<'a> {
+        GridSet {
+            grids,
+            projections: grids.iter().map(GridProjection::new).collect(),
+        }
+    }
+
+    /// The first grid whose window holds `position`, if any.
+    pub(super) fn first(&self, position: Vec3) -> Option<usize> {
+        self.grids.iter().position(|g| g.texel(position).is_some())
+    }
+
+    /// The error in grid `k` of a sample with this footprint (`None`: degenerate, m = +∞).
+    pub(super) fn error(&self, k: usize, footprint: Option<&PlaneFootprint>) -> SampleError {
+        footprint.map_or(SampleError::DEGENERATE, |f| f.error(&self.projections[k]))
     }
 }
 
 /// View samples' footprints on their tangent planes (the camera's half of [`sample_error`]),
-/// computed once and measured in one set of grids after another: `cascades` tries thirteen tile shapes for every build, each a set of grids (its
-/// cascades), over the same samples.
+/// computed once and measured in one set of grids after another: `cascades` tries thirteen tile
+/// shapes for every build, each a set of grids (its cascades), over the same samples.
 pub struct SampleFootprints {
     samples: Vec<(Vec3, Option<PlaneFootprint>)>,
 }
@@ -120,18 +127,11 @@ impl SampleFootprints {
     /// Each sample's m in the first of `grids` whose window holds it, in the samples' order (the
     /// samples no grid holds left out): [`sample_error`]'s value, to the bit.
     pub fn first_grid_m(&self, grids: &[SamplingGrid]) -> Vec<f32> {
-        let projections: Vec<GridProjection> = grids
-            .iter()
-            .map(|g| GridProjection::new(g, centre_of_projection(g.view_proj)))
-            .collect();
+        let set = GridSet::new(grids);
         self.samples
             .iter()
             .filter_map(|(p, footprint)| {
-                let k = grids.iter().position(|g| g.texel(*p).is_some())?;
-                Some(match footprint {
-                    Some(f) => f.error(&projections[k]).m as f32,
-                    None => f64::INFINITY as f32,
-                })
+                Some(set.error(set.first(*p)?, footprint.as_ref()).m as f32)
             })
             .collect()
     }
@@ -147,7 +147,7 @@ struct GridProjection {
 }
 
 impl GridProjection {
-    fn new(grid: &SamplingGrid, light: Option<LightCentre>) -> GridProjection {
+    fn new(grid: &SamplingGrid) -> GridProjection {
         let m = grid.view_proj.as_dmat4();
         GridProjection {
             m,
@@ -157,7 +157,7 @@ impl GridProjection {
                 m.row(3).truncate(),
             ],
             half: 0.5 * grid.size.as_dvec2(),
-            light,
+            light: centre_of_projection(grid.view_proj),
         }
     }
 }
@@ -166,7 +166,7 @@ impl GridProjection {
 /// the plane, and how that point moves a pixel across and down — the camera's half of
 /// [`sample_error`], the same for every grid the sample is measured in.
 #[derive(Clone, Copy, Debug)]
-struct PlaneFootprint {
+pub(super) struct PlaneFootprint {
     /// The unit normal.
     n: DVec3,
     /// The ray's hit with the plane.
@@ -181,7 +181,12 @@ struct PlaneFootprint {
 impl PlaneFootprint {
     /// `None` where the sample is degenerate for every grid: a zero or non-finite normal or
     /// position, a ray along the plane, or a plane behind the eye.
-    fn new(rays: &CameraRays, pixel: (u32, u32), position: Vec3, normal: Vec3) -> Option<Self> {
+    pub(super) fn new(
+        rays: &CameraRays,
+        pixel: (u32, u32),
+        position: Vec3,
+        normal: Vec3,
+    ) -> Option<Self> {
         let n = normal.as_dvec3();
         let p = position.as_dvec3();
         let n_len = n.length();

@@ -343,6 +343,14 @@ fn semantic_errors_name_the_line_of_the_key() {
         (light("rect", rect), Some(13), "rect light has zero area"),
         (
             light(
+                "rect",
+                "position = [0.0, 5.0, 0.0]\nu = [1e30, 0.0, 0.0]\nv = [0.0, 0.0, 1e30]",
+            ),
+            Some(12),
+            "rect light's area overflows",
+        ),
+        (
+            light(
                 "directional",
                 "direction = [0.0, -1.0, 0.0]\nangular_diameter = -1.0",
             ),

@@ -387,6 +387,16 @@ impl Cx<'_> {
                 let u = need(&l.u, "u", "the first full edge vector")?;
                 let v = need(&l.v, "v", "the second full edge vector")?;
                 let area = u.cross(v).length();
+                if area.is_infinite() {
+                    // Finite edges whose product overflows f32: a light no scene can hold.
+                    return Err(self.err(
+                        l.u.as_ref().map(|s| self.line_of(s.span())),
+                        format!(
+                            "rect light's area overflows (|u × v| = {area}); expected edge \
+                             vectors whose product fits a 32-bit float (each side below ~1e19)"
+                        ),
+                    ));
+                }
                 if !(area.is_finite() && area > 0.0) {
                     // Point at whichever edge is at fault: a zero `u`, else `v`.
                     let edge = if u == Vec3::ZERO { &l.u } else { &l.v };

@@ -470,6 +470,31 @@ fn flat_plane_keeps_the_depth_floor() {
     common::assert_clean(&engine.context().validation());
 }
 
+/// A light in the plane of a flat scene reaches none of it: the fit refuses it with an error
+/// that says so (a scene error, not a degenerate matrix). A rect light shines from the side
+/// facing the scene, so above or below the plane it is fitted.
+#[test]
+fn a_light_in_the_plane_of_a_flat_scene_is_refused() {
+    let flat = penumbra::scene::Aabb {
+        min: Vec3::new(-1.0, 0.0, -1.0),
+        max: Vec3::new(1.0, 0.0, 1.0),
+    };
+    let rect = |y: f32| Light::Rect {
+        position: Vec3::new(0.0, y, 0.0),
+        u: Vec3::X,
+        v: Vec3::Z,
+    };
+    let err = LightView::fit(&rect(0.0), &flat)
+        .map(|_| ())
+        .expect_err("a light in the scene's plane");
+    assert!(
+        err.to_string().contains("behind the light or in its plane"),
+        "{err}"
+    );
+    assert!(LightView::fit(&rect(2.0), &flat).is_ok());
+    assert!(LightView::fit(&rect(-2.0), &flat).is_ok());
+}
+
 /// The measure of the fit: `hard` at the scene's default map size misclassifies fewer
 /// view samples with `fit = view` than with `fit = scene`, on every bundled scene. The reference
 /// is the one `hard` approximates — rays to the light's centre (`samples = 1`, `jitter = 0`; the

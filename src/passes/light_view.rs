@@ -198,7 +198,8 @@ impl LightView {
                     return Err(Error::input(
                         "scene",
                         None,
-                        "the whole scene lies behind the light",
+                        "the whole scene lies behind the light or in its plane: the light \
+                         reaches none of it",
                     ));
                 }
                 let max_half = (MAX_FOV_DEG * 0.5).to_radians();

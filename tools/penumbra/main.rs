@@ -533,14 +533,42 @@ fn main() {
         }
     };
     if let Err(e) = result {
-        eprintln!("error: {e:#}");
+        eprintln!("error: {}", error_report(&e));
         std::process::exit(1);
     }
+}
+
+/// The error and its causes, joined by ": " as `{:#}` joins them, each cause left out where
+/// the text before it already ends with it: penumbra's I/O and allocation errors say their
+/// cause in their own message and also give it as their source, which printed it twice
+/// ("m.obj: No such file or directory (os error 2): No such file or directory (os error 2)").
+fn error_report(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if out.ends_with(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn error_report_says_each_cause_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        let e = anyhow::Error::new(penumbra::Error::io("m.obj", io)).context("loading the scene");
+        assert_eq!(error_report(&e), "loading the scene: m.obj: no such file");
+        let plain = anyhow::anyhow!("inner").context("outer");
+        assert_eq!(error_report(&plain), "outer: inner");
+    }
 
     fn counts(ran: bool, errors: u32, warnings: u32) -> ValidationCounts {
         ValidationCounts {

@@ -71,6 +71,19 @@ fn a_fixed_level_is_one_whole_map() {
             "{err}"
         );
     }
+    // A level the map does not have (1024 texels in pages of 64: levels 0 to 4) is refused,
+    // not served by the root.
+    let err = engine
+        .render(
+            &prepared,
+            "pvssm",
+            &knobs(&[("virtual_size", "1024"), ("fixed_level", "5")]),
+            1,
+        )
+        .err()
+        .expect("a 5-level map has no level 5")
+        .to_string();
+    assert!(err.contains("levels 0 to 4"), "{err}");
     common::assert_clean(&engine.context().validation());
 }
 

@@ -204,7 +204,19 @@ impl<'a> Pvssm<'a> {
         if fixed_level >= 0.0 {
             // The whole level must be resident, with the root (and every ancestor with
             // `ancestors` on), or lookups would fall back and the "fixed map" would not be one.
-            let level = (fixed_level as u32).min(desc.levels() - 1);
+            let level = fixed_level as u32;
+            if level >= desc.levels() {
+                return Err(Error::Parameter {
+                    technique: "pvssm".into(),
+                    message: format!(
+                        "fixed_level = {level}: the virtual map has levels 0 to {} \
+                         (virtual_size {} in pages of {})",
+                        desc.levels() - 1,
+                        desc.virtual_size,
+                        desc.page_size
+                    ),
+                });
+            }
             let side = |l: u32| u64::from(desc.virtual_size / (desc.page_size << l));
             // With `ancestors = 2` the requests (the level and the root) fit, so none are added.
             let coarser: u64 = if ancestors == 1 {

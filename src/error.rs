@@ -1,8 +1,9 @@
 //! The library's one error type.
 //!
 //! Callers can match on what went wrong: a Vulkan call's `vk::Result` (so a host engine can react
-//! to `ERROR_DEVICE_LOST` or out-of-memory), an allocation failure, a missing device feature, or
-//! bad input with the file and line it came from. Nothing in the library panics on these.
+//! to `ERROR_DEVICE_LOST`), an allocation failure or memory running out at a bind (naming the
+//! resource and its size), a missing device feature, or bad input with the file and line it came
+//! from. Nothing in the library panics on these.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -43,6 +44,20 @@ pub enum Error {
         /// The allocator's error.
         #[source]
         source: gpu_allocator::AllocationError,
+    },
+    /// Memory for a named resource ran out where the driver committed it: binding it (a driver
+    /// may allocate lazily, so an allocation that succeeded can still fail here). Its size says
+    /// how much was asked for; a smaller map or view is the usual remedy.
+    #[error("out of memory for '{name}' ({}) at {call}: {result}", Bytes(*bytes))]
+    OutOfMemory {
+        /// The resource's debug name.
+        name: String,
+        /// Its size in bytes.
+        bytes: u64,
+        /// The Vulkan entry point, e.g. `vkBindImageMemory`.
+        call: &'static str,
+        /// What it returned (`ERROR_OUT_OF_DEVICE_MEMORY` or `ERROR_OUT_OF_HOST_MEMORY`).
+        result: vk::Result,
     },
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]
@@ -126,6 +141,25 @@ impl fmt::Display for Located<'_> {
     }
 }
 
+/// A size in bytes as people read it: bytes, KiB, MiB or GiB, three significant digits.
+struct Bytes(u64);
+
+impl fmt::Display for Bytes {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        const UNITS: [&str; 3] = ["KiB", "MiB", "GiB"];
+        if self.0 < 1024 {
+            return write!(f, "{} B", self.0);
+        }
+        let mut value = self.0 as f64 / 1024.0;
+        let mut unit = 0;
+        while value >= 1024.0 && unit + 1 < UNITS.len() {
+            value /= 1024.0;
+            unit += 1;
+        }
+        write!(f, "{value:.3} {}", UNITS[unit])
+    }
+}
+
 impl Error {
     /// Bad input in `path`, at `line` if known.
     pub fn input(
@@ -160,5 +194,68 @@ impl<T> VkResultExt<T> for std::result::Result<T, vk::Result> {
     }
 }
 
+/// Maps a failed memory bind of resource `name` (`bytes` long): out-of-memory results become
+/// [`Error::OutOfMemory`] naming it, any other [`Error::Vulkan`].
+pub(crate) fn bind_result(
+    result: std::result::Result<(), vk::Result>,
+    call: &'static str,
+    name: &str,
+    bytes: u64,
+) -> Result<()> {
+    result.map_err(|result| match result {
+        vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
+            Error::OutOfMemory {
+                name: name.to_string(),
+                bytes,
+                call,
+                result,
+            }
+        }
+        _ => Error::Vulkan { call, result },
+    })
+}
+
 /// The library's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_failed_bind_names_the_resource_and_its_size() {
+        let oom = bind_result(
+            Err(vk::Result::ERROR_OUT_OF_DEVICE_MEMORY),
+            "vkBindImageMemory",
+            "msm moments",
+            4 << 30,
+        )
+        .unwrap_err();
+        assert!(matches!(oom, Error::OutOfMemory { bytes, .. } if bytes == 4 << 30));
+        assert_eq!(
+            oom.to_string(),
+            format!(
+                "out of memory for 'msm moments' (4.000 GiB) at vkBindImageMemory: {}",
+                vk::Result::ERROR_OUT_OF_DEVICE_MEMORY
+            )
+        );
+        let other = bind_result(
+            Err(vk::Result::ERROR_DEVICE_LOST),
+            "vkBindBufferMemory",
+            "b",
+            1,
+        )
+        .unwrap_err();
+        assert!(matches!(
+            other,
+            Error::Vulkan {
+                call: "vkBindBufferMemory",
+                ..
+            }
+        ));
+        assert!(bind_result(Ok(()), "vkBindBufferMemory", "b", 1).is_ok());
+        assert_eq!(Bytes(1000).to_string(), "1000 B");
+        assert_eq!(Bytes(1536).to_string(), "1.500 KiB");
+        assert_eq!(Bytes(3 << 20).to_string(), "3.000 MiB");
+    }
+}

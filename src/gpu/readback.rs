@@ -6,7 +6,7 @@ use bytemuck::Pod;
 
 use super::sync::Access;
 use super::{Buffer, Context, Image, MemoryLocation, Recorder};
-use crate::error::{Error, Result, VkResultExt};
+use crate::error::{bind_result, Error, Result, VkResultExt};
 
 impl Context {
     /// Creates a device-local storage buffer holding `data`.
@@ -131,9 +131,12 @@ impl ReadbackStaging {
                 return Err(e);
             }
         };
-        let bound =
-            unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
-                .vk("vkBindBufferMemory");
+        let bound = bind_result(
+            unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) },
+            "vkBindBufferMemory",
+            "readback",
+            size,
+        );
         self.raw = raw;
         self.allocation = Some(allocation);
         self.size = size;

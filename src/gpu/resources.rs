@@ -13,7 +13,7 @@ pub use gpu_allocator::MemoryLocation;
 
 use super::sync::Tracker;
 use super::Context;
-use crate::error::{Error, Result, VkResultExt};
+use crate::error::{bind_result, Error, Result, VkResultExt};
 
 fn allocate(
     ctx: &Context,
@@ -133,7 +133,8 @@ impl Buffer {
             .as_ref()
             .map(|a| (unsafe { a.memory() }, a.offset()));
         if let Some((memory, offset)) = a {
-            unsafe { device.bind_buffer_memory(raw, memory, offset) }.vk("vkBindBufferMemory")?;
+            let bound = unsafe { device.bind_buffer_memory(raw, memory, offset) };
+            bind_result(bound, "vkBindBufferMemory", name, size)?;
         }
         ctx.set_name(raw, name);
         Ok(buffer)
@@ -338,8 +339,8 @@ impl Image {
             tracker: Arc::new(Tracker::new()),
         };
         if let Some(a) = image.allocation.as_ref() {
-            unsafe { device.bind_image_memory(raw, a.memory(), a.offset()) }
-                .vk("vkBindImageMemory")?;
+            let bound = unsafe { device.bind_image_memory(raw, a.memory(), a.offset()) };
+            bind_result(bound, "vkBindImageMemory", name, requirements.size)?;
         }
         image.create_view()?;
         ctx.set_name(raw, name);

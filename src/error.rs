@@ -1,8 +1,8 @@
 //! The library's one error type.
 //!
 //! Callers can match on what went wrong: a Vulkan call's `vk::Result` (so a host engine can react
-//! to `ERROR_DEVICE_LOST`), an allocation failure or memory running out at a bind (naming the
-//! resource and its size), a missing device feature, or bad input with the file and line it came
+//! to `ERROR_DEVICE_LOST`), an allocation failure or memory running out where the driver commits
+//! it (naming the resource and its size), a missing device feature, or bad input with the file and line it came
 //! from. Nothing in the library panics on these.
 
 use std::fmt;
@@ -45,16 +45,17 @@ pub enum Error {
         #[source]
         source: gpu_allocator::AllocationError,
     },
-    /// Memory for a named resource ran out where the driver committed it: binding it (a driver
-    /// may allocate lazily, so an allocation that succeeded can still fail here). Its size says
-    /// how much was asked for; a smaller map or view is the usual remedy.
+    /// Memory for a named resource ran out where the driver committed it: creating the buffer
+    /// or binding its memory (a driver may allocate there, so an allocation that succeeded can
+    /// still fail at the bind). Its size says how much was asked for; a smaller map or view is
+    /// the usual remedy.
     #[error("out of memory for '{name}' ({}) at {call}: {result}", Bytes(*bytes))]
     OutOfMemory {
         /// The resource's debug name.
         name: String,
         /// Its size in bytes.
         bytes: u64,
-        /// The Vulkan entry point, e.g. `vkBindImageMemory`.
+        /// The Vulkan entry point, e.g. `vkBindImageMemory` or `vkCreateBuffer`.
         call: &'static str,
         /// What it returned (`ERROR_OUT_OF_DEVICE_MEMORY` or `ERROR_OUT_OF_HOST_MEMORY`).
         result: vk::Result,
@@ -194,14 +195,14 @@ impl<T> VkResultExt<T> for std::result::Result<T, vk::Result> {
     }
 }
 
-/// Maps a failed memory bind of resource `name` (`bytes` long): out-of-memory results become
-/// [`Error::OutOfMemory`] naming it, any other [`Error::Vulkan`].
-pub(crate) fn bind_result(
-    result: std::result::Result<(), vk::Result>,
+/// Maps a failed creation or memory bind of resource `name` (`bytes` long): out-of-memory
+/// results become [`Error::OutOfMemory`] naming it, any other [`Error::Vulkan`].
+pub(crate) fn memory_result<T>(
+    result: std::result::Result<T, vk::Result>,
     call: &'static str,
     name: &str,
     bytes: u64,
-) -> Result<()> {
+) -> Result<T> {
     result.map_err(|result| match result {
         vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
             Error::OutOfMemory {
@@ -223,8 +224,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_failed_bind_names_the_resource_and_its_size() {
-        let oom = bind_result(
+    fn running_out_of_memory_names_the_resource_and_its_size() {
+        let oom = memory_result::<()>(
             Err(vk::Result::ERROR_OUT_OF_DEVICE_MEMORY),
             "vkBindImageMemory",
             "msm moments",
@@ -239,7 +240,7 @@ mod tests {
                 vk::Result::ERROR_OUT_OF_DEVICE_MEMORY
             )
         );
-        let other = bind_result(
+        let other = memory_result::<()>(
             Err(vk::Result::ERROR_DEVICE_LOST),
             "vkBindBufferMemory",
             "b",
@@ -253,7 +254,7 @@ mod tests {
                 ..
             }
         ));
-        assert!(bind_result(Ok(()), "vkBindBufferMemory", "b", 1).is_ok());
+        assert!(memory_result(Ok(()), "vkBindBufferMemory", "b", 1).is_ok());
         assert_eq!(Bytes(1000).to_string(), "1000 B");
         assert_eq!(Bytes(1536).to_string(), "1.500 KiB");
         assert_eq!(Bytes(3 << 20).to_string(), "3.000 MiB");

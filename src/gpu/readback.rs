@@ -6,7 +6,7 @@ use bytemuck::Pod;
 
 use super::sync::Access;
 use super::{Buffer, Context, Image, MemoryLocation, Recorder};
-use crate::error::{bind_result, Error, Result, VkResultExt};
+use crate::error::{memory_result, Error, Result, VkResultExt};
 
 impl Context {
     /// Creates a device-local storage buffer holding `data`.
@@ -131,7 +131,7 @@ impl ReadbackStaging {
                 return Err(e);
             }
         };
-        let bound = bind_result(
+        let bound = memory_result(
             unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) },
             "vkBindBufferMemory",
             "readback",

@@ -13,7 +13,7 @@ pub use gpu_allocator::MemoryLocation;
 
 use super::sync::Tracker;
 use super::Context;
-use crate::error::{bind_result, Error, Result, VkResultExt};
+use crate::error::{memory_result, Error, Result, VkResultExt};
 
 fn allocate(
     ctx: &Context,
@@ -110,7 +110,12 @@ impl Buffer {
             .usage(usage)
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let device = ctx.device();
-        let raw = unsafe { device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
+        let raw = memory_result(
+            unsafe { device.create_buffer(&info, None) },
+            "vkCreateBuffer",
+            name,
+            size,
+        )?;
         let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
         let allocation = match allocate(ctx, name, requirements, location, true) {
             Ok(a) => a,
@@ -134,7 +139,7 @@ impl Buffer {
             .map(|a| (unsafe { a.memory() }, a.offset()));
         if let Some((memory, offset)) = a {
             let bound = unsafe { device.bind_buffer_memory(raw, memory, offset) };
-            bind_result(bound, "vkBindBufferMemory", name, size)?;
+            memory_result(bound, "vkBindBufferMemory", name, size)?;
         }
         ctx.set_name(raw, name);
         Ok(buffer)
@@ -340,7 +345,7 @@ impl Image {
         };
         if let Some(a) = image.allocation.as_ref() {
             let bound = unsafe { device.bind_image_memory(raw, a.memory(), a.offset()) };
-            bind_result(bound, "vkBindImageMemory", name, requirements.size)?;
+            memory_result(bound, "vkBindImageMemory", name, requirements.size)?;
         }
         image.create_view()?;
         ctx.set_name(raw, name);

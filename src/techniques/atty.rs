@@ -267,7 +267,7 @@ impl<'a> Atty<'a> {
             std::slice::from_ref(&block),
         )?;
         let texels = u64::from(n) * u64::from(n);
-        let receiver_map = Buffer::storage(ctx, "atty receivers' map", 16 * texels)?;
+        let receiver_map = Buffer::storage(ctx, "atty receiver map", 16 * texels)?;
         let ssm = Buffer::storage(ctx, "atty soft shadow map", 8 * texels)?;
         let counters = Buffer::storage(ctx, "atty counters", (COUNTER_NAMES.len() * 4) as u64)?;
         let unused_levels = crate::kernels::nbuffer::minmax_image(ctx, "atty unused levels", 1, 1)?;

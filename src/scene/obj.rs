@@ -239,7 +239,13 @@ fn scan(path: &Path, text: &str) -> Result<Scan> {
                 }
                 if kw == "l" {
                     has_polylines = true;
-                } else if n >= 3 {
+                } else if n < 3 {
+                    // tobj would drop it silently: a face of fewer vertices is no surface.
+                    return Err(bad(
+                        number,
+                        format!("face has {n} vertices; expected at least 3"),
+                    ));
+                } else {
                     let line32 = u32::try_from(number).unwrap_or(u32::MAX);
                     triangle_lines.extend(std::iter::repeat_n(line32, n - 2));
                 }
@@ -308,6 +314,9 @@ mod tests {
         assert!(err("v 0 0 0\nv 1 0 x\n").contains("m.obj:2: vertex value 'x'"));
         assert!(err("v 0 0 nan\n").contains("m.obj:1: vertex value 'nan' is not finite"));
         assert!(err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n").contains("m.obj:4: face"));
+        assert!(err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n")
+            .contains("m.obj:4: face has 2 vertices; expected at least 3"));
+        assert!(err("v 0 0 0\nf\n").contains("m.obj:2: face has 0 vertices"));
         assert!(err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n").contains("m.obj:4: vertex index 4"));
         assert!(err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n").contains("m.obj:4:"));
         assert!(err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2 3\n").contains("texture coordinate"));

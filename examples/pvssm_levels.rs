@@ -11,8 +11,8 @@
 //! down into a KD-tree until a node's finest level fits one shadow map of at most 4096² texels,
 //! each leaf over a requested cell one tile — the tiles and their texels beside the pages'. With
 //! a light scale the scene's rect light is scaled about its centre (0: a point light there), a
-//! sun's angular diameter likewise (0: a hard sun);
-//! `key=value` arguments are `pvssm`'s knobs (`lowres_bias=0`, `light_clip=0`, …).
+//! sun's angular diameter likewise (0: a hard sun); `key=value` arguments are `pvssm`'s knobs
+//! (`lowres_bias=0`, `light_clip=0`, …).
 //!
 //! Run: `cargo run --release --example pvssm_levels -- SCENE [LIGHT_SCALE] [KNOB=VALUE ...]`,
 //! e.g. `cargo run --release --example pvssm_levels -- scenes/teapot-rect.toml 1 lowres_bias=0`.

@@ -2,8 +2,8 @@
 //!
 //! Callers can match on what went wrong: a Vulkan call's `vk::Result` (so a host engine can react
 //! to `ERROR_DEVICE_LOST`), an allocation failure or memory running out where the driver commits
-//! it (naming the resource and its size), a missing device feature, or bad input with the file and line it came
-//! from. Nothing in the library panics on these.
+//! it (naming the resource and its size), a missing device feature, or bad input with the file
+//! and line it came from. Nothing in the library panics on these.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -142,7 +142,7 @@ impl fmt::Display for Located<'_> {
     }
 }
 
-/// A size in bytes as people read it: bytes, KiB, MiB or GiB, three significant digits.
+/// A size in bytes as people read it: bytes, or KiB, MiB or GiB to three decimals.
 struct Bytes(u64);
 
 impl fmt::Display for Bytes {

@@ -21,7 +21,8 @@ use crate::passes::caster_cull::{CasterCull, CasterTest};
 use crate::passes::{LightView, SceneGeometry, ViewSamples};
 use crate::renderer::{texel_grid, ReceiverCache, ShadowRenderer};
 use crate::sampling_error::{sampling_error, SamplingSummary};
-use crate::scene::{Camera, Light, Scene, SceneDefaults};
+use crate::scene::reach::{clip_to_reach, reach_box};
+use crate::scene::{Aabb, Camera, Light, Scene, SceneDefaults};
 use crate::technique_desc::TechniqueDesc;
 use crate::techniques::{self, Technique};
 
@@ -62,6 +63,10 @@ pub struct PreparedScene {
     pub view_pass: PassTime,
     /// Number of triangles.
     pub triangles: usize,
+    /// How many of them reached so far past what the camera sees and the light reaches that
+    /// `prepare` clipped them to it ([`crate::scene::reach`]; `positions` and `indices` hold the
+    /// pieces): 0 for a scene whose triangles all lie within reach, as every bundled one does.
+    pub clipped_triangles: usize,
     /// The receivers built for its renderers, shared by all of them.
     pub(crate) receivers: ReceiverCache,
     /// The view samples' positions and normals read back once, for penumbra's own
@@ -286,9 +291,25 @@ impl Engine {
     ) -> Result<PreparedScene> {
         let ctx = &self.ctx;
         scene.validate()?;
-        let scene_bounds = scene.bounds();
+        let (mut positions, mut indices) = scene.merged();
+        let mut scene_bounds = scene.bounds();
+        // Triangles reaching far past what the camera sees and the light reaches are clipped to
+        // it in f64 (the rasterizers' f32 would lose them: crate::scene::reach); where that
+        // leaves nothing, the scene is left as it is (an empty view renders as one).
+        let mut clipped_triangles = 0;
+        let clipped = reach_box(&scene.camera, &scene.light)
+            .and_then(|reach| clip_to_reach(&positions, &indices, &reach))
+            .filter(|c| !c.indices.is_empty());
+        if let Some(c) = clipped {
+            clipped_triangles = c.clipped;
+            positions = c.positions;
+            indices = c.indices;
+            scene_bounds = Aabb::EMPTY;
+            for &p in &positions {
+                scene_bounds.extend(p);
+            }
+        }
         let light_view = LightView::fit(&scene.light, &scene_bounds)?;
-        let (positions, indices) = scene.merged();
         let geometry = SceneGeometry::from_triangles(ctx, &positions, &indices)?;
         let (view, visibility) = match external {
             Some(v) => v,
@@ -343,6 +364,7 @@ impl Engine {
             visibility,
             view_pass,
             triangles: scene.triangle_count(),
+            clipped_triangles,
             receivers: ReceiverCache::default(),
             samples_read: Default::default(),
             caster_test: Default::default(),

@@ -17,6 +17,7 @@
 pub mod file;
 pub mod obj;
 pub mod procedural;
+pub mod reach;
 pub mod shapes;
 
 use std::path::{Path, PathBuf};

@@ -21,7 +21,7 @@ use crate::passes::caster_cull::{CasterCull, CasterTest};
 use crate::passes::{LightView, SceneGeometry, ViewSamples};
 use crate::renderer::{texel_grid, ReceiverCache, ShadowRenderer};
 use crate::sampling_error::{sampling_error, SamplingSummary};
-use crate::scene::reach::{clip_to_reach, reach_box};
+use crate::scene::reach::{clip_to_reach, Reach};
 use crate::scene::{Aabb, Camera, Light, Scene, SceneDefaults};
 use crate::technique_desc::TechniqueDesc;
 use crate::techniques::{self, Technique};
@@ -297,9 +297,8 @@ impl Engine {
         // it in f64 (the rasterizers' f32 would lose them: crate::scene::reach); where that
         // leaves nothing, the scene is left as it is (an empty view renders as one).
         let mut clipped_triangles = 0;
-        let clipped = reach_box(&scene.camera, &scene.light)
-            .and_then(|reach| clip_to_reach(&positions, &indices, &reach))
-            .filter(|c| !c.indices.is_empty());
+        let reach = Reach::new(&scene.camera, &scene.light);
+        let clipped = clip_to_reach(&positions, &indices, &reach).filter(|c| !c.indices.is_empty());
         if let Some(c) = clipped {
             clipped_triangles = c.clipped;
             positions = c.positions;

@@ -11,8 +11,12 @@
 //! [`KEPT`] times it, in f64, and fans what is left into triangles: then every ground from 1e2 to
 //! 1e14 units wide gives the 2 944 samples (f64's own precision ends it: 2 879 at 1e16). A scene
 //! whose triangles all lie within the threshold — every bundled, procedural and stress one
-//! (`tests/scene_reach.rs`) — is passed on unchanged, bit for bit. A sun's segments run to infinity toward it, so no finite box holds them: scenes
-//! under a directional light are never clipped.
+//! (`tests/scene_reach.rs`) — is passed on unchanged, bit for bit. A sun's segments run to
+//! infinity toward it, so under a sun the reach is the box swept toward the light without end:
+//! the half-spaces whose normals turn at least 90° plus the sun's angular radius away from its
+//! direction — the box's faces that do, and for each axis the planes through the box's edges
+//! along it that hold the swept directions, tilted outward by that radius — which hold every
+//! point a ray from the box toward any part of the sun's disk reaches.
 
 use glam::{DVec3, Vec3};
 
@@ -24,41 +28,91 @@ pub const THRESHOLD: f64 = 1024.0;
 /// How many times the reach box's half-size (about its centre) a clipped triangle keeps.
 pub const KEPT: f64 = 4.0;
 
-/// The box holding the camera's frustum up to its far plane and, for a point or rect light, the
-/// light; `None` under a directional light.
-pub fn reach_box(camera: &Camera, light: &Light) -> Option<Aabb> {
-    let mut b = Aabb::EMPTY;
-    match *light {
-        Light::Directional { .. } => return None,
-        Light::Point { position } => b.extend(position),
-        Light::Rect { position, u, v } => {
-            for (s, t) in [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)] {
-                b.extend(position + u * s + v * t);
-            }
-        }
-    }
-    let eye = camera.position.as_dvec3();
-    let forward = (camera.target.as_dvec3() - eye).normalize();
-    let right = forward.cross(camera.up.as_dvec3()).normalize();
-    let up = right.cross(forward);
-    let tan_y = (f64::from(camera.fov_y_deg).to_radians() * 0.5).tan();
-    let tan_x = tan_y * f64::from(camera.width) / f64::from(camera.height.max(1));
-    for d in [f64::from(camera.near), f64::from(camera.far)] {
-        for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
-            let corner = eye + forward * d + right * (sx * tan_x * d) + up * (sy * tan_y * d);
-            b.extend(corner.as_vec3());
-        }
-    }
-    Some(b)
+/// Where a scene's triangles can matter: the box holding the camera's frustum up to its far
+/// plane (and a point or rect light), swept toward a sun without end.
+#[derive(Clone, Copy, Debug)]
+pub struct Reach {
+    /// The box.
+    pub bounds: Aabb,
+    /// Under a sun: the unit direction toward it and its angular radius (radians).
+    pub sweep: Option<(DVec3, f64)>,
 }
 
-/// `box` scaled by `k` about its centre, in f64, each half-size at least 1e-3 of the largest
-/// (a flat box keeps some thickness).
-fn scaled(b: &Aabb, k: f64) -> (DVec3, DVec3) {
-    let c = (b.min.as_dvec3() + b.max.as_dvec3()) * 0.5;
-    let h = (b.max.as_dvec3() - b.min.as_dvec3()) * 0.5;
-    let h = h.max(DVec3::splat(h.max_element() * 1e-3));
-    (c - h * k, c + h * k)
+impl Reach {
+    /// The scene's reach: `camera`'s frustum and a point or rect `light`, or the frustum swept
+    /// toward a directional one.
+    pub fn new(camera: &Camera, light: &Light) -> Reach {
+        let mut b = Aabb::EMPTY;
+        let mut sweep = None;
+        match *light {
+            Light::Point { position } => b.extend(position),
+            Light::Rect { position, u, v } => {
+                for (s, t) in [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)] {
+                    b.extend(position + u * s + v * t);
+                }
+            }
+            Light::Directional {
+                direction,
+                angular_diameter_deg,
+            } => {
+                let radius = f64::from(angular_diameter_deg).to_radians() * 0.5;
+                sweep = Some((-direction.as_dvec3().normalize(), radius));
+            }
+        }
+        let eye = camera.position.as_dvec3();
+        let forward = (camera.target.as_dvec3() - eye).normalize();
+        let right = forward.cross(camera.up.as_dvec3()).normalize();
+        let up = right.cross(forward);
+        let tan_y = (f64::from(camera.fov_y_deg).to_radians() * 0.5).tan();
+        let tan_x = tan_y * f64::from(camera.width) / f64::from(camera.height.max(1));
+        for d in [f64::from(camera.near), f64::from(camera.far)] {
+            for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
+                let corner = eye + forward * d + right * (sx * tan_x * d) + up * (sy * tan_y * d);
+                b.extend(corner.as_vec3());
+            }
+        }
+        Reach { bounds: b, sweep }
+    }
+
+    /// The reach with its box scaled by `k` about its centre (each half-size at least 1e-3 of
+    /// the largest, so that a flat box keeps some thickness), as half-spaces n·x <= c.
+    pub fn half_spaces(&self, k: f64) -> Vec<(DVec3, f64)> {
+        let b = &self.bounds;
+        let c = (b.min.as_dvec3() + b.max.as_dvec3()) * 0.5;
+        let h = (b.max.as_dvec3() - b.min.as_dvec3()) * 0.5;
+        let h = h.max(DVec3::splat(h.max_element() * 1e-3)) * k;
+        let (lo, hi) = (c - h, c + h);
+        // The box's support along n: the largest n·x over its corners.
+        let support = |n: DVec3| -> f64 { (0..3).map(|a| (n[a] * lo[a]).max(n[a] * hi[a])).sum() };
+        let mut normals: Vec<DVec3> = (0..6)
+            .map(|f| {
+                let mut n = DVec3::ZERO;
+                n[f / 2] = if f % 2 == 0 { -1.0 } else { 1.0 };
+                n
+            })
+            .collect();
+        if let Some((toward, radius)) = self.sweep {
+            // The faces the swept directions leave, and the edge planes along them, tilted.
+            let (sin, cos) = radius.sin_cos();
+            normals.retain(|n| n.dot(toward) <= -sin);
+            for axis in 0..3 {
+                let mut e = DVec3::ZERO;
+                e[axis] = 1.0;
+                let m = e.cross(toward);
+                if m.length() > 1e-9 {
+                    let m = m.normalize();
+                    normals.push(m * cos - toward * sin);
+                    normals.push(-m * cos - toward * sin);
+                }
+            }
+        }
+        normals.into_iter().map(|n| (n, support(n))).collect()
+    }
+}
+
+/// Whether `p` lies outside any of the half-spaces.
+fn outside(planes: &[(DVec3, f64)], p: DVec3) -> bool {
+    planes.iter().any(|&(n, c)| n.dot(p) > c)
 }
 
 /// The triangle list with every triangle that reaches past [`THRESHOLD`] times `reach` clipped to
@@ -68,27 +122,27 @@ fn scaled(b: &Aabb, k: f64) -> (DVec3, DVec3) {
 pub fn clip_to_reach(
     positions: &[Vec3],
     indices: &[u32],
-    reach: &Aabb,
+    reach: &Reach,
 ) -> Option<ClippedTriangles> {
-    let (t_lo, t_hi) = scaled(reach, THRESHOLD);
+    let threshold = reach.half_spaces(THRESHOLD);
     // Per vertex first (a scene has fewer vertices than triangle corners), then per triangle: a
     // stray vertex no triangle uses changes nothing.
-    let outside: Vec<bool> = positions
+    let far: Vec<bool> = positions
         .iter()
-        .map(|p| p.as_dvec3().cmplt(t_lo).any() || p.as_dvec3().cmpgt(t_hi).any())
+        .map(|p| outside(&threshold, p.as_dvec3()))
         .collect();
-    if !outside.contains(&true) {
+    if !far.contains(&true) {
         return None;
     }
-    let beyond = |tri: &[u32]| tri.iter().any(|&i| outside[i as usize]);
+    let beyond = |tri: &[u32]| tri.iter().any(|&i| far[i as usize]);
     if !indices.chunks_exact(3).any(beyond) {
         return None;
     }
-    let (k_lo, k_hi) = scaled(reach, KEPT);
+    let kept = reach.half_spaces(KEPT);
     let mut out = ClippedTriangles::default();
     let mut remap = vec![u32::MAX; positions.len()];
-    let mut polygon = Vec::with_capacity(9);
-    let mut next = Vec::with_capacity(9);
+    let mut polygon = Vec::with_capacity(16);
+    let mut next = Vec::with_capacity(16);
     for tri in indices.chunks_exact(3) {
         if !beyond(tri) {
             for &i in tri {
@@ -103,42 +157,35 @@ pub fn clip_to_reach(
         out.clipped += 1;
         polygon.clear();
         polygon.extend(tri.iter().map(|&i| positions[i as usize].as_dvec3()));
-        // Sutherland–Hodgman against the six planes of the kept box.
-        for axis in 0..3 {
-            for (bound, keep_below) in [(k_lo[axis], false), (k_hi[axis], true)] {
-                let inside = |p: &DVec3| {
-                    if keep_below {
-                        p[axis] <= bound
-                    } else {
-                        p[axis] >= bound
-                    }
-                };
-                next.clear();
-                for (k, &a) in polygon.iter().enumerate() {
-                    let b = polygon[(k + 1) % polygon.len()];
-                    if inside(&a) {
-                        next.push(a);
-                    }
-                    if inside(&a) != inside(&b) {
-                        let t = (bound - a[axis]) / (b[axis] - a[axis]);
-                        let mut p = a + (b - a) * t;
-                        p[axis] = bound;
-                        next.push(p);
-                    }
+        // Sutherland–Hodgman against each half-space of the kept reach; a point cut by an axis
+        // plane takes the plane's coordinate exactly.
+        for &(n, c) in &kept {
+            let axis = (0..3).find(|&a| n[a].abs() == 1.0);
+            let inside = |p: &DVec3| n.dot(*p) <= c;
+            next.clear();
+            for (k, &a) in polygon.iter().enumerate() {
+                let b = polygon[(k + 1) % polygon.len()];
+                if inside(&a) {
+                    next.push(a);
                 }
-                std::mem::swap(&mut polygon, &mut next);
-                if polygon.is_empty() {
-                    break;
+                if inside(&a) != inside(&b) {
+                    let t = (c - n.dot(a)) / n.dot(b - a);
+                    let mut p = a + (b - a) * t;
+                    if let Some(axis) = axis {
+                        p[axis] = c * n[axis];
+                    }
+                    next.push(p);
                 }
+            }
+            std::mem::swap(&mut polygon, &mut next);
+            if polygon.is_empty() {
+                break;
             }
         }
         for k in 1..polygon.len().saturating_sub(1) {
             let piece = [polygon[0], polygon[k], polygon[k + 1]].map(|p| p.as_vec3());
-            if (piece[1] - piece[0])
-                .cross(piece[2] - piece[0])
-                .length_squared()
-                > 0.0
-            {
+            let doubled_area = (piece[1] - piece[0]).cross(piece[2] - piece[0]);
+            if doubled_area.length_squared() > 0.0 {
                 let base = out.positions.len() as u32;
                 out.positions.extend_from_slice(&piece);
                 out.indices.extend([base, base + 1, base + 2]);
@@ -163,10 +210,13 @@ pub struct ClippedTriangles {
 mod tests {
     use super::*;
 
-    fn unit_reach() -> Aabb {
-        Aabb {
-            min: Vec3::splat(-1.0),
-            max: Vec3::splat(1.0),
+    fn unit_reach() -> Reach {
+        Reach {
+            bounds: Aabb {
+                min: Vec3::splat(-1.0),
+                max: Vec3::splat(1.0),
+            },
+            sweep: None,
         }
     }
 
@@ -252,9 +302,8 @@ mod tests {
         assert_eq!(out.positions, [Vec3::ZERO, Vec3::X, Vec3::Z]);
     }
 
-    #[test]
-    fn the_reach_holds_the_frustum_and_the_light() {
-        let camera = Camera {
+    fn camera() -> Camera {
+        Camera {
             position: Vec3::new(0.0, 1.0, 2.0),
             target: Vec3::ZERO,
             up: Vec3::Y,
@@ -263,21 +312,67 @@ mod tests {
             height: 48,
             near: 0.1,
             far: 10.0,
-        };
+        }
+    }
+
+    #[test]
+    fn the_reach_holds_the_frustum_and_the_light() {
+        let camera = camera();
         let light = Light::Rect {
             position: Vec3::new(0.0, 20.0, 0.0),
             u: Vec3::X,
             v: Vec3::Z,
         };
-        let b = reach_box(&camera, &light).expect("a rect light has a reach");
+        let reach = Reach::new(&camera, &light);
+        let b = reach.bounds;
+        assert!(reach.sweep.is_none());
         assert!(b.max.y >= 20.0 && b.min.x <= -0.5 && b.max.x >= 0.5);
         // The far plane's centre, 10 units along the view direction.
         let far_centre = camera.position + (camera.target - camera.position).normalize() * 10.0;
         assert!(far_centre.cmpge(b.min).all() && far_centre.cmple(b.max).all());
+        assert_eq!(reach.half_spaces(1.0).len(), 6);
+    }
+
+    /// Under a sun the reach runs toward it without end, widening by its angular radius: a
+    /// point far up along the light holds, one far up beside it, past the disk's spread, does
+    /// not; and a ground far wider than the view is cut down to about the box.
+    #[test]
+    fn a_sun_sweeps_the_reach_toward_it() {
+        let direction = Vec3::new(1.0, -2.0, 0.5).normalize();
         let sun = Light::Directional {
-            direction: -Vec3::Y,
-            angular_diameter_deg: 0.5,
+            direction,
+            angular_diameter_deg: 2.0,
         };
-        assert!(reach_box(&camera, &sun).is_none());
+        let reach = Reach::new(&camera(), &sun);
+        let planes = reach.half_spaces(1.0);
+        let centre = ((reach.bounds.min + reach.bounds.max) * 0.5).as_dvec3();
+        let toward = -direction.as_dvec3();
+        assert!(!outside(&planes, centre + toward * 1e6));
+        // Sideways by 1e6 · tan(1°) is within the spread; by ten times that, out.
+        let side = toward.cross(DVec3::Y).normalize();
+        let spread = 1e6 * 1f64.to_radians().tan();
+        assert!(!outside(
+            &planes,
+            centre + toward * 1e6 + side * 0.5 * spread
+        ));
+        assert!(outside(
+            &planes,
+            centre + toward * 1e6 + side * 10.0 * spread
+        ));
+        // Away from the sun (below the ground, along the light), out.
+        assert!(outside(&planes, centre - toward * 1e3));
+        let s = 1e8;
+        let p = [
+            Vec3::new(-s, 0.0, -s),
+            Vec3::new(s, 0.0, -s),
+            Vec3::new(s, 0.0, s),
+            Vec3::new(-s, 0.0, s),
+        ];
+        let out = clip_to_reach(&p, &[0, 2, 1, 0, 3, 2], &reach).expect("clipped");
+        assert_eq!(out.clipped, 2);
+        let extent = (reach.bounds.max - reach.bounds.min).max_element() * 8.0;
+        for v in &out.positions {
+            assert!(v.y == 0.0 && v.abs().max_element() < extent, "{v}");
+        }
     }
 }

@@ -10,8 +10,9 @@
 //! `Engine::prepare` clips each triangle that reaches past [`THRESHOLD`] times the box's size to
 //! [`KEPT`] times it, in f64, and fans what is left into triangles: then every ground from 1e2 to
 //! 1e14 units wide gives the 2 944 samples (f64's own precision ends it: 2 879 at 1e16). A scene
-//! whose triangles all lie within the threshold — every bundled, procedural and stress one
-//! (`tests/scene_reach.rs`) — is passed on unchanged, bit for bit. A sun's segments run to
+//! whose triangles all lie within the threshold — every bundled and procedural one, and every
+//! stress case but `huge-ground`, which is built for it (`tests/scene_reach.rs`) — is passed on
+//! unchanged, bit for bit. A sun's segments run to
 //! infinity toward it, so under a sun the reach is the box swept toward the light without end:
 //! the half-spaces whose normals turn at least 90° plus the sun's angular radius away from its
 //! direction — the box's faces that do, and for each axis the planes through the box's edges

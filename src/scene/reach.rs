@@ -221,6 +221,18 @@ mod tests {
         }
     }
 
+    /// The corners of a ground quad 2e8 units wide at y = 0 (triangles (0, 2, 1), (0, 3, 2)
+    /// face +y).
+    fn huge_ground() -> [Vec3; 4] {
+        let s = 1e8;
+        [
+            Vec3::new(-s, 0.0, -s),
+            Vec3::new(s, 0.0, -s),
+            Vec3::new(s, 0.0, s),
+            Vec3::new(-s, 0.0, s),
+        ]
+    }
+
     /// Whether p lies in the triangle (a, b, c) of the y = 0 plane.
     fn in_triangle(p: [f64; 2], t: [Vec3; 3]) -> bool {
         let e = |a: Vec3, b: Vec3| {
@@ -244,12 +256,12 @@ mod tests {
     #[test]
     fn a_huge_ground_keeps_the_same_surface_near_the_reach() {
         // A ground quad 2e8 wide, and a small triangle beside it that stays as it is.
-        let s = 1e8;
+        let [g0, g1, g2, g3] = huge_ground();
         let p = [
-            Vec3::new(-s, 0.0, -s),
-            Vec3::new(s, 0.0, -s),
-            Vec3::new(s, 0.0, s),
-            Vec3::new(-s, 0.0, s),
+            g0,
+            g1,
+            g2,
+            g3,
             Vec3::new(0.0, 0.5, 0.0),
             Vec3::new(0.5, 0.5, 0.0),
             Vec3::new(0.0, 0.5, 0.5),
@@ -362,14 +374,7 @@ mod tests {
         ));
         // Away from the sun (below the ground, along the light), out.
         assert!(outside(&planes, centre - toward * 1e3));
-        let s = 1e8;
-        let p = [
-            Vec3::new(-s, 0.0, -s),
-            Vec3::new(s, 0.0, -s),
-            Vec3::new(s, 0.0, s),
-            Vec3::new(-s, 0.0, s),
-        ];
-        let out = clip_to_reach(&p, &[0, 2, 1, 0, 3, 2], &reach).expect("clipped");
+        let out = clip_to_reach(&huge_ground(), &[0, 2, 1, 0, 3, 2], &reach).expect("clipped");
         assert_eq!(out.clipped, 2);
         let extent = (reach.bounds.max - reach.bounds.min).max_element() * 8.0;
         for v in &out.positions {

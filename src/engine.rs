@@ -303,10 +303,7 @@ impl Engine {
             clipped_triangles = c.clipped;
             positions = c.positions;
             indices = c.indices;
-            scene_bounds = Aabb::EMPTY;
-            for &p in &positions {
-                scene_bounds.extend(p);
-            }
+            scene_bounds = Aabb::of(&positions);
         }
         let light_view = LightView::fit(&scene.light, &scene_bounds)?;
         let geometry = SceneGeometry::from_triangles(ctx, &positions, &indices)?;

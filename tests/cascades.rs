@@ -219,7 +219,7 @@ fn the_blend_band_is_continuous_across_a_border() {
 
 /// The box, in the frame turned by `turn`, of ground points (y = 0) between two view depths.
 fn ground_slice_box(lv: &LightView, camera: &Camera, d: (f32, f32), turn: Vec2) -> Vec2 {
-    let (forward, right, up) = cascade_fit::camera_frame(camera);
+    let (forward, right, up) = camera.frame();
     let (mut lo, mut hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
     for i in 0..=64 {
         for j in 0..=64 {
@@ -273,7 +273,7 @@ fn the_turned_orientation_lies_along_a_slice_of_the_ground() {
         let lv = LightView::fit(&light, &scene).expect("light view");
         let d = (6.0, 8.0);
         let turns = cascade_fit::orientations(&lv, &camera, d.0, d.1);
-        let (forward, right, _) = cascade_fit::camera_frame(&camera);
+        let (forward, right, _) = camera.frame();
         let mid = camera.position + forward * 7.0;
         let a = cascade_fit::light_xy(&lv, mid).expect("a");
         let b = cascade_fit::light_xy(&lv, mid + right).expect("b");

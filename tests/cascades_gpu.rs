@@ -18,7 +18,7 @@ use penumbra::passes::cascade_fit::{
     self, Cascade, DepthHistogram, FitDesc, Partition, HISTOGRAM_BINS,
 };
 use penumbra::passes::{LightProjection, LightView};
-use penumbra::techniques::cascades::{bounds, filter_reach, fit, reduce_depth_histogram};
+use penumbra::techniques::cascades::{filter_reach, fit, reduce_depth_histogram};
 use penumbra::techniques::TechniqueSetup;
 
 fn setup<'a>(
@@ -145,7 +145,7 @@ fn every_sample_is_covered_and_the_lookup_equals_its_twin() {
         let positions = prepared.view.read_positions(ctx).expect("positions");
         let normals = prepared.view.read_normals(ctx).expect("normals");
         let lv = prepared.light_view;
-        let scene = bounds(&prepared.positions);
+        let scene = penumbra::scene::Aabb::of(&prepared.positions);
         let (d0, d1) = cascade_fit::scene_depth_range(&prepared.camera, &scene);
         let turns = cascade_fit::orientations(&lv, &prepared.camera, d0, d1);
         for (partition, filter) in [

@@ -87,33 +87,10 @@ pub fn practical_splits(near: f32, far: f32, k: usize, lambda: f32) -> Vec<f32> 
     splits
 }
 
-/// The camera's orthonormal frame: forward, right, up.
-pub fn camera_frame(camera: &Camera) -> (Vec3, Vec3, Vec3) {
-    let forward = (camera.target - camera.position).normalize();
-    let right = forward.cross(camera.up).normalize();
-    (forward, right, right.cross(forward))
-}
-
-/// The 8 world-space corners of the camera frustum between view depths `d0` and `d1` (depth
-/// measured along the view direction, as the view samples' `normals.w`).
-pub fn slice_corners(camera: &Camera, d0: f32, d1: f32) -> [Vec3; 8] {
-    let (forward, right, up) = camera_frame(camera);
-    let ty = (camera.fov_y_deg.to_radians() * 0.5).tan();
-    let tx = ty * camera.width as f32 / camera.height.max(1) as f32;
-    let mut out = [Vec3::ZERO; 8];
-    for (i, c) in out.iter_mut().enumerate() {
-        let d = if i < 4 { d0 } else { d1 };
-        let sx = if i & 1 == 0 { -1.0 } else { 1.0 };
-        let sy = if i & 2 == 0 { -1.0 } else { 1.0 };
-        *c = camera.position + forward * d + right * (sx * tx * d) + up * (sy * ty * d);
-    }
-    out
-}
-
 /// The camera depth range of the scene box clipped to the camera's near..far: the depths a
 /// visible receiver can have.
 pub fn scene_depth_range(camera: &Camera, scene: &Aabb) -> (f32, f32) {
-    let (forward, _, _) = camera_frame(camera);
+    let (forward, _, _) = camera.frame();
     let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
     for i in 0..8 {
         let c = Vec3::new(
@@ -252,7 +229,7 @@ pub fn turn_point(p: Vec2, turn: Vec2) -> Vec2 {
 /// be a strip too (a plane lit at a grazing angle), in another direction. Images are taken
 /// between two points, which is right for a perspective light's cross-section too.
 pub fn orientations(base: &LightView, camera: &Camera, d0: f32, d1: f32) -> [Vec2; 2] {
-    let (forward, right, _) = camera_frame(camera);
+    let (forward, right, _) = camera.frame();
     let mid = camera.position + forward * (0.5 * (d0 + d1));
     // A segment short against the slice (a perspective light's image of it is then ~straight).
     let half = 0.01 * (0.5 * (d0 + d1)).max(1e-6);
@@ -353,7 +330,7 @@ pub fn fit_slices(
     (0..k)
         .map(|i| {
             let depths = (splits[i], splits[i + 1]);
-            let corners = slice_corners(camera, depths.0, depths.1);
+            let corners = camera.frustum_corners(depths.0, depths.1);
             if ortho && snap {
                 // The slice's bounding sphere: a disk of fixed radius in the light's view, the
                 // same in either orientation (so the base's is kept).

@@ -45,11 +45,7 @@ impl Mesh {
 
     /// The axis-aligned bounds of the positions.
     pub fn bounds(&self) -> Aabb {
-        let mut b = Aabb::EMPTY;
-        for &p in &self.positions {
-            b.extend(p);
-        }
-        b
+        Aabb::of(&self.positions)
     }
 }
 
@@ -95,6 +91,30 @@ impl Camera {
     /// `projection() * view()`.
     pub fn view_projection(&self) -> Mat4 {
         self.projection() * self.view()
+    }
+
+    /// The camera's orthonormal frame: forward, right, up.
+    pub fn frame(&self) -> (Vec3, Vec3, Vec3) {
+        let forward = (self.target - self.position).normalize();
+        let right = forward.cross(self.up).normalize();
+        (forward, right, right.cross(forward))
+    }
+
+    /// The 8 world-space corners of the frustum between view depths `d0` and `d1` (depth
+    /// measured along the view direction, as the view samples' `normals.w`): the four at `d0`
+    /// first.
+    pub fn frustum_corners(&self, d0: f32, d1: f32) -> [Vec3; 8] {
+        let (forward, right, up) = self.frame();
+        let ty = (self.fov_y_deg.to_radians() * 0.5).tan();
+        let tx = ty * self.width as f32 / self.height.max(1) as f32;
+        let mut out = [Vec3::ZERO; 8];
+        for (i, c) in out.iter_mut().enumerate() {
+            let d = if i < 4 { d0 } else { d1 };
+            let sx = if i & 1 == 0 { -1.0 } else { 1.0 };
+            let sy = if i & 2 == 0 { -1.0 } else { 1.0 };
+            *c = self.position + forward * d + right * (sx * tx * d) + up * (sy * ty * d);
+        }
+        out
     }
 }
 
@@ -217,6 +237,15 @@ impl Aabb {
     pub fn extend(&mut self, p: Vec3) {
         self.min = self.min.min(p);
         self.max = self.max.max(p);
+    }
+
+    /// The box of `points` ([`Aabb::EMPTY`] for none).
+    pub fn of(points: &[Vec3]) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for &p in points {
+            b.extend(p);
+        }
+        b
     }
 }
 

@@ -60,17 +60,8 @@ impl Reach {
                 sweep = Some((-direction.as_dvec3().normalize(), radius));
             }
         }
-        let eye = camera.position.as_dvec3();
-        let forward = (camera.target.as_dvec3() - eye).normalize();
-        let right = forward.cross(camera.up.as_dvec3()).normalize();
-        let up = right.cross(forward);
-        let tan_y = (f64::from(camera.fov_y_deg).to_radians() * 0.5).tan();
-        let tan_x = tan_y * f64::from(camera.width) / f64::from(camera.height.max(1));
-        for d in [f64::from(camera.near), f64::from(camera.far)] {
-            for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
-                let corner = eye + forward * d + right * (sx * tan_x * d) + up * (sy * tan_y * d);
-                b.extend(corner.as_vec3());
-            }
+        for corner in camera.frustum_corners(camera.near, camera.far) {
+            b.extend(corner);
         }
         Reach { bounds: b, sweep }
     }

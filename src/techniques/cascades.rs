@@ -26,7 +26,7 @@
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
-use glam::{IVec2, IVec4, Mat4, UVec2, Vec2, Vec3, Vec4};
+use glam::{IVec2, IVec4, Mat4, UVec2, Vec2, Vec4};
 
 use crate::sampling_error::{nearest_rank, SampleFootprints, SamplingGrid};
 
@@ -187,14 +187,6 @@ pub fn atlas_layout(count: u32, tile: UVec2, max: u32) -> Result<(u32, u32)> {
         });
     }
     Ok((cols, rows))
-}
-
-/// The scene's bounding box from its triangles' positions.
-pub fn bounds(positions: &[Vec3]) -> Aabb {
-    positions.iter().fold(Aabb::EMPTY, |b, &p| Aabb {
-        min: b.min.min(p),
-        max: b.max.max(p),
-    })
 }
 
 /// The fit's settings from the knobs.
@@ -390,7 +382,7 @@ impl<'a> Cascades<'a> {
         let ctx = setup.ctx;
         let desc = shadow_map_desc(params)?;
         let k = params.u32("count")?;
-        let (d0, d1) = cascade_fit::scene_depth_range(setup.camera, &bounds(setup.positions));
+        let (d0, d1) = cascade_fit::scene_depth_range(setup.camera, &Aabb::of(setup.positions));
         let turns = cascade_fit::orientations(setup.light_view, setup.camera, d0, d1);
         let histogram = if Partition::from_index(params.u32("partition")?)? == Partition::Sdsm {
             let pass = DepthHistogramPass::new(setup, turns[1])?;
@@ -404,7 +396,7 @@ impl<'a> Cascades<'a> {
         let normals = setup.host_samples.normals(ctx)?;
         let (cascades, tile) = fit(
             setup.camera,
-            &bounds(setup.positions),
+            &Aabb::of(setup.positions),
             setup.light_view,
             &turns,
             hist.as_ref(),

@@ -352,7 +352,8 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 max_width,
                 min_variance,
                 max_level,
-                pad
+                receiver_plane,
+                split_regions
             }),
         ),
         (

@@ -5,6 +5,7 @@
 mod common;
 
 use glam::{IVec2, Vec3};
+use penumbra::cpu::receiver_plane::ViewImages;
 use penumbra::cpu::vssm::{twin_push, vssm, MAX_FLIP_FRACTION, VALUE_TOLERANCE};
 use penumbra::gpu::f32s;
 use penumbra::scene::Light;
@@ -35,7 +36,13 @@ fn compare(engine: &Engine, spec: &str, extra: &[(&str, &str)]) {
     let size = IVec2::new(frame.width as i32, frame.height as i32);
     let pc = twin_push(&params, &scene.light, &prepared.light_view, size).expect("twin push");
     let positions = prepared.view.read_positions(&ctx).expect("positions");
-    let cpu = vssm(&positions, size, &depth, &pc);
+    let normals = prepared.view.read_normals(&ctx).expect("normals");
+    let view = ViewImages {
+        positions: &positions,
+        normals: &normals,
+        size,
+    };
+    let cpu = vssm(&view, &depth, &pc);
     let mut beyond = 0u64;
     let mut worst = 0.0f32;
     for (g, c) in frame.visibility.iter().zip(&cpu.visibility) {
@@ -64,13 +71,18 @@ fn compare(engine: &Engine, spec: &str, extra: &[(&str, &str)]) {
         );
     }
     assert!(samples > 5000, "too few view samples");
-    assert!(counters["penumbra"] > 100, "no penumbra to compare");
+    assert!(counters["penumbra"] > 50, "no penumbra to compare");
     assert_eq!(samples, cpu.counters[0]);
     assert_eq!(counters["outside_light"], cpu.counters[1]);
     let cap = (MAX_FLIP_FRACTION * samples as f64).ceil() as u64;
-    for (k, name) in ["skipped_lit", "skipped_umbra", "subdivided"]
-        .iter()
-        .enumerate()
+    for (k, name) in [
+        "skipped_lit",
+        "skipped_umbra",
+        "subdivided",
+        "plane_fallback",
+    ]
+    .iter()
+    .enumerate()
     {
         assert!(
             counters[*name].abs_diff(cpu.counters[5 + k]) <= cap,
@@ -95,6 +107,12 @@ fn compare(engine: &Engine, spec: &str, extra: &[(&str, &str)]) {
 fn matches_cpu_twin() {
     let engine = common::engine();
     compare(&engine, "plane-boxes@rect", &[]);
+    // The paper's rule: split only where Chebyshev does not apply, at one receiver depth.
+    compare(
+        &engine,
+        "plane-boxes@rect",
+        &[("receiver_plane_bias", "0"), ("split_regions", "leaks")],
+    );
     compare(
         &engine,
         "plane-boxes@rect",
@@ -274,6 +292,62 @@ fn finite_at_extreme_knobs_and_depth_ranges() {
             assert_eq!(frame.stats.out_of_range_count, 0, "{}", scene.name);
         }
         drop(prepared);
+    }
+    common::assert_clean(&engine.context().validation());
+}
+
+/// Receivers tilted in light space: `plane-boxes@rect`'s ground, seen by a rect light off to its
+/// side, lies in front of a sample's own depth over half of any region around it. Tested at one
+/// depth, that half counts as blockers: Eq. 6.11 then divides a small difference by a small
+/// 1 − p, puts the blockers near the light, widens the filter to a box or sphere far beside the
+/// sample and darkens a halo as wide as the search region around every shadow (MAE 0.040 against
+/// the reference at 512×384 before `receiver_plane_bias` and `split_regions`). Property: where
+/// the ray-cast reference is fully lit, at most 1 % of the samples read below 0.9 (measured on
+/// lavapipe at 128×96: 0.1 %; with the paper's rule at one depth, 13 %).
+#[test]
+fn tilted_receivers_are_not_darkened_beside_shadows() {
+    let engine = common::engine();
+    let scene = common::small("plane-boxes@rect");
+    let prepared = engine.prepare(&scene).expect("prepare");
+    let reference = engine
+        .render(&prepared, "reference", &common::knobs(&[]), 1)
+        .expect("reference");
+    let positions = prepared
+        .view
+        .read_positions(engine.context())
+        .expect("positions");
+    let dark_beside = |extra: &[(&str, &str)]| {
+        let frame = engine
+            .render(&prepared, "vssm", &common::knobs(extra), 1)
+            .expect("vssm");
+        let (mut lit, mut dark) = (0u64, 0u64);
+        for ((p, r), v) in positions
+            .iter()
+            .zip(&reference.visibility)
+            .zip(&frame.visibility)
+        {
+            if p.w > 0.0 && *r >= 1.0 {
+                lit += 1;
+                dark += (*v < 0.9) as u64;
+            }
+        }
+        (dark as f64 / lit as f64, frame)
+    };
+    let (paper, _) = dark_beside(&[("receiver_plane_bias", "0"), ("split_regions", "leaks")]);
+    let (ours, frame) = dark_beside(&[]);
+    eprintln!("lit in the reference, below 0.9: {ours:.4} (paper's rule {paper:.4})");
+    if ours > 0.01 {
+        let dir = common::write_diff(
+            "vssm-tilted",
+            frame.width,
+            frame.height,
+            &reference.visibility,
+            &frame.visibility,
+        );
+        panic!(
+            "{ours} of the lit samples darkened; images in {}",
+            dir.display()
+        );
     }
     common::assert_clean(&engine.context().validation());
 }

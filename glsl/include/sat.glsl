@@ -61,6 +61,8 @@ SAT_T sat_fetch(int x, int y) {
 
 // The exclusive prefix F(X, Y) = sum over i < X, j < Y, for any X, Y: zero left of or above the
 // image (the "black border" the book's recurrence needs), the full sums beyond it.
+SAT_F sat_box_combine(SAT_T g[4][4], vec2 p0, vec2 p1);
+
 SAT_T sat_corner(int X, int Y) {
     ivec2 size = SAT_SIZE;
     if (X <= 0 || Y <= 0) {
@@ -120,8 +122,6 @@ SAT_F sat_box_sum(vec2 lo, vec2 hi) {
     }
     ivec2 i0 = ivec2(floor(p0));
     ivec2 i1 = ivec2(floor(p1));
-    vec2 f0 = p0 - vec2(i0);
-    vec2 f1 = p1 - vec2(i1);
     // sat_corner clamps past the edge, where the weight is 0 anyway.
     int xs[4] = int[4](i0.x, i0.x + 1, i1.x, i1.x + 1);
     int ys[4] = int[4](i0.y, i0.y + 1, i1.y, i1.y + 1);
@@ -131,6 +131,17 @@ SAT_F sat_box_sum(vec2 lo, vec2 hi) {
             g[j][i] = sat_corner(xs[i], ys[j]);
         }
     }
+    return sat_box_combine(g, p0, p1);
+}
+
+// sat_box_sum from its 16 corners: g[j][i] = sat_corner(xs[i], ys[j]) with xs = (X0, X0 + 1,
+// X1, X1 + 1), X0 = floor(p0.x), X1 = floor(p1.x), ys likewise; p0 < p1 the clamped bounds.
+// For callers that fetch the corners once for neighbouring boxes (vssm's split regions).
+SAT_F sat_box_combine(SAT_T g[4][4], vec2 p0, vec2 p1) {
+    ivec2 i0 = ivec2(floor(p0));
+    ivec2 i1 = ivec2(floor(p1));
+    vec2 f0 = p0 - vec2(i0);
+    vec2 f1 = p1 - vec2(i1);
     // Ranges per axis as (first, end) corner indices: texel X0, texels X0 + 1 .. X1 - 1 (an
     // inverted range when X0 = X1, weighted 0), texel X1.
     ivec2 range[3] = ivec2[3](ivec2(0, 1), ivec2(1, 2), ivec2(2, 3));

@@ -24,8 +24,10 @@ layout(push_constant) uniform Push {
     float min_variance;
     // The N-buffer's highest level.
     int max_level;
-    int pad0;
-    int pad1;
+    // 1: sub-regions and PCF texels are tested at the receiver plane's depth there.
+    int receiver_plane;
+    // 1: every region the N-buffer leaves mixed is split; 0: only where Chebyshev does not apply.
+    int split_regions;
 } pc;
 
 // The filtered techniques' linearisation (glsl/include/linear_depth.glsl).

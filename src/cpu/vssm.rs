@@ -1,7 +1,10 @@
 //! CPU twin of `vssm` (`glsl/vssm/`: `moments.comp`, `lookup.comp`): the moments and their
 //! u32-fixed16 summed-area tables ([`crate::cpu::sat`]), the N-buffer of z
 //! ([`crate::cpu::nbuffer`]), the footprint of `glsl/include/soft_light.glsl`, and the
-//! shader's classification, blocker estimate (Eq. 6.11), subdivision and Chebyshev filter.
+//! shader's classification, blocker estimate (Eq. 6.11), subdivision and Chebyshev filter, with
+//! the receiver plane of [`crate::cpu::receiver_plane`]. Each sub-region's moments are a box
+//! sum of their own here; the shader fetches the SAT corners its sub-regions share once, and
+//! combines them with the same arithmetic (`sat_box_combine`), so the sums are the same.
 //!
 //! **Tolerance against the GPU.** The continuous parts differ as in [`crate::cpu::savsm`]: a
 //! window mean by ≤ 2^-16 (fixed-point rounding of one texel) plus fp32 weighting and an ulp of
@@ -12,10 +15,11 @@
 //! the view samples may differ by more than [`VALUE_TOLERANCE`] (measured on lavapipe: see
 //! `tests/vssm.rs`), and the classification counters within the same fraction.
 
-use glam::{IVec2, Vec2, Vec4};
+use glam::{IVec2, Vec2};
 
 use super::filtered::chebyshev;
 use super::nbuffer::{build as build_nbuffer, combine, NBufferLevels};
+use super::receiver_plane::{receiver_plane, tap_depth, ViewImages};
 use super::sat::{build_u32_fixed, SatTable};
 use super::shadow_map::{inside_map, shadow_coord};
 use crate::error::{Error, Result};
@@ -25,7 +29,7 @@ use crate::techniques::vssm::{VssmPush, FIXED_BITS};
 use crate::techniques::Params;
 
 /// Counters in the shader's order.
-pub const COUNTER_NAMES: [&str; 8] = [
+pub const COUNTER_NAMES: [&str; 9] = [
     "view_samples",
     "outside_light",
     "lit",
@@ -34,6 +38,7 @@ pub const COUNTER_NAMES: [&str; 8] = [
     "skipped_lit",
     "skipped_umbra",
     "subdivided",
+    "plane_fallback",
 ];
 
 /// |GPU − CPU| that a sample may show without counting as a branch flip.
@@ -72,7 +77,8 @@ pub fn twin_push(
         max_width,
         min_variance: knobs.get("min_variance")? as f32,
         max_level,
-        pad: [0; 2],
+        receiver_plane: knobs.get("receiver_plane_bias")? as i32,
+        split_regions: knobs.get("split_regions")? as i32,
     })
 }
 
@@ -160,8 +166,9 @@ impl Maps {
         (self.box_mean(0, lo, hi), self.box_mean(1, lo, hi))
     }
 
-    /// 2×2 bilinear PCF at `p`: (weight in front of `d`, weighted depth of those texels).
-    fn pcf_blockers(&self, p: Vec2, d: f32) -> Vec2 {
+    /// 2×2 bilinear PCF at `p`: (weight in front of the receiver, weighted depth of those
+    /// texels), each texel tested at the receiver's depth at its centre.
+    fn pcf_blockers(&self, p: Vec2, receiver: &Receiver, pc: &VssmPush) -> Vec2 {
         let t = p - 0.5;
         let base = t.floor();
         let f = t - base;
@@ -171,8 +178,9 @@ impl Maps {
             for i in 0..2 {
                 let w =
                     (if i == 0 { 1.0 - f.x } else { f.x }) * (if j == 0 { 1.0 - f.y } else { f.y });
-                let z = self.texel_z(b + IVec2::new(i, j));
-                if z < d {
+                let texel = b + IVec2::new(i, j);
+                let z = self.texel_z(texel);
+                if z < receiver.depth_at(texel.as_vec2() + 0.5, pc) {
                     acc += w * Vec2::new(1.0, z);
                 }
             }
@@ -209,7 +217,7 @@ pub struct VssmOutput {
     /// Visibility per pixel, row-major (1 for background).
     pub visibility: Vec<f32>,
     /// Counters, see [`COUNTER_NAMES`].
-    pub counters: [u64; 8],
+    pub counters: [u64; 9],
 }
 
 /// `moments.comp`: z per texel of a shadow map (D32 texels).
@@ -218,7 +226,9 @@ pub fn moments(depth: &[f32], pc: &VssmPush) -> Vec<f32> {
 }
 
 /// Runs `lookup.comp` for every view sample against the shadow map `depth` (D32 texels).
-pub fn vssm(positions: &[Vec4], size: IVec2, depth: &[f32], pc: &VssmPush) -> VssmOutput {
+pub fn vssm(view: &ViewImages<'_>, depth: &[f32], pc: &VssmPush) -> VssmOutput {
+    let (positions, size) = (view.positions, view.size);
+    let map_size = IVec2::splat(pc.map_size);
     let n_map = pc.map_size as u32;
     let z = moments(depth, pc);
     let z2: Vec<f32> = z.iter().map(|v| v * v).collect();
@@ -233,9 +243,10 @@ pub fn vssm(positions: &[Vec4], size: IVec2, depth: &[f32], pc: &VssmPush) -> Vs
     let n = (size.x * size.y) as usize;
     let mut out = VssmOutput {
         visibility: vec![1.0; n],
-        counters: [0; 8],
+        counters: [0; 9],
     };
     for (i, p) in positions.iter().enumerate().take(n) {
+        let pixel = IVec2::new(i as i32 % size.x, i as i32 / size.x);
         if p.w <= 0.0 {
             continue;
         }
@@ -245,7 +256,19 @@ pub fn vssm(positions: &[Vec4], size: IVec2, depth: &[f32], pc: &VssmPush) -> Vs
         if !inside_map(c, IVec2::splat(pc.map_size)) {
             out.counters[1] += 1;
         } else {
-            let (value, class) = lookup(&maps, pc, Vec2::new(c.x, c.y), linear_depth(c.z, pc));
+            let gradient = if pc.receiver_plane != 0 {
+                let plane = receiver_plane(view, pixel, pc.light_view_proj, map_size, *p, c);
+                out.counters[8] += !plane.found as u64;
+                plane.gradient
+            } else {
+                Vec2::ZERO
+            };
+            let receiver = Receiver {
+                at: Vec2::new(c.x, c.y),
+                ndc: c.z,
+                gradient,
+            };
+            let (value, class) = lookup(&maps, pc, &receiver);
             v = value;
             for (k, hit) in class.iter().enumerate() {
                 out.counters[5 + k] += *hit as u64;
@@ -269,9 +292,34 @@ fn clamp_width(pc: &VssmPush, w: Vec2) -> Vec2 {
         .min(Vec2::splat(pc.max_width))
 }
 
-/// One sample at map position `p`, receiver depth `d`: V and (skipped_lit, skipped_umbra,
-/// subdivided).
-fn lookup(maps: &Maps, pc: &VssmPush, p: Vec2, d: f32) -> (f32, [bool; 3]) {
+/// Whether a region of mean `m1` is split (`split` in the shader): every mixed region with
+/// `split_regions`, else only where Chebyshev does not apply.
+fn split(pc: &VssmPush, m1: f32, d: f32) -> bool {
+    pc.subdivision > 1 && (pc.split_regions != 0 || m1 >= d)
+}
+
+/// A view sample in the map: where it falls, its depth there and its receiver plane.
+#[derive(Clone, Copy, Debug)]
+pub struct Receiver {
+    /// Map position, texels.
+    pub at: Vec2,
+    /// Stored (NDC) depth at `at`.
+    pub ndc: f32,
+    /// The receiver plane's NDC depth gradient per texel (zero: one depth everywhere).
+    pub gradient: Vec2,
+}
+
+impl Receiver {
+    /// Linear depth of the receiver's plane at map position `t` (the shader's `plane_depth`).
+    pub fn depth_at(&self, t: Vec2, pc: &VssmPush) -> f32 {
+        linear_depth(tap_depth(self.ndc, t - self.at, self.gradient), pc)
+    }
+}
+
+/// One sample: V and (skipped_lit, skipped_umbra, subdivided).
+fn lookup(maps: &Maps, pc: &VssmPush, r: &Receiver) -> (f32, [bool; 3]) {
+    let p = r.at;
+    let d = linear_depth(r.ndc, pc);
     let range = pc.far - pc.near;
     let receiver = pc.near + d * range;
     let search = clamp_width(pc, footprint(pc, receiver, pc.near));
@@ -286,7 +334,7 @@ fn lookup(maps: &Maps, pc: &VssmPush, p: Vec2, d: f32) -> (f32, [bool; 3]) {
     let mut subdivided = false;
     let n = pc.subdivision;
     let (m1, m2) = maps.moments(lo, hi);
-    let b = if m1 < d || n <= 1 {
+    let b = if !split(pc, m1, d) {
         chebyshev_blockers(m1, m2, d, pc.min_variance)
     } else {
         subdivided = true;
@@ -295,10 +343,12 @@ fn lookup(maps: &Maps, pc: &VssmPush, p: Vec2, d: f32) -> (f32, [bool; 3]) {
             for i in 0..n {
                 let (slo, shi) = sub_region(lo, hi, i, j, n);
                 let (s1, s2) = maps.moments(slo, shi);
-                acc += if s1 < d {
-                    chebyshev_blockers(s1, s2, d, pc.min_variance)
+                let centre = 0.5 * (slo + shi);
+                let di = r.depth_at(centre, pc);
+                acc += if s1 < di {
+                    chebyshev_blockers(s1, s2, di, pc.min_variance)
                 } else {
-                    maps.pcf_blockers(0.5 * (slo + shi), d)
+                    maps.pcf_blockers(centre, r, pc)
                 };
             }
         }
@@ -306,7 +356,9 @@ fn lookup(maps: &Maps, pc: &VssmPush, p: Vec2, d: f32) -> (f32, [bool; 3]) {
     };
     let mut v = 1.0;
     if b.x > 0.0 {
-        let z_avg = (b.y / b.x).clamp(0.0, d);
+        // The average blocker depth lies between the region's nearest depth and the receiver;
+        // Eq. 6.11 leaves that range when Chebyshev's bound is loose (1 − p small).
+        let z_avg = (b.y / b.x).clamp(mm[0], d);
         let width = clamp_width(pc, footprint(pc, receiver, pc.near + z_avg * range));
         let (lo, hi) = (p - 0.5 * width, p + 0.5 * width);
         let mf = maps.region_minmax(lo, hi);
@@ -314,7 +366,7 @@ fn lookup(maps: &Maps, pc: &VssmPush, p: Vec2, d: f32) -> (f32, [bool; 3]) {
             v = 0.0;
         } else if mf[0] < d {
             let (m1, m2) = maps.moments(lo, hi);
-            v = if m1 < d || n <= 1 {
+            v = if !split(pc, m1, d) {
                 chebyshev(m1, m2, d, pc.min_variance)
             } else {
                 subdivided = true;
@@ -323,10 +375,12 @@ fn lookup(maps: &Maps, pc: &VssmPush, p: Vec2, d: f32) -> (f32, [bool; 3]) {
                     for i in 0..n {
                         let (slo, shi) = sub_region(lo, hi, i, j, n);
                         let (s1, s2) = maps.moments(slo, shi);
-                        acc += if s1 < d {
-                            chebyshev(s1, s2, d, pc.min_variance)
+                        let centre = 0.5 * (slo + shi);
+                        let di = r.depth_at(centre, pc);
+                        acc += if s1 < di {
+                            chebyshev(s1, s2, di, pc.min_variance)
                         } else {
-                            1.0 - maps.pcf_blockers(0.5 * (slo + shi), d).x
+                            1.0 - maps.pcf_blockers(centre, r, pc).x
                         };
                     }
                 }
@@ -358,6 +412,18 @@ mod tests {
                 (z_avg - z_b).abs() < 1e-4,
                 "α {alpha}: z_avg {z_avg} vs {z_b}"
             );
+        }
+    }
+
+    /// A receiver at map position `at` whose linear depth is `d`, parallel to the map (the
+    /// stored depth inverted from `linear_depth`'s perspective formula).
+    fn flat(at: Vec2, d: f32, pc: &VssmPush) -> Receiver {
+        let ndc = d * pc.far / (pc.near + d * (pc.far - pc.near));
+        assert!((linear_depth(ndc, pc) - d).abs() < 1e-6);
+        Receiver {
+            at,
+            ndc,
+            gradient: Vec2::ZERO,
         }
     }
 
@@ -393,13 +459,13 @@ mod tests {
             ..bytemuck::Zeroable::zeroed()
         };
         // Receiver at 0.6 deep in the blocker half: umbra, exactly 0.
-        let (v, class) = lookup(&maps, &pc, Vec2::new(4.0, 16.0), 0.6);
+        let (v, class) = lookup(&maps, &pc, &flat(Vec2::new(4.0, 16.0), 0.6, &pc));
         assert_eq!((v, class), (0.0, [false, true, false]));
         // Receiver at 0.6 far right: only 0.6 texels in reach, exactly 1.
-        let (v, class) = lookup(&maps, &pc, Vec2::new(28.0, 16.0), 0.6);
+        let (v, class) = lookup(&maps, &pc, &flat(Vec2::new(28.0, 16.0), 0.6, &pc));
         assert_eq!((v, class), (1.0, [true, false, false]));
         // On the edge: a penumbra value strictly inside (0, 1).
-        let (v, _) = lookup(&maps, &pc, Vec2::new(16.0, 16.0), 0.6);
+        let (v, _) = lookup(&maps, &pc, &flat(Vec2::new(16.0, 16.0), 0.6, &pc));
         assert!(v > 0.0 && v < 1.0, "{v}");
     }
 }

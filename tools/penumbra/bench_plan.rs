@@ -120,11 +120,14 @@ pub(crate) fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, 
             ("terms", vec![4.0, 8.0, 16.0]),
             ("resident", vec![0.0, 1.0]),
         ],
-        // Variance soft shadow mapping: subdivision against leaks (1 = plain VSM's lit).
+        // Variance soft shadow mapping: subdivision against leaks (1 = plain VSM's lit), and
+        // which regions split at which depths (the paper's rule: leaks at one depth).
         ("vssm", true) => vec![("map_size", vec![1024.0]), ("subdivision", vec![1.0, 4.0])],
         ("vssm", false) => vec![
             ("map_size", vec![1024.0, 2048.0]),
-            ("subdivision", vec![1.0, 2.0, 4.0]),
+            ("subdivision", vec![1.0, 4.0]),
+            ("split_regions", vec![0.0, 1.0]),
+            ("receiver_plane_bias", vec![0.0, 1.0]),
         ],
         // Exponential soft shadow mapping: the exponent trades leaks for a sharper step.
         ("essm", true) => vec![("map_size", vec![1024.0]), ("exponent", vec![40.0, 80.0])],

@@ -223,6 +223,14 @@ knob_choices! {
         /// Decide lit samples from a coarse look first.
         Coarse => "coarse",
     }
+    /// `split_regions` of `vssm`: which regions are split into sub-regions.
+    SplitRegions for "split_regions" {
+        /// Only where Chebyshev does not apply (the mean not in front of the receiver): the
+        /// paper's rule.
+        Leaks => "leaks",
+        /// Every region neither all lit nor all umbra.
+        Mixed => "mixed",
+    }
     /// `rho` of `pvssm`: the perceptual metric that predicts the page resolution.
     RhoMode for "rho" {
         /// The user study's dynamic-occluder metric.
@@ -382,6 +390,7 @@ mod tests {
             names::<PcssSkip>(),
             names::<NBufferSkip>(),
             names::<PvssmSkip>(),
+            names::<SplitRegions>(),
             names::<RhoMode>(),
             names::<BlockerDepth>(),
             names::<BlockerDistance>(),

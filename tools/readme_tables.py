@@ -19,7 +19,8 @@ named command):
 on teapot-rect (lowest RMSE on spot-point), with the same configuration's clip-off figures and
 the light leak of docs/bench-full-lavapipe-2026-11-22.csv. `soft`: per scene (and light scale),
 per technique and map size, the configuration with the lowest penumbra MAE, its error against
-both references and its pass times; then the skip table (skip.csv). `virtual`: per scene, every
+both references and its pass times; then `vssm` at subdivision 4 under each pair of
+`split_regions` and `receiver_plane_bias`; then the skip table (skip.csv). `virtual`: per scene, every
 `hard` and `rmsm` run and the best `pcf-coverage` per map size (by RMSE), with misclassification
 (also against `hard` at 2048²), memory and pages, from bench.json; then rmsm's passes.
 `izb`: per scene of each DIR, every run (failures with their reason) with time, error, pairs,
@@ -157,6 +158,7 @@ def soft(directory):
                   f"| {fmt(num(best, 'penumbra_mae'), 4)} "
                   f"| {fmt(num(best, single) if single else None, 4)} "
                   f"| {fmt(num(best, 'rmse'), 4)} | {fmt(num(best, 'light_leak'), 4)} |")
+    vssm_rules(data, single)
     skip = Path(directory) / "skip.csv"
     if skip.exists():
         print("\nskip\n")
@@ -167,6 +169,39 @@ def soft(directory):
             print(f"| {r['scene']} | {r['label']} | {fmt(num(r, 'ms_skip_off'), 1)} "
                   f"| {fmt(num(r, 'ms_skip_on'), 1)} | {fmt(num(r, 'speedup'), 2)}× "
                   f"| {fmt(100 * num(r, 'skipped_fraction'), 1)} % | {r['differing_pixels']} |")
+
+
+def vssm_rules(data, single):
+    """`vssm` at subdivision 4, map 1024 and no normal offset, per scene: the paper's rule (split
+    only where Chebyshev does not apply, one receiver depth) against the receiver plane, every
+    mixed region split, and both (the defaults)."""
+    rules = [("leaks", "0", "paper's rule"), ("leaks", "1", "receiver plane"),
+             ("mixed", "0", "mixed regions split"), ("mixed", "1", "both (defaults)")]
+    here = [r for r in data if r["technique"] == "vssm" and "subdivision=4" in r["label"]
+            and "map_size=1024" in r["label"] and "normal_offset=1" not in r["label"]
+            and num(r, "penumbra_mae") is not None]
+    if not here:
+        return
+    print("\nvssm at subdivision=4, map 1024, normal_offset=0: penumbra MAE "
+          "(single-layer ref.) / GPU ms\n")
+    print("| scene | " + " | ".join(name for _, _, name in rules) + " |")
+    print("|---" * (1 + len(rules)) + "|")
+    scenes = []
+    for r in here:
+        if r["scene"] not in scenes:
+            scenes.append(r["scene"])
+    for scene in scenes:
+        cells = []
+        for split, plane, _ in rules:
+            want = {f"split_regions={0 if split == 'leaks' else 1}",
+                    f"receiver_plane_bias={plane}"}
+            row = next((r for r in here if r["scene"] == scene
+                        and want <= set(r["label"].split())), None)
+            cells.append("—" if row is None else
+                         f"{fmt(num(row, 'penumbra_mae'), 4)} "
+                         f"({fmt(num(row, single) if single else None, 4)}) / "
+                         f"{fmt(num(row, 'total_gpu_ms'), 0)}")
+        print(f"| {scene} | " + " | ".join(cells) + " |")
 
 
 def virtual(directory):

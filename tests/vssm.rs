@@ -1,6 +1,6 @@
 //! `vssm` (variance soft shadow mapping) under validation: against its CPU twin, the linear ramp
 //! of the parallel-plane case and its growth with the light, contact hardening, exact lit/umbra
-//! classification, and a point light.
+//! classification, a point light, and receivers tilted in light space left lit beside shadows.
 
 mod common;
 

@@ -59,10 +59,10 @@ SAT_T sat_fetch(int x, int y) {
 }
 #endif
 
-// The exclusive prefix F(X, Y) = sum over i < X, j < Y, for any X, Y: zero left of or above the
-// image (the "black border" the book's recurrence needs), the full sums beyond it.
 SAT_F sat_box_combine(SAT_T g[4][4], vec2 p0, vec2 p1);
 
+// The exclusive prefix F(X, Y) = sum over i < X, j < Y, for any X, Y: zero left of or above the
+// image (the "black border" the book's recurrence needs), the full sums beyond it.
 SAT_T sat_corner(int X, int Y) {
     ivec2 size = SAT_SIZE;
     if (X <= 0 || Y <= 0) {

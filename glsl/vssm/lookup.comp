@@ -106,14 +106,19 @@ uint sat_fetch(int x, int y) {
     }
 }
 
-// Mean over the continuous box [lo, hi] of the selected table, texels outside the map at 1.
-float box_mean(vec2 lo, vec2 hi) {
+// Mean over [lo, hi] (texels outside the map at 1) of a box sum over its clamped part.
+float outside_at_one(float sum, vec2 lo, vec2 hi) {
     vec2 size = vec2(pc.map_size);
     vec2 p0 = clamp(lo, vec2(0.0), size);
     vec2 p1 = clamp(hi, p0, size);
     float inside = (p1.x - p0.x) * (p1.y - p0.y);
     float area = (hi.x - lo.x) * (hi.y - lo.y);
-    return (sat_box_sum(lo, hi) / SAT_SCALE + (area - inside)) / area;
+    return (sum / SAT_SCALE + (area - inside)) / area;
+}
+
+// Mean over the continuous box [lo, hi] of the selected table, texels outside the map at 1.
+float box_mean(vec2 lo, vec2 hi) {
+    return outside_at_one(sat_box_sum(lo, hi), lo, hi);
 }
 
 // (E[z], E[z^2]) over [lo, hi] (whole regions; sub-regions: split_sum).
@@ -179,16 +184,6 @@ bool split(float m1, float d) {
 
 // The subdivision knob's largest value.
 #define MAX_SPLIT 8
-
-// Mean over [lo, hi] (texels outside the map at 1) of a box sum over its clamped part.
-float outside_at_one(float sum, vec2 lo, vec2 hi) {
-    vec2 size = vec2(pc.map_size);
-    vec2 p0 = clamp(lo, vec2(0.0), size);
-    vec2 p1 = clamp(hi, p0, size);
-    float inside = (p1.x - p0.x) * (p1.y - p0.y);
-    float area = (hi.x - lo.x) * (hi.y - lo.y);
-    return (sum / SAT_SCALE + (area - inside)) / area;
-}
 
 // Sums over the n x n sub-regions of [lo, hi], row by row, each sub-region tested at the
 // receiver plane's depth at its centre: Chebyshev where its mean is in front of that depth,
@@ -327,7 +322,8 @@ void main() {
                 invocation_counts[1] += 1;
             } else {
                 receiver_coord = c;
-                if (pc.receiver_plane != 0) {
+                // Only split sub-regions read the plane: none with subdivision 1.
+                if (pc.receiver_plane != 0 && pc.subdivision > 1) {
                     vec3 g = receiver_plane(pixel, pc.view_size, pc.light_view_proj,
                                             ivec2(pc.map_size), p, c);
                     receiver_gradient = g.xy;

@@ -256,7 +256,8 @@ pub fn vssm(view: &ViewImages<'_>, depth: &[f32], pc: &VssmPush) -> VssmOutput {
         if !inside_map(c, IVec2::splat(pc.map_size)) {
             out.counters[1] += 1;
         } else {
-            let gradient = if pc.receiver_plane != 0 {
+            // Only split sub-regions read the plane: none with subdivision 1.
+            let gradient = if pc.receiver_plane != 0 && pc.subdivision > 1 {
                 let plane = receiver_plane(view, pixel, pc.light_view_proj, map_size, *p, c);
                 out.counters[8] += !plane.found as u64;
                 plane.gradient

@@ -1,20 +1,29 @@
 //! `essm` (exponential soft shadow mapping) under validation: against its CPU twin, the linear
-//! ramp of the parallel-plane case and its growth with the light, contact hardening, and no
-//! NaN/Inf at the extreme exponents `esm` accepts and extreme depth ranges.
+//! ramp of the parallel-plane case and its growth with the light, contact hardening, no leaks
+//! through self-shadows on curved receivers, and no NaN/Inf at the extreme exponents `esm`
+//! accepts and extreme depth ranges.
 
 mod common;
 
 use glam::{IVec2, Vec3};
 use penumbra::cpu::essm::{essm, tolerance, twin_push};
+use penumbra::cpu::receiver_plane::ViewImages;
 use penumbra::gpu::f32s;
 use penumbra::scene::Light;
 use penumbra::techniques::find;
 use penumbra::Engine;
 
+/// Of the view samples, at most this fraction may differ from the twin by more than the
+/// tolerance, and only where the twin flags its receiver plane as a close call (a neighbour on
+/// the plane or not within rounding, or the tangent plane nearly edge-on): the GPU may decide it
+/// the other way and test one depth instead. None did on lavapipe.
+const MAX_CLOSE_CALLS: f64 = 0.005;
+
 /// GPU against the CPU twin (brute-force f64 box means) on the GPU's own shadow map and view
-/// samples, the twin with its own push block: every sample within `tolerance(c, min_kernel)`
-/// (see `penumbra::cpu::essm`). Measured on lavapipe: largest difference 1.6e-4 at c = 80
-/// (allowed 1.3e-3) and 8e-5 at c = 1000 (allowed 1.5e-2).
+/// samples, the twin with its own push block and receiver planes: every sample within
+/// `tolerance(c, min_kernel)` (see `penumbra::cpu::essm`) but close calls of the plane, capped
+/// by [`MAX_CLOSE_CALLS`]. Measured on lavapipe: largest difference 3.7e-4 at c = 80 (allowed
+/// 1.3e-3), 4.3e-4 at c = 1000 (allowed 1.5e-2), no close call beyond it.
 fn compare(engine: &Engine, spec: &str, extra: &[(&str, &str)]) {
     let scene = common::small(spec);
     let prepared = engine.prepare(&scene).expect("prepare");
@@ -35,23 +44,42 @@ fn compare(engine: &Engine, spec: &str, extra: &[(&str, &str)]) {
     let size = IVec2::new(frame.width as i32, frame.height as i32);
     let pc = twin_push(&params, &scene.light, &prepared.light_view, size).expect("twin push");
     let positions = prepared.view.read_positions(&ctx).expect("positions");
-    let cpu = essm(&positions, size, &depth, &pc);
+    let normals = prepared.view.read_normals(&ctx).expect("normals");
+    let view = ViewImages {
+        positions: &positions,
+        normals: &normals,
+        size,
+    };
+    let cpu = essm(&view, &depth, &pc);
     let allowed = tolerance(pc.exponent, pc.min_kernel);
-    let mut beyond = 0u64;
+    let (mut beyond, mut beyond_marginal) = (0u64, 0u64);
     let mut worst = 0.0f32;
-    for (g, c) in frame.visibility.iter().zip(&cpu.visibility) {
+    for ((g, c), m) in frame
+        .visibility
+        .iter()
+        .zip(&cpu.visibility)
+        .zip(&cpu.marginal)
+    {
         let diff = (g - c).abs();
+        if diff > allowed {
+            // A plane decided the other way (a close call the twin flags) or a box edge an ulp
+            // across a block boundary: counted apart, capped below.
+            if *m {
+                beyond_marginal += 1;
+            } else {
+                beyond += 1;
+            }
+        }
         worst = worst.max(diff);
-        beyond += (diff > allowed) as u64;
     }
     let counters = &frame.stats.counters;
     let samples = counters["view_samples"];
     eprintln!(
-        "{spec} {extra:?}: max |GPU − CPU| = {worst} (allowed {allowed}); GPU {counters:?}; \
-         CPU {:?}",
+        "{spec} {extra:?}: max |GPU − CPU| = {worst} (allowed {allowed}); beyond it {beyond} \
+         + {beyond_marginal} at close calls; GPU {counters:?}; CPU {:?}",
         cpu.counters
     );
-    if beyond > 0 {
+    if beyond > 0 || beyond_marginal as f64 > MAX_CLOSE_CALLS * samples as f64 {
         let dir = common::write_diff(
             &format!("essm-{}", spec.replace(['@', ':'], "-")),
             frame.width,
@@ -60,8 +88,8 @@ fn compare(engine: &Engine, spec: &str, extra: &[(&str, &str)]) {
             &frame.visibility,
         );
         panic!(
-            "essm on {spec}: {beyond} of {samples} samples beyond {allowed} (worst {worst}); \
-             images in {}",
+            "essm on {spec}: {beyond} of {samples} samples beyond {allowed} and \
+             {beyond_marginal} close calls (worst {worst}); images in {}",
             dir.display()
         );
     }
@@ -71,6 +99,13 @@ fn compare(engine: &Engine, spec: &str, extra: &[(&str, &str)]) {
     assert_eq!(samples, cpu.counters[0]);
     assert_eq!(counters["outside_light"], cpu.counters[1]);
     assert_eq!(counters["clamped"], cpu.counters[5]);
+    let cap = (MAX_CLOSE_CALLS * samples as f64).ceil() as u64;
+    assert!(
+        counters["plane_fallback"].abs_diff(cpu.counters[6]) <= cap,
+        "plane_fallback: GPU {} CPU {}",
+        counters["plane_fallback"],
+        cpu.counters[6]
+    );
     // Classes may flip only where V sits within the tolerance of 0 or 1.
     common::check_class_counters(
         &format!("essm on {spec}"),
@@ -99,6 +134,8 @@ fn matches_cpu_twin() {
         &[("min_kernel", "2.5"), ("exponent", "5")],
     );
     compare(&engine, "plane-boxes", &[("min_kernel", "3")]);
+    // The paper's filter: one ESM test at the sample's depth over the whole box.
+    compare(&engine, "plane-boxes@rect", &[("receiver_plane_bias", "0")]);
     common::assert_clean(&engine.context().validation());
 }
 
@@ -267,5 +304,82 @@ fn oversized_map_is_refused_cleanly() {
         }
     }
     drop(prepared);
+    common::assert_clean(&engine.context().validation());
+}
+
+/// Self-shadows on curved and tilted receivers: one ESM test at the sample's depth over the
+/// whole filter box reads lit wherever the box reaches over the receiver's own surface behind
+/// that depth (the bunny's body, the spheres' sides turning from the light): exp(c (z − d))
+/// of those texels outweighs every blocker. With `receiver_plane_bias` each block of the box is
+/// tested at its plane's depth and clamped on its own. Property, against the ray-cast reference
+/// at 128×96: of the samples the reference shows at most half lit, the fraction essm reads
+/// more than 0.5 brighter (a leak) is at most 3 % and below the paper's filter's; and of the
+/// samples the reference shows fully lit, at most 1 % read below 0.9 (no dark halo for it).
+/// Measured on lavapipe: leaks bunny 1.5 % (the paper's filter 10.9 %), plane-boxes 0 % (6.1 %);
+/// lit read dark 0.3 % and 0.1 % (0.2 % and 0).
+#[test]
+fn self_shadows_do_not_leak_on_curved_receivers() {
+    let engine = common::engine();
+    for spec in ["scenes/bunny-rect.toml", "plane-boxes@rect"] {
+        let scene = common::small(spec);
+        let prepared = engine.prepare(&scene).expect("prepare");
+        let reference = engine
+            .render(&prepared, "reference", &common::knobs(&[]), 1)
+            .expect("reference");
+        let positions = prepared
+            .view
+            .read_positions(engine.context())
+            .expect("positions");
+        let rates = |extra: &[(&str, &str)]| {
+            let frame = engine
+                .render(&prepared, "essm", &common::knobs(extra), 1)
+                .expect("essm");
+            let (mut shadowed, mut leaks, mut lit, mut dark) = (0u64, 0u64, 0u64, 0u64);
+            for ((p, r), v) in positions
+                .iter()
+                .zip(&reference.visibility)
+                .zip(&frame.visibility)
+            {
+                if p.w <= 0.0 {
+                    continue;
+                }
+                if *r <= 0.5 {
+                    shadowed += 1;
+                    leaks += (*v > r + 0.5) as u64;
+                }
+                if *r >= 1.0 {
+                    lit += 1;
+                    dark += (*v < 0.9) as u64;
+                }
+            }
+            (
+                leaks as f64 / shadowed as f64,
+                dark as f64 / lit as f64,
+                frame,
+            )
+        };
+        let (paper_leaks, paper_dark, _) = rates(&[("receiver_plane_bias", "0")]);
+        let (leaks, dark, frame) = rates(&[]);
+        eprintln!(
+            "{spec}: shadowed read > 0.5 brighter {leaks:.4} (paper's filter {paper_leaks:.4}); \
+             lit read < 0.9 {dark:.4} (paper's {paper_dark:.4})"
+        );
+        if leaks > 0.03 || leaks >= paper_leaks || dark > 0.01 {
+            let dir = common::write_diff(
+                &format!(
+                    "essm-self-shadow-{}",
+                    spec.replace(['@', ':', '/', '.'], "-")
+                ),
+                frame.width,
+                frame.height,
+                &reference.visibility,
+                &frame.visibility,
+            );
+            panic!(
+                "{spec}: leaks {leaks} dark {dark}; images in {}",
+                dir.display()
+            );
+        }
+    }
     common::assert_clean(&engine.context().validation());
 }

@@ -22,7 +22,10 @@ layout(push_constant) uniform Push {
     vec2 light_size;
     float min_kernel;
     float max_width;
-    int pad[4];
+    // 1: the filter's ESM test per rip-map block at the receiver plane's depth there
+    // (lookup.comp's filter_visibility); 0: one test at the sample's depth over the whole box.
+    int receiver_plane;
+    int pad[3];
 } pc;
 
 // z = (dist - near) / (far - near), the filtered techniques' shared linearisation

@@ -2,6 +2,10 @@
 //! of the GPU's data structure: every box mean is a brute-force log-sum-exp in f64 over the
 //! texels the box covers (weighted by the covered area, outside texels at the far plane), where
 //! the GPU combines rip-map blocks in fp32. Same footprint, blocker ratio and reconstruction.
+//! With `receiver_plane_bias` the filter tests each block of the box's split on its own at the
+//! receiver plane's depth at the block's centre: the twin cuts the box into the same aligned
+//! power-of-two blocks with its own code ([`axis_blocks`]) and takes each block's mean by brute
+//! force too; the plane is [`crate::cpu::receiver_plane`]'s.
 //!
 //! **Tolerance against the GPU.** ESSM has no branch on a threshold (only continuous clamps), so a
 //! per-sample bound holds: the GPU's log means carry fp32 rounding of values up to c (relative
@@ -9,10 +13,14 @@
 //! and c·d an ulp of d times c; V = exp(L − c·d) moves by V times that error. A shadow
 //! coordinate an ulp apart moves the box by ~2e-5 texel, changing V by at most that times its
 //! slope across a box of `min_kernel` (≤ 1/min_kernel per texel). [`tolerance`] is their sum
-//! with a factor 4 of room; measured values are in `tests/essm.rs`.
+//! with a factor 4 of room; measured values are in `tests/essm.rs`. The receiver plane adds two
+//! branches, each with a threshold: whether the plane is found (neighbours' normals and
+//! distances, [`ReceiverPlane::marginal`]) and which blocks a box edge an ulp away splits into;
+//! a sample where either falls the other way may differ by more, and `tests/essm.rs` caps how
+//! many may.
+use glam::{IVec2, Vec2};
 
-use glam::{IVec2, Vec2, Vec4};
-
+use super::receiver_plane::{receiver_plane, tangent_plane, tap_depth, ReceiverPlane, ViewImages};
 use super::shadow_map::{inside_map, shadow_coord};
 use super::vssm::light_size;
 use crate::error::Result;
@@ -22,13 +30,14 @@ use crate::techniques::essm::EssmPush;
 use crate::techniques::Params;
 
 /// Counters in the shader's order.
-pub const COUNTER_NAMES: [&str; 6] = [
+pub const COUNTER_NAMES: [&str; 7] = [
     "view_samples",
     "outside_light",
     "lit",
     "umbra",
     "penumbra",
     "clamped",
+    "plane_fallback",
 ];
 
 /// The largest |GPU − CPU| of V allowed at exponent `c` and minimum width `min_kernel`.
@@ -64,7 +73,8 @@ pub fn twin_push(
         light_size: light_size(light, view, map_size)?,
         min_kernel: knobs.get("min_kernel")? as f32,
         max_width,
-        pad: [0; 4],
+        receiver_plane: knobs.get("receiver_plane_bias")? as i32,
+        pad: [0; 3],
     })
 }
 
@@ -108,9 +118,81 @@ pub fn box_log_mean(z: &[f32], n: i32, lo: Vec2, hi: Vec2, channel: usize, c: f6
     if area - inside > 1e-9 * area {
         terms.push((encode(channel, 1.0, c), area - inside));
     }
+    log_sum(&terms) - area.ln()
+}
+
+/// log of Σ w·e^v over `terms` (v, w), shifted by the largest v so that nothing overflows.
+fn log_sum(terms: &[(f64, f64)]) -> f64 {
     let m = terms.iter().map(|t| t.0).fold(f64::NEG_INFINITY, f64::max);
     let s: f64 = terms.iter().map(|(v, w)| w * (v - m).exp()).sum();
-    m + (s / area).ln()
+    m + s.ln()
+}
+
+/// The widest block of a box `width` texels wide along one axis, as a level (width 2^level): the
+/// rip-map's widest, `levels − 1`; with the receiver plane the widest power of two at most a
+/// quarter of the box (`PLANE_SPLIT` in `lookup.comp`), at least one texel.
+pub fn widest_block(width: f32, levels: i32, plane: bool) -> i32 {
+    let quarter = (width / 4.0) as i32;
+    if !plane {
+        levels - 1
+    } else if quarter <= 0 {
+        0
+    } else {
+        (31 - quarter.leading_zeros() as i32).clamp(0, levels - 1)
+    }
+}
+
+/// One axis of a box's split into the rip-map's blocks, clipped to [0, n]: per block its first
+/// texel, its width (a power of two, at most 2^top, aligned to it) and the covered part
+/// [from, to]. The two end texels come alone (their covered fractions); the texels between go
+/// in the widest aligned block that starts at the next texel and ends before the last.
+pub fn axis_blocks(lo: f32, hi: f32, n: i32, top: i32) -> Vec<(i32, i32, f32, f32)> {
+    let p0 = lo.clamp(0.0, n as f32);
+    let p1 = hi.clamp(p0, n as f32);
+    if p1 <= p0 {
+        return Vec::new();
+    }
+    let (i0, i1) = (p0.floor() as i32, p1.floor() as i32);
+    if i0 == i1 {
+        return vec![(i0, 1, p0, p1)];
+    }
+    let mut blocks = vec![(i0, 1, p0, (i0 + 1) as f32)];
+    let mut a = i0 + 1;
+    while a < i1 {
+        let mut width = 1 << top;
+        while a % width != 0 || a + width > i1 {
+            width /= 2;
+        }
+        blocks.push((a, width, a as f32, (a + width) as f32));
+        a += width;
+    }
+    if p1 > i1 as f32 && i1 < n {
+        blocks.push((i1, 1, i1 as f32, p1));
+    }
+    blocks
+}
+
+/// The blocks of the box [lo, hi] with the receiver plane: per block its texels (lo, hi), the
+/// area it covers and the plane's linear depth at the centre of its covered part.
+fn plane_blocks(pc: &EssmPush, r: &Receiver, lo: Vec2, hi: Vec2) -> Vec<(Vec2, Vec2, f64, f64)> {
+    let n = pc.map_size;
+    let xs = axis_blocks(lo.x, hi.x, n, widest_block(hi.x - lo.x, pc.levels, true));
+    let ys = axis_blocks(lo.y, hi.y, n, widest_block(hi.y - lo.y, pc.levels, true));
+    let mut blocks = Vec::with_capacity(xs.len() * ys.len());
+    for &(y0, wy, ya, yb) in &ys {
+        for &(x0, wx, xa, xb) in &xs {
+            let area = (xb - xa) as f64 * (yb - ya) as f64;
+            if area <= 0.0 {
+                continue;
+            }
+            let block_lo = Vec2::new(x0 as f32, y0 as f32);
+            let block_hi = block_lo + Vec2::new(wx as f32, wy as f32);
+            let centre = Vec2::new(0.5 * (xa + xb), 0.5 * (ya + yb));
+            let d = linear_depth(tap_depth(r.ndc, centre - r.at, r.gradient), pc) as f64;
+            blocks.push((block_lo, block_hi, area, d));
+        }
+    }
+    blocks
 }
 
 /// The result for every pixel plus the counters.
@@ -118,13 +200,66 @@ pub struct EssmOutput {
     /// Visibility per pixel, row-major (1 for background).
     pub visibility: Vec<f32>,
     /// Counters, see [`COUNTER_NAMES`].
-    pub counters: [u64; 6],
+    pub counters: [u64; 7],
+    /// Per pixel, whether its receiver plane was a close call (see the module's tolerance).
+    pub marginal: Vec<bool>,
 }
 
-/// One sample at map position `p`, receiver depth `d` against linear depths `z`: (V, clamped).
-pub fn lookup(z: &[f32], pc: &EssmPush, p: Vec2, d: f32) -> (f32, bool) {
+/// The receiver being looked up: map position, stored depth, its linear depth and the plane's
+/// gradient (zero: one depth everywhere).
+pub struct Receiver {
+    /// Map position, texels.
+    pub at: Vec2,
+    /// Stored (NDC) depth at `at`.
+    pub ndc: f32,
+    /// (∂z̃/∂u, ∂z̃/∂v), zero where no plane was found or the knob is off.
+    pub gradient: Vec2,
+    /// Whether the filter tests per block against the plane (the knob on and a plane found).
+    pub per_block: bool,
+}
+
+/// ESM over the box [lo, hi] per block of its split at the plane's depth at each block's
+/// centre, each clamped on its own (`filter_visibility` in `lookup.comp`); outside the map lit.
+fn filter_per_block(z: &[f32], pc: &EssmPush, r: &Receiver, lo: Vec2, hi: Vec2) -> f64 {
+    let c = pc.exponent as f64;
+    let (mut sum, mut inside) = (0.0f64, 0.0f64);
+    for (block_lo, block_hi, area, d) in plane_blocks(pc, r, lo, hi) {
+        let l = box_log_mean(z, pc.map_size, block_lo, block_hi, 0, c);
+        sum += area * (l - c * d).min(0.0).exp();
+        inside += area;
+    }
+    let area = (hi.x - lo.x) as f64 * (hi.y - lo.y) as f64;
+    ((sum + (area - inside).max(0.0)) / area).clamp(0.0, 1.0)
+}
+
+/// The blocker ratio log E[z·e^(−cz)] − log E[e^(−cz)] over [lo, hi] with each block weighted
+/// by e^(c·d) at the plane's depth d at its centre (`box_log_means` with `plane`); the part
+/// outside the map at the far plane, weighted at the sample's own depth `d`.
+fn search_per_block(z: &[f32], pc: &EssmPush, r: &Receiver, lo: Vec2, hi: Vec2, d: f64) -> f64 {
+    let c = pc.exponent as f64;
+    let mut terms = [Vec::new(), Vec::new()];
+    let mut inside = 0.0;
+    for (block_lo, block_hi, area, plane) in plane_blocks(pc, r, lo, hi) {
+        for (k, t) in terms.iter_mut().enumerate() {
+            let l = box_log_mean(z, pc.map_size, block_lo, block_hi, k + 1, c);
+            t.push((l + c * plane, area));
+        }
+        inside += area;
+    }
+    let outside = (hi.x - lo.x) as f64 * (hi.y - lo.y) as f64 - inside;
+    if outside > 0.0 {
+        for (k, t) in terms.iter_mut().enumerate() {
+            t.push((encode(k + 1, 1.0, c) + c * d, outside));
+        }
+    }
+    log_sum(&terms[1]) - log_sum(&terms[0])
+}
+
+/// One sample against linear depths `z`: (V, clamped).
+pub fn lookup(z: &[f32], pc: &EssmPush, r: &Receiver) -> (f32, bool) {
     let n = pc.map_size;
     let c = pc.exponent as f64;
+    let (p, d) = (r.at, linear_depth(r.ndc, pc));
     let range = pc.far - pc.near;
     let receiver = pc.near + d * range;
     let footprint = |blocker: f32| -> Vec2 {
@@ -143,34 +278,81 @@ pub fn lookup(z: &[f32], pc: &EssmPush, p: Vec2, d: f32) -> (f32, bool) {
     let clamped = search.x > pc.max_width || search.y > pc.max_width;
     let search = clamp_width(search);
     let (lo, hi) = (p - 0.5 * search, p + 0.5 * search);
-    let b1 = box_log_mean(z, n, lo, hi, 1, c);
-    let b2 = box_log_mean(z, n, lo, hi, 2, c);
-    let z_avg = (b2 - b1).exp().clamp(0.0, 1.0) as f32;
+    let ratio = if r.per_block {
+        search_per_block(z, pc, r, lo, hi, d as f64)
+    } else {
+        box_log_mean(z, n, lo, hi, 2, c) - box_log_mean(z, n, lo, hi, 1, c)
+    };
+    let z_avg = ratio.exp().clamp(0.0, 1.0) as f32;
     let width = clamp_width(footprint(pc.near + z_avg * range));
-    let l = box_log_mean(z, n, p - 0.5 * width, p + 0.5 * width, 0, c);
+    let (lo, hi) = (p - 0.5 * width, p + 0.5 * width);
+    if r.per_block {
+        return (filter_per_block(z, pc, r, lo, hi) as f32, clamped);
+    }
+    let l = box_log_mean(z, n, lo, hi, 0, c);
     (((l - c * d as f64).min(0.0)).exp() as f32, clamped)
 }
 
-/// Runs `lookup.comp` for every view sample against the shadow map `depth` (D32 texels).
-pub fn essm(positions: &[Vec4], size: IVec2, depth: &[f32], pc: &EssmPush) -> EssmOutput {
+/// The receiver plane from the neighbours, else the tangent plane from the sample's normal
+/// (`lookup.comp`'s fallback: a curved receiver's neighbours lie off its plane).
+fn plane_or_tangent(
+    view: &ViewImages<'_>,
+    pixel: IVec2,
+    pc: &EssmPush,
+    p: glam::Vec4,
+    c: glam::Vec4,
+) -> ReceiverPlane {
+    let map = IVec2::splat(pc.map_size);
+    let plane = receiver_plane(view, pixel, pc.light_view_proj, map, p, c);
+    if plane.found {
+        return plane;
+    }
+    let (g, close) = tangent_plane(p.truncate(), view.normal(pixel), pc.light_view_proj, map, c);
+    ReceiverPlane {
+        gradient: g.unwrap_or(Vec2::ZERO),
+        found: g.is_some(),
+        marginal: plane.marginal || close,
+    }
+}
+
+/// Runs `lookup.comp` for every view sample of `view` against the shadow map `depth` (D32
+/// texels).
+pub fn essm(view: &ViewImages<'_>, depth: &[f32], pc: &EssmPush) -> EssmOutput {
+    let (positions, size) = (view.positions, view.size);
     let z: Vec<f32> = depth.iter().map(|&v| linear_depth(v, pc)).collect();
     let map = IVec2::splat(pc.map_size);
     let n = (size.x * size.y) as usize;
     let mut out = EssmOutput {
         visibility: vec![1.0; n],
-        counters: [0; 6],
+        counters: [0; 7],
+        marginal: vec![false; n],
     };
     for (i, p) in positions.iter().enumerate().take(n) {
         if p.w <= 0.0 {
             continue;
         }
+        let pixel = IVec2::new(i as i32 % size.x, i as i32 / size.x);
         out.counters[0] += 1;
         let c = shadow_coord(pc.light_view_proj, p.truncate(), map);
         let mut v = 1.0;
         if !inside_map(c, map) {
             out.counters[1] += 1;
         } else {
-            let (value, clamped) = lookup(&z, pc, Vec2::new(c.x, c.y), linear_depth(c.z, pc));
+            let plane = if pc.receiver_plane != 0 {
+                let plane = plane_or_tangent(view, pixel, pc, *p, c);
+                out.counters[6] += !plane.found as u64;
+                plane
+            } else {
+                ReceiverPlane::default()
+            };
+            out.marginal[i] = plane.marginal;
+            let receiver = Receiver {
+                at: Vec2::new(c.x, c.y),
+                ndc: c.z,
+                gradient: plane.gradient,
+                per_block: plane.found,
+            };
+            let (value, clamped) = lookup(&z, pc, &receiver);
             v = value;
             out.counters[5] += clamped as u64;
         }
@@ -216,5 +398,38 @@ mod tests {
         // ESM's own channel at c = 1000 on depths up to 1: finite log mean.
         let l = box_log_mean(&z, n, lo, hi, 0, 1000.0);
         assert!(l.is_finite() && l > 690.0 && l <= 700.0, "{l}");
+    }
+
+    /// A box's blocks tile its clipped extent in order without gaps, each aligned to its power
+    /// of two width, no wider than 2^top; with the plane a quarter of the box at most, and at most
+    /// 30 a side (the shader's 32-entry arrays).
+    #[test]
+    fn blocks_tile_the_box() {
+        for (lo, hi, n) in [
+            (0.3f32, 0.7f32, 64),
+            (-3.5, 20.25, 64),
+            (1.5, 129.5, 256),
+            (250.2, 270.0, 256),
+            (7.0, 135.0, 1024),
+        ] {
+            for plane in [false, true] {
+                let top = widest_block(hi - lo, 8, plane);
+                let blocks = axis_blocks(lo, hi, n, top);
+                let mut at = lo.clamp(0.0, n as f32);
+                for &(first, width, from, to) in &blocks {
+                    assert_eq!(from, at, "{lo} {hi}: gap before {first}");
+                    assert!(to > from && from >= first as f32);
+                    assert!(to <= (first + width) as f32);
+                    assert_eq!(first % width, 0, "unaligned block at {first}");
+                    assert!(width <= 1 << top);
+                    if plane && width > 1 {
+                        assert!(width as f32 <= (hi - lo) / 4.0, "{width} of {}", hi - lo);
+                    }
+                    at = to;
+                }
+                assert_eq!(at, hi.clamp(0.0, n as f32), "{lo} {hi}");
+                assert!(blocks.len() <= 30, "{} blocks", blocks.len());
+            }
+        }
     }
 }

@@ -70,7 +70,7 @@ impl ViewImages<'_> {
 
     /// The normal at `pixel`; zero where the image is missing, which matches no surface, so a
     /// caller that passes no normals gets the constant-depth fallback rather than a panic.
-    fn normal(&self, pixel: IVec2) -> Vec3 {
+    pub fn normal(&self, pixel: IVec2) -> Vec3 {
         self.normals
             .get(self.index(pixel))
             .map_or(Vec3::ZERO, |n| n.xyz())

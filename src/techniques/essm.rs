@@ -49,16 +49,27 @@ use bytemuck::{Pod, Zeroable};
 use glam::{IVec2, Mat4, Vec2};
 
 use super::filtered::esm::EXPONENT;
-use super::pcf::shadow_map_desc;
+use super::pcf::{shadow_map_desc, RECEIVER_PLANE_BIAS};
 use super::soft_light::{soft_light, MAX_WIDTH, MIN_KERNEL};
-use super::{Knob, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS};
+use super::{
+    Knob, KnobDefault, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS,
+};
 use crate::cpu::essm::COUNTER_NAMES;
 use crate::error::Result;
 use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Pipeline, Recorder};
 use crate::passes::{LightProjection, LightView, SceneGeometry, ShadowMap};
 use crate::scene::Light;
 
-const KNOBS: [Knob; 7] = [
+/// `receiver_plane_bias`: on by default here. ESM's one clamp over a whole filter box is where
+/// ESSM leaks: a box reaching over the receiver's own surface where it lies behind the sample's
+/// depth (tilted away from the light, or curving) reads lit however many blockers it holds.
+pub const RECEIVER_PLANE: Knob = Knob {
+    summary: "1: the filter's ESM test per rip-map block at the receiver plane's depth there,               each block clamped on its own; 0: one test at the sample's depth over the box (the               paper's)",
+    default: KnobDefault::Value(1.0),
+    ..RECEIVER_PLANE_BIAS
+};
+
+const KNOBS: [Knob; 8] = [
     SHADOW_MAP_KNOBS[0],
     SHADOW_MAP_KNOBS[1],
     SHADOW_MAP_KNOBS[2],
@@ -66,6 +77,7 @@ const KNOBS: [Knob; 7] = [
     EXPONENT,
     MIN_KERNEL,
     MAX_WIDTH,
+    RECEIVER_PLANE,
 ];
 
 /// `essm`: exponential soft shadow mapping.
@@ -108,8 +120,10 @@ pub struct EssmPush {
     pub min_kernel: f32,
     /// Largest search and filter width, texels.
     pub max_width: f32,
+    /// 1: the filter tested per rip-map block at the receiver plane's depth (`receiver_plane_bias`).
+    pub receiver_plane: i32,
     /// Padding to the block's size.
-    pub pad: [i32; 4],
+    pub pad: [i32; 3],
 }
 
 /// The push-constant block of `glsl/essm/build.comp`.
@@ -175,7 +189,8 @@ impl EssmPush {
             light_size: soft_light(light, view, map_size)?.size,
             min_kernel: params.f32("min_kernel")?,
             max_width,
-            pad: [0; 4],
+            receiver_plane: params.u32("receiver_plane_bias")? as i32,
+            pad: [0; 3],
         })
     }
 }
@@ -242,6 +257,7 @@ impl<'a> Essm<'a> {
         ];
         bindings.extend(channels.iter().map(Binding::Buffer));
         bindings.push(Binding::Buffer(&offsets_buffer));
+        bindings.push(Binding::Image(&setup.view.normals));
         let lookup_set = DescriptorSet::new(ctx, &lookup, &bindings)?;
         // Row 0 along x, then every column of levels along y from the level below it.
         let at = |lx: u32, ly: u32| offsets[(ly * levels + lx) as usize];
@@ -330,6 +346,7 @@ mod tests {
         assert_eq!(offset_of!(EssmPush, exponent), 92);
         assert_eq!(offset_of!(EssmPush, light_size), 96);
         assert_eq!(offset_of!(EssmPush, max_width), 108);
+        assert_eq!(offset_of!(EssmPush, receiver_plane), 112);
         assert_eq!(size_of::<EssmPush>(), 128);
         for shader in ["essm/encode.comp", "essm/lookup.comp"] {
             let declared = shader_interface(shader).expect("embedded").1;

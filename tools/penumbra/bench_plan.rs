@@ -129,11 +129,14 @@ pub(crate) fn default_sweep(technique: &str, quick: bool) -> Vec<(&'static str, 
             ("split_regions", vec![0.0, 1.0]),
             ("receiver_plane_bias", vec![0.0, 1.0]),
         ],
-        // Exponential soft shadow mapping: the exponent trades leaks for a sharper step.
+        // Exponential soft shadow mapping: the exponent trades leaks for a sharper step; the
+        // filter tested per block at the receiver plane's depth, or once at one depth (the
+        // paper's).
         ("essm", true) => vec![("map_size", vec![1024.0]), ("exponent", vec![40.0, 80.0])],
         ("essm", false) => vec![
             ("map_size", vec![1024.0, 2048.0]),
             ("exponent", vec![40.0, 80.0, 200.0]),
+            ("receiver_plane_bias", vec![0.0, 1.0]),
         ],
         // Resolution-matched virtual maps, with the default pool (1024 pages of 64², one 2048²
         // map): the virtual size against `hard`'s map size (the finest level it may reach), and

@@ -159,6 +159,7 @@ def soft(directory):
                   f"| {fmt(num(best, single) if single else None, 4)} "
                   f"| {fmt(num(best, 'rmse'), 4)} | {fmt(num(best, 'light_leak'), 4)} |")
     vssm_rules(data, single)
+    essm_filter(data, single)
     skip = Path(directory) / "skip.csv"
     if skip.exists():
         print("\nskip\n")
@@ -169,6 +170,44 @@ def soft(directory):
             print(f"| {r['scene']} | {r['label']} | {fmt(num(r, 'ms_skip_off'), 1)} "
                   f"| {fmt(num(r, 'ms_skip_on'), 1)} | {fmt(num(r, 'speedup'), 2)}× "
                   f"| {fmt(100 * num(r, 'skipped_fraction'), 1)} % | {r['differing_pixels']} |")
+
+
+def essm_filter(data, single):
+    """`essm` at map 1024 and no normal offset, per scene and exponent: the paper's filter (one
+    ESM test at the sample's depth over the box, `receiver_plane_bias=0`) against the test per
+    rip-map block at the receiver plane's depth (the default)."""
+    here = [r for r in data if r["technique"] == "essm" and "map_size=1024" in r["label"]
+            and "normal_offset=1" not in r["label"] and num(r, "penumbra_mae") is not None]
+    exponents = sorted({float(k.split("=")[1]) for r in here for k in r["label"].split()
+                        if k.startswith("exponent=")})
+    if not here or not exponents:
+        return
+    print("\nessm at map 1024, normal_offset=0: penumbra MAE (single-layer ref.) / GPU ms, "
+          "one depth (the paper's) → per block at the receiver plane (the default)\n")
+    print("| scene | " + " | ".join(f"c = {c:g}" for c in exponents) + " |")
+    print("|---" * (1 + len(exponents)) + "|")
+    scenes = []
+    for r in here:
+        if r["scene"] not in scenes:
+            scenes.append(r["scene"])
+
+    def cell(row):
+        if row is None:
+            return "—"
+        return (f"{fmt(num(row, 'penumbra_mae'), 4)} "
+                f"({fmt(num(row, single) if single else None, 4)}) / "
+                f"{fmt(num(row, 'total_gpu_ms'), 0)}")
+
+    for scene in scenes:
+        cells = []
+        for c in exponents:
+            pair = []
+            for plane in ("0", "1"):
+                want = {f"exponent={c:g}", f"receiver_plane_bias={plane}"}
+                pair.append(next((r for r in here if r["scene"] == scene
+                                  and want <= set(r["label"].split())), None))
+            cells.append(" → ".join(cell(r) for r in pair))
+        print(f"| {scene} | " + " | ".join(cells) + " |")
 
 
 def vssm_rules(data, single):

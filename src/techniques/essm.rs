@@ -35,6 +35,17 @@
 //! e^c). The rip-map only adds positive terms in log space, so every exponent `esm` accepts
 //! (up to 1000) is exact to fp32 rounding and nothing overflows; the cost is O(log² w) lookups
 //! per box instead of 16. (c) The same exponent c weights the blocker search and the filter.
+//! (d) [`RECEIVER_PLANE`] (on by default): ESM's one clamp over a whole box is where the method
+//! leaks. Texels of the receiver's own surface behind the sample's depth d — where it tilts away
+//! from the light or curves, as the bunny's body does — weigh e^(c(z − d)) > 1 each and outweigh
+//! every blocker of the box, so a self-shadow reads lit (penumbra MAE 0.117 on bunny-rect). With
+//! the knob the filter tests each block of the rip-map split on its own, at the depth of the
+//! receiver plane ([`crate::cpu::receiver_plane`]; the tangent plane from the normal where the
+//! neighbours are another surface) at the block's centre, clamps each, and sums the blocks'
+//! areas times their visibilities: a planar receiver's texels then give 1 (lit stays lit), and
+//! what still lies behind the plane saturates only its own block. Blocks are at most a quarter
+//! of the box wide, and the blocker search weights each block by e^(c·d) at the plane, so the
+//! receiver's own surface weighs 1 wherever it lies. Off, the filter is the paper's.
 //!
 //! **Memory per map texel**: 4 B (D32) + 3 channels × 4 B × Σ 2^−(lx+ly) (≤ 4 at 8 levels) ≈
 //! 52 B. One channel must fit one storage-buffer binding (`maxStorageBufferRange`, 128 MiB on
@@ -42,7 +53,9 @@
 //! [`crate::error::Error::Unsupported`].
 //!
 //! Counters: `view_samples`, `outside_light`, `lit`, `umbra`, `penumbra`, `clamped` (the search
-//! region was wider than `max_width`). CPU twin: [`crate::cpu::essm`].
+//! region was wider than `max_width`), `plane_fallback` (with the receiver plane on, samples
+//! with neither a neighbours' plane nor a tangent plane that is not edge-on: one depth).
+//! CPU twin: [`crate::cpu::essm`].
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};

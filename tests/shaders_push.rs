@@ -370,6 +370,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 light_size,
                 min_kernel,
                 max_width,
+                receiver_plane,
                 pad
             }),
         ),

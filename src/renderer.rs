@@ -26,6 +26,7 @@ use crate::engine::PreparedScene;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, PassTime, Timestamps};
 use crate::passes::{LightView, ReceiverDesc, Receivers, VisibilityChecks, VisibilityCounts};
+use crate::scene::Light;
 use crate::techniques::unshadowed::Unshadowed;
 use crate::techniques::{Params, Technique, TechniqueInfo, TechniqueSetup};
 
@@ -153,7 +154,7 @@ impl<'a> ShadowRenderer<'a> {
         } else {
             &prepared.light_view
         };
-        let receivers = match receiver_desc(info, &params, caster_skip)? {
+        let receivers = match receiver_desc(info, &params, caster_skip, &prepared.light)? {
             Some(desc) if desc.needed() => {
                 Some(prepared.receivers.get_or_create(&desc, receiver_fit, || {
                     Receivers::new(
@@ -408,18 +409,34 @@ fn hard_path(
     Ok((widest < 0.5).then_some((hard, hard_params)))
 }
 
-/// The receivers `info` needs with `params`: a shadow-map technique's from its receiver knobs;
-/// for the lit answer standing in for any technique (`caster_skip`), the light's clipping by
-/// the receiver's tangent plane (the technique's `light_clip` where it has one), applied to
-/// V = 1 rather than kept from a technique that clips its own light samples. `None`: none.
+/// The receivers `info` needs with `params`: a shadow-map technique's from its receiver knobs,
+/// and the light's clipping alone for a technique without a map that declares `light_clip`
+/// (`izb`) under a light with an extent; for the lit answer standing in for any technique
+/// (`caster_skip`), the light's clipping by the receiver's tangent plane (the technique's
+/// `light_clip` where it has one), applied to V = 1 rather than kept from a technique that clips
+/// its own light samples. `None`: none.
 fn receiver_desc(
     info: &TechniqueInfo,
     params: &Params,
     caster_skip: bool,
+    light: &Light,
 ) -> Result<Option<ReceiverDesc>> {
     let has = |k: &str| params.values().contains_key(k);
     if !info.shadow_map && !caster_skip {
-        return Ok(None);
+        // Under a point light or a hard sun the clipped part is 0 or 1, and a technique without
+        // a map that traces the light's centre (`izb`) already finds the 0s by its own
+        // tangent-plane test: the passes would change nothing and cost ~5 ms (bunny-rect).
+        let point = match light {
+            Light::Point { .. } => true,
+            Light::Directional {
+                angular_diameter_deg,
+                ..
+            } => *angular_diameter_deg == 0.0,
+            Light::Rect { .. } => false,
+        };
+        if !has("light_clip") || point {
+            return Ok(None);
+        }
     }
     let light_clip = !has("light_clip") || params.u32("light_clip")? == 1;
     let normal_offset = if has("normal_offset") {

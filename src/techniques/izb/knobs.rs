@@ -3,7 +3,7 @@
 
 use super::Izb;
 use crate::reference::RAY_OFFSET;
-use crate::techniques::{Knob, KnobDefault, TechniqueInfo};
+use crate::techniques::{Knob, KnobDefault, TechniqueInfo, LIGHT_CLIP};
 
 /// The shader's counter words, in its order (`glsl/izb/izb.glsl`, `C_*`).
 pub(super) const COUNTER_WORDS: [&str; 22] = [
@@ -62,7 +62,14 @@ const TRIANGLE_BATCH: Knob = Knob::int(
     1.0,
 );
 
-const HARD_KNOBS: [Knob; 4] = [GRID, PAIR_CAPACITY, RAY_OFFSET, TRIANGLE_BATCH];
+// `light_clip` (the engine's, [`LIGHT_CLIP`]) for `izb`, which takes the engine's clipping
+// though it has no map: its one ray to the light's centre sees none of the light's extent, so a
+// sample whose tangent plane hides part of a sun or rect light — lit by the centre — read 1
+// where the reference has the part in front (`grazing-89.9`: the ground under a sun 0.1° above
+// it read 1 against 0.75, MAE 0.213). With it the receivers pass scales V by that part as it
+// does every map's (`crate::passes::receivers`); a point light's part is 0 or 1, so `izb` stays
+// the reference bit for bit there. `izb-soft` samples the light itself.
+const HARD_KNOBS: [Knob; 5] = [GRID, PAIR_CAPACITY, RAY_OFFSET, TRIANGLE_BATCH, LIGHT_CLIP];
 
 const SOFT_KNOBS: [Knob; 6] = [
     // 0 = auto: with a sampled rect light each sample checks its own footprint before its tests

@@ -262,7 +262,12 @@
 //! centre; a sun as its centre direction): visibility is exact per view sample, equal to the
 //! ray-cast `reference` with a point light but for rays the two could only decide differently
 //! through a triangle the footprint test left out — none, since the footprint is grown by a
-//! margin far above its rounding (the tests check bit-equality). **izb-soft** keeps a bitmask of
+//! margin far above its rounding (the tests check bit-equality). Under a rect light or a sun
+//! with an extent the engine then scales the centre's answer by the part of the light in front
+//! of the sample's tangent plane, as it does every map's (`light_clip`, on by default; the
+//! receivers' passes, [`crate::passes::receivers`], skipped under a point light or a hard sun,
+//! where that part is 0 or 1 and the bin pass's tangent-plane test already finds the 0s).
+//! **izb-soft** keeps a bitmask of
 //! `samples` light samples per view sample: an `n_a × n_b` stratified grid over the rect light
 //! (n_b the largest divisor of `samples` not above its square root), jittered in its cells by
 //! the reference's hash (`glsl/include/light_samples.glsl`), so `samples = N²` draws exactly the

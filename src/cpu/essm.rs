@@ -18,6 +18,7 @@
 //! distances, [`ReceiverPlane::marginal`]) and which blocks a box edge an ulp away splits into;
 //! a sample where either falls the other way may differ by more, and `tests/essm.rs` caps how
 //! many may.
+
 use glam::{IVec2, Vec2};
 
 use super::receiver_plane::{receiver_plane, tangent_plane, tap_depth, ReceiverPlane, ViewImages};

@@ -77,7 +77,9 @@ use crate::scene::Light;
 /// ESSM leaks: a box reaching over the receiver's own surface where it lies behind the sample's
 /// depth (tilted away from the light, or curving) reads lit however many blockers it holds.
 pub const RECEIVER_PLANE: Knob = Knob {
-    summary: "1: the filter's ESM test per rip-map block at the receiver plane's depth there,               each block clamped on its own; 0: one test at the sample's depth over the box (the               paper's)",
+    summary: "1: the filter's ESM test per rip-map block at the receiver plane's depth there, \
+              each block clamped on its own; 0: one test at the sample's depth over the box (the \
+              paper's)",
     default: KnobDefault::Value(1.0),
     ..RECEIVER_PLANE_BIAS
 };

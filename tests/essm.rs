@@ -14,16 +14,22 @@ use penumbra::techniques::find;
 use penumbra::Engine;
 
 /// Of the view samples, at most this fraction may differ from the twin by more than the
-/// tolerance, and only where the twin flags its receiver plane as a close call (a neighbour on
-/// the plane or not within rounding, or the tangent plane nearly edge-on): the GPU may decide it
-/// the other way and test one depth instead. None did on lavapipe.
+/// tolerance where the twin flags its receiver plane as a close call (a neighbour on the plane
+/// or not within rounding, or the tangent plane nearly edge-on): the GPU may decide it the other
+/// way and test one depth instead. None did on lavapipe.
 const MAX_CLOSE_CALLS: f64 = 0.005;
+
+/// ... and at most this fraction elsewhere: a box whose edge lies within rounding of a block
+/// boundary splits into other blocks, each tested at its own plane depth (a device that fuses
+/// or reorders the bounds' arithmetic may land on the other side). None did on lavapipe.
+const MAX_SPLIT_FLIPS: f64 = 0.001;
 
 /// GPU against the CPU twin (brute-force f64 box means) on the GPU's own shadow map and view
 /// samples, the twin with its own push block and receiver planes: every sample within
-/// `tolerance(c, min_kernel)` (see `penumbra::cpu::essm`) but close calls of the plane, capped
-/// by [`MAX_CLOSE_CALLS`]. Measured on lavapipe: largest difference 3.7e-4 at c = 80 (allowed
-/// 1.3e-3), 4.3e-4 at c = 1000 (allowed 1.5e-2), no close call beyond it.
+/// `tolerance(c, min_kernel)` (see `penumbra::cpu::essm`) but close calls of the plane and
+/// split flips, capped by [`MAX_CLOSE_CALLS`] and [`MAX_SPLIT_FLIPS`]. Measured on lavapipe:
+/// largest difference 3.7e-4 at c = 80 (allowed 1.3e-3), 4.3e-4 at c = 1000 (allowed 1.5e-2),
+/// no sample beyond it.
 fn compare(engine: &Engine, spec: &str, extra: &[(&str, &str)]) {
     let scene = common::small(spec);
     let prepared = engine.prepare(&scene).expect("prepare");
@@ -62,8 +68,8 @@ fn compare(engine: &Engine, spec: &str, extra: &[(&str, &str)]) {
     {
         let diff = (g - c).abs();
         if diff > allowed {
-            // A plane decided the other way (a close call the twin flags) or a box edge an ulp
-            // across a block boundary: counted apart, capped below.
+            // A plane decided the other way (a close call the twin flags), or a box edge
+            // within rounding of a block boundary: counted apart, each capped below.
             if *m {
                 beyond_marginal += 1;
             } else {
@@ -79,7 +85,9 @@ fn compare(engine: &Engine, spec: &str, extra: &[(&str, &str)]) {
          + {beyond_marginal} at close calls; GPU {counters:?}; CPU {:?}",
         cpu.counters
     );
-    if beyond > 0 || beyond_marginal as f64 > MAX_CLOSE_CALLS * samples as f64 {
+    if beyond as f64 > MAX_SPLIT_FLIPS * samples as f64
+        || beyond_marginal as f64 > MAX_CLOSE_CALLS * samples as f64
+    {
         let dir = common::write_diff(
             &format!("essm-{}", spec.replace(['@', ':'], "-")),
             frame.width,

@@ -15,9 +15,9 @@
 //! slope across a box of `min_kernel` (≤ 1/min_kernel per texel). [`tolerance`] is their sum
 //! with a factor 4 of room; measured values are in `tests/essm.rs`. The receiver plane adds two
 //! branches, each with a threshold: whether the plane is found (neighbours' normals and
-//! distances, [`ReceiverPlane::marginal`]) and which blocks a box edge an ulp away splits into;
-//! a sample where either falls the other way may differ by more, and `tests/essm.rs` caps how
-//! many may.
+//! distances; the twin flags close calls, [`ReceiverPlane::marginal`]) and which blocks a box
+//! whose edge lies within rounding of a block boundary splits into; a sample where either falls
+//! the other way may differ by more, and `tests/essm.rs` caps how many may of each.
 
 use glam::{IVec2, Vec2};
 

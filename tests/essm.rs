@@ -329,42 +329,25 @@ fn oversized_map_is_refused_cleanly() {
 fn self_shadows_do_not_leak_on_curved_receivers() {
     let engine = common::engine();
     for spec in ["scenes/bunny-rect.toml", "plane-boxes@rect"] {
-        let scene = common::small(spec);
-        let prepared = engine.prepare(&scene).expect("prepare");
-        let reference = engine
-            .render(&prepared, "reference", &common::knobs(&[]), 1)
-            .expect("reference");
-        let positions = prepared
-            .view
-            .read_positions(engine.context())
-            .expect("positions");
+        let (prepared, reference, positions) = common::with_reference(&engine, spec);
         let rates = |extra: &[(&str, &str)]| {
             let frame = engine
                 .render(&prepared, "essm", &common::knobs(extra), 1)
                 .expect("essm");
-            let (mut shadowed, mut leaks, mut lit, mut dark) = (0u64, 0u64, 0u64, 0u64);
+            let (mut shadowed, mut leaks) = (0u64, 0u64);
             for ((p, r), v) in positions
                 .iter()
                 .zip(&reference.visibility)
                 .zip(&frame.visibility)
             {
-                if p.w <= 0.0 {
-                    continue;
-                }
-                if *r <= 0.5 {
+                if p.w > 0.0 && *r <= 0.5 {
                     shadowed += 1;
                     leaks += (*v > r + 0.5) as u64;
                 }
-                if *r >= 1.0 {
-                    lit += 1;
-                    dark += (*v < 0.9) as u64;
-                }
             }
-            (
-                leaks as f64 / shadowed as f64,
-                dark as f64 / lit as f64,
-                frame,
-            )
+            let dark =
+                common::darkened_where_lit(&positions, &reference.visibility, &frame.visibility);
+            (leaks as f64 / shadowed as f64, dark, frame)
         };
         let (paper_leaks, paper_dark, _) = rates(&[("receiver_plane_bias", "0")]);
         let (leaks, dark, frame) = rates(&[]);

@@ -311,31 +311,13 @@ fn finite_at_extreme_knobs_and_depth_ranges() {
 #[test]
 fn tilted_receivers_are_not_darkened_beside_shadows() {
     let engine = common::engine();
-    let scene = common::small("plane-boxes@rect");
-    let prepared = engine.prepare(&scene).expect("prepare");
-    let reference = engine
-        .render(&prepared, "reference", &common::knobs(&[]), 1)
-        .expect("reference");
-    let positions = prepared
-        .view
-        .read_positions(engine.context())
-        .expect("positions");
+    let (prepared, reference, positions) = common::with_reference(&engine, "plane-boxes@rect");
     let dark_beside = |extra: &[(&str, &str)]| {
         let frame = engine
             .render(&prepared, "vssm", &common::knobs(extra), 1)
             .expect("vssm");
-        let (mut lit, mut dark) = (0u64, 0u64);
-        for ((p, r), v) in positions
-            .iter()
-            .zip(&reference.visibility)
-            .zip(&frame.visibility)
-        {
-            if p.w > 0.0 && *r >= 1.0 {
-                lit += 1;
-                dark += (*v < 0.9) as u64;
-            }
-        }
-        (dark as f64 / lit as f64, frame)
+        let dark = common::darkened_where_lit(&positions, &reference.visibility, &frame.visibility);
+        (dark, frame)
     };
     let (paper, _) = dark_beside(&[("receiver_plane_bias", "0"), ("split_regions", "leaks")]);
     let (ours, frame) = dark_beside(&[]);

@@ -45,6 +45,7 @@ vec3 rp_normal(ivec2 pixel) {
     return imageLoad(normals, pixel).xyz;
 }
 #include "receiver_plane.glsl"
+#include "receiver_sample.glsl"
 
 // At most 2 end texels + 2 (levels - 1) + 2 blocks per axis for a width <= 2^levels (levels <=
 // 11): see the Rust module. With PLANE_SPLIT: 2 + 2 top + 8 (whole blocks of 2^top > w / 8).
@@ -128,15 +129,6 @@ void accumulate(inout vec2 acc, float v, float mass) {
     }
 }
 
-// The sample being looked up: its map position and stored depth, and its receiver plane's depth
-// gradient per texel (receiver_plane.glsl; zero where it fell back to one depth).
-vec4 receiver_coord;
-vec2 receiver_gradient = vec2(0.0);
-
-// Linear depth of the receiver's plane at map position t.
-float plane_depth(vec2 t) {
-    return linear_depth(rp_tap_depth(receiver_coord.z, t - receiver_coord.xy, receiver_gradient));
-}
 
 // log of the box mean over [lo, hi] of exp(channel), channels first .. first + count - 1 (at
 // most 2), texels outside the map at the far plane. With `plane` each block is weighted by
@@ -245,12 +237,8 @@ void main() {
                 receiver_coord = c;
                 bool plane_found = false;
                 if (pc.receiver_plane != 0) {
-                    vec3 g = receiver_plane(pixel, pc.view_size, pc.light_view_proj,
-                                            ivec2(pc.map_size), p, c);
-                    if (g.z == 0.0) {
-                        g = rp_tangent_plane(p.xyz, rp_normal(pixel), pc.light_view_proj,
-                                             ivec2(pc.map_size), c);
-                    }
+                    vec3 g = receiver_plane_or_tangent(pixel, pc.view_size, pc.light_view_proj,
+                                                       ivec2(pc.map_size), p, c);
                     receiver_gradient = g.xy;
                     plane_found = g.z != 0.0;
                     if (!plane_found) {

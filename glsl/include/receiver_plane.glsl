@@ -139,4 +139,16 @@ vec3 receiver_plane(ivec2 pixel, ivec2 view_size, mat4 light_view_proj, ivec2 ma
     return rp_gradient(dx.xyz, dy.xyz);
 }
 
+// receiver_plane, else the tangent plane from the sample's normal (rp_tangent_plane): a curved
+// receiver's neighbours lie off its plane, its tangent plane is still the first-order surface
+// (essm's filter blocks). (0, 0, 0) where neither exists.
+vec3 receiver_plane_or_tangent(ivec2 pixel, ivec2 view_size, mat4 light_view_proj,
+                               ivec2 map_size, vec4 p, vec4 c) {
+    vec3 g = receiver_plane(pixel, view_size, light_view_proj, map_size, p, c);
+    if (g.z == 0.0) {
+        g = rp_tangent_plane(p.xyz, rp_normal(pixel), light_view_proj, map_size, c);
+    }
+    return g;
+}
+
 #endif

@@ -26,6 +26,7 @@
 #include "share.glsl"
 #include "chebyshev.glsl"
 #include "receiver_plane.glsl"
+#include "receiver_sample.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "dealt_tile.glsl"
@@ -137,15 +138,6 @@ float texel_z(ivec2 t) {
     return texelFetch(nbuffer_source, t, 0).r;
 }
 
-// The sample being looked up: its map position and stored depth, and its receiver plane's
-// depth gradient per texel (zero: one depth everywhere).
-vec4 receiver_coord;
-vec2 receiver_gradient = vec2(0.0);
-
-// Linear depth of the receiver's plane at map position t.
-float plane_depth(vec2 t) {
-    return linear_depth(rp_tap_depth(receiver_coord.z, t - receiver_coord.xy, receiver_gradient));
-}
 
 // 2x2 bilinear PCF at p (texel centres at .5): (weight of the texels in front of the receiver,
 // their weighted depth sum), each texel tested at the receiver plane's depth at its centre.

@@ -21,7 +21,7 @@
 
 use glam::{IVec2, Vec2};
 
-use super::receiver_plane::{receiver_plane, tangent_plane, tap_depth, ReceiverPlane, ViewImages};
+use super::receiver_plane::{receiver_plane_or_tangent, Receiver, ReceiverPlane, ViewImages};
 use super::shadow_map::{inside_map, shadow_coord};
 use super::vssm::light_size;
 use crate::error::Result;
@@ -129,14 +129,12 @@ fn log_sum(terms: &[(f64, f64)]) -> f64 {
     m + s.ln()
 }
 
-/// The widest block of a box `width` texels wide along one axis, as a level (width 2^level): the
-/// rip-map's widest, `levels − 1`; with the receiver plane the widest power of two at most a
-/// quarter of the box (`PLANE_SPLIT` in `lookup.comp`), at least one texel.
-pub fn widest_block(width: f32, levels: i32, plane: bool) -> i32 {
+/// The widest block of a box `width` texels wide along one axis with the receiver plane, as a
+/// level (width 2^level): the widest power of two at most a quarter of the box
+/// (`PLANE_SPLIT` in `lookup.comp`), at least one texel, at most the rip-map's widest.
+pub fn widest_block(width: f32, levels: i32) -> i32 {
     let quarter = (width / 4.0) as i32;
-    if !plane {
-        levels - 1
-    } else if quarter <= 0 {
+    if quarter <= 0 {
         0
     } else {
         (31 - quarter.leading_zeros() as i32).clamp(0, levels - 1)
@@ -177,8 +175,8 @@ pub fn axis_blocks(lo: f32, hi: f32, n: i32, top: i32) -> Vec<(i32, i32, f32, f3
 /// area it covers and the plane's linear depth at the centre of its covered part.
 fn plane_blocks(pc: &EssmPush, r: &Receiver, lo: Vec2, hi: Vec2) -> Vec<(Vec2, Vec2, f64, f64)> {
     let n = pc.map_size;
-    let xs = axis_blocks(lo.x, hi.x, n, widest_block(hi.x - lo.x, pc.levels, true));
-    let ys = axis_blocks(lo.y, hi.y, n, widest_block(hi.y - lo.y, pc.levels, true));
+    let xs = axis_blocks(lo.x, hi.x, n, widest_block(hi.x - lo.x, pc.levels));
+    let ys = axis_blocks(lo.y, hi.y, n, widest_block(hi.y - lo.y, pc.levels));
     let mut blocks = Vec::with_capacity(xs.len() * ys.len());
     for &(y0, wy, ya, yb) in &ys {
         for &(x0, wx, xa, xb) in &xs {
@@ -189,7 +187,7 @@ fn plane_blocks(pc: &EssmPush, r: &Receiver, lo: Vec2, hi: Vec2) -> Vec<(Vec2, V
             let block_lo = Vec2::new(x0 as f32, y0 as f32);
             let block_hi = block_lo + Vec2::new(wx as f32, wy as f32);
             let centre = Vec2::new(0.5 * (xa + xb), 0.5 * (ya + yb));
-            let d = linear_depth(tap_depth(r.ndc, centre - r.at, r.gradient), pc) as f64;
+            let d = linear_depth(r.ndc_at(centre), pc) as f64;
             blocks.push((block_lo, block_hi, area, d));
         }
     }
@@ -204,19 +202,6 @@ pub struct EssmOutput {
     pub counters: [u64; 7],
     /// Per pixel, whether its receiver plane was a close call (see the module's tolerance).
     pub marginal: Vec<bool>,
-}
-
-/// The receiver being looked up: map position, stored depth, its linear depth and the plane's
-/// gradient (zero: one depth everywhere).
-pub struct Receiver {
-    /// Map position, texels.
-    pub at: Vec2,
-    /// Stored (NDC) depth at `at`.
-    pub ndc: f32,
-    /// (∂z̃/∂u, ∂z̃/∂v), zero where no plane was found or the knob is off.
-    pub gradient: Vec2,
-    /// Whether the filter tests per block against the plane (the knob on and a plane found).
-    pub per_block: bool,
 }
 
 /// ESM over the box [lo, hi] per block of its split at the plane's depth at each block's
@@ -256,8 +241,9 @@ fn search_per_block(z: &[f32], pc: &EssmPush, r: &Receiver, lo: Vec2, hi: Vec2, 
     log_sum(&terms[1]) - log_sum(&terms[0])
 }
 
-/// One sample against linear depths `z`: (V, clamped).
-pub fn lookup(z: &[f32], pc: &EssmPush, r: &Receiver) -> (f32, bool) {
+/// One sample against linear depths `z`: (V, clamped). `per_block`: the search and the filter
+/// per block against `r`'s plane (the knob on and a plane found), else the paper's.
+pub fn lookup(z: &[f32], pc: &EssmPush, r: &Receiver, per_block: bool) -> (f32, bool) {
     let n = pc.map_size;
     let c = pc.exponent as f64;
     let (p, d) = (r.at, linear_depth(r.ndc, pc));
@@ -279,7 +265,7 @@ pub fn lookup(z: &[f32], pc: &EssmPush, r: &Receiver) -> (f32, bool) {
     let clamped = search.x > pc.max_width || search.y > pc.max_width;
     let search = clamp_width(search);
     let (lo, hi) = (p - 0.5 * search, p + 0.5 * search);
-    let ratio = if r.per_block {
+    let ratio = if per_block {
         search_per_block(z, pc, r, lo, hi, d as f64)
     } else {
         box_log_mean(z, n, lo, hi, 2, c) - box_log_mean(z, n, lo, hi, 1, c)
@@ -287,33 +273,11 @@ pub fn lookup(z: &[f32], pc: &EssmPush, r: &Receiver) -> (f32, bool) {
     let z_avg = ratio.exp().clamp(0.0, 1.0) as f32;
     let width = clamp_width(footprint(pc.near + z_avg * range));
     let (lo, hi) = (p - 0.5 * width, p + 0.5 * width);
-    if r.per_block {
+    if per_block {
         return (filter_per_block(z, pc, r, lo, hi) as f32, clamped);
     }
     let l = box_log_mean(z, n, lo, hi, 0, c);
     (((l - c * d as f64).min(0.0)).exp() as f32, clamped)
-}
-
-/// The receiver plane from the neighbours, else the tangent plane from the sample's normal
-/// (`lookup.comp`'s fallback: a curved receiver's neighbours lie off its plane).
-fn plane_or_tangent(
-    view: &ViewImages<'_>,
-    pixel: IVec2,
-    pc: &EssmPush,
-    p: glam::Vec4,
-    c: glam::Vec4,
-) -> ReceiverPlane {
-    let map = IVec2::splat(pc.map_size);
-    let plane = receiver_plane(view, pixel, pc.light_view_proj, map, p, c);
-    if plane.found {
-        return plane;
-    }
-    let (g, close) = tangent_plane(p.truncate(), view.normal(pixel), pc.light_view_proj, map, c);
-    ReceiverPlane {
-        gradient: g.unwrap_or(Vec2::ZERO),
-        found: g.is_some(),
-        marginal: plane.marginal || close,
-    }
 }
 
 /// Runs `lookup.comp` for every view sample of `view` against the shadow map `depth` (D32
@@ -340,7 +304,7 @@ pub fn essm(view: &ViewImages<'_>, depth: &[f32], pc: &EssmPush) -> EssmOutput {
             out.counters[1] += 1;
         } else {
             let plane = if pc.receiver_plane != 0 {
-                let plane = plane_or_tangent(view, pixel, pc, *p, c);
+                let plane = receiver_plane_or_tangent(view, pixel, pc.light_view_proj, map, *p, c);
                 out.counters[6] += !plane.found as u64;
                 plane
             } else {
@@ -351,9 +315,8 @@ pub fn essm(view: &ViewImages<'_>, depth: &[f32], pc: &EssmPush) -> EssmOutput {
                 at: Vec2::new(c.x, c.y),
                 ndc: c.z,
                 gradient: plane.gradient,
-                per_block: plane.found,
             };
-            let (value, clamped) = lookup(&z, pc, &receiver);
+            let (value, clamped) = lookup(&z, pc, &receiver, plane.found);
             v = value;
             out.counters[5] += clamped as u64;
         }
@@ -402,8 +365,8 @@ mod tests {
     }
 
     /// A box's blocks tile its clipped extent in order without gaps, each aligned to its power
-    /// of two width, no wider than 2^top; with the plane a quarter of the box at most, and at most
-    /// 30 a side (the shader's 32-entry arrays).
+    /// of two width, no wider than 2^top — the rip-map's widest, or with the plane a quarter of
+    /// the box — and at most 30 a side (the shader's 32-entry arrays).
     #[test]
     fn blocks_tile_the_box() {
         for (lo, hi, n) in [
@@ -414,7 +377,7 @@ mod tests {
             (7.0, 135.0, 1024),
         ] {
             for plane in [false, true] {
-                let top = widest_block(hi - lo, 8, plane);
+                let top = if plane { widest_block(hi - lo, 8) } else { 7 };
                 let blocks = axis_blocks(lo, hi, n, top);
                 let mut at = lo.clamp(0.0, n as f32);
                 for &(first, width, from, to) in &blocks {

@@ -70,7 +70,7 @@ impl ViewImages<'_> {
 
     /// The normal at `pixel`; zero where the image is missing, which matches no surface, so a
     /// caller that passes no normals gets the constant-depth fallback rather than a panic.
-    pub fn normal(&self, pixel: IVec2) -> Vec3 {
+    fn normal(&self, pixel: IVec2) -> Vec3 {
         self.normals
             .get(self.index(pixel))
             .map_or(Vec3::ZERO, |n| n.xyz())
@@ -262,6 +262,49 @@ pub fn receiver_plane(
         gradient: g.unwrap_or(Vec2::ZERO),
         found: g.is_some(),
         marginal: marginal || close,
+    }
+}
+
+/// A view sample in the shadow map: where it falls, its stored depth there and its receiver
+/// plane (the shaders' `receiver_coord` and `receiver_gradient`, `receiver_sample.glsl`).
+#[derive(Clone, Copy, Debug)]
+pub struct Receiver {
+    /// Map position, texels.
+    pub at: Vec2,
+    /// Stored (NDC) depth at `at`.
+    pub ndc: f32,
+    /// (∂z̃/∂u, ∂z̃/∂v) of its plane; zero for one depth everywhere.
+    pub gradient: Vec2,
+}
+
+impl Receiver {
+    /// The plane's stored depth at map position `t` ([`tap_depth`]); each technique linearises
+    /// it with its own `linear_depth` (the shaders' `plane_depth`).
+    pub fn ndc_at(&self, t: Vec2) -> f32 {
+        tap_depth(self.ndc, t - self.at, self.gradient)
+    }
+}
+
+/// [`receiver_plane`], else the tangent plane from the sample's normal
+/// (`receiver_plane_or_tangent` in `receiver_plane.glsl`: a curved receiver's neighbours lie off
+/// its plane, its tangent plane is still the first-order surface).
+pub fn receiver_plane_or_tangent(
+    view: &ViewImages<'_>,
+    pixel: IVec2,
+    light_view_proj: Mat4,
+    map_size: IVec2,
+    p: Vec4,
+    c: Vec4,
+) -> ReceiverPlane {
+    let plane = receiver_plane(view, pixel, light_view_proj, map_size, p, c);
+    if plane.found {
+        return plane;
+    }
+    let (g, close) = tangent_plane(p.xyz(), view.normal(pixel), light_view_proj, map_size, c);
+    ReceiverPlane {
+        gradient: g.unwrap_or(Vec2::ZERO),
+        found: g.is_some(),
+        marginal: plane.marginal || close,
     }
 }
 

@@ -19,7 +19,7 @@ use glam::{IVec2, Vec2};
 
 use super::filtered::chebyshev;
 use super::nbuffer::{build as build_nbuffer, combine, NBufferLevels};
-use super::receiver_plane::{receiver_plane, tap_depth, ViewImages};
+use super::receiver_plane::{receiver_plane, Receiver, ViewImages};
 use super::sat::{build_u32_fixed, SatTable};
 use super::shadow_map::{inside_map, shadow_coord};
 use crate::error::{Error, Result};
@@ -180,7 +180,7 @@ impl Maps {
                     (if i == 0 { 1.0 - f.x } else { f.x }) * (if j == 0 { 1.0 - f.y } else { f.y });
                 let texel = b + IVec2::new(i, j);
                 let z = self.texel_z(texel);
-                if z < receiver.depth_at(texel.as_vec2() + 0.5, pc) {
+                if z < linear_depth(receiver.ndc_at(texel.as_vec2() + 0.5), pc) {
                     acc += w * Vec2::new(1.0, z);
                 }
             }
@@ -299,24 +299,6 @@ fn split(pc: &VssmPush, m1: f32, d: f32) -> bool {
     pc.subdivision > 1 && (pc.split_regions != 0 || m1 >= d)
 }
 
-/// A view sample in the map: where it falls, its depth there and its receiver plane.
-#[derive(Clone, Copy, Debug)]
-pub struct Receiver {
-    /// Map position, texels.
-    pub at: Vec2,
-    /// Stored (NDC) depth at `at`.
-    pub ndc: f32,
-    /// The receiver plane's NDC depth gradient per texel (zero: one depth everywhere).
-    pub gradient: Vec2,
-}
-
-impl Receiver {
-    /// Linear depth of the receiver's plane at map position `t` (the shader's `plane_depth`).
-    pub fn depth_at(&self, t: Vec2, pc: &VssmPush) -> f32 {
-        linear_depth(tap_depth(self.ndc, t - self.at, self.gradient), pc)
-    }
-}
-
 /// One sample: V and (skipped_lit, skipped_umbra, subdivided).
 fn lookup(maps: &Maps, pc: &VssmPush, r: &Receiver) -> (f32, [bool; 3]) {
     let p = r.at;
@@ -345,7 +327,7 @@ fn lookup(maps: &Maps, pc: &VssmPush, r: &Receiver) -> (f32, [bool; 3]) {
                 let (slo, shi) = sub_region(lo, hi, i, j, n);
                 let (s1, s2) = maps.moments(slo, shi);
                 let centre = 0.5 * (slo + shi);
-                let di = r.depth_at(centre, pc);
+                let di = linear_depth(r.ndc_at(centre), pc);
                 acc += if s1 < di {
                     chebyshev_blockers(s1, s2, di, pc.min_variance)
                 } else {
@@ -377,7 +359,7 @@ fn lookup(maps: &Maps, pc: &VssmPush, r: &Receiver) -> (f32, [bool; 3]) {
                         let (slo, shi) = sub_region(lo, hi, i, j, n);
                         let (s1, s2) = maps.moments(slo, shi);
                         let centre = 0.5 * (slo + shi);
-                        let di = r.depth_at(centre, pc);
+                        let di = linear_depth(r.ndc_at(centre), pc);
                         acc += if s1 < di {
                             chebyshev(s1, s2, di, pc.min_variance)
                         } else {

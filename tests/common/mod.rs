@@ -150,6 +150,36 @@ pub fn small(spec: &str) -> penumbra::scene::Scene {
     scene
 }
 
+/// A small scene (see [`small`]) prepared, with its ray-cast reference (the default samples) and
+/// its view samples' positions: what property tests against the reference start from.
+pub fn with_reference(
+    engine: &Engine,
+    spec: &str,
+) -> (penumbra::PreparedScene, penumbra::Frame, Vec<glam::Vec4>) {
+    let prepared = engine.prepare(&small(spec)).expect("prepare");
+    let reference = engine
+        .render(&prepared, "reference", &knobs(&[]), 1)
+        .expect("reference");
+    let positions = prepared
+        .view
+        .read_positions(engine.context())
+        .expect("positions");
+    (prepared, reference, positions)
+}
+
+/// Of the view samples the reference shows fully lit, the fraction `visibility` reads below 0.9
+/// (a dark halo where there is no shadow).
+pub fn darkened_where_lit(positions: &[glam::Vec4], reference: &[f32], visibility: &[f32]) -> f64 {
+    let (mut lit, mut dark) = (0u64, 0u64);
+    for ((p, r), v) in positions.iter().zip(reference).zip(visibility) {
+        if p.w > 0.0 && *r >= 1.0 {
+            lit += 1;
+            dark += (*v < 0.9) as u64;
+        }
+    }
+    dark as f64 / lit.max(1) as f64
+}
+
 /// Lit, umbra and penumbra counts of `visibility` over the view samples (`w > 0` in
 /// `positions`): the shaders' classes (v ≥ 1, v ≤ 0, else).
 pub fn class_counts(visibility: &[f32], positions: &[glam::Vec4]) -> [u64; 3] {

@@ -20,7 +20,8 @@ on teapot-rect (lowest RMSE on spot-point), with the same configuration's clip-o
 the light leak of docs/bench-full-lavapipe-2026-11-22.csv. `soft`: per scene (and light scale),
 per technique and map size, the configuration with the lowest penumbra MAE, its error against
 both references and its pass times; then `vssm` at subdivision 4 under each pair of
-`split_regions` and `receiver_plane_bias`; then the skip table (skip.csv). `virtual`: per scene, every
+`split_regions` and `receiver_plane_bias`, and `essm` per exponent with `receiver_plane_bias` 0
+and 1; then the skip table (skip.csv). `virtual`: per scene, every
 `hard` and `rmsm` run and the best `pcf-coverage` per map size (by RMSE), with misclassification
 (also against `hard` at 2048²), memory and pages, from bench.json; then rmsm's passes.
 `izb`: per scene of each DIR, every run (failures with their reason) with time, error, pairs,
@@ -172,26 +173,25 @@ def soft(directory):
                   f"| {fmt(100 * num(r, 'skipped_fraction'), 1)} % | {r['differing_pixels']} |")
 
 
-def essm_filter(data, single):
-    """`essm` at map 1024 and no normal offset, per scene and exponent: the paper's filter (one
-    ESM test at the sample's depth over the box, `receiver_plane_bias=0`) against the test per
-    rip-map block at the receiver plane's depth (the default)."""
-    here = [r for r in data if r["technique"] == "essm" and "map_size=1024" in r["label"]
-            and "normal_offset=1" not in r["label"] and num(r, "penumbra_mae") is not None]
-    exponents = sorted({float(k.split("=")[1]) for r in here for k in r["label"].split()
-                        if k.startswith("exponent=")})
-    if not here or not exponents:
+def knob_table(data, single, technique, fixed, columns, title):
+    """Per scene, a cell per column (header, knob sets): each knob set's row of `technique` among
+    those whose label holds every knob of `fixed`, as penumbra MAE (single-layer reference's) /
+    GPU ms, several joined by →, "—" for none."""
+    here = [r for r in data if r["technique"] == technique
+            and set(fixed) <= set(r["label"].split()) and num(r, "penumbra_mae") is not None]
+    if not here:
         return
-    print("\nessm at map 1024, normal_offset=0: penumbra MAE (single-layer ref.) / GPU ms, "
-          "one depth (the paper's) → per block at the receiver plane (the default)\n")
-    print("| scene | " + " | ".join(f"c = {c:g}" for c in exponents) + " |")
-    print("|---" * (1 + len(exponents)) + "|")
+    print(f"\n{title}\n")
+    print("| scene | " + " | ".join(header for header, _ in columns) + " |")
+    print("|---" * (1 + len(columns)) + "|")
     scenes = []
     for r in here:
         if r["scene"] not in scenes:
             scenes.append(r["scene"])
 
-    def cell(row):
+    def cell(scene, want):
+        row = next((r for r in here if r["scene"] == scene
+                    and set(want) <= set(r["label"].split())), None)
         if row is None:
             return "—"
         return (f"{fmt(num(row, 'penumbra_mae'), 4)} "
@@ -199,48 +199,34 @@ def essm_filter(data, single):
                 f"{fmt(num(row, 'total_gpu_ms'), 0)}")
 
     for scene in scenes:
-        cells = []
-        for c in exponents:
-            pair = []
-            for plane in ("0", "1"):
-                want = {f"exponent={c:g}", f"receiver_plane_bias={plane}"}
-                pair.append(next((r for r in here if r["scene"] == scene
-                                  and want <= set(r["label"].split())), None))
-            cells.append(" → ".join(cell(r) for r in pair))
+        cells = [" → ".join(cell(scene, want) for want in sets) for _, sets in columns]
         print(f"| {scene} | " + " | ".join(cells) + " |")
+
+
+def essm_filter(data, single):
+    """`essm` at map 1024 and no normal offset, per scene and exponent: the paper's filter (one
+    ESM test at the sample's depth over the box, `receiver_plane_bias=0`) → the test per
+    rip-map block at the receiver plane's depth (the default)."""
+    exponents = sorted({float(k.split("=")[1]) for r in data if r["technique"] == "essm"
+                        for k in r["label"].split() if k.startswith("exponent=")})
+    columns = [(f"c = {c:g}", [[f"exponent={c:g}", f"receiver_plane_bias={plane}"]
+                               for plane in ("0", "1")]) for c in exponents]
+    knob_table(data, single, "essm", ["map_size=1024", "normal_offset=0"], columns,
+               "essm at map 1024, normal_offset=0: penumbra MAE (single-layer ref.) / GPU ms, "
+               "one depth (the paper's) → per block at the receiver plane (the default)")
 
 
 def vssm_rules(data, single):
     """`vssm` at subdivision 4, map 1024 and no normal offset, per scene: the paper's rule (split
     only where Chebyshev does not apply, one receiver depth) against the receiver plane, every
     mixed region split, and both (the defaults)."""
-    rules = [("leaks", "0", "paper's rule"), ("leaks", "1", "receiver plane"),
-             ("mixed", "0", "mixed regions split"), ("mixed", "1", "both (defaults)")]
-    here = [r for r in data if r["technique"] == "vssm" and "subdivision=4" in r["label"]
-            and "map_size=1024" in r["label"] and "normal_offset=1" not in r["label"]
-            and num(r, "penumbra_mae") is not None]
-    if not here:
-        return
-    print("\nvssm at subdivision=4, map 1024, normal_offset=0: penumbra MAE "
-          "(single-layer ref.) / GPU ms\n")
-    print("| scene | " + " | ".join(name for _, _, name in rules) + " |")
-    print("|---" * (1 + len(rules)) + "|")
-    scenes = []
-    for r in here:
-        if r["scene"] not in scenes:
-            scenes.append(r["scene"])
-    for scene in scenes:
-        cells = []
-        for split, plane, _ in rules:
-            want = {f"split_regions={0 if split == 'leaks' else 1}",
-                    f"receiver_plane_bias={plane}"}
-            row = next((r for r in here if r["scene"] == scene
-                        and want <= set(r["label"].split())), None)
-            cells.append("—" if row is None else
-                         f"{fmt(num(row, 'penumbra_mae'), 4)} "
-                         f"({fmt(num(row, single) if single else None, 4)}) / "
-                         f"{fmt(num(row, 'total_gpu_ms'), 0)}")
-        print(f"| {scene} | " + " | ".join(cells) + " |")
+    rules = [("0", "0", "paper's rule"), ("0", "1", "receiver plane"),
+             ("1", "0", "mixed regions split"), ("1", "1", "both (defaults)")]
+    columns = [(name, [[f"split_regions={split}", f"receiver_plane_bias={plane}"]])
+               for split, plane, name in rules]
+    knob_table(data, single, "vssm", ["subdivision=4", "map_size=1024", "normal_offset=0"],
+               columns, "vssm at subdivision=4, map 1024, normal_offset=0: penumbra MAE "
+               "(single-layer ref.) / GPU ms")
 
 
 def virtual(directory):

@@ -425,7 +425,7 @@ fn receiver_desc(
     if !info.shadow_map && !caster_skip {
         // Under a point light or a hard sun the clipped part is 0 or 1, and a technique without
         // a map that traces the light's centre (`izb`) already finds the 0s by its own
-        // tangent-plane test: the passes would change nothing and cost ~5 ms (bunny-rect).
+        // tangent-plane test: the passes would change nothing and cost ~4 ms (bunny-rect).
         let point = match light {
             Light::Point { .. } => true,
             Light::Directional {

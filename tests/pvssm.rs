@@ -230,6 +230,53 @@ fn larger_lights_need_fewer_pages() {
 /// marked; `pages.glsl`), none excepted.
 #[test]
 fn filter_and_prediction_match_cpu() {
+    let m = match_twin("scenes/teapot-rect.toml", 1.0, 4096);
+    assert!(
+        m.coarsened > 0,
+        "no kernel here is a needle the cap coarsens"
+    );
+    assert!(
+        m.partial_pages > 1000,
+        "only {} reads of pages drawn in part",
+        m.partial_pages
+    );
+}
+
+/// Past the root: with a light a hundred times teapot-rect's, most kernels are wider than the
+/// root's texels ask for, and the filter reads the root at a stride (`glsl/pvssm/filter.comp`'s
+/// `strided_filter`: a gather of four texels a block). Their V and level match the twin's
+/// (`coverage_filter_strided`) as above, and each kernel reads ~rho² blocks where the whole root
+/// holds 64² = 4096 texels: the filter's work no longer grows with the light once the kernel
+/// covers the map.
+#[test]
+fn strided_levels_match_cpu_and_bound_the_filter() {
+    let m = match_twin("scenes/teapot-rect.toml", 100.0, 1024);
+    assert!(
+        m.strided * 2 > m.filtered,
+        "only {} of {} samples strided",
+        m.strided,
+        m.filtered
+    );
+    let per_sample = m.texels as f64 / m.filtered as f64;
+    eprintln!("{per_sample:.0} texels or blocks a filtered sample");
+    // rho's ceiling (the dynamic cubic at its peak, ~21.2) texels across each axis, up to twice
+    // that where the level is a power of two finer than asked for: (2 x 21.2)^2 ~ 1800.
+    assert!(per_sample < 1800.0, "{per_sample} texels a sample");
+}
+
+/// What [`match_twin`] counted.
+struct TwinMatch {
+    filtered: usize,
+    strided: usize,
+    coarsened: usize,
+    partial_pages: usize,
+    texels: u64,
+}
+
+/// Renders `scene` (its light's sides times `light_scale`) with `pvssm` at `virtual_size` in
+/// pages of 64², reads the kernels, pages and atlas back and checks the filter, the prediction
+/// and the pages against the twin (the caps in [`filter_and_prediction_match_cpu`]'s note).
+fn match_twin(scene: &str, light_scale: f32, v_size: u32) -> TwinMatch {
     use glam::Vec2;
     use penumbra::cpu::pages::{atlas_columns, page_used_rect, PageLayout};
     use penumbra::cpu::pvssm as twin;
@@ -237,12 +284,16 @@ fn filter_and_prediction_match_cpu() {
     use penumbra::cpu::shadow_map::shadow_coord;
     let engine = common::engine();
     let ctx = engine.context().clone();
-    let prepared = engine
-        .prepare(&common::small("scenes/teapot-rect.toml"))
-        .expect("prepare");
-    let (v_size, page, pool) = (4096u32, 64u32, 1024u32);
+    let mut scene = common::small(scene);
+    if let penumbra::scene::Light::Rect { u, v, .. } = &mut scene.light {
+        *u *= light_scale;
+        *v *= light_scale;
+    }
+    let prepared = engine.prepare(&scene).expect("prepare");
+    let (page, pool) = (64u32, 1024u32);
+    let v_text = v_size.to_string();
     let mut set = knobs(&[
-        ("virtual_size", "4096"),
+        ("virtual_size", v_text.as_str()),
         ("page_size", "64"),
         ("pool_pages", "1024"),
         ("tangent_plane", "0"),
@@ -278,7 +329,7 @@ fn filter_and_prediction_match_cpu() {
         Some(table[layout.entry(level, (i / p) as u32, (j / p) as u32) as usize])
     };
     let width = prepared.view.width as usize;
-    let (mut filtered, mut off_v, mut off_level) = (0usize, 0usize, 0usize);
+    let (mut filtered, mut off_v, mut off_level, mut strided) = (0usize, 0, 0, 0);
     // Samples the anisotropy cap moved to a coarser level than Eq. 5's.
     let mut coarsened = 0usize;
     // Kernel boxes reaching past the part of a served page that was drawn (its bands).
@@ -291,7 +342,10 @@ fn filter_and_prediction_match_cpu() {
         }
         filtered += 1;
         let (u_h, v_h) = (Vec2::new(s[0], s[1]), Vec2::new(0.0, s[2]));
-        let wanted = s[3] as u32;
+        let wanted_strided = s[3] as u32;
+        let wanted = wanted_strided.min(layout.levels - 1);
+        let stride = wanted_strided - wanted;
+        strided += usize::from(stride > 0);
         let c = shadow_coord(m, px.truncate(), glam::IVec2::splat(v_size as i32));
         // The prediction from the GPU's kernel, by the twin.
         let pixel = ((k % width) as u32, (k / width) as u32);
@@ -307,10 +361,11 @@ fn filter_and_prediction_match_cpu() {
         let r = twin::required_texel(u_h, v_h, n, twin::Rho::Dynamic, 1.0);
         let n_u = twin::column_screen_size(axes, u_h);
         let capped = twin::anisotropy_cap(r, u_h, n_u, twin::Rho::Dynamic, 1.0, 16);
-        if twin::predicted_level(capped, layout.levels) != twin::predicted_level(r, layout.levels) {
+        let predicted = |r| twin::predicted_strided_level(r, layout.levels, page);
+        if predicted(capped) != predicted(r) {
             coarsened += 1;
         }
-        if twin::predicted_level(capped, layout.levels) != wanted {
+        if predicted(capped) != wanted_strided {
             off_level += 1;
         }
         // The served level: the first whose pages the kernel reads (the footprint twin's) are
@@ -366,8 +421,16 @@ fn filter_and_prediction_match_cpu() {
                 _ => 1.0,
             }
         };
-        let (sum_co, sum_c) =
-            twin::coverage_filter(Vec2::new(c.x, c.y), c.z, Vec2::ZERO, u_h, v_h, level, depth);
+        let (sum_co, sum_c) = twin::coverage_filter_strided(
+            Vec2::new(c.x, c.y),
+            c.z,
+            Vec2::ZERO,
+            u_h,
+            v_h,
+            level,
+            stride,
+            depth,
+        );
         let cpu = if sum_c > 0.0 { sum_co / sum_c } else { 1.0 };
         let d = (cpu - frame.visibility[k]).abs();
         if d > 1e-4 {
@@ -376,17 +439,13 @@ fn filter_and_prediction_match_cpu() {
         worst = worst.max(d);
     }
     eprintln!(
-        "{filtered} filtered samples: {off_v} differ from the twin by more than 1e-4 (max {worst}), \
-         {off_level} predicted at another level, {coarsened} coarsened by the anisotropy cap"
+        "{filtered} filtered samples ({strided} at a strided level): {off_v} differ from the twin \
+         by more than 1e-4 (max {worst}), {off_level} predicted at another level, {coarsened} \
+         coarsened by the anisotropy cap"
     );
     assert!(filtered > 1000, "only {filtered} samples filtered");
-    assert!(coarsened > 0, "no kernel here is a needle the cap coarsens");
     eprintln!(
         "{partial_pages} (sample, page) reads of pages drawn in part, {outside_drawn} past it"
-    );
-    assert!(
-        partial_pages > 1000,
-        "only {partial_pages} reads of pages drawn in part"
     );
     assert_eq!(
         outside_drawn, 0,
@@ -401,4 +460,11 @@ fn filter_and_prediction_match_cpu() {
         "{off_level} of {filtered} levels off"
     );
     common::assert_clean(&ctx.validation());
+    TwinMatch {
+        filtered,
+        strided,
+        coarsened,
+        partial_pages,
+        texels: common::counter(&frame, "filter_texels"),
+    }
 }

@@ -72,6 +72,76 @@ float plane_at(Receiver rc, vec2 t, float s) {
     return rc.z + dot(rc.dz, (t + 0.5) * s - rc.c);
 }
 
+// The filter at a strided level `root + k`, k >= 1 (pvssm.glsl's predicted_level): the kernel's
+// exact coverage weights over the texels of a level 2^k times coarser than the root, each such
+// texel (a block of 2^k x 2^k root texels) lit by the mean of the tests of the four root texels
+// about its centre — where a map drawn at that resolution would sample it; the whole block at
+// k = 1 — each against the plane at its own centre, where its depth was taken. One gather a
+// block instead of one per four of its texels: a kernel over the whole root (a light a hundred
+// times the bundled scenes') reads ~rho^2 blocks, not up to page_size^2 texels. The root is one
+// page, always resident and drawn whole (shape.comp marks it). Returns (sum c*o, sum c) and
+// adds the blocks read to `texels`. Twin: coverage_filter_strided in src/cpu/pvssm.rs.
+vec2 strided_filter(vec2 c, vec2 u_h, float v_hy, Receiver rc, uint root, uint k,
+                    inout uint texels, inout bool cut) {
+    float s = float(1u << root);
+    float sv = s * float(1u << k);
+    vec2 centre = c / sv;
+    vec2 u = u_h / sv;
+    float vy = v_hy / sv;
+    float x_lo = centre.x - u.x;
+    float x_hi = centre.x + u.x;
+    int i0 = floor_int(x_lo);
+    int i1 = -floor_int(-x_hi) - 1;
+    cut = cut || i1 > i0 + MAX_SPAN - 1;
+    i1 = min(i1, i0 + MAX_SPAN - 1);
+    float slope = u.y / u.x;
+    // The strided level's texels a side, and the offset of each one's root texel.
+    int size = int(pc.page_size >> k);
+    int half_block = (1 << k) >> 1;
+    uint slot = table[level_offset(pc.levels, root)];
+    ivec2 origin = ivec2(slot_cell(max(slot, 1u) - 1u, pc.atlas_cols)) * int(pc.page_size);
+    vec2 inv_atlas = 1.0 / vec2(textureSize(atlas, 0));
+    vec2 sum = vec2(0.0);
+    for (int i = i0; i <= i1; ++i) {
+        float x0 = max(float(i), x_lo);
+        float x1 = min(float(i + 1), x_hi);
+        float wx = x1 - x0;
+        if (!(wx > 0.0)) {
+            continue;
+        }
+        float yc = centre.y + (0.5 * (x0 + x1) - centre.x) * slope;
+        float y_lo = yc - vy;
+        float y_hi = yc + vy;
+        int j0 = floor_int(y_lo);
+        int j1 = -floor_int(-y_hi) - 1;
+        cut = cut || j1 > j0 + MAX_SPAN - 1;
+        j1 = min(j1, j0 + MAX_SPAN - 1);
+        bool column_inside = i >= 0 && i < size;
+        for (int j = j0; j <= j1; ++j) {
+            float wy = min(float(j + 1), y_hi) - max(float(j), y_lo);
+            if (!(wy > 0.0)) {
+                continue;
+            }
+            float lit = 1.0;
+            if (column_inside && j >= 0 && j < size && slot != 0u) {
+                // The block's four root texels about its centre, t - 1 .. t, by one gather.
+                ivec2 t = (ivec2(i, j) << k) + half_block;
+                vec4 d = gather_depths(atlas, vec2(origin + t - 1), inv_atlas);
+                // gather_depths' order: (t-1, t-1), (t, t-1), (t-1, t), (t, t).
+                vec4 zt = vec4(plane_at(rc, vec2(t - 1), s),
+                               plane_at(rc, vec2(t.x, t.y - 1), s),
+                               plane_at(rc, vec2(t.x - 1, t.y), s),
+                               plane_at(rc, vec2(t), s));
+                lit = dot(vec4(lessThanEqual(zt, d)), vec4(0.25));
+            }
+            float w = wx * wy;
+            sum += vec2(w * lit, w);
+            texels += 1u;
+        }
+    }
+    return sum;
+}
+
 void main() {
     invocation_counts_clear();
 
@@ -86,7 +156,10 @@ void main() {
         vec4 c = shadow_coord(pc.light_view_proj, r.xyz, ivec2(pc.virtual_size));
         vec2 u_h = k.xy;
         vec2 v_h = vec2(0.0, k.z);
-        uint wanted = uint(k.w);
+        // A strided level (past the root: pvssm.glsl's predicted_level) reads the root, whose
+        // one page is always resident and drawn whole: no fallback from it.
+        uint wanted_strided = uint(k.w);
+        uint wanted = min(wanted_strided, pc.levels - 1u);
         uint level = wanted;
         for (int m = 0; m < MAX_PAGE_LEVELS && level + 1u < pc.levels
                         && !kernel_covered(c.xy, u_h, v_h, level);
@@ -98,111 +171,116 @@ void main() {
         }
         float s = float(1u << level);
         Receiver rc = make_receiver(c, r.xyz, n, 8.0 * s);
-        vec2 centre = c.xy / s;
-        vec2 u = u_h / s;
-        float vy = v_h.y / s;
-        // Columns of the kernel's x range [centre.x - u.x, centre.x + u.x].
-        float x_lo = centre.x - u.x;
-        float x_hi = centre.x + u.x;
-        int i0 = floor_int(x_lo);
-        int i1 = -floor_int(-x_hi) - 1;
-        bool cut = i1 > i0 + MAX_SPAN - 1;
-        i1 = min(i1, i0 + MAX_SPAN - 1);
-        float slope = u.y / u.x;
-        // The level's page grid, looked up once a page rather than once a texel: a column
-        // pair crosses a page boundary at most every `page_size` rows, so the table entry and
-        // the slot's atlas origin are fetched when j enters a new page (the same texels and
-        // weights as the twin's texel-by-texel walk; the sums in another order, so equal to
-        // rounding).
-        int size = int(pc.virtual_size >> level);
-        int ps = int(pc.page_size);
-        int shift = int(page_shift(pc.page_size));
-        int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
-        uint base = level_offset(pc.levels, level);
         vec2 sum = vec2(0.0);
         uint texels = 0u;
-        vec2 inv_atlas = 1.0 / vec2(textureSize(atlas, 0));
-        // Columns in pairs from an even column, both read by the same gathers (a gather
-        // holds a 2x2 block; one column a gather read half of what it fetched): the pair's
-        // rows are the union of its two columns' (sheared) row ranges, and each texel adds
-        // to its own column's sums only where that column's range holds it. A page is an
-        // even number of columns and starts at an even one, so a pair never straddles two
-        // pages.
-        for (int i = i0 & ~1; i <= i1; i += 2) {
-            // Column i and i + 1: the x extents' widths (<= 0: not in the kernel, or
-            // past a cut), their centre rows' extents and their row ranges.
-            vec2 x0 = max(vec2(i, i + 1), vec2(x_lo));
-            vec2 x1 = min(vec2(i + 1, i + 2), vec2(x_hi));
-            vec2 wx = x1 - x0;
-            wx.x = i >= i0 ? wx.x : 0.0;
-            wx.y = i + 1 <= i1 ? wx.y : 0.0;
-            bvec2 in_kernel = greaterThan(wx, vec2(0.0));
-            if (!any(in_kernel)) {
-                continue;
-            }
-            vec2 yc = centre.y + (0.5 * (x0 + x1) - centre.x) * slope;
-            vec2 y_lo = yc - vy;
-            vec2 y_hi = yc + vy;
-            ivec2 j0 = floor_int(y_lo);
-            ivec2 j1 = -floor_int(-y_hi) - 1;
-            cut = cut || (in_kernel.x && j1.x > j0.x + MAX_SPAN - 1)
-                || (in_kernel.y && j1.y > j0.y + MAX_SPAN - 1);
-            j1 = min(j1, j0 + MAX_SPAN - 1);
-            // An inactive column's range is empty and takes no part in the union.
-            j0 = mix(ivec2(1 << 30), j0, in_kernel);
-            j1 = mix(ivec2(-(1 << 30)), j1, in_kernel);
-            int j_first = min(j0.x, j0.y);
-            int j_last = max(j1.x, j1.y);
-            // The level is an even number of columns: both or neither inside.
-            bool column_inside = i >= 0 && i < size;
-            int px = column_inside ? i >> shift : 0;
-            // First row past the current page, the current page's slot + 1 (0: not
-            // resident) and the atlas texel of the page's texel (0, 0) shifted to level
-            // coordinates; row 0 always starts a new page.
-            int page_end = 0;
-            uint slot = 0u;
-            ivec2 origin = ivec2(0);
-            // Rows in pairs from an even row, the 2x2 block by one gather (gather_depths in
-            // shadow_map.glsl: a texelFetch is a call on lavapipe). Pages are an even number
-            // of rows (`page_size` >= 16) and start at even rows, so a block never straddles
-            // two pages, and the level, a whole number of pages, holds both rows or
-            // neither. A row outside a column's range has wy <= 0 there (or, past a cut,
-            // lies after its j1) and adds nothing.
-            for (int j = j_first & ~1; j <= j_last; j += 2) {
-                // (column i: rows j, j + 1; column i + 1: rows j, j + 1).
-                vec4 wy = vec4(min(float(j + 1), y_hi.x) - max(float(j), y_lo.x),
-                               min(float(j + 2), y_hi.x) - max(float(j + 1), y_lo.x),
-                               min(float(j + 1), y_hi.y) - max(float(j), y_lo.y),
-                               min(float(j + 2), y_hi.y) - max(float(j + 1), y_lo.y));
-                vec4 lit = vec4(1.0);
-                if (column_inside && j >= 0 && j < size) {
-                    if (j >= page_end) {
-                        int py = j >> shift;
-                        page_end = (py + 1) * ps;
-                        slot = table[base + uint(py * n_side + px)];
+        bool cut = false;
+        if (wanted_strided > wanted) {
+            sum = strided_filter(c.xy, u_h, v_h.y, rc, level, wanted_strided - wanted, texels, cut);
+        } else {
+            vec2 centre = c.xy / s;
+            vec2 u = u_h / s;
+            float vy = v_h.y / s;
+            // Columns of the kernel's x range [centre.x - u.x, centre.x + u.x].
+            float x_lo = centre.x - u.x;
+            float x_hi = centre.x + u.x;
+            int i0 = floor_int(x_lo);
+            int i1 = -floor_int(-x_hi) - 1;
+            cut = i1 > i0 + MAX_SPAN - 1;
+            i1 = min(i1, i0 + MAX_SPAN - 1);
+            float slope = u.y / u.x;
+            // The level's page grid, looked up once a page rather than once a texel: a column
+            // pair crosses a page boundary at most every `page_size` rows, so the table entry and
+            // the slot's atlas origin are fetched when j enters a new page (the same texels and
+            // weights as the twin's texel-by-texel walk; the sums in another order, so equal to
+            // rounding).
+            int size = int(pc.virtual_size >> level);
+            int ps = int(pc.page_size);
+            int shift = int(page_shift(pc.page_size));
+            int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
+            uint base = level_offset(pc.levels, level);
+            vec2 inv_atlas = 1.0 / vec2(textureSize(atlas, 0));
+            // Columns in pairs from an even column, both read by the same gathers (a gather
+            // holds a 2x2 block; one column a gather read half of what it fetched): the pair's
+            // rows are the union of its two columns' (sheared) row ranges, and each texel adds
+            // to its own column's sums only where that column's range holds it. A page is an
+            // even number of columns and starts at an even one, so a pair never straddles two
+            // pages.
+            for (int i = i0 & ~1; i <= i1; i += 2) {
+                // Column i and i + 1: the x extents' widths (<= 0: not in the kernel, or
+                // past a cut), their centre rows' extents and their row ranges.
+                vec2 x0 = max(vec2(i, i + 1), vec2(x_lo));
+                vec2 x1 = min(vec2(i + 1, i + 2), vec2(x_hi));
+                vec2 wx = x1 - x0;
+                wx.x = i >= i0 ? wx.x : 0.0;
+                wx.y = i + 1 <= i1 ? wx.y : 0.0;
+                bvec2 in_kernel = greaterThan(wx, vec2(0.0));
+                if (!any(in_kernel)) {
+                    continue;
+                }
+                vec2 yc = centre.y + (0.5 * (x0 + x1) - centre.x) * slope;
+                vec2 y_lo = yc - vy;
+                vec2 y_hi = yc + vy;
+                ivec2 j0 = floor_int(y_lo);
+                ivec2 j1 = -floor_int(-y_hi) - 1;
+                cut = cut || (in_kernel.x && j1.x > j0.x + MAX_SPAN - 1)
+                    || (in_kernel.y && j1.y > j0.y + MAX_SPAN - 1);
+                j1 = min(j1, j0 + MAX_SPAN - 1);
+                // An inactive column's range is empty and takes no part in the union.
+                j0 = mix(ivec2(1 << 30), j0, in_kernel);
+                j1 = mix(ivec2(-(1 << 30)), j1, in_kernel);
+                int j_first = min(j0.x, j0.y);
+                int j_last = max(j1.x, j1.y);
+                // The level is an even number of columns: both or neither inside.
+                bool column_inside = i >= 0 && i < size;
+                int px = column_inside ? i >> shift : 0;
+                // First row past the current page, the current page's slot + 1 (0: not
+                // resident) and the atlas texel of the page's texel (0, 0) shifted to level
+                // coordinates; row 0 always starts a new page.
+                int page_end = 0;
+                uint slot = 0u;
+                ivec2 origin = ivec2(0);
+                // Rows in pairs from an even row, the 2x2 block by one gather (gather_depths in
+                // shadow_map.glsl: a texelFetch is a call on lavapipe). Pages are an even number
+                // of rows (`page_size` >= 16) and start at even rows, so a block never straddles
+                // two pages, and the level, a whole number of pages, holds both rows or
+                // neither. A row outside a column's range has wy <= 0 there (or, past a cut,
+                // lies after its j1) and adds nothing.
+                for (int j = j_first & ~1; j <= j_last; j += 2) {
+                    // (column i: rows j, j + 1; column i + 1: rows j, j + 1).
+                    vec4 wy = vec4(min(float(j + 1), y_hi.x) - max(float(j), y_lo.x),
+                                   min(float(j + 2), y_hi.x) - max(float(j + 1), y_lo.x),
+                                   min(float(j + 1), y_hi.y) - max(float(j), y_lo.y),
+                                   min(float(j + 2), y_hi.y) - max(float(j + 1), y_lo.y));
+                    vec4 lit = vec4(1.0);
+                    if (column_inside && j >= 0 && j < size) {
+                        if (j >= page_end) {
+                            int py = j >> shift;
+                            page_end = (py + 1) * ps;
+                            slot = table[base + uint(py * n_side + px)];
+                            if (slot != 0u) {
+                                uint s0 = slot - 1u;
+                                origin = (ivec2(slot_cell(s0, pc.atlas_cols)) -
+                                          ivec2(px, py)) * ps;
+                            }
+                        }
                         if (slot != 0u) {
-                            uint s0 = slot - 1u;
-                            origin = (ivec2(slot_cell(s0, pc.atlas_cols)) -
-                                      ivec2(px, py)) * ps;
+                            // The plane at each texel's centre, as the twin computes it.
+                            vec4 zt = vec4(plane_at(rc, vec2(i, j), s),
+                                           plane_at(rc, vec2(i, j + 1), s),
+                                           plane_at(rc, vec2(i + 1, j), s),
+                                           plane_at(rc, vec2(i + 1, j + 1), s));
+                            // gather_depths' order: (i, j), (i+1, j), (i, j+1), (i+1, j+1).
+                            vec4 d = gather_depths(atlas, vec2(origin + ivec2(i, j)),
+                                                   inv_atlas);
+                            lit = vec4(lessThanEqual(zt, d.xzyw));
                         }
                     }
-                    if (slot != 0u) {
-                        // The plane at each texel's centre, as the twin computes it.
-                        vec4 zt = vec4(plane_at(rc, vec2(i, j), s),
-                                       plane_at(rc, vec2(i, j + 1), s),
-                                       plane_at(rc, vec2(i + 1, j), s),
-                                       plane_at(rc, vec2(i + 1, j + 1), s));
-                        // gather_depths' order: (i, j), (i+1, j), (i, j+1), (i+1, j+1).
-                        vec4 d = gather_depths(atlas, vec2(origin + ivec2(i, j)),
-                                               inv_atlas);
-                        lit = vec4(lessThanEqual(zt, d.xzyw));
-                    }
+                    bvec4 adds = bvec4(wy.x > 0.0 && j <= j1.x, wy.y > 0.0 && j < j1.x,
+                                       wy.z > 0.0 && j <= j1.y, wy.w > 0.0 && j < j1.y);
+                    vec4 w = mix(vec4(0.0), vec4(wx.xx, wx.yy) * wy, adds);
+                    sum += vec2(dot(w, lit), w.x + w.y + w.z + w.w);
+                    texels += uint(adds.x) + uint(adds.y) + uint(adds.z) + uint(adds.w);
                 }
-                bvec4 adds = bvec4(wy.x > 0.0 && j <= j1.x, wy.y > 0.0 && j < j1.x,
-                                   wy.z > 0.0 && j <= j1.y, wy.w > 0.0 && j < j1.y);
-                vec4 w = mix(vec4(0.0), vec4(wx.xx, wx.yy) * wy, adds);
-                sum += vec2(dot(w, lit), w.x + w.y + w.z + w.w);
-                texels += uint(adds.x) + uint(adds.y) + uint(adds.z) + uint(adds.w);
             }
         }
         float v = sum.y > 0.0 ? share(sum.x, sum.y) : 1.0;

@@ -161,6 +161,12 @@ vec3 screen_sizes(bool has_pixel, vec2 u_phi, vec2 v_phi, vec2 u_h, vec2 v_h) {
     return vec3(length(n0), length(n1), length(n_u));
 }
 
+// The coarsest level a kernel may be filtered at: the root (one page of page_size^2 texels over
+// the whole map) read at a stride of up to page_size, one texel (predicted_level).
+uint last_strided_level() {
+    return pc.levels - 1u + page_shift(pc.page_size);
+}
+
 // Eq. 5 and the level whose texels are no larger than the required size — no smaller than the
 // anisotropy cap's floor either (`max_anisotropy`, options bits OPT_ANISO_SHIFT): the larger of
 // the kernel's two columns' own required sizes (|2 u_h| through n_u, 2 v_h.y through n1) over
@@ -170,6 +176,11 @@ vec3 screen_sizes(bool has_pixel, vec2 u_phi, vec2 v_phi, vec2 u_h, vec2 v_h) {
 // each. As a texture's anisotropic filter does, the cap keeps texels no smaller than a
 // max_anisotropy-th of the size the long axis asks for: across a thinner axis they are wider
 // than it, which blurs it (twin: cpu::pvssm::anisotropy_cap).
+//
+// The level may lie past the root (pc.levels - 1), by up to log2(page_size): a *strided* level,
+// which no page holds — the filter reads the root one texel per 2^k x 2^k block there
+// (filter.comp's strided walk), so a kernel wider than the root's ~rho texels still reads ~rho^2
+// of them. Pages are asked for at min(level, root) (shape.comp).
 uint predicted_level(vec2 u_h, vec2 v_h, vec3 n) {
     float r0 = 2.0 * u_h.x / (pc.rho_scale * rho(n.x));
     float r1 = 2.0 * v_h.y / (pc.rho_scale * rho(n.y));
@@ -182,7 +193,7 @@ uint predicted_level(vec2 u_h, vec2 v_h, vec3 n) {
     if (!(r > 1.0)) {
         return 0u;
     }
-    return min(uint(small_int(log2(r))), pc.levels - 1u);
+    return min(uint(small_int(log2(r))), last_strided_level());
 }
 
 // The kernel's bounding box at `level`, in that level's texels: (lo, hi) inclusive.

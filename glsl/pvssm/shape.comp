@@ -55,9 +55,9 @@ uint mip_offset(uint level) {
     }
     return offset;
 }
-// Per view sample, row by row: (u_h.x, u_h.y, v_h.y, predicted level), or -1 in every component
-// where the pass decided V — the host's fill before the pass, so that only the undecided
-// samples store here. Why: on lavapipe a store per sample is a walk over the SIMD lanes (an image
+// Per view sample, row by row: (u_h.x, u_h.y, v_h.y, predicted level — a strided one past the
+// root included), or -1 in every component where the pass decided V — the host's fill before
+// the pass, so that only the undecided samples store here. Why: on lavapipe a store per sample is a walk over the SIMD lanes (an image
 // store, an RGBA32F image's before, one walk per channel), and most samples are decided: the
 // pass 31 -> 26.5 ms on teapot-rect with a buffer store each, 24.4 ms with the decided ones'
 // left to a memset.
@@ -371,7 +371,8 @@ void request_pages(vec2 c, vec2 u_h, vec2 v_h, uint level) {
 
 // The filter h of a light footprint `w` (Eq. 1's s_alpha) convolved with the pixel's footprint
 // (Eq. 3; with `antialias`), each axis at least MIN_HALF, and its level: predicted (Eqs. 4-5,
-// with the anisotropy cap) or the fixed one.
+// with the anisotropy cap; past the root where the kernel is wider than the root's texels ask
+// for: predicted_level's strided levels) or the fixed one.
 uint kernel_of(vec2 w, bool has_pixel, vec2 u_phi, vec2 v_phi, uint fixed_plus1, out vec2 u_h,
                out vec2 v_h) {
     vec2 u_s = vec2(0.5 * w.x, 0.0);
@@ -543,7 +544,8 @@ void main() {
                     decide(pixel, 1.0);
                 } else {
                     shape[pixel.y * pc.view_size.x + pixel.x] = vec4(u_h, v_h.y, float(level));
-                    request_pages(c.xy, u_h, v_h, level);
+                    // A strided level reads the root (filter.comp).
+                    request_pages(c.xy, u_h, v_h, min(level, pc.levels - 1u));
                     // Listed for the filter; each 64th adds a workgroup to its dispatch.
                     uint at = atomicAdd(filter_args[3], 1u);
                     if ((at & 63u) == 0u) {

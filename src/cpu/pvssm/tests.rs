@@ -390,3 +390,83 @@ fn anisotropy_cap_is_monotone() {
         );
     }
 }
+
+/// The strided levels past the root: the prediction goes up to log2(page_size) past the last
+/// level; the strided filter's Σc is the kernel's area in the coarser level's texels; at stride 1
+/// each block's four taps are the block itself, so on a kernel whose columns and rows fall on
+/// even texel lines it equals the unstrided filter; and it reads the texels about each block's
+/// centre (a step one texel off a block's centre moves V by that block's share only).
+#[test]
+fn strided_levels_and_filter() {
+    // 9 levels in pages of 64: the root is level 8, strided levels 9..=14.
+    assert_eq!(predicted_strided_level((300.0, 300.0), 9, 64), 8);
+    assert_eq!(predicted_strided_level((600.0, 600.0), 9, 64), 9);
+    assert_eq!(predicted_strided_level((1e9, 1e9), 9, 64), 14);
+    assert_eq!(predicted_strided_level((f32::INFINITY, 5e4), 9, 64), 14);
+    assert_eq!(predicted_strided_level((4.0, 4.0), 9, 64), 2);
+    assert_eq!(predicted_strided_level((f32::NAN, 4.0), 9, 64), 0);
+    assert_eq!(predicted_strided_level((4.0, 4.0), 0, 64), 0);
+
+    let mut rng = Rng(11);
+    // [0, 1).
+    let unit = |rng: &mut Rng| 0.5 * (rng.next() + 1.0);
+    for _ in 0..200 {
+        let (c, u_h, v_h) = random_kernel(&mut rng);
+        let z = 0.5;
+        let (_, t0) = coverage_filter(c, z, Vec2::ZERO, u_h, v_h, 0, |_, _| 1.0);
+        for stride in 1..4u32 {
+            let (lit, total) =
+                coverage_filter_strided(c, z, Vec2::ZERO, u_h, v_h, 0, stride, |_, _| 1.0);
+            let share = 0.25f32.powi(stride as i32);
+            assert!(
+                (total - t0 * share).abs() <= 1e-4 * t0,
+                "Σc {total} vs {t0}·{share}"
+            );
+            assert!(
+                (lit - total).abs() <= 1e-5 * total,
+                "V = 1: {lit} of {total}"
+            );
+        }
+    }
+    // Even-aligned axis-aligned kernels: stride 1 is the exact filter over a random map.
+    let depths: Vec<f32> = (0..64 * 64).map(|_| unit(&mut rng)).collect();
+    let depth = |i: i64, j: i64| -> f32 {
+        if (0..64).contains(&i) && (0..64).contains(&j) {
+            depths[(j * 64 + i) as usize]
+        } else {
+            1.0
+        }
+    };
+    for _ in 0..100 {
+        // Even half-widths 2..=16 and even centres 16..=46: every edge on an even texel line.
+        let mut even = |lo: i32, n: f32| 2.0 * (lo + (unit(&mut rng) * n) as i32) as f32;
+        let half = Vec2::new(even(1, 8.0), even(1, 8.0));
+        let c = Vec2::new(even(8, 16.0), even(8, 16.0));
+        let (u_h, v_h) = (Vec2::new(half.x, 0.0), Vec2::new(0.0, half.y));
+        let z = unit(&mut rng);
+        let (l0, t0) = coverage_filter(c, z, Vec2::ZERO, u_h, v_h, 0, depth);
+        let (l1, t1) = coverage_filter_strided(c, z, Vec2::ZERO, u_h, v_h, 0, 1, depth);
+        assert!(
+            (l0 / t0 - l1 / t1).abs() < 1e-5,
+            "{} vs {}",
+            l0 / t0,
+            l1 / t1
+        );
+    }
+    // Stride 2 (blocks of 4 x 4, a kernel of whole blocks): the taps are columns and rows 1 and
+    // 2 of each block, so an occluding column 0 or 3 of every block is never read, and column 1
+    // or 2 holds half of each block's taps.
+    let column = |col: i64| move |i: i64, _: i64| if i.rem_euclid(4) == col { 0.0 } else { 1.0 };
+    let (c, u_h, v_h) = (
+        Vec2::splat(32.0),
+        Vec2::new(16.0, 0.0),
+        Vec2::new(0.0, 16.0),
+    );
+    let v = |col| {
+        let (l, t) = coverage_filter_strided(c, 0.5, Vec2::ZERO, u_h, v_h, 0, 2, column(col));
+        l / t
+    };
+    assert_eq!(v(0), 1.0);
+    assert_eq!(v(3), 1.0);
+    assert!((v(1) - 0.5).abs() < 1e-6 && (v(2) - 0.5).abs() < 1e-6);
+}

@@ -1,5 +1,5 @@
 // The filtered techniques' depth linearisation (savsm, cssm, essm, vssm and the filtered
-// module share it; their CPU twins: src/cpu/filtered.rs `linear_depth` and the others'):
+// module share it; CPU twin: src/cpu/soft_light.rs `linear_depth`, which their twins call):
 // z = (dist - near) / (far - near), clamped to [0, 1]. A perspective map stores
 // ndc = f(1 - n/dist)/(f - n); solving for dist and substituting gives
 // n·ndc / (f·(1 - ndc) + n·ndc): no subtraction of nearly equal terms (1 - ndc is exact for

@@ -11,7 +11,7 @@
 // `size` = 2 tan(theta/2) * texels per world unit. Written as 1/z_o - 1/z_y (each reciprocal
 // correctly rounded), the width is monotone in z_o, so a filter sized from an average blocker
 // distance >= near never exceeds the blocker-search region sized from near: both evaluate the
-// same function. CPU twin: src/cpu/pcss.rs (`footprint`).
+// same function. CPU twin: src/cpu/soft_light.rs (`distance`, `footprint`).
 
 #ifndef PENUMBRA_SOFT_LIGHT_GLSL
 #define PENUMBRA_SOFT_LIGHT_GLSL

@@ -128,11 +128,7 @@ pub fn clamp_region(region: IVec4, centre: Vec2, max_width: f32) -> (IVec4, bool
 /// Distance from the light's plane of a map depth `ndc` (`soft_light_distance`), for a view with
 /// planes `near`, `far`.
 pub fn distance(near: f32, far: f32, perspective: bool, ndc: f32) -> f32 {
-    if perspective {
-        near * far / (far - ndc * (far - near))
-    } else {
-        near + ndc * (far - near)
-    }
+    super::soft_light::distance(ndc, near, far, perspective)
 }
 
 /// How far [`distance`] moves per unit of map depth at distance `d`.

@@ -126,21 +126,12 @@ impl TwinSetup {
 
     /// Linear depth of stored depth `ndc`.
     pub fn linear_depth(&self, ndc: f32) -> f32 {
-        let mut z = ndc;
-        if self.perspective {
-            z = self.near * ndc / (self.far * (1.0 - ndc) + self.near * ndc);
-        }
-        z.clamp(0.0, 1.0)
+        super::soft_light::linear_depth(ndc, self.near, self.far, self.perspective)
     }
 
     /// Box width per axis for a blocker at distance `blocker` seen from `receiver`.
     pub fn box_width(&self, receiver: f32, blocker: f32) -> Vec2 {
-        let s = if self.perspective {
-            1.0 / blocker - 1.0 / receiver
-        } else {
-            receiver - blocker
-        };
-        (self.light_size * s.max(0.0))
+        super::soft_light::footprint(self.light_size, self.perspective, receiver, blocker)
             .clamp(Vec2::splat(self.min_kernel), Vec2::splat(self.max_width))
     }
 

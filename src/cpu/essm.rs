@@ -81,11 +81,7 @@ pub fn twin_push(
 
 /// Linear depth of stored depth `ndc` (`linear_depth` in `essm.glsl`).
 pub fn linear_depth(ndc: f32, pc: &EssmPush) -> f32 {
-    let mut z = ndc;
-    if pc.perspective != 0 {
-        z = pc.near * ndc / (pc.far * (1.0 - ndc) + pc.near * ndc);
-    }
-    z.clamp(0.0, 1.0)
+    super::soft_light::linear_depth(ndc, pc.near, pc.far, pc.perspective != 0)
 }
 
 /// `encode`: channel 0 c·z, 1 −c·z, 2 log z − c·z (z floored at 1e-30).
@@ -250,12 +246,7 @@ pub fn lookup(z: &[f32], pc: &EssmPush, r: &Receiver, per_block: bool) -> (f32, 
     let range = pc.far - pc.near;
     let receiver = pc.near + d * range;
     let footprint = |blocker: f32| -> Vec2 {
-        let s = if pc.perspective != 0 {
-            1.0 / blocker - 1.0 / receiver
-        } else {
-            receiver - blocker
-        };
-        pc.light_size * s.max(0.0)
+        super::soft_light::footprint(pc.light_size, pc.perspective != 0, receiver, blocker)
     };
     let clamp_width = |w: Vec2| {
         w.max(Vec2::splat(pc.min_kernel))

@@ -226,11 +226,7 @@ pub fn csm_offset_and_ripple(terms: u32, alpha: f64) -> (f64, f64) {
 
 /// Linear depth in `[0,1]` from stored ndc depth (`linear_depth` in `filtered.glsl`).
 pub fn linear_depth(ndc: f32, pc: &FilteredPush) -> f32 {
-    let mut z = ndc;
-    if pc.perspective != 0 {
-        z = pc.near * ndc / (pc.far * (1.0 - ndc) + pc.near * ndc);
-    }
-    z.clamp(0.0, 1.0)
+    super::soft_light::linear_depth(ndc, pc.near, pc.far, pc.perspective != 0)
 }
 
 fn reduce_pi(x: f32) -> f32 {

@@ -41,6 +41,7 @@ pub mod sat;
 pub mod savsm;
 pub mod scan;
 pub mod shadow_map;
+pub mod soft_light;
 pub mod sort;
 #[cfg(test)]
 pub(crate) mod test_support;

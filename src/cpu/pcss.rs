@@ -124,22 +124,13 @@ impl PcssSetup {
 
     /// Distance from the light's plane of a map depth (`soft_light_distance`).
     pub fn distance(&self, ndc: f32) -> f32 {
-        if self.perspective {
-            self.near * self.far / (self.far - ndc * (self.far - self.near))
-        } else {
-            self.near + ndc * (self.far - self.near)
-        }
+        super::soft_light::distance(ndc, self.near, self.far, self.perspective)
     }
 
     /// The light's footprint through blockers at `blocker` for a receiver at `receiver`, in
     /// texels, unclamped (`soft_light_footprint`).
     pub fn footprint(&self, receiver: f32, blocker: f32) -> Vec2 {
-        let s = if self.perspective {
-            1.0 / blocker - 1.0 / receiver
-        } else {
-            receiver - blocker
-        };
-        self.light_size * s.max(0.0)
+        super::soft_light::footprint(self.light_size, self.perspective, receiver, blocker)
     }
 }
 

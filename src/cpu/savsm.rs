@@ -62,11 +62,7 @@ pub fn mean_tolerance(kernel: f32) -> f32 {
 
 /// Linear depth of stored depth `ndc` (`linear_depth` in `savsm.glsl`, the VSM module's).
 pub fn linear_depth(ndc: f32, pc: &SavsmPush) -> f32 {
-    let mut z = ndc;
-    if pc.perspective != 0 {
-        z = pc.near * ndc / (pc.far * (1.0 - ndc) + pc.near * ndc);
-    }
-    z.clamp(0.0, 1.0)
+    super::soft_light::linear_depth(ndc, pc.near, pc.far, pc.perspective != 0)
 }
 
 /// `moments.comp`: (z, z²) per texel of a shadow map.

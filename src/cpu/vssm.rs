@@ -110,21 +110,12 @@ pub fn light_size(light: &Light, view: &LightView, map_size: i32) -> Result<Vec2
 
 /// Linear depth of stored depth `ndc` (`linear_depth` in `vssm.glsl`).
 pub fn linear_depth(ndc: f32, pc: &VssmPush) -> f32 {
-    let mut z = ndc;
-    if pc.perspective != 0 {
-        z = pc.near * ndc / (pc.far * (1.0 - ndc) + pc.near * ndc);
-    }
-    z.clamp(0.0, 1.0)
+    super::soft_light::linear_depth(ndc, pc.near, pc.far, pc.perspective != 0)
 }
 
 /// `soft_light_footprint`: the footprint width in texels per axis.
 pub fn footprint(pc: &VssmPush, receiver: f32, blocker: f32) -> Vec2 {
-    let s = if pc.perspective != 0 {
-        1.0 / blocker - 1.0 / receiver
-    } else {
-        receiver - blocker
-    };
-    pc.light_size * s.max(0.0)
+    super::soft_light::footprint(pc.light_size, pc.perspective != 0, receiver, blocker)
 }
 
 /// Eq. 6.11: (blocker fraction 1 − p, that fraction × the average blocker depth), the

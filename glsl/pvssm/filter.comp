@@ -142,6 +142,121 @@ vec2 strided_filter(vec2 c, vec2 u_h, float v_hy, Receiver rc, uint root, uint k
     return sum;
 }
 
+// The filter at a paged level: the kernel's exact coverage weights over the level's texels,
+// read through the page table two columns and two rows a gather. Returns (sum c*o, sum c),
+// adds the texels read to `texels` and sets `cut` where the kernel passes MAX_SPAN.
+vec2 paged_filter(vec2 c, vec2 u_h, float v_hy, Receiver rc, uint level, inout uint texels,
+                  inout bool cut) {
+    float s = float(1u << level);
+    vec2 centre = c / s;
+    vec2 u = u_h / s;
+    float vy = v_hy / s;
+    vec2 sum = vec2(0.0);
+    // Columns of the kernel's x range [centre.x - u.x, centre.x + u.x].
+    float x_lo = centre.x - u.x;
+    float x_hi = centre.x + u.x;
+    int i0 = floor_int(x_lo);
+    int i1 = -floor_int(-x_hi) - 1;
+    cut = i1 > i0 + MAX_SPAN - 1;
+    i1 = min(i1, i0 + MAX_SPAN - 1);
+    float slope = u.y / u.x;
+    // The level's page grid, looked up once a page rather than once a texel: a column
+    // pair crosses a page boundary at most every `page_size` rows, so the table entry and
+    // the slot's atlas origin are fetched when j enters a new page (the same texels and
+    // weights as the twin's texel-by-texel walk; the sums in another order, so equal to
+    // rounding).
+    int size = int(pc.virtual_size >> level);
+    int ps = int(pc.page_size);
+    int shift = int(page_shift(pc.page_size));
+    int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
+    uint base = level_offset(pc.levels, level);
+    vec2 inv_atlas = 1.0 / vec2(textureSize(atlas, 0));
+    // Columns in pairs from an even column, both read by the same gathers (a gather
+    // holds a 2x2 block; one column a gather read half of what it fetched): the pair's
+    // rows are the union of its two columns' (sheared) row ranges, and each texel adds
+    // to its own column's sums only where that column's range holds it. A page is an
+    // even number of columns and starts at an even one, so a pair never straddles two
+    // pages.
+    for (int i = i0 & ~1; i <= i1; i += 2) {
+        // Column i and i + 1: the x extents' widths (<= 0: not in the kernel, or
+        // past a cut), their centre rows' extents and their row ranges.
+        vec2 x0 = max(vec2(i, i + 1), vec2(x_lo));
+        vec2 x1 = min(vec2(i + 1, i + 2), vec2(x_hi));
+        vec2 wx = x1 - x0;
+        wx.x = i >= i0 ? wx.x : 0.0;
+        wx.y = i + 1 <= i1 ? wx.y : 0.0;
+        bvec2 in_kernel = greaterThan(wx, vec2(0.0));
+        if (!any(in_kernel)) {
+            continue;
+        }
+        vec2 yc = centre.y + (0.5 * (x0 + x1) - centre.x) * slope;
+        vec2 y_lo = yc - vy;
+        vec2 y_hi = yc + vy;
+        ivec2 j0 = floor_int(y_lo);
+        ivec2 j1 = -floor_int(-y_hi) - 1;
+        cut = cut || (in_kernel.x && j1.x > j0.x + MAX_SPAN - 1)
+            || (in_kernel.y && j1.y > j0.y + MAX_SPAN - 1);
+        j1 = min(j1, j0 + MAX_SPAN - 1);
+        // An inactive column's range is empty and takes no part in the union.
+        j0 = mix(ivec2(1 << 30), j0, in_kernel);
+        j1 = mix(ivec2(-(1 << 30)), j1, in_kernel);
+        int j_first = min(j0.x, j0.y);
+        int j_last = max(j1.x, j1.y);
+        // The level is an even number of columns: both or neither inside.
+        bool column_inside = i >= 0 && i < size;
+        int px = column_inside ? i >> shift : 0;
+        // First row past the current page, the current page's slot + 1 (0: not
+        // resident) and the atlas texel of the page's texel (0, 0) shifted to level
+        // coordinates; row 0 always starts a new page.
+        int page_end = 0;
+        uint slot = 0u;
+        ivec2 origin = ivec2(0);
+        // Rows in pairs from an even row, the 2x2 block by one gather (gather_depths in
+        // shadow_map.glsl: a texelFetch is a call on lavapipe). Pages are an even number
+        // of rows (`page_size` >= 16) and start at even rows, so a block never straddles
+        // two pages, and the level, a whole number of pages, holds both rows or
+        // neither. A row outside a column's range has wy <= 0 there (or, past a cut,
+        // lies after its j1) and adds nothing.
+        for (int j = j_first & ~1; j <= j_last; j += 2) {
+            // (column i: rows j, j + 1; column i + 1: rows j, j + 1).
+            vec4 wy = vec4(min(float(j + 1), y_hi.x) - max(float(j), y_lo.x),
+                           min(float(j + 2), y_hi.x) - max(float(j + 1), y_lo.x),
+                           min(float(j + 1), y_hi.y) - max(float(j), y_lo.y),
+                           min(float(j + 2), y_hi.y) - max(float(j + 1), y_lo.y));
+            vec4 lit = vec4(1.0);
+            if (column_inside && j >= 0 && j < size) {
+                if (j >= page_end) {
+                    int py = j >> shift;
+                    page_end = (py + 1) * ps;
+                    slot = table[base + uint(py * n_side + px)];
+                    if (slot != 0u) {
+                        uint s0 = slot - 1u;
+                        origin = (ivec2(slot_cell(s0, pc.atlas_cols)) -
+                                  ivec2(px, py)) * ps;
+                    }
+                }
+                if (slot != 0u) {
+                    // The plane at each texel's centre, as the twin computes it.
+                    vec4 zt = vec4(plane_at(rc, vec2(i, j), s),
+                                   plane_at(rc, vec2(i, j + 1), s),
+                                   plane_at(rc, vec2(i + 1, j), s),
+                                   plane_at(rc, vec2(i + 1, j + 1), s));
+                    // gather_depths' order: (i, j), (i+1, j), (i, j+1), (i+1, j+1).
+                    vec4 d = gather_depths(atlas, vec2(origin + ivec2(i, j)),
+                                           inv_atlas);
+                    lit = vec4(lessThanEqual(zt, d.xzyw));
+                }
+            }
+            bvec4 adds = bvec4(wy.x > 0.0 && j <= j1.x, wy.y > 0.0 && j < j1.x,
+                               wy.z > 0.0 && j <= j1.y, wy.w > 0.0 && j < j1.y);
+            vec4 w = mix(vec4(0.0), vec4(wx.xx, wx.yy) * wy, adds);
+            sum += vec2(dot(w, lit), w.x + w.y + w.z + w.w);
+            texels += uint(adds.x) + uint(adds.y) + uint(adds.z) + uint(adds.w);
+        }
+    }
+    return sum;
+}
+
 void main() {
     invocation_counts_clear();
 
@@ -177,111 +292,7 @@ void main() {
         if (wanted_strided > wanted) {
             sum = strided_filter(c.xy, u_h, v_h.y, rc, level, wanted_strided - wanted, texels, cut);
         } else {
-            vec2 centre = c.xy / s;
-            vec2 u = u_h / s;
-            float vy = v_h.y / s;
-            // Columns of the kernel's x range [centre.x - u.x, centre.x + u.x].
-            float x_lo = centre.x - u.x;
-            float x_hi = centre.x + u.x;
-            int i0 = floor_int(x_lo);
-            int i1 = -floor_int(-x_hi) - 1;
-            cut = i1 > i0 + MAX_SPAN - 1;
-            i1 = min(i1, i0 + MAX_SPAN - 1);
-            float slope = u.y / u.x;
-            // The level's page grid, looked up once a page rather than once a texel: a column
-            // pair crosses a page boundary at most every `page_size` rows, so the table entry and
-            // the slot's atlas origin are fetched when j enters a new page (the same texels and
-            // weights as the twin's texel-by-texel walk; the sums in another order, so equal to
-            // rounding).
-            int size = int(pc.virtual_size >> level);
-            int ps = int(pc.page_size);
-            int shift = int(page_shift(pc.page_size));
-            int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
-            uint base = level_offset(pc.levels, level);
-            vec2 inv_atlas = 1.0 / vec2(textureSize(atlas, 0));
-            // Columns in pairs from an even column, both read by the same gathers (a gather
-            // holds a 2x2 block; one column a gather read half of what it fetched): the pair's
-            // rows are the union of its two columns' (sheared) row ranges, and each texel adds
-            // to its own column's sums only where that column's range holds it. A page is an
-            // even number of columns and starts at an even one, so a pair never straddles two
-            // pages.
-            for (int i = i0 & ~1; i <= i1; i += 2) {
-                // Column i and i + 1: the x extents' widths (<= 0: not in the kernel, or
-                // past a cut), their centre rows' extents and their row ranges.
-                vec2 x0 = max(vec2(i, i + 1), vec2(x_lo));
-                vec2 x1 = min(vec2(i + 1, i + 2), vec2(x_hi));
-                vec2 wx = x1 - x0;
-                wx.x = i >= i0 ? wx.x : 0.0;
-                wx.y = i + 1 <= i1 ? wx.y : 0.0;
-                bvec2 in_kernel = greaterThan(wx, vec2(0.0));
-                if (!any(in_kernel)) {
-                    continue;
-                }
-                vec2 yc = centre.y + (0.5 * (x0 + x1) - centre.x) * slope;
-                vec2 y_lo = yc - vy;
-                vec2 y_hi = yc + vy;
-                ivec2 j0 = floor_int(y_lo);
-                ivec2 j1 = -floor_int(-y_hi) - 1;
-                cut = cut || (in_kernel.x && j1.x > j0.x + MAX_SPAN - 1)
-                    || (in_kernel.y && j1.y > j0.y + MAX_SPAN - 1);
-                j1 = min(j1, j0 + MAX_SPAN - 1);
-                // An inactive column's range is empty and takes no part in the union.
-                j0 = mix(ivec2(1 << 30), j0, in_kernel);
-                j1 = mix(ivec2(-(1 << 30)), j1, in_kernel);
-                int j_first = min(j0.x, j0.y);
-                int j_last = max(j1.x, j1.y);
-                // The level is an even number of columns: both or neither inside.
-                bool column_inside = i >= 0 && i < size;
-                int px = column_inside ? i >> shift : 0;
-                // First row past the current page, the current page's slot + 1 (0: not
-                // resident) and the atlas texel of the page's texel (0, 0) shifted to level
-                // coordinates; row 0 always starts a new page.
-                int page_end = 0;
-                uint slot = 0u;
-                ivec2 origin = ivec2(0);
-                // Rows in pairs from an even row, the 2x2 block by one gather (gather_depths in
-                // shadow_map.glsl: a texelFetch is a call on lavapipe). Pages are an even number
-                // of rows (`page_size` >= 16) and start at even rows, so a block never straddles
-                // two pages, and the level, a whole number of pages, holds both rows or
-                // neither. A row outside a column's range has wy <= 0 there (or, past a cut,
-                // lies after its j1) and adds nothing.
-                for (int j = j_first & ~1; j <= j_last; j += 2) {
-                    // (column i: rows j, j + 1; column i + 1: rows j, j + 1).
-                    vec4 wy = vec4(min(float(j + 1), y_hi.x) - max(float(j), y_lo.x),
-                                   min(float(j + 2), y_hi.x) - max(float(j + 1), y_lo.x),
-                                   min(float(j + 1), y_hi.y) - max(float(j), y_lo.y),
-                                   min(float(j + 2), y_hi.y) - max(float(j + 1), y_lo.y));
-                    vec4 lit = vec4(1.0);
-                    if (column_inside && j >= 0 && j < size) {
-                        if (j >= page_end) {
-                            int py = j >> shift;
-                            page_end = (py + 1) * ps;
-                            slot = table[base + uint(py * n_side + px)];
-                            if (slot != 0u) {
-                                uint s0 = slot - 1u;
-                                origin = (ivec2(slot_cell(s0, pc.atlas_cols)) -
-                                          ivec2(px, py)) * ps;
-                            }
-                        }
-                        if (slot != 0u) {
-                            // The plane at each texel's centre, as the twin computes it.
-                            vec4 zt = vec4(plane_at(rc, vec2(i, j), s),
-                                           plane_at(rc, vec2(i, j + 1), s),
-                                           plane_at(rc, vec2(i + 1, j), s),
-                                           plane_at(rc, vec2(i + 1, j + 1), s));
-                            // gather_depths' order: (i, j), (i+1, j), (i, j+1), (i+1, j+1).
-                            vec4 d = gather_depths(atlas, vec2(origin + ivec2(i, j)),
-                                                   inv_atlas);
-                            lit = vec4(lessThanEqual(zt, d.xzyw));
-                        }
-                    }
-                    bvec4 adds = bvec4(wy.x > 0.0 && j <= j1.x, wy.y > 0.0 && j < j1.x,
-                                       wy.z > 0.0 && j <= j1.y, wy.w > 0.0 && j < j1.y);
-                    vec4 w = mix(vec4(0.0), vec4(wx.xx, wx.yy) * wy, adds);
-                    sum += vec2(dot(w, lit), w.x + w.y + w.z + w.w);
-                    texels += uint(adds.x) + uint(adds.y) + uint(adds.z) + uint(adds.w);
-                }
-            }
+            sum = paged_filter(c.xy, u_h, v_h.y, rc, level, texels, cut);
         }
         float v = sum.y > 0.0 ? share(sum.x, sum.y) : 1.0;
         imageStore(visibility, pixel, vec4(v));

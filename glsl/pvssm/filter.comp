@@ -2,7 +2,8 @@
 // pvssm filtering (§5.2 step 8): each sample the shape pass left undecided filters its sheared
 // kernel h with the exact texel-coverage weights (Eq. 2) — each one-texel column of the kernel
 // taken as an axis-aligned box at the column's centre (§4.2) — at its predicted level, or at the
-// first coarser level whose pages cover the whole kernel when the pool ran out. Texels are
+// first coarser level whose pages cover the whole kernel when the pool ran out; a kernel wider
+// than the root's texels ask for, at a strided level past the root (strided_filter). Texels are
 // read through the page table, so a kernel straddling pages sums (sum c*o, sum c) over all of
 // them and divides once: splitting the map into pages changes nothing (the paper's tile merge).
 // CPU twins: coverage_filter() in src/cpu/pvssm.rs, kernel_pages() (the pages it reads) in

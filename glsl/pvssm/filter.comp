@@ -298,7 +298,15 @@ void main() {
         float v = sum.y > 0.0 ? share(sum.x, sum.y) : 1.0;
         imageStore(visibility, pixel, vec4(v));
         invocation_counts[v >= 1.0 ? C_LIT : (v <= 0.0 ? C_UMBRA : C_PENUMBRA)] += 1u;
-        invocation_counts[C_FILTER_TEXELS] += texels;
+        // Added here rather than flushed with the others: its carry goes to the high word (an
+        // add wraps exactly when its result is less than the value before it, and each wrap is
+        // one add's).
+        if (texels > 0u) {
+            uint before = atomicAdd(counters[C_FILTER_TEXELS], texels);
+            if (before + texels < before) {
+                atomicAdd(counters[C_FILTER_TEXELS_HIGH], 1u);
+            }
+        }
         if (cut) {
             invocation_counts[C_FILTER_CUT] += 1u;
         }

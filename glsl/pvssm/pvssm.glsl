@@ -109,7 +109,11 @@ layout(push_constant) uniform Push {
 #define C_KERNEL_LIT 12
 // Of those, the ones proved before it (`kernel_proof = 2`): counted in C_KERNEL_LIT too.
 #define C_KERNEL_LIT_FIRST 13
-#define COUNTERS 14
+// The carries of C_FILTER_TEXELS past 2^32 (filter.comp adds them; the host joins the two words):
+// a huge light at a large view reads more texels than a uint holds (bunny-rect at light x 100
+// wrapped it before the strided levels).
+#define C_FILTER_TEXELS_HIGH 14
+#define COUNTERS 15
 
 // Smallest kernel half-axis, level-0 texels: a point light without anti-aliasing still filters
 // a finite box.

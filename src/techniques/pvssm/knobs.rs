@@ -5,7 +5,7 @@ use super::Pvssm;
 use crate::techniques::{virtual_map, Knob, TechniqueInfo};
 
 /// Counter names, in the order of `glsl/pvssm/pvssm.glsl`'s `C_*` slots.
-pub const COUNTER_NAMES: [&str; 14] = [
+pub const COUNTER_NAMES: [&str; 15] = [
     "view_samples",
     "outside_light",
     "lit",
@@ -20,6 +20,8 @@ pub const COUNTER_NAMES: [&str; 14] = [
     "skipped_lit",
     "kernel_lit",
     "kernel_lit_first",
+    // The carries of `filter_texels` (pvssm.rs joins the two words and drops this one).
+    "filter_texels_high",
 ];
 
 // raster_split 1024: pvssm's pages are drawn over the part their kernels read (a third of a page

@@ -545,10 +545,14 @@ impl Technique for Pvssm<'_> {
             + get(&out, "fully_lit")
             + get(&out, "kernel_lit");
         let samples = lit + get(&out, "umbra") + get(&out, "penumbra");
+        // filter_texels is a 64-bit count in two words: the low one and its carries.
+        let texels = get(&out, "filter_texels") + (get(&out, "filter_texels_high") << 32);
+        out.retain(|(name, _)| name != "filter_texels_high");
         for (name, value) in out.iter_mut() {
             match name.as_str() {
                 "lit" => *value = lit,
                 "view_samples" => *value = samples,
+                "filter_texels" => *value = texels,
                 _ => {}
             }
         }

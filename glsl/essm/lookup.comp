@@ -129,7 +129,6 @@ void accumulate(inout vec2 acc, float v, float mass) {
     }
 }
 
-
 // log of the box mean over [lo, hi] of exp(channel), channels first .. first + count - 1 (at
 // most 2), texels outside the map at the far plane. With `plane` each block is weighted by
 // exp(c d) at the receiver plane's depth d at its centre (the search's weights exp(-c z) become

@@ -394,8 +394,9 @@ fn anisotropy_cap_is_monotone() {
 /// The strided levels past the root: the prediction goes up to log2(page_size) past the last
 /// level; the strided filter's Σc is the kernel's area in the coarser level's texels; at stride 1
 /// each block's four taps are the block itself, so on a kernel whose columns and rows fall on
-/// even texel lines it equals the unstrided filter; and it reads the texels about each block's
-/// centre (a step one texel off a block's centre moves V by that block's share only).
+/// even texel lines it equals the unstrided filter; and at stride 2 it reads only the middle two
+/// columns and rows of each 4 × 4 block (an occluding column 0 or 3 of every block is never
+/// seen, column 1 or 2 darkens half of each block's taps).
 #[test]
 fn strided_levels_and_filter() {
     // 9 levels in pages of 64: the root is level 8, strided levels 9..=14.

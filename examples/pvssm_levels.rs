@@ -6,8 +6,8 @@
 //! `glsl/include/pages.glsl`'s bands) — the figures the `pvssm` section of the README and
 //! `docs/pvssm-log.md` quote for the low-resolution map's bias, the pages' used parts and the
 //! terminator's needles. Levels past the root, with samples and no pages, are the strided ones
-//! (kernels wider than the root's texels ask for, filtered from the root a block at a time:
-//! `glsl/pvssm/filter.comp`). Last, what the paper's own tiling would make of the same requests
+//! (kernels wider than the root's texels ask for, filtered a root texel a block:
+//! `glsl/pvssm/root_strides.comp`). Last, what the paper's own tiling would make of the same requests
 //! (§5.2 steps 5-7, after Giegl and Wimmer's fitted virtual shadow maps): a 64² tile grid over
 //! the map, each cell holding the finest level any requested page over it asked for, cut top
 //! down into a KD-tree until a node's finest level fits one shadow map of at most 4096² texels,

@@ -333,3 +333,13 @@ pub struct CasterTestPush {
     /// Padding.
     pub pad2: u32,
 }
+
+/// `glsl/pvssm/root_strides.comp`: the strided levels past the root.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Pod, Zeroable)]
+pub struct PvssmStridesPush {
+    /// Texels a side of a page (and of the root).
+    pub page_size: u32,
+    /// Slots per row of the atlas.
+    pub atlas_cols: u32,
+}

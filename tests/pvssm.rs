@@ -243,8 +243,8 @@ fn filter_and_prediction_match_cpu() {
 }
 
 /// Past the root: with a light a hundred times teapot-rect's, most kernels are wider than the
-/// root's texels ask for, and the filter reads the root at a stride (`glsl/pvssm/filter.comp`'s
-/// `strided_filter`: a gather of four texels a block). Their V and level match the twin's
+/// root's texels ask for, and the filter reads the root at a stride (`glsl/pvssm/root_strides.comp`:
+/// one root texel a block, walked two blocks a side a gather). Their V and level match the twin's
 /// (`coverage_filter_strided`) as above, and each kernel reads ~rho² blocks where the whole root
 /// holds 64² = 4096 texels: the filter's work no longer grows with the light once the kernel
 /// covers the map.

@@ -298,6 +298,13 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
+            vec!["pvssm/root_strides.comp"],
+            twin!(PvssmStridesPush {
+                page_size,
+                atlas_cols
+            }),
+        ),
+        (
             vec!["pvssm/shape.comp", "pvssm/filter.comp"],
             twin!(PvssmPush {
                 light_view_proj,

@@ -3,11 +3,11 @@
 // kernel h with the exact texel-coverage weights (Eq. 2) — each one-texel column of the kernel
 // taken as an axis-aligned box at the column's centre (§4.2) — at its predicted level, or at the
 // first coarser level whose pages cover the whole kernel when the pool ran out; a kernel wider
-// than the root's texels ask for, at a strided level past the root (strided_filter). Texels are
-// read through the page table, so a kernel straddling pages sums (sum c*o, sum c) over all of
-// them and divides once: splitting the map into pages changes nothing (the paper's tile merge).
-// CPU twins: coverage_filter() in src/cpu/pvssm.rs, kernel_pages() (the pages it reads) in
-// src/cpu/pvssm_footprint.rs.
+// than the root's texels ask for, at a strided level past the root (root_strides.comp's map of
+// the root's blocks). Texels are read through the page table, so a kernel straddling pages sums
+// (sum c*o, sum c) over all of them and divides once: splitting the map into pages changes
+// nothing (the paper's tile merge). CPU twins: coverage_filter() and coverage_filter_strided() in
+// src/cpu/pvssm.rs, kernel_pages() (the pages it reads) in src/cpu/pvssm_footprint.rs.
 #extension GL_GOOGLE_include_directive : require
 #define VIRTUAL_ATLAS
 #include "pvssm.glsl"
@@ -27,6 +27,8 @@ layout(set = 0, binding = 10) readonly buffer FilterArgs { uint filter_args[]; }
 layout(set = 0, binding = 11) readonly buffer FilterList { uint filter_list[]; };
 // Per slot, the bands of its page that were drawn (allocate.comp; pages.glsl).
 layout(set = 0, binding = 12) readonly buffer SlotBands { uint slot_bands[]; };
+// The strided levels past the root, side by side (root_strides.comp).
+layout(set = 0, binding = 13) uniform sampler2D root_strides;
 
 #define INVOCATION_COUNTS COUNTERS
 #include "invocation_counts.glsl"
@@ -73,82 +75,17 @@ float plane_at(Receiver rc, vec2 t, float s) {
     return rc.z + dot(rc.dz, (t + 0.5) * s - rc.c);
 }
 
-// The filter at a strided level `root + k`, k >= 1 (pvssm.glsl's predicted_level): the kernel's
-// exact coverage weights over the texels of a level 2^k times coarser than the root, each such
-// texel (a block of 2^k x 2^k root texels) lit by the mean of the tests of the four root texels
-// about its centre — where a map drawn at that resolution would sample it; the whole block at
-// k = 1 — each against the plane at its own centre, where its depth was taken. One gather a
-// block instead of one per four of its texels: a kernel over the whole root (a light a hundred
-// times the bundled scenes') reads ~rho^2 blocks, not up to page_size^2 texels. The root is one
-// page, always resident and drawn whole (shape.comp marks it). Returns (sum c*o, sum c) and
-// adds the blocks read to `texels`. Twin: coverage_filter_strided in src/cpu/pvssm.rs.
-vec2 strided_filter(vec2 c, vec2 u_h, float v_hy, Receiver rc, uint root, uint k,
-                    inout uint texels, inout bool cut) {
-    float s = float(1u << root);
-    float sv = s * float(1u << k);
-    vec2 centre = c / sv;
-    vec2 u = u_h / sv;
-    float vy = v_hy / sv;
-    float x_lo = centre.x - u.x;
-    float x_hi = centre.x + u.x;
-    int i0 = floor_int(x_lo);
-    int i1 = -floor_int(-x_hi) - 1;
-    cut = cut || i1 > i0 + MAX_SPAN - 1;
-    i1 = min(i1, i0 + MAX_SPAN - 1);
-    float slope = u.y / u.x;
-    // The strided level's texels a side, and the offset of each one's root texel.
-    int size = int(pc.page_size >> k);
-    int half_block = (1 << k) >> 1;
-    uint slot = table[level_offset(pc.levels, root)];
-    ivec2 origin = ivec2(slot_cell(max(slot, 1u) - 1u, pc.atlas_cols)) * int(pc.page_size);
-    vec2 inv_atlas = 1.0 / vec2(textureSize(atlas, 0));
-    vec2 sum = vec2(0.0);
-    for (int i = i0; i <= i1; ++i) {
-        float x0 = max(float(i), x_lo);
-        float x1 = min(float(i + 1), x_hi);
-        float wx = x1 - x0;
-        if (!(wx > 0.0)) {
-            continue;
-        }
-        float yc = centre.y + (0.5 * (x0 + x1) - centre.x) * slope;
-        float y_lo = yc - vy;
-        float y_hi = yc + vy;
-        int j0 = floor_int(y_lo);
-        int j1 = -floor_int(-y_hi) - 1;
-        cut = cut || j1 > j0 + MAX_SPAN - 1;
-        j1 = min(j1, j0 + MAX_SPAN - 1);
-        bool column_inside = i >= 0 && i < size;
-        for (int j = j0; j <= j1; ++j) {
-            float wy = min(float(j + 1), y_hi) - max(float(j), y_lo);
-            if (!(wy > 0.0)) {
-                continue;
-            }
-            float lit = 1.0;
-            if (column_inside && j >= 0 && j < size && slot != 0u) {
-                // The block's four root texels about its centre, t - 1 .. t, by one gather.
-                ivec2 t = (ivec2(i, j) << k) + half_block;
-                vec4 d = gather_depths(atlas, vec2(origin + t - 1), inv_atlas);
-                // gather_depths' order: (t-1, t-1), (t, t-1), (t-1, t), (t, t).
-                vec4 zt = vec4(plane_at(rc, vec2(t - 1), s),
-                               plane_at(rc, vec2(t.x, t.y - 1), s),
-                               plane_at(rc, vec2(t.x - 1, t.y), s),
-                               plane_at(rc, vec2(t), s));
-                lit = dot(vec4(lessThanEqual(zt, d)), vec4(0.25));
-            }
-            float w = wx * wy;
-            sum += vec2(w * lit, w);
-            texels += 1u;
-        }
-    }
-    return sum;
-}
-
-// The filter at a paged level: the kernel's exact coverage weights over the level's texels,
-// read through the page table two columns and two rows a gather. Returns (sum c*o, sum c),
-// adds the texels read to `texels` and sets `cut` where the kernel passes MAX_SPAN.
-vec2 paged_filter(vec2 c, vec2 u_h, float v_hy, Receiver rc, uint level, inout uint texels,
-                  inout bool cut) {
-    float s = float(1u << level);
+// The filter at one level: the kernel's exact coverage weights over the level's texels, read
+// two columns and two rows a gather from `src` — through the page table (`paged`: the atlas, a
+// level of `virtual_size >> level` texels a side, texel size `s`), or from one block of `size`
+// texels a side at `origin` (a strided level past the root: root_strides.comp's map of the
+// root's blocks, each tested at the centre of the root texel it holds, `delta` of its own
+// texel past the block's). Returns (sum c*o, sum c), adds the texels read to `texels` and sets
+// `cut` where the kernel passes MAX_SPAN. Called with constant `src` and `paged`, so each call
+// site is its own loop. Twins: coverage_filter and coverage_filter_strided in src/cpu/pvssm.rs.
+vec2 coverage_walk(sampler2D src, bool paged, vec2 c, vec2 u_h, float v_hy, Receiver rc,
+                   uint level, float s, int size, ivec2 block_origin, float delta,
+                   inout uint texels, inout bool cut) {
     vec2 centre = c / s;
     vec2 u = u_h / s;
     float vy = v_hy / s;
@@ -165,19 +102,18 @@ vec2 paged_filter(vec2 c, vec2 u_h, float v_hy, Receiver rc, uint level, inout u
     // pair crosses a page boundary at most every `page_size` rows, so the table entry and
     // the slot's atlas origin are fetched when j enters a new page (the same texels and
     // weights as the twin's texel-by-texel walk; the sums in another order, so equal to
-    // rounding).
-    int size = int(pc.virtual_size >> level);
+    // rounding). Unpaged, the block is one page that never ends.
     int ps = int(pc.page_size);
     int shift = int(page_shift(pc.page_size));
     int n_side = int(pages_per_side(pc.virtual_size, pc.page_size, level));
     uint base = level_offset(pc.levels, level);
-    vec2 inv_atlas = 1.0 / vec2(textureSize(atlas, 0));
+    vec2 inv_src = 1.0 / vec2(textureSize(src, 0));
     // Columns in pairs from an even column, both read by the same gathers (a gather
     // holds a 2x2 block; one column a gather read half of what it fetched): the pair's
     // rows are the union of its two columns' (sheared) row ranges, and each texel adds
-    // to its own column's sums only where that column's range holds it. A page is an
-    // even number of columns and starts at an even one, so a pair never straddles two
-    // pages.
+    // to its own column's sums only where that column's range holds it. A page (and a
+    // strided level) is an even number of columns and starts at an even one, so a pair
+    // never straddles two pages.
     for (int i = i0 & ~1; i <= i1; i += 2) {
         // Column i and i + 1: the x extents' widths (<= 0: not in the kernel, or
         // past a cut), their centre rows' extents and their row ranges.
@@ -207,11 +143,11 @@ vec2 paged_filter(vec2 c, vec2 u_h, float v_hy, Receiver rc, uint level, inout u
         bool column_inside = i >= 0 && i < size;
         int px = column_inside ? i >> shift : 0;
         // First row past the current page, the current page's slot + 1 (0: not
-        // resident) and the atlas texel of the page's texel (0, 0) shifted to level
+        // resident) and the source texel of the page's texel (0, 0) shifted to level
         // coordinates; row 0 always starts a new page.
-        int page_end = 0;
-        uint slot = 0u;
-        ivec2 origin = ivec2(0);
+        int page_end = paged ? 0 : 1 << 30;
+        uint slot = paged ? 0u : 1u;
+        ivec2 origin = paged ? ivec2(0) : block_origin;
         // Rows in pairs from an even row, the 2x2 block by one gather (gather_depths in
         // shadow_map.glsl: a texelFetch is a call on lavapipe). Pages are an even number
         // of rows (`page_size` >= 16) and start at even rows, so a block never straddles
@@ -237,14 +173,14 @@ vec2 paged_filter(vec2 c, vec2 u_h, float v_hy, Receiver rc, uint level, inout u
                     }
                 }
                 if (slot != 0u) {
-                    // The plane at each texel's centre, as the twin computes it.
-                    vec4 zt = vec4(plane_at(rc, vec2(i, j), s),
-                                   plane_at(rc, vec2(i, j + 1), s),
-                                   plane_at(rc, vec2(i + 1, j), s),
-                                   plane_at(rc, vec2(i + 1, j + 1), s));
+                    // The plane at each texel's depth sample, as the twin computes it.
+                    vec2 t = vec2(i, j) + delta;
+                    vec4 zt = vec4(plane_at(rc, t, s),
+                                   plane_at(rc, t + vec2(0.0, 1.0), s),
+                                   plane_at(rc, t + vec2(1.0, 0.0), s),
+                                   plane_at(rc, t + vec2(1.0), s));
                     // gather_depths' order: (i, j), (i+1, j), (i, j+1), (i+1, j+1).
-                    vec4 d = gather_depths(atlas, vec2(origin + ivec2(i, j)),
-                                           inv_atlas);
+                    vec4 d = gather_depths(src, vec2(origin + ivec2(i, j)), inv_src);
                     lit = vec4(lessThanEqual(zt, d.xzyw));
                 }
             }
@@ -256,6 +192,11 @@ vec2 paged_filter(vec2 c, vec2 u_h, float v_hy, Receiver rc, uint level, inout u
         }
     }
     return sum;
+}
+
+// Where strided level root + k lies in root_strides.comp's map: x = page_size - 2 (page_size >> k).
+ivec2 strided_origin(uint k) {
+    return ivec2(int(pc.page_size) - 2 * int(pc.page_size >> k), 0);
 }
 
 void main() {
@@ -291,9 +232,16 @@ void main() {
         uint texels = 0u;
         bool cut = false;
         if (wanted_strided > wanted) {
-            sum = strided_filter(c.xy, u_h, v_h.y, rc, level, wanted_strided - wanted, texels, cut);
+            // Level root + k: blocks of 2^k root texels, each tested at the root texel it
+            // holds, half a root texel (2^-(k+1) of its own) past the block's centre.
+            uint k = wanted_strided - wanted;
+            float scale = float(1u << wanted_strided);
+            sum = coverage_walk(root_strides, false, c.xy, u_h, v_h.y, rc, level, scale,
+                                int(pc.page_size >> k), strided_origin(k),
+                                1.0 / float(2u << k), texels, cut);
         } else {
-            sum = paged_filter(c.xy, u_h, v_h.y, rc, level, texels, cut);
+            sum = coverage_walk(atlas, true, c.xy, u_h, v_h.y, rc, level, s,
+                                int(pc.virtual_size >> level), ivec2(0), 0.0, texels, cut);
         }
         float v = sum.y > 0.0 ? share(sum.x, sum.y) : 1.0;
         imageStore(visibility, pixel, vec4(v));

@@ -166,9 +166,10 @@ vec3 screen_sizes(bool has_pixel, vec2 u_phi, vec2 v_phi, vec2 u_h, vec2 v_h) {
 }
 
 // The coarsest level a kernel may be filtered at: the root (one page of page_size^2 texels over
-// the whole map) read at a stride of up to page_size, one texel (predicted_level).
+// the whole map) at a stride of page_size / 2, 2 x 2 texels (predicted_level; root_strides.comp
+// holds the levels between, each an even number of texels a side, as the filter's walk needs).
 uint last_strided_level() {
-    return pc.levels - 1u + page_shift(pc.page_size);
+    return pc.levels - 2u + page_shift(pc.page_size);
 }
 
 // Eq. 5 and the level whose texels are no larger than the required size — no smaller than the
@@ -181,10 +182,10 @@ uint last_strided_level() {
 // max_anisotropy-th of the size the long axis asks for: across a thinner axis they are wider
 // than it, which blurs it (twin: cpu::pvssm::anisotropy_cap).
 //
-// The level may lie past the root (pc.levels - 1), by up to log2(page_size): a *strided* level,
-// which no page holds — the filter reads the root one texel per 2^k x 2^k block there
-// (filter.comp's strided walk), so a kernel wider than the root's ~rho texels still reads ~rho^2
-// of them. Pages are asked for at min(level, root) (shape.comp).
+// The level may lie past the root (pc.levels - 1), by up to log2(page_size) - 1: a *strided*
+// level, which no page holds — the filter reads one root texel per 2^k x 2^k block there
+// (root_strides.comp), so a kernel wider than the root's ~rho texels still reads ~rho^2 of them.
+// Pages are asked for at min(level, root) (shape.comp).
 uint predicted_level(vec2 u_h, vec2 v_h, vec3 n) {
     float r0 = 2.0 * u_h.x / (pc.rho_scale * rho(n.x));
     float r1 = 2.0 * v_h.y / (pc.rho_scale * rho(n.y));

@@ -244,15 +244,15 @@ pub fn predicted_level(r: (f32, f32), levels: u32) -> u32 {
 }
 
 /// The shader's level with its strided ones (`glsl/pvssm/pvssm.glsl`'s `predicted_level`):
-/// [`predicted_level`] over `levels + log2(page_size)` levels, so past the root (`levels − 1`,
-/// one page of `page_size`² texels) by up to log2(`page_size`), where a kernel wider than the
-/// root's texels ask for is filtered at a stride of `2^(level − root)` root texels
-/// ([`coverage_filter_strided`]). `levels == 0` gives 0.
+/// [`predicted_level`] over `levels + log2(page_size) − 1` levels, so past the root (`levels −
+/// 1`, one page of `page_size`² texels) by up to log2(`page_size`) − 1 — the coarsest 2 × 2
+/// texels — where a kernel wider than the root's texels ask for is filtered at a stride of
+/// `2^(level − root)` root texels ([`coverage_filter_strided`]). `levels == 0` gives 0.
 pub fn predicted_strided_level(r: (f32, f32), levels: u32, page_size: u32) -> u32 {
     if levels == 0 {
         return 0;
     }
-    predicted_level(r, levels + page_size.max(1).trailing_zeros())
+    predicted_level(r, levels + page_size.max(2).trailing_zeros() - 1)
 }
 
 /// Coverage filter of the kernel at level `level` (spec 5): returns `(Σ c·o, Σ c)`, so that
@@ -285,14 +285,14 @@ pub fn coverage_filter(
 }
 
 /// [`coverage_filter`] at a *strided* level `level + stride` of a map that holds only `level`
-/// (the shader's levels past the root, `glsl/pvssm/filter.comp`'s `strided_filter`): the
-/// weights are the coverage of the texels of level `level + stride`, each such texel (i, j) —
-/// a block of 2^stride × 2^stride level-`level` texels — lit by the mean of the tests of the
-/// four level-`level` texels about its centre, `(t − 1 ..= t)` in each axis with
-/// `t = 2^stride·i + 2^stride / 2` (the whole block at `stride = 1`), each test against the
-/// receiver's depth at that texel's centre; `depth` takes level-`level` coordinates.
-/// `stride = 0` is [`coverage_filter`] itself (one texel, (i, j)). A kernel over a whole
-/// level-`level` map of N² texels reads about (N / 2^stride)² blocks.
+/// (the shader's levels past the root, `glsl/pvssm/root_strides.comp` and `filter.comp`'s
+/// `coverage_walk`): the weights are the coverage of the texels of level `level + stride`, each
+/// such texel (i, j) — a block of 2^stride × 2^stride level-`level` texels — holding the depth
+/// of the level-`level` texel just past its centre, `t = 2^stride·i + 2^stride / 2` in each
+/// axis (where a map drawn at that resolution samples it), tested against the receiver's depth
+/// at that texel's centre; `depth` takes level-`level` coordinates. `stride = 0` is
+/// [`coverage_filter`] itself (t = i). A kernel over a whole level-`level` map of N² texels
+/// reads about (N / 2^stride)² blocks.
 #[allow(clippy::too_many_arguments)]
 pub fn coverage_filter_strided(
     c: Vec2,
@@ -307,12 +307,6 @@ pub fn coverage_filter_strided(
     let fine = (level as f32).exp2();
     let scale = ((level + stride) as f32).exp2();
     let (block, half) = (1i64 << stride.min(62), (1i64 << stride.min(62)) / 2);
-    let taps: &[(i64, i64)] = if stride == 0 {
-        &[(0, 0)]
-    } else {
-        &[(-1, -1), (0, -1), (-1, 0), (0, 0)]
-    };
-    let tap_share = 1.0 / taps.len() as f32;
     let cl = c / scale;
     let u = u_h / scale;
     let v = v_h / scale;
@@ -349,12 +343,9 @@ pub fn coverage_filter_strided(
                 j.saturating_mul(block) + half,
             );
             total += weight;
-            for &(di, dj) in taps {
-                let (ti, tj) = (ti + di, tj + dj);
-                let centre = Vec2::new(ti as f32 + 0.5, tj as f32 + 0.5) * fine;
-                if z + dz.dot(centre - c) <= depth(ti, tj) {
-                    lit += weight * tap_share;
-                }
+            let centre = Vec2::new(ti as f32 + 0.5, tj as f32 + 0.5) * fine;
+            if z + dz.dot(centre - c) <= depth(ti, tj) {
+                lit += weight;
             }
         }
     }

@@ -98,12 +98,14 @@
 //!    pages hold the whole kernel when the pool ran out (counted); dispatched indirectly over the
 //!    samples the shape pass left undecided, which it lists. A kernel wider than the root's
 //!    texels ask for (the root is one page over the whole map) is filtered at a *strided* level
-//!    past it: the coverage weights of a level 2^k times coarser, each of its texels lit by the
-//!    four root texels about its centre, one gather — ~ρ² reads where the root's every texel
-//!    under the kernel were read, up to page_size² a sample (counter `filter_texels` counts the
-//!    blocks there). The filter had grown with the light without bound once kernels covered
-//!    the map: teapot-rect at light × 100 1384 → 170 ms, bunny-rect 1006 → 179 ms, the
-//!    errors the same to three digits (the README's "Lights past the map").
+//!    past it: the coverage weights of a level 2^k times coarser, each of its texels the root
+//!    texel just past its centre — ~ρ² reads where the root's every texel under the kernel were
+//!    read, up to page_size² a sample (counter `filter_texels` counts the blocks there). The
+//!    filter had grown with the light without bound once kernels covered the map: teapot-rect at
+//!    light × 100 1384 → 170 ms, bunny-rect 1006 → 179 ms, the errors the same to three digits
+//!    (the README's "Lights past the map"). The strided levels are a map of their own
+//!    ([`root_strides`], filled from the root after the pages are drawn), walked as a page is,
+//!    four blocks a gather.
 //!
 //! On a device that runs workgroups on CPU threads (lavapipe), a store or an atomic walks the
 //! SIMD lanes one by one (an image store once per channel), and most samples are decided lit in
@@ -155,8 +157,10 @@ use crate::passes::LightProjection;
 use crate::shader_types::{PvssmMipPush, PvssmPush};
 
 mod knobs;
+mod root_strides;
 
 pub use knobs::{COUNTER_NAMES, PVSSM};
+use root_strides::RootStrides;
 
 /// A `pvssm` instance.
 pub struct Pvssm<'a> {
@@ -180,6 +184,8 @@ pub struct Pvssm<'a> {
     pub shape: Buffer,
     shape_pass: (Pipeline, DescriptorSet),
     filter: (Pipeline, DescriptorSet),
+    // The strided levels past the root, filled before the filter reads them.
+    root_strides: RootStrides,
     counters: Buffer,
     /// The filter's indirect dispatch over the shape pass's undecided samples, and their count.
     filter_args: Buffer,
@@ -344,6 +350,7 @@ impl<'a> Pvssm<'a> {
                 Binding::Texels(&centre_texels),
             ],
         )?;
+        let root_strides = RootStrides::new(ctx, &pages)?;
         let filter_pipeline = Pipeline::compute(ctx, "pvssm/filter.comp")?;
         let filter_set = DescriptorSet::new(
             ctx,
@@ -360,6 +367,7 @@ impl<'a> Pvssm<'a> {
                 Binding::Buffer(&filter_args),
                 Binding::Buffer(&filter_list),
                 Binding::Buffer(&pages.slot_bands),
+                Binding::Sampled(&root_strides.image, &pages.sampler),
             ],
         )?;
         let mut options = 0;
@@ -477,6 +485,7 @@ impl<'a> Pvssm<'a> {
             shape,
             shape_pass: (shape_pipeline, shape_set),
             filter: (filter_pipeline, filter_set),
+            root_strides,
             counters,
             filter_args,
             _filter_list: filter_list,
@@ -528,6 +537,7 @@ impl Technique for Pvssm<'_> {
         })?;
         self.pages.record(rec)?;
         rec.pass("pvssm-filter", |rec| {
+            self.root_strides.record(rec)?;
             let (pipeline, set) = &self.filter;
             rec.dispatch_indirect(pipeline, set, &self.push, &self.filter_args, 0)
         })

@@ -104,7 +104,7 @@
 //!    filter had grown with the light without bound once kernels covered the map: teapot-rect at
 //!    light × 100 1384 → 170 ms, bunny-rect 1006 → 179 ms, the errors the same to three digits
 //!    (the README's "Lights past the map"). The strided levels are a map of their own
-//!    ([`root_strides`], filled from the root after the pages are drawn), walked as a page is,
+//!    (`root_strides.rs`, filled from the root after the pages are drawn), walked as a page is,
 //!    four blocks a gather.
 //!
 //! On a device that runs workgroups on CPU threads (lavapipe), a store or an atomic walks the

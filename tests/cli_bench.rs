@@ -1,5 +1,5 @@
 //! The `penumbra` binary's bench suites end to end (antialiasing, scaling, reuse, skipping,
-//! selection) and `render --technique auto` picking from a calibration table.
+//! selection, temporal) and `render --technique auto` picking from a calibration table.
 
 mod common;
 
@@ -360,4 +360,75 @@ fn selection_suite_writes_a_table_auto_can_use() {
         .as_str()
         .expect("pick");
     assert!(picked.starts_with(stats["technique"].as_str().expect("technique")));
+}
+
+/// `bench --suite temporal` under validation: with the light still every technique run is
+/// deterministic (no change from frame to frame, so no flicker: atomics and orderings do not
+/// leak into the visibility); with it turning, the reference's shadows move and every measure
+/// is finite, the flicker no larger than the technique's own motion plus the reference's, and
+/// a bad step or position count is refused by name.
+#[test]
+fn temporal_suite_measures_flicker_against_the_reference() {
+    let dir = out_dir("temporal");
+    let out = dir.to_str().expect("utf-8");
+    let run = |step: &str| {
+        let o = penumbra(&[
+            "bench",
+            "--suite",
+            "temporal",
+            "--quick",
+            "--scenes",
+            "plane-boxes:6@rect",
+            "--techniques",
+            "hard,pcss,pvssm,izb-soft,average-maps",
+            "--positions",
+            "3",
+            "--light-step",
+            step,
+            "--out",
+            out,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = std::fs::read_to_string(dir.join("temporal.json")).expect("json");
+        let rows: Vec<serde_json::Value> = serde_json::from_str(&text).expect("parse");
+        assert_eq!(rows.len(), 5);
+        rows
+    };
+    let f = |r: &serde_json::Value, k: &str| r[k].as_f64().expect(k);
+    for r in run("0") {
+        for k in ["flicker", "flicker_shadow", "pops", "motion", "motion_ref"] {
+            assert_eq!(f(&r, k), 0.0, "{k} with a still light: {r}");
+        }
+    }
+    for r in run("20") {
+        assert!(f(&r, "motion_ref") > 0.0, "{r}");
+        for k in ["flicker", "flicker_shadow", "pops", "motion", "mae"] {
+            assert!(f(&r, k).is_finite() && f(&r, k) >= 0.0, "{k}: {r}");
+        }
+        assert!(
+            f(&r, "flicker") <= f(&r, "motion") + f(&r, "motion_ref") + 1e-9,
+            "{r}"
+        );
+    }
+    for (arg, expect) in [
+        ("--light-step=-1", "--light-step -1"),
+        ("--positions=1", "--positions 1"),
+    ] {
+        assert_fails_with(
+            &[
+                "bench",
+                "--suite",
+                "temporal",
+                "--quick",
+                "--scenes",
+                "plane-boxes:6@rect",
+                "--techniques",
+                "hard",
+                arg,
+                "--out",
+                out,
+            ],
+            &[expect],
+        );
+    }
 }

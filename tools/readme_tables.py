@@ -12,6 +12,7 @@ named command):
     python3 tools/readme_tables.py skipping DIR         # DIR from `bench --suite skipping`
     python3 tools/readme_tables.py selection DIR        # DIR from `bench --suite selection`
     python3 tools/readme_tables.py reuse DIR            # DIR from `bench --suite reuse`
+    python3 tools/readme_tables.py temporal DIR         # DIR from `bench --suite temporal`
 
 (The `pvssm` section's tables come from tools/pvssm_tables.py.)
 
@@ -44,6 +45,8 @@ ratio, the median process CPU milliseconds of the first and second frames, and w
 frames created (device allocations + objects, summed).
 `selection`: every held-out scene with the features, the pick, its predicted and measured error
 and time, and the slowest candidate within the budget, from selection.json.
+`temporal`: technique (and knobs) × scene, flicker / flicker in shadow (×10⁻³) and the MAE,
+then the reference's own motion per scene, from temporal.json.
 """
 import csv
 import json
@@ -537,7 +540,38 @@ def selection(directory):
         )
 
 
+def temporal(directory):
+    rows = json.loads((Path(directory) / "temporal.json").read_text())
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    runs = list(dict.fromkeys((r["technique"], r["label"]) for r in rows))
+    by = {(r["scene"], r["technique"], r["label"]): r for r in rows}
+    print("| technique | " + " | ".join(f"{s}: flicker / in shadow (×10⁻³), MAE" for s in scenes) + " |")
+    print("|---|" + "---|" * len(scenes))
+    for t, label in runs:
+        cells = []
+        for s in scenes:
+            r = by.get((s, t, label))
+            if r is None:
+                cells.append("")
+            elif r.get("error"):
+                cells.append("refused")
+            else:
+                cells.append(f"{1e3 * r['flicker']:.3f} / {1e3 * r['flicker_shadow']:.2f}, {r['mae']:.4f}")
+        name = f"`{t}`" if label == "defaults" else f"`{t}` {label}"
+        print(f"| {name} | " + " | ".join(cells) + " |")
+    print()
+    for s in scenes:
+        ok = [r for r in rows if r["scene"] == s and not r.get("error")]
+        if ok:
+            r = ok[0]
+            print(f"{s}: the reference's mean |ΔR| {1e3 * r['motion_ref']:.3f} ×10⁻³, "
+                  f"{r['positions']} positions, {r['step_mrad']} mrad a step")
+
+
 if __name__ == "__main__":
+    if len(sys.argv) == 3 and sys.argv[1] == "temporal":
+        temporal(sys.argv[2])
+        sys.exit(0)
     if len(sys.argv) == 3 and sys.argv[1] == "skipping":
         skipping(sys.argv[2])
         sys.exit(0)

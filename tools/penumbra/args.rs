@@ -134,7 +134,9 @@ pub(crate) enum Command {
         /// `--technique auto`, then its check on ten held-out scenes, or on `--scenes` ×
         /// `--light-scale`) or `reuse` (the host CPU time of a technique's first frame, its next
         /// frame with the same renderer, and a rebuilt one: what keeping a `ShadowRenderer`
-        /// saves).
+        /// saves) or `temporal` (shimmer: each technique's frame-to-frame change beyond the
+        /// reference's as the light turns by `--light-step` a frame; techniques at their
+        /// defaults but for `--set`).
         #[arg(long, default_value = "techniques")]
         suite: String,
         /// Scenes (files or procedural specs), comma-separated; default: every bundled scene.
@@ -167,6 +169,12 @@ pub(crate) enum Command {
         /// point light at its centre, and a directional one into a hard sun).
         #[arg(long, default_value = "1", value_delimiter = ',')]
         light_scale: Vec<f32>,
+        /// `temporal` suite: milliradians the light turns about the camera's target a frame.
+        #[arg(long, default_value_t = 0.25)]
+        light_step: f32,
+        /// `temporal` suite: light positions (frames) along its path.
+        #[arg(long, default_value_t = 8)]
+        positions: u32,
         /// Camera-distance factors, comma-separated: each scene also runs with its camera moved
         /// along its view ray to this multiple of its distance from the target (e.g. `1,0.5,0.25`
         /// to see how many pages a virtual map renders as the camera closes in).

@@ -100,7 +100,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let variants = bench_plan::variants(args)?;
     let frames = args.frames.unwrap_or(3);
     // Plan every run first so the progress bar knows the total.
-    let plan = bench_plan::runs(&techniques, &user_sweep, args.quick)?;
+    let plan = bench_plan::runs(&techniques, &user_sweep, Some(args.quick))?;
     let reference_specs =
         bench_plan::reference_specs(&args.references, if args.quick { "8" } else { "32" })?;
     std::fs::create_dir_all(&args.out)

@@ -230,15 +230,16 @@ pub(crate) fn variants(args: &BenchArgs) -> anyhow::Result<Vec<(f32, f32, f32)>>
         .collect())
 }
 
-/// Every (technique, knob overrides) a scene variant runs: each technique's default sweep, a
-/// knob of `user_sweep` in place of its own where the technique has that knob. A knob scoped
+/// Every (technique, knob overrides) a scene variant runs: each technique's default sweep (the
+/// quick one with `Some(true)`; none, the technique at its defaults, with `None`), a knob of
+/// `user_sweep` in place of its own where the technique has that knob. A knob scoped
 /// `TECHNIQUE.KEY` goes to that technique only, over an unscoped one of the same name (so
 /// `--set samples=64 --set reference.samples=32` sweeps `average-maps`'s 64 maps and times the
 /// reference at its own rays); its technique must be one of those run, and have the knob.
 pub(crate) fn runs(
     techniques: &[String],
     user_sweep: &BTreeMap<String, Vec<String>>,
-    quick: bool,
+    quick: Option<bool>,
 ) -> anyhow::Result<Vec<(String, BTreeMap<String, String>)>> {
     for key in user_sweep.keys() {
         if let Some((technique, knob)) = key.split_once('.') {
@@ -256,7 +257,8 @@ pub(crate) fn runs(
     let mut plan = Vec::new();
     for t in techniques {
         let info = penumbra::techniques::find(t)?;
-        let mut sweep: Vec<(String, Vec<String>)> = default_sweep(t, quick)
+        let defaults = quick.map_or_else(Vec::new, |quick| default_sweep(t, quick));
+        let mut sweep: Vec<(String, Vec<String>)> = defaults
             .into_iter()
             .map(|(k, vs)| (k.to_string(), vs.iter().map(|v| v.to_string()).collect()))
             .collect();
@@ -481,7 +483,7 @@ mod tests {
             "samples=64".to_string(),
             "reference.samples=8,16".to_string(),
         ];
-        let plan = runs(&techniques, &user_sweep(&sets).unwrap(), false).unwrap();
+        let plan = runs(&techniques, &user_sweep(&sets).unwrap(), Some(false)).unwrap();
         let samples: Vec<(&str, &str)> = plan
             .iter()
             .map(|(t, knobs)| (t.as_str(), knobs["samples"].as_str()))
@@ -496,9 +498,13 @@ mod tests {
         );
         // A scope names a technique that is run, and a knob it has.
         for bad in ["pcss.samples=4", "reference.map_size=512"] {
-            let err = runs(&techniques, &user_sweep(&[bad.to_string()]).unwrap(), false)
-                .unwrap_err()
-                .to_string();
+            let err = runs(
+                &techniques,
+                &user_sweep(&[bad.to_string()]).unwrap(),
+                Some(false),
+            )
+            .unwrap_err()
+            .to_string();
             assert!(err.contains(bad.split('=').next().unwrap()), "{err}");
         }
     }

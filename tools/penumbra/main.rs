@@ -8,12 +8,14 @@ mod bench_output;
 mod bench_page;
 mod bench_plan;
 mod compare;
+mod listing;
 mod render;
 mod reuse;
 mod scaling;
 mod selection;
 mod skipping;
 mod stress;
+mod temporal;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -24,7 +26,6 @@ use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use penumbra::gpu::{ValidationCounts, ValidationLog};
 use penumbra::scene::Scene;
-use penumbra::techniques::{registry, KnobDefault};
 use penumbra::{output, ContextDesc, Engine};
 
 use args::{Cli, Command, DeviceArgs};
@@ -135,96 +136,6 @@ fn validation_summary(requested: bool, counts: &ValidationCounts) -> String {
 
 fn prepared_name(stats: &serde_json::Value) -> String {
     stats["scene"].as_str().unwrap_or("?").to_string()
-}
-
-fn devices(json: bool) -> anyhow::Result<()> {
-    let list = penumbra::gpu::enumerate_devices()?;
-    if json {
-        println!("{}", serde_json::to_string_pretty(&list)?);
-        return Ok(());
-    }
-    for (i, d) in list.iter().enumerate() {
-        println!(
-            "{i}: {} ({}, Vulkan {})",
-            d.name, d.device_type, d.api_version
-        );
-        println!("   driver: {}", d.driver);
-        match &d.usable {
-            Ok(()) => println!("   usable by penumbra: yes"),
-            Err(why) => println!("   usable by penumbra: no ({why})"),
-        }
-        let yn = |b: bool| if b { "yes" } else { "no" };
-        println!(
-            "   timestamps: {} valid bits, {} ns/tick; subgroup size {}, arithmetic {}, shuffle {}",
-            d.timestamp_valid_bits,
-            d.timestamp_period,
-            d.subgroup_size,
-            yn(d.subgroup_arithmetic),
-            yn(d.subgroup_shuffle)
-        );
-        println!(
-            "   float64 {}, int64 {}, int64 atomics {}, depth bias clamp {}, linear depth filtering {}",
-            yn(d.float64),
-            yn(d.int64),
-            yn(d.int64_atomics),
-            yn(d.depth_bias_clamp),
-            yn(d.depth_linear_filter)
-        );
-        println!(
-            "   conservative raster {}, fragment interlock {}, ray query {}",
-            yn(d.conservative_rasterization),
-            yn(d.fragment_shader_interlock),
-            yn(d.ray_query)
-        );
-        println!(
-            "   shared memory {} KiB, storage buffer range {} MiB, max 2D image {}",
-            d.max_shared_memory / 1024,
-            d.max_storage_buffer_range / (1024 * 1024),
-            d.max_image_dimension_2d
-        );
-    }
-    Ok(())
-}
-
-fn techniques(json: bool) -> anyhow::Result<()> {
-    if json {
-        let list: Vec<_> = registry()
-            .iter()
-            .map(|t| {
-                serde_json::json!({"name": t.name, "summary": t.summary, "knobs": t.all_knobs()})
-            })
-            .collect();
-        println!("{}", serde_json::to_string_pretty(&list)?);
-        return Ok(());
-    }
-    for t in registry() {
-        println!("{}: {}", t.name, t.summary);
-        for k in t.all_knobs() {
-            let default = match k.default {
-                KnobDefault::Value(v) => match k.names.get(v as usize) {
-                    Some(name) => name.to_string(),
-                    None => format!("{v}"),
-                },
-                KnobDefault::Scene(key) => format!("scene's {key}"),
-            };
-            println!(
-                "    {:<20} default {:<24} range [{}, {}]{}  {}",
-                k.name,
-                default,
-                k.min,
-                k.max,
-                if !k.names.is_empty() {
-                    format!(" {}", k.names.join("|"))
-                } else if k.integer {
-                    " integer".to_string()
-                } else {
-                    String::new()
-                },
-                k.summary
-            );
-        }
-    }
-    Ok(())
 }
 
 /// An engine whose pipeline cache is read from and, when it drops, written to the cache
@@ -469,13 +380,45 @@ fn main() {
                 .flat_map(|spec| light_scale.iter().map(move |&s| (spec.clone(), s)))
                 .collect(),
         }),
+        Command::Bench {
+            suite,
+            scenes,
+            techniques,
+            set,
+            quick,
+            frames,
+            reference,
+            light_scale,
+            light_step,
+            positions,
+            out,
+            device,
+            cache,
+            ..
+        } if suite == "temporal" => temporal::run(&temporal::TemporalArgs {
+            scenes: scenes.clone(),
+            techniques: techniques.clone(),
+            sets: set.clone(),
+            light_scales: light_scale.clone(),
+            step_mrad: *light_step,
+            positions: *positions,
+            quick: *quick,
+            frames: frames.unwrap_or(1),
+            references: reference.clone(),
+            out: out.clone(),
+            device: device.device.clone(),
+            validation: !device.no_validation,
+            cache: cache.dir(),
+        }),
         Command::Bench { suite, .. } if suite != "techniques" => Err(anyhow::anyhow!(
             "unknown suite '{suite}': expected 'techniques', 'kernels', 'antialiasing', \
-             'scaling', 'skipping', 'selection' or 'reuse'"
+             'scaling', 'skipping', 'selection', 'reuse' or 'temporal'"
         )),
         Command::Bench {
             suite: _,
             max_error: _,
+            light_step: _,
+            positions: _,
             scenes,
             techniques,
             set,
@@ -523,8 +466,8 @@ fn main() {
                 sets,
             })
         }),
-        Command::Devices { json } => devices(*json),
-        Command::Techniques { json } => techniques(*json),
+        Command::Devices { json } => listing::devices(*json),
+        Command::Techniques { json } => listing::techniques(*json),
         Command::Scenes => {
             for (name, summary) in Scene::list_procedural() {
                 println!("{name:<16} {summary}");

@@ -137,6 +137,10 @@ run() {
     step izb 45 "$p" bench --no-validation --scenes \
         scenes/teapot-rect.toml,scenes/bunny-rect.toml,scenes/spot-point.toml,thin-bars@point \
         --techniques izb,izb-soft,hard --set map_size=2048 --out "$res/izb"
+    # Shimmer under a slowly moving light (the README's temporal suite): a GPU's rasterizer and
+    # filtering hardware may crawl differently from lavapipe's.
+    step temporal 60 "$p" bench --suite temporal --no-validation --set pvssm.rho=dynamic,static \
+        --out "$res/temporal"
     if [[ " $steps " == *" bench-all "* ]]; then
         step bench-all 200 "$p" bench --no-validation --out "$res/bench-all"
     fi

@@ -371,23 +371,27 @@ fn selection_suite_writes_a_table_auto_can_use() {
 fn temporal_suite_measures_flicker_against_the_reference() {
     let dir = out_dir("temporal");
     let out = dir.to_str().expect("utf-8");
+    let suite = [
+        "bench",
+        "--suite",
+        "temporal",
+        "--quick",
+        "--scenes",
+        "plane-boxes:6@rect",
+        "--out",
+        out,
+    ];
     let run = |step: &str| {
-        let o = penumbra(&[
-            "bench",
-            "--suite",
-            "temporal",
-            "--quick",
-            "--scenes",
-            "plane-boxes:6@rect",
+        let techniques = "hard,pcss,pvssm,izb-soft,average-maps";
+        let rest = [
             "--techniques",
-            "hard,pcss,pvssm,izb-soft,average-maps",
+            techniques,
             "--positions",
             "3",
             "--light-step",
             step,
-            "--out",
-            out,
-        ]);
+        ];
+        let o = penumbra(&[&suite[..], &rest[..]].concat());
         assert!(o.status.success(), "{}", stderr(&o));
         let text = std::fs::read_to_string(dir.join("temporal.json")).expect("json");
         let rows: Vec<serde_json::Value> = serde_json::from_str(&text).expect("parse");
@@ -415,19 +419,7 @@ fn temporal_suite_measures_flicker_against_the_reference() {
         ("--positions=1", "--positions 1"),
     ] {
         assert_fails_with(
-            &[
-                "bench",
-                "--suite",
-                "temporal",
-                "--quick",
-                "--scenes",
-                "plane-boxes:6@rect",
-                "--techniques",
-                "hard",
-                arg,
-                "--out",
-                out,
-            ],
+            &[&suite[..], &["--techniques", "hard", arg][..]].concat(),
             &[expect],
         );
     }

@@ -362,11 +362,12 @@ fn selection_suite_writes_a_table_auto_can_use() {
     assert!(picked.starts_with(stats["technique"].as_str().expect("technique")));
 }
 
-/// `bench --suite temporal` under validation: with the light still every technique run is
-/// deterministic (no change from frame to frame, so no flicker: atomics and orderings do not
-/// leak into the visibility); with it turning, the reference's shadows move and every measure
-/// is finite, the flicker no larger than the technique's own motion plus the reference's, and
-/// a bad step or position count is refused by name.
+/// `bench --suite temporal` under validation: with the light and the camera still every
+/// technique run is deterministic (no change from frame to frame, so no flicker: atomics and
+/// orderings do not leak into the visibility); with the light turning or the camera sliding, the
+/// reference's shadows move and every measure is finite, the flicker no larger than the
+/// technique's own motion plus the reference's, and a bad step or position count is refused by
+/// name.
 #[test]
 fn temporal_suite_measures_flicker_against_the_reference() {
     let dir = out_dir("temporal");
@@ -381,7 +382,7 @@ fn temporal_suite_measures_flicker_against_the_reference() {
         "--out",
         out,
     ];
-    let run = |step: &str| {
+    let run = |light: &str, camera: &str| {
         let techniques = "hard,pcss,pvssm,izb-soft,average-maps";
         let rest = [
             "--techniques",
@@ -389,7 +390,9 @@ fn temporal_suite_measures_flicker_against_the_reference() {
             "--positions",
             "3",
             "--light-step",
-            step,
+            light,
+            "--camera-step",
+            camera,
         ];
         let o = penumbra(&[&suite[..], &rest[..]].concat());
         assert!(o.status.success(), "{}", stderr(&o));
@@ -399,12 +402,12 @@ fn temporal_suite_measures_flicker_against_the_reference() {
         rows
     };
     let f = |r: &serde_json::Value, k: &str| r[k].as_f64().expect(k);
-    for r in run("0") {
+    for r in run("0", "0") {
         for k in ["flicker", "flicker_shadow", "pops", "motion", "motion_ref"] {
             assert_eq!(f(&r, k), 0.0, "{k} with a still light: {r}");
         }
     }
-    for r in run("20") {
+    for r in [run("20", "0"), run("0", "0.5")].concat() {
         assert!(f(&r, "motion_ref") > 0.0, "{r}");
         for k in ["flicker", "flicker_shadow", "pops", "motion", "mae"] {
             assert!(f(&r, k).is_finite() && f(&r, k) >= 0.0, "{k}: {r}");
@@ -416,6 +419,7 @@ fn temporal_suite_measures_flicker_against_the_reference() {
     }
     for (arg, expect) in [
         ("--light-step=-1", "--light-step -1"),
+        ("--camera-step=-1", "--camera-step -1"),
         ("--positions=1", "--positions 1"),
     ] {
         assert_fails_with(

@@ -135,8 +135,8 @@ pub(crate) enum Command {
         /// `--light-scale`) or `reuse` (the host CPU time of a technique's first frame, its next
         /// frame with the same renderer, and a rebuilt one: what keeping a `ShadowRenderer`
         /// saves) or `temporal` (shimmer: each technique's frame-to-frame change beyond the
-        /// reference's as the light turns by `--light-step` a frame; techniques at their
-        /// defaults but for `--set`).
+        /// reference's as the light turns by `--light-step` and the camera slides by
+        /// `--camera-step` a frame; techniques at their defaults but for `--set`).
         #[arg(long, default_value = "techniques")]
         suite: String,
         /// Scenes (files or procedural specs), comma-separated; default: every bundled scene.
@@ -172,6 +172,9 @@ pub(crate) enum Command {
         /// `temporal` suite: milliradians the light turns about the camera's target a frame.
         #[arg(long, default_value_t = 0.25)]
         light_step: f32,
+        /// `temporal` suite: pixels the camera slides sideways a frame (its target with it).
+        #[arg(long, default_value_t = 0.0)]
+        camera_step: f32,
         /// `temporal` suite: light positions (frames) along its path.
         #[arg(long, default_value_t = 8)]
         positions: u32,

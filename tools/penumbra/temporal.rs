@@ -1,15 +1,18 @@
 //! `penumbra bench --suite temporal`: shimmer — how much more a technique's shadows change from
-//! frame to frame than the true shadows do, as the light moves by a small step each frame.
+//! frame to frame than the true shadows do, as the light or the camera moves by a small step each
+//! frame.
 //!
 //! Shimmer is what users of shadow maps complain about most (a map's texel grid slides under a
 //! moving light or camera, and edges crawl), and a single frame's error does not show it. The
 //! suite turns the light about the camera's target by `--light-step` milliradians a frame
 //! (sideways to the light's direction: a point or rect light moves along an arc, a rect light's
-//! edges turn with it, a sun's direction turns), `--positions` frames, the camera still — so
-//! every frame has the same view samples — and renders each technique and the reference at
+//! edges turn with it, a sun's direction turns) and slides the camera sideways by
+//! `--camera-step` pixels a frame (0 by default: the camera still, so every frame has the same
+//! view samples), over `--positions` frames, and renders each technique and the reference at
 //! every position, each frame from scratch (the light view refitted, every map redrawn, as a
-//! moving light makes an engine do). Per technique and scene, over every view sample and every
-//! step t → t + 1, with V the technique's visibility and R the reference's:
+//! moving light or camera makes an engine do). Per technique and scene, over the pixels that
+//! are view samples in both frames of each step t → t + 1, with V the technique's visibility and
+//! R the reference's (with a moving camera, |ΔV − ΔR| is how much the pixel's error changed):
 //!
 //! - `flicker`: the mean of |ΔV − ΔR| — the change no true shadow made (0 for a technique that
 //!   moves exactly as the reference does, and for a still light, whatever its error);
@@ -30,7 +33,7 @@ use std::path::PathBuf;
 use anyhow::Context as _;
 use glam::{Quat, Vec3};
 use penumbra::evaluate::{reference_frame, ViewData};
-use penumbra::scene::{Light, Scene};
+use penumbra::scene::{Camera, Light, Scene};
 
 use crate::bench_plan;
 
@@ -46,6 +49,8 @@ pub struct TemporalArgs {
     pub light_scales: Vec<f32>,
     /// Milliradians the light turns about the camera's target between frames.
     pub step_mrad: f32,
+    /// Pixels the camera slides sideways between frames (its target with it).
+    pub camera_step_px: f32,
     /// Light positions (frames) along the path.
     pub positions: u32,
     pub quick: bool,
@@ -90,6 +95,22 @@ pub(crate) fn turn_light(light: &Light, pivot: Vec3, angle: f32) -> Light {
     }
 }
 
+/// `camera` slid sideways (along its image's x axis) by `pixels` pixels at its target's
+/// distance, its target with it: the view turns no more than a pan would, and every point at the
+/// target's depth moves `pixels` pixels across the image.
+pub(crate) fn slide_camera(camera: &Camera, pixels: f32) -> Camera {
+    let forward = camera.target - camera.position;
+    let right = forward.cross(camera.up).normalize_or_zero();
+    let pixel = 2.0 * forward.length() * (0.5 * camera.fov_y_deg.to_radians()).tan()
+        / camera.height.max(1) as f32;
+    let offset = right * (pixels * pixel);
+    Camera {
+        position: camera.position + offset,
+        target: camera.target + offset,
+        ..*camera
+    }
+}
+
 /// One technique run's sums over the steps.
 #[derive(Default)]
 struct Sums {
@@ -109,8 +130,9 @@ struct Sums {
 }
 
 impl Sums {
-    /// Adds frame `v` (with reference `r`, the previous reference `r0` if any).
-    fn add(&mut self, v: Vec<f32>, r: &[f32], r0: Option<&[f32]>, view: &ViewData) {
+    /// Adds frame `v` (with reference `r`; the previous frame's reference and view-sample mask
+    /// if any: a step compares the pixels that are view samples in both frames).
+    fn add(&mut self, v: Vec<f32>, r: &[f32], before: Option<(&[f32], &[bool])>, view: &ViewData) {
         let lit = |x: f32| x >= 1.0;
         let (mut abs, mut n) = (0.0f64, 0u64);
         for (k, &sample) in view.is_sample.iter().enumerate() {
@@ -121,9 +143,9 @@ impl Sums {
         }
         self.mae += abs / n.max(1) as f64;
         self.frames += 1;
-        if let (Some(v0), Some(r0)) = (&self.previous, r0) {
+        if let (Some(v0), Some((r0, samples0))) = (&self.previous, before) {
             for (k, &sample) in view.is_sample.iter().enumerate() {
-                if !sample {
+                if !(sample && samples0[k]) {
                     continue;
                 }
                 let (dv, dr) = (v[k] - v0[k], r[k] - r0[k]);
@@ -149,6 +171,11 @@ pub fn run(args: &TemporalArgs) -> anyhow::Result<()> {
         args.step_mrad.is_finite() && (0.0..=100.0).contains(&args.step_mrad),
         "--light-step {}: expected milliradians in [0, 100]",
         args.step_mrad
+    );
+    anyhow::ensure!(
+        args.camera_step_px.is_finite() && (0.0..=100.0).contains(&args.camera_step_px),
+        "--camera-step {}: expected pixels in [0, 100]",
+        args.camera_step_px
     );
     anyhow::ensure!(
         (2..=64).contains(&args.positions),
@@ -177,11 +204,12 @@ pub fn run(args: &TemporalArgs) -> anyhow::Result<()> {
                 continue;
             };
             let mut sums: Vec<Sums> = plan.iter().map(|_| Sums::default()).collect();
-            let mut previous_reference: Option<Vec<f32>> = None;
+            let mut before: Option<(Vec<f32>, Vec<bool>)> = None;
             for t in 0..args.positions {
                 let angle = 1e-3 * args.step_mrad * t as f32;
                 let moved = Scene {
                     light: turn_light(&scene.light, scene.camera.target, angle),
+                    camera: slide_camera(&scene.camera, args.camera_step_px * t as f32),
                     ..scene.clone()
                 };
                 let prepared = engine.prepare(&moved)?;
@@ -218,11 +246,11 @@ pub fn run(args: &TemporalArgs) -> anyhow::Result<()> {
                     s.add(
                         frame.visibility,
                         &r.visibility,
-                        previous_reference.as_deref(),
+                        before.as_ref().map(|(r0, m0)| (&r0[..], &m0[..])),
                         &view,
                     );
                 }
-                previous_reference = Some(r.visibility);
+                before = Some((r.visibility, view.is_sample));
             }
             for ((technique, overrides), s) in plan.iter().zip(&sums) {
                 let row = row(&scene.name, technique, overrides, s, args);
@@ -290,6 +318,7 @@ fn row(
         "label": bench_plan::label(overrides),
         "positions": args.positions,
         "step_mrad": args.step_mrad,
+        "camera_step_px": args.camera_step_px,
         "flicker": s.flicker / pairs,
         "flicker_shadow": s.flicker_shadow / s.shadow_samples.max(1) as f64,
         "shadow_share": s.shadow_samples as f64 / pairs,
@@ -304,9 +333,33 @@ fn row(
 
 #[cfg(test)]
 mod tests {
-    use super::turn_light;
+    use super::{slide_camera, turn_light};
     use glam::Vec3;
-    use penumbra::scene::Light;
+    use penumbra::scene::{Camera, Light};
+
+    /// A slide keeps the viewing direction, moves eye and target alike along the image's x axis,
+    /// by one pixel's width at the target's distance a pixel.
+    #[test]
+    fn slides_by_pixels_at_the_target() {
+        let camera = Camera {
+            position: Vec3::new(0.0, 0.0, 10.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y_deg: 90.0,
+            width: 200,
+            height: 100,
+            near: 0.1,
+            far: 100.0,
+        };
+        let moved = slide_camera(&camera, 2.0);
+        // tan(45°) = 1: the image is 20 units high at distance 10, a pixel 0.2 units.
+        assert!(
+            (moved.target - Vec3::new(0.4, 0.0, 0.0)).length() < 1e-5,
+            "{moved:?}"
+        );
+        assert!((moved.position - Vec3::new(0.4, 0.0, 10.0)).length() < 1e-5);
+        assert_eq!(slide_camera(&camera, 0.0), camera);
+    }
 
     /// A turn keeps the light's distance from the pivot and its edges' lengths, moves it by
     /// about distance × angle, sideways, and a zero turn is the identity.

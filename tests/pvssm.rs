@@ -230,7 +230,7 @@ fn larger_lights_need_fewer_pages() {
 /// marked; `pages.glsl`), none excepted.
 #[test]
 fn filter_and_prediction_match_cpu() {
-    let m = match_twin("scenes/teapot-rect.toml", 1.0, 4096);
+    let m = match_twin("scenes/teapot-rect.toml", 1.0, 4096, 64);
     assert!(
         m.coarsened > 0,
         "no kernel here is a needle the cap coarsens"
@@ -250,7 +250,7 @@ fn filter_and_prediction_match_cpu() {
 /// covers the map.
 #[test]
 fn strided_levels_match_cpu_and_bound_the_filter() {
-    let m = match_twin("scenes/teapot-rect.toml", 100.0, 1024);
+    let m = match_twin("scenes/teapot-rect.toml", 100.0, 1024, 64);
     assert!(
         m.strided * 2 > m.filtered,
         "only {} of {} samples strided",
@@ -262,6 +262,20 @@ fn strided_levels_match_cpu_and_bound_the_filter() {
     // rho's ceiling (the dynamic cubic at its peak, ~21.2) texels across each axis, up to twice
     // that where the level is a power of two finer than asked for: (2 x 21.2)^2 ~ 1800.
     assert!(per_sample < 1800.0, "{per_sample} texels a sample");
+}
+
+/// The same at pages of 32² (a root of 32² texels, a third the default's width; below ρ's ~21
+/// texels a side, at pages of 16², no kernel outgrows the root): the strided levels' map is 32 ×
+/// 16 texels, its four levels 16² to 2² blocks of 2² to 16² root texels.
+#[test]
+fn strided_levels_match_cpu_at_smaller_pages() {
+    let m = match_twin("scenes/teapot-rect.toml", 100.0, 1024, 32);
+    assert!(
+        m.strided * 2 > m.filtered,
+        "only {} of {} samples strided",
+        m.strided,
+        m.filtered
+    );
 }
 
 /// What [`match_twin`] counted.
@@ -276,7 +290,7 @@ struct TwinMatch {
 /// Renders `scene` (its light's sides times `light_scale`) with `pvssm` at `virtual_size` in
 /// pages of 64², reads the kernels, pages and atlas back and checks the filter, the prediction
 /// and the pages against the twin (the caps in [`filter_and_prediction_match_cpu`]'s note).
-fn match_twin(scene: &str, light_scale: f32, v_size: u32) -> TwinMatch {
+fn match_twin(scene: &str, light_scale: f32, v_size: u32, page: u32) -> TwinMatch {
     use glam::Vec2;
     use penumbra::cpu::pages::{atlas_columns, page_used_rect, PageLayout};
     use penumbra::cpu::pvssm as twin;
@@ -290,11 +304,11 @@ fn match_twin(scene: &str, light_scale: f32, v_size: u32) -> TwinMatch {
         *v *= light_scale;
     }
     let prepared = engine.prepare(&scene).expect("prepare");
-    let (page, pool) = (64u32, 1024u32);
-    let v_text = v_size.to_string();
+    let pool = 1024u32;
+    let (v_text, page_text) = (v_size.to_string(), page.to_string());
     let mut set = knobs(&[
         ("virtual_size", v_text.as_str()),
-        ("page_size", "64"),
+        ("page_size", page_text.as_str()),
         ("pool_pages", "1024"),
         ("tangent_plane", "0"),
         ("max_anisotropy", "16"),

@@ -264,9 +264,8 @@ fn strided_levels_match_cpu_and_bound_the_filter() {
     assert!(per_sample < 1800.0, "{per_sample} texels a sample");
 }
 
-/// The same at pages of 32² (a root of 32² texels, a third the default's width; below ρ's ~21
-/// texels a side, at pages of 16², no kernel outgrows the root): the strided levels' map is 32 ×
-/// 16 texels, its four levels 16² to 2² blocks of 2² to 16² root texels.
+/// The same at pages of 32² (a root of 32² texels, half the default's width): the strided
+/// levels' map is 32 × 16 texels, its four levels 16² to 2² blocks of 2² to 16² root texels.
 #[test]
 fn strided_levels_match_cpu_at_smaller_pages() {
     let m = match_twin("scenes/teapot-rect.toml", 100.0, 1024, 32);

@@ -175,7 +175,7 @@ pub(crate) enum Command {
         /// `temporal` suite: pixels the camera slides sideways a frame (its target with it).
         #[arg(long, default_value_t = 0.0)]
         camera_step: f32,
-        /// `temporal` suite: light positions (frames) along its path.
+        /// `temporal` suite: positions (frames) of the light and the camera along their paths.
         #[arg(long, default_value_t = 8)]
         positions: u32,
         /// Camera-distance factors, comma-separated: each scene also runs with its camera moved

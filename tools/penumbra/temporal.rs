@@ -15,7 +15,7 @@
 //! R the reference's (with a moving camera, |ΔV − ΔR| is how much the pixel's error changed):
 //!
 //! - `flicker`: the mean of |ΔV − ΔR| — the change no true shadow made (0 for a technique that
-//!   moves exactly as the reference does, and for a still light, whatever its error);
+//!   moves exactly as the reference does, and for a still light and camera, whatever its error);
 //! - `flicker_shadow`: the same over the samples not lit in all four of V_t, V_t+1, R_t, R_t+1
 //!   (the shadows and their edges, where shimmer shows);
 //! - `pops`: the share of (sample, step) pairs with |ΔV − ΔR| > 0.05 (about 13 of 255 levels: a
@@ -24,8 +24,8 @@
 //! - `mae`: the mean over the positions of each frame's MAE against its reference.
 //!
 //! The reference is deterministic at a fixed light (the same light samples, one frame), so with
-//! `--light-step 0` every deterministic technique's flicker is 0 — `tests/cli_bench.rs` holds
-//! them to that.
+//! `--light-step 0` and the camera still every deterministic technique's flicker is 0 —
+//! `tests/cli_bench.rs` holds them to that.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -51,7 +51,7 @@ pub struct TemporalArgs {
     pub step_mrad: f32,
     /// Pixels the camera slides sideways between frames (its target with it).
     pub camera_step_px: f32,
-    /// Light positions (frames) along the path.
+    /// Positions (frames) along the path.
     pub positions: u32,
     pub quick: bool,
     pub frames: u32,
@@ -179,7 +179,7 @@ pub fn run(args: &TemporalArgs) -> anyhow::Result<()> {
     );
     anyhow::ensure!(
         (2..=64).contains(&args.positions),
-        "--positions {}: expected 2 to 64 light positions",
+        "--positions {}: expected 2 to 64 positions (frames)",
         args.positions
     );
     let scenes: Vec<String> = if args.scenes.is_empty() {

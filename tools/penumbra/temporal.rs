@@ -434,7 +434,7 @@ mod tests {
         assert_eq!(s.pairs, 5);
         assert!((s.flicker - 0.12).abs() < 1e-6, "{}", s.flicker);
         assert_eq!(s.pops, 1);
-        assert!(0.1 > POP && 0.02 < POP);
+        const { assert!(0.1 > POP && 0.02 < POP) };
         // Every step's pair is in a shadow or an edge but sample 0's lit ones.
         assert_eq!(s.shadow_samples, 4);
         assert_eq!(s.frames, 3);

@@ -118,6 +118,26 @@ int axis_pieces(float lo, float hi, int top, out ivec2 piece[MAX_PIECES],
     return n;
 }
 
+// A box's pieces along both axes (axis_pieces at the box's top level per axis): the rip-map
+// blocks box_log_means and filter_visibility sum over, (x piece, y piece) pair by pair.
+struct BoxSplit {
+    ivec2 xp[MAX_PIECES];
+    float xw[MAX_PIECES];
+    float xc[MAX_PIECES];
+    ivec2 yp[MAX_PIECES];
+    float yw[MAX_PIECES];
+    float yc[MAX_PIECES];
+    int nx;
+    int ny;
+};
+
+BoxSplit split_box(vec2 lo, vec2 hi, bool plane) {
+    BoxSplit b;
+    b.nx = axis_pieces(lo.x, hi.x, top_level(hi.x - lo.x, plane), b.xp, b.xw, b.xc);
+    b.ny = axis_pieces(lo.y, hi.y, top_level(hi.y - lo.y, plane), b.yp, b.yw, b.yc);
+    return b;
+}
+
 // Running log-sum-exp: (max, sum of mass * exp(v - max)).
 void accumulate(inout vec2 acc, float v, float mass) {
     if (acc.y <= 0.0) {
@@ -136,24 +156,17 @@ void accumulate(inout vec2 acc, float v, float mass) {
 // exp(c * their depth in front of it), not the plane's near side most), and split as finely as
 // the filter's blocks (bunny-rect 0.064 -> 0.063).
 vec2 box_log_means(vec2 lo, vec2 hi, int first, int count, bool plane) {
-    ivec2 xp[MAX_PIECES];
-    float xw[MAX_PIECES];
-    float xc[MAX_PIECES];
-    ivec2 yp[MAX_PIECES];
-    float yw[MAX_PIECES];
-    float yc[MAX_PIECES];
-    int nx = axis_pieces(lo.x, hi.x, top_level(hi.x - lo.x, plane), xp, xw, xc);
-    int ny = axis_pieces(lo.y, hi.y, top_level(hi.y - lo.y, plane), yp, yw, yc);
+    BoxSplit b = split_box(lo, hi, plane);
     vec2 acc[2] = vec2[2](vec2(0.0), vec2(0.0));
-    for (int v = 0; v < ny; ++v) {
-        for (int u = 0; u < nx; ++u) {
-            float mass = xw[u] * yw[v] * float(1 << xp[u].x) * float(1 << yp[v].x);
+    for (int v = 0; v < b.ny; ++v) {
+        for (int u = 0; u < b.nx; ++u) {
+            float mass = b.xw[u] * b.yw[v] * float(1 << b.xp[u].x) * float(1 << b.yp[v].x);
             if (mass <= 0.0) {
                 continue;
             }
-            float weight = plane ? pc.exponent * plane_depth(vec2(xc[u], yc[v])) : 0.0;
+            float weight = plane ? pc.exponent * plane_depth(vec2(b.xc[u], b.yc[v])) : 0.0;
             for (int k = 0; k < count; ++k) {
-                float l = fetch(first + k, xp[u].x, yp[v].x, xp[u].y, yp[v].y);
+                float l = fetch(first + k, b.xp[u].x, b.yp[v].x, b.xp[u].y, b.yp[v].y);
                 accumulate(acc[k], l + weight, mass);
             }
         }
@@ -186,24 +199,17 @@ vec2 box_log_means(vec2 lo, vec2 hi, int first, int count, bool plane) {
 // its own block. Blocks are the split's: 1-texel blocks at the box's edges, up to a quarter of
 // the box (PLANE_SPLIT) in its middle.
 float filter_visibility(vec2 lo, vec2 hi) {
-    ivec2 xp[MAX_PIECES];
-    float xw[MAX_PIECES];
-    float xc[MAX_PIECES];
-    ivec2 yp[MAX_PIECES];
-    float yw[MAX_PIECES];
-    float yc[MAX_PIECES];
-    int nx = axis_pieces(lo.x, hi.x, top_level(hi.x - lo.x, true), xp, xw, xc);
-    int ny = axis_pieces(lo.y, hi.y, top_level(hi.y - lo.y, true), yp, yw, yc);
+    BoxSplit b = split_box(lo, hi, true);
     float sum = 0.0;
     float inside = 0.0;
-    for (int v = 0; v < ny; ++v) {
-        for (int u = 0; u < nx; ++u) {
-            float area = xw[u] * yw[v] * float(1 << xp[u].x) * float(1 << yp[v].x);
+    for (int v = 0; v < b.ny; ++v) {
+        for (int u = 0; u < b.nx; ++u) {
+            float area = b.xw[u] * b.yw[v] * float(1 << b.xp[u].x) * float(1 << b.yp[v].x);
             if (area <= 0.0) {
                 continue;
             }
-            float l = fetch(0, xp[u].x, yp[v].x, xp[u].y, yp[v].y);
-            float d = plane_depth(vec2(xc[u], yc[v]));
+            float l = fetch(0, b.xp[u].x, b.yp[v].x, b.xp[u].y, b.yp[v].y);
+            float d = plane_depth(vec2(b.xc[u], b.yc[v]));
             sum += area * exp(min(0.0, l - pc.exponent * d));
             inside += area;
         }

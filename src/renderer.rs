@@ -187,7 +187,11 @@ impl<'a> ShadowRenderer<'a> {
             indices: &prepared.indices,
             view: &prepared.view,
             host_samples: prepared,
-            receivers: receivers.map_or(&prepared.view.positions, |r| &r.lookup),
+            // A technique that reads no lookup positions (`izb`) gets the view samples.
+            receivers: match receivers {
+                Some(r) if r.push().write_lookup != 0 => &r.lookup,
+                _ => &prepared.view.positions,
+            },
             light: &prepared.light,
             camera: &prepared.camera,
             light_view,
@@ -456,6 +460,7 @@ fn receiver_desc(
         map_size,
         clips_itself: info.clips_light && !caster_skip,
         skip_horizon,
+        lookup: info.shadow_map && !caster_skip,
     }))
 }
 

@@ -72,8 +72,10 @@ pub struct ReceiversPush {
     pub normal_offset: f32,
     /// 1: horizon-umbra samples keep w = 1 (the technique evaluates them); 0: w = 0 (skipped).
     pub evaluate_horizon: i32,
+    /// 1: write the lookup positions; 0: the technique does not read them.
+    pub write_lookup: i32,
     /// Padding to the block's declared size.
-    pub pad: [i32; 2],
+    pub pad: i32,
 }
 
 /// `glsl/receivers/finish.comp`.

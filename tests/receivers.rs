@@ -35,6 +35,7 @@ fn compare(spec: &str, skip_horizon: bool, subgroup_count: bool) {
         map_size: 256,
         clips_itself: false,
         skip_horizon,
+        lookup: true,
     };
     let receivers = Receivers::with_subgroup_count(
         &ctx,

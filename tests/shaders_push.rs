@@ -70,6 +70,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 light_clip,
                 normal_offset,
                 evaluate_horizon,
+                write_lookup,
                 pad
             }),
         ),

@@ -28,8 +28,8 @@ layout(push_constant) uniform Push {
     int light_clip;       // 1: compute f; 0: f = 1
     float normal_offset;  // in texels
     int evaluate_horizon; // 1: f = 0 samples keep w = 1 (to measure the skip); 0: w = 0
-    int pad1;
-    int pad2;
+    int write_lookup;     // 0: the technique reads no lookup positions (izb): none stored
+    int pad;
 } pc;
 
 void main() {
@@ -39,7 +39,9 @@ void main() {
     }
     vec4 p = imageLoad(positions, pixel);
     if (p.w <= 0.0) {
-        imageStore(lookup, pixel, vec4(0.0));
+        if (pc.write_lookup != 0) {
+            imageStore(lookup, pixel, vec4(0.0));
+        }
         imageStore(clip, pixel, vec4(1.0));
         return;
     }
@@ -49,11 +51,13 @@ void main() {
         f = light_clip_fraction(p.xyz, n, pc.kind, pc.light_position.xyz, pc.light_u.xyz,
                                 pc.light_v.xyz);
     }
-    float texel = pc.view_direction.w;
-    if (pc.view_origin.w != 0.0) {
-        texel *= max(dot(p.xyz - pc.view_origin.xyz, pc.view_direction.xyz), 0.0);
+    if (pc.write_lookup != 0) {
+        float texel = pc.view_direction.w;
+        if (pc.view_origin.w != 0.0) {
+            texel *= max(dot(p.xyz - pc.view_origin.xyz, pc.view_direction.xyz), 0.0);
+        }
+        vec3 q = p.xyz + n * (pc.normal_offset * texel);
+        imageStore(lookup, pixel, vec4(q, (f > 0.0 || pc.evaluate_horizon != 0) ? 1.0 : 0.0));
     }
-    vec3 q = p.xyz + n * (pc.normal_offset * texel);
-    imageStore(lookup, pixel, vec4(q, (f > 0.0 || pc.evaluate_horizon != 0) ? 1.0 : 0.0));
     imageStore(clip, pixel, vec4(f));
 }

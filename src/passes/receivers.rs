@@ -58,6 +58,10 @@ pub struct ReceiverDesc {
     /// technique evaluate them too — `finish.comp` writes their 0 either way — so the skip's
     /// saving can be measured.
     pub skip_horizon: bool,
+    /// The technique reads the lookup positions (every shadow-map technique); `false` leaves
+    /// `lookup` unwritten — `izb` and `izb-soft` trace from the view samples themselves and
+    /// need only the light's fraction.
+    pub lookup: bool,
 }
 
 impl ReceiverDesc {
@@ -187,7 +191,8 @@ impl Receivers {
             light_clip: i32::from(desc.light_clip),
             normal_offset: desc.normal_offset,
             evaluate_horizon: i32::from(!desc.skip_horizon),
-            pad: [0; 2],
+            write_lookup: i32::from(desc.lookup),
+            pad: 0,
         };
         let finish_push = ReceiversFinishPush {
             view_size,

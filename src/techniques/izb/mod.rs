@@ -266,7 +266,8 @@
 //! with an extent the engine then scales the centre's answer by the part of the light in front
 //! of the sample's tangent plane, as it does every map's (`light_clip`, on by default; the
 //! receivers' passes, [`crate::passes::receivers`], skipped under a point light or a hard sun,
-//! where that part is 0 or 1 and the bin pass's tangent-plane test already finds the 0s).
+//! where that part is 0 or 1 and the bin pass's tangent-plane test already finds the 0s; under
+//! the others they store only that part, not the lookup positions a map's lookups read).
 //! **izb-soft** keeps a bitmask of
 //! `samples` light samples per view sample: an `n_a × n_b` stratified grid over the rect light
 //! (n_b the largest divisor of `samples` not above its square root), jittered in its cells by

@@ -154,16 +154,17 @@ impl<'a> ShadowRenderer<'a> {
         } else {
             &prepared.light_view
         };
-        let receivers = match receiver_desc(info, &params, caster_skip, &prepared.light)? {
+        let desc = receiver_desc(info, &params, caster_skip, &prepared.light)?;
+        let receivers = match &desc {
             Some(desc) if desc.needed() => {
-                Some(prepared.receivers.get_or_create(&desc, receiver_fit, || {
+                Some(prepared.receivers.get_or_create(desc, receiver_fit, || {
                     Receivers::new(
                         ctx,
                         &prepared.view,
                         &prepared.light,
                         light_view,
                         &prepared.visibility,
-                        &desc,
+                        desc,
                     )
                 })?)
             }
@@ -188,8 +189,8 @@ impl<'a> ShadowRenderer<'a> {
             view: &prepared.view,
             host_samples: prepared,
             // A technique that reads no lookup positions (`izb`) gets the view samples.
-            receivers: match receivers {
-                Some(r) if r.push().write_lookup != 0 => &r.lookup,
+            receivers: match (receivers, &desc) {
+                (Some(r), Some(desc)) if desc.lookup => &r.lookup,
                 _ => &prepared.view.positions,
             },
             light: &prepared.light,

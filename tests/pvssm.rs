@@ -251,12 +251,7 @@ fn filter_and_prediction_match_cpu() {
 #[test]
 fn strided_levels_match_cpu_and_bound_the_filter() {
     let m = match_twin("scenes/teapot-rect.toml", 100.0, 1024, 64);
-    assert!(
-        m.strided * 2 > m.filtered,
-        "only {} of {} samples strided",
-        m.strided,
-        m.filtered
-    );
+    m.assert_mostly_strided();
     let per_sample = m.texels as f64 / m.filtered as f64;
     eprintln!("{per_sample:.0} texels or blocks a filtered sample");
     // rho's ceiling (the dynamic cubic at its peak, ~21.2) texels across each axis, up to twice
@@ -268,13 +263,7 @@ fn strided_levels_match_cpu_and_bound_the_filter() {
 /// levels' map is 32 × 16 texels, its four levels 16² to 2² blocks of 2² to 16² root texels.
 #[test]
 fn strided_levels_match_cpu_at_smaller_pages() {
-    let m = match_twin("scenes/teapot-rect.toml", 100.0, 1024, 32);
-    assert!(
-        m.strided * 2 > m.filtered,
-        "only {} of {} samples strided",
-        m.strided,
-        m.filtered
-    );
+    match_twin("scenes/teapot-rect.toml", 100.0, 1024, 32).assert_mostly_strided();
 }
 
 /// What [`match_twin`] counted.
@@ -286,8 +275,20 @@ struct TwinMatch {
     texels: u64,
 }
 
-/// Renders `scene` (its light's sides times `light_scale`) with `pvssm` at `virtual_size` in
-/// pages of 64², reads the kernels, pages and atlas back and checks the filter, the prediction
+impl TwinMatch {
+    /// Most filtered samples read a strided level (what the huge-light tests are about).
+    fn assert_mostly_strided(&self) {
+        assert!(
+            self.strided * 2 > self.filtered,
+            "only {} of {} samples strided",
+            self.strided,
+            self.filtered
+        );
+    }
+}
+
+/// Renders `scene` (its light's sides times `light_scale`) with `pvssm` at `v_size` in pages of
+/// `page`², reads the kernels, pages and atlas back and checks the filter, the prediction
 /// and the pages against the twin (the caps in [`filter_and_prediction_match_cpu`]'s note).
 fn match_twin(scene: &str, light_scale: f32, v_size: u32, page: u32) -> TwinMatch {
     use glam::Vec2;

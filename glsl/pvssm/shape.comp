@@ -57,10 +57,10 @@ uint mip_offset(uint level) {
 }
 // Per view sample, row by row: (u_h.x, u_h.y, v_h.y, predicted level — a strided one past the
 // root included), or -1 in every component where the pass decided V — the host's fill before
-// the pass, so that only the undecided samples store here. Why: on lavapipe a store per sample is a walk over the SIMD lanes (an image
-// store, an RGBA32F image's before, one walk per channel), and most samples are decided: the
-// pass 31 -> 26.5 ms on teapot-rect with a buffer store each, 24.4 ms with the decided ones'
-// left to a memset.
+// the pass, so that only the undecided samples store here. Why: on lavapipe a store per sample
+// is a walk over the SIMD lanes (an image store, an RGBA32F image's before, one walk per
+// channel), and most samples are decided: the pass 31 -> 26.5 ms on teapot-rect with a buffer
+// store each, 24.4 ms with the decided ones' left to a memset.
 layout(set = 0, binding = 6) writeonly buffer Shape { vec4 shape[]; };
 layout(set = 0, binding = 7, r32f) uniform writeonly image2D visibility;
 layout(set = 0, binding = 8) buffer Counters { uint counters[]; };

@@ -138,7 +138,6 @@ float texel_z(ivec2 t) {
     return texelFetch(nbuffer_source, t, 0).r;
 }
 
-
 // 2x2 bilinear PCF at p (texel centres at .5): (weight of the texels in front of the receiver,
 // their weighted depth sum), each texel tested at the receiver plane's depth at its centre.
 vec2 pcf_blockers(vec2 p) {

@@ -306,7 +306,8 @@ pub fn coverage_filter_strided(
 ) -> (f32, f32) {
     let fine = (level as f32).exp2();
     let scale = ((level + stride) as f32).exp2();
-    let (block, half) = (1i64 << stride.min(62), (1i64 << stride.min(62)) / 2);
+    let block = 1i64 << stride.min(62);
+    let half = block / 2;
     let cl = c / scale;
     let u = u_h / scale;
     let v = v_h / scale;

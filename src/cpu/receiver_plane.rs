@@ -88,6 +88,17 @@ pub struct ReceiverPlane {
     pub marginal: bool,
 }
 
+impl ReceiverPlane {
+    /// The plane of `gradient` where there is one (else not found), close call or not.
+    fn from_gradient(gradient: Option<Vec2>, marginal: bool) -> ReceiverPlane {
+        ReceiverPlane {
+            gradient: gradient.unwrap_or(Vec2::ZERO),
+            found: gradient.is_some(),
+            marginal,
+        }
+    }
+}
+
 /// Whether neighbour `q` (normal `m`) lies on the plane of `p` (normal `n`), and whether that
 /// was a close call.
 pub fn same_surface(p: Vec4, n: Vec3, q: Vec4, m: Vec3) -> (bool, bool) {
@@ -258,11 +269,7 @@ pub fn receiver_plane(
             }
         }
     };
-    ReceiverPlane {
-        gradient: g.unwrap_or(Vec2::ZERO),
-        found: g.is_some(),
-        marginal: marginal || close,
-    }
+    ReceiverPlane::from_gradient(g, marginal || close)
 }
 
 /// A view sample in the shadow map: where it falls, its stored depth there and its receiver
@@ -301,11 +308,7 @@ pub fn receiver_plane_or_tangent(
         return plane;
     }
     let (g, close) = tangent_plane(p.xyz(), view.normal(pixel), light_view_proj, map_size, c);
-    ReceiverPlane {
-        gradient: g.unwrap_or(Vec2::ZERO),
-        found: g.is_some(),
-        marginal: plane.marginal || close,
-    }
+    ReceiverPlane::from_gradient(g, plane.marginal || close)
 }
 
 /// The receiver's depth at `offset` texels from its centre, z̃ + Δu·∂z̃/∂u + Δv·∂z̃/∂v, no

@@ -201,6 +201,7 @@ pub fn run(args: &TemporalArgs) -> anyhow::Result<()> {
     let reference =
         bench_plan::reference_specs(&args.references, if args.quick { "8" } else { "16" })?;
     let (reference, samples) = reference[0].clone();
+    let reference_knobs = BTreeMap::from([("samples".to_string(), samples)]);
     let engine = crate::suite_engine(&args.out, args.validation, args.device.clone())?;
     let mut rows = Vec::new();
     for spec in &scenes {
@@ -220,12 +221,11 @@ pub fn run(args: &TemporalArgs) -> anyhow::Result<()> {
                 };
                 let prepared = engine.prepare(&moved)?;
                 let view = ViewData::read(&engine, &prepared)?;
-                let knobs = BTreeMap::from([("samples".to_string(), samples.clone())]);
                 let (r, _) = reference_frame(
                     &engine,
                     &prepared,
                     &reference,
-                    &knobs,
+                    &reference_knobs,
                     args.cache.as_deref(),
                 )?;
                 for ((technique, overrides), s) in plan.iter().zip(&mut sums) {

@@ -100,15 +100,6 @@ pub enum Error {
         /// What was wrong.
         message: String,
     },
-    /// The technique does not handle this scene (e.g. `izb-soft` and a sun disk): nothing is
-    /// wrong with the input, the technique just does not apply to it.
-    #[error("technique '{technique}' does not handle {what}")]
-    NotApplicable {
-        /// The technique.
-        technique: String,
-        /// What it does not handle, and what it does.
-        what: String,
-    },
     /// A shader module or pipeline could not be built from the embedded SPIR-V.
     #[error("shader '{name}': {message}")]
     Shader {

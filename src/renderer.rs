@@ -135,10 +135,6 @@ impl<'a> ShadowRenderer<'a> {
         let caster_skip = info.has_caster_skip()
             && params.u32("caster_skip")? == 1
             && prepared.nothing_casts(ctx)?;
-        if caster_skip && info.name == crate::techniques::izb::IZB_SOFT.name {
-            // The skip makes no technique run where it could not have.
-            crate::techniques::izb::soft_applicable(&prepared.light)?;
-        }
         let hard = if caster_skip {
             None
         } else {

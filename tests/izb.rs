@@ -1,5 +1,5 @@
 //! `izb` and `izb-soft` under validation: exactly the ray-cast reference with a point light
-//! (bit for bit), exactly the reference's own light samples with a rect light, the CPU twin's
+//! (bit for bit), exactly the reference's own light samples with a rect light or a sun disk, the CPU twin's
 //! brute force over every triangle (so no footprint or back-projection ever drops a blocker) and
 //! its binning, error falling with the sample count, monotone in added occluders, and the corner
 //! cases (grazing plane with a coarse grid, thin bars, an empty scene, a scene all in shadow).
@@ -7,8 +7,6 @@
 mod common;
 
 use common::counter;
-
-use std::collections::BTreeMap;
 
 use glam::{Mat4, Vec3};
 use penumbra::cpu::izb::{self as twin, GridTwin, LightTwin};
@@ -90,8 +88,23 @@ fn izb_equals_the_reference_with_point_lights() {
 #[test]
 fn izb_soft_draws_the_references_light_samples() {
     let engine = common::engine();
-    for spec in ["scenes/teapot-rect.toml", "scenes/bunny-rect.toml"] {
+    for spec in [
+        "scenes/teapot-rect.toml",
+        "scenes/bunny-rect.toml",
+        "scenes/rocker-arm-directional.toml",
+        "thin-bars@directional",
+        "grazing-plane@directional",
+    ] {
         let mut scene = common::small(spec);
+        // The suns' 0.5° at 3°: penumbrae a few pixels wide at this size (the grazing plane's
+        // sun then partly below its horizon).
+        if let Light::Directional {
+            angular_diameter_deg,
+            ..
+        } = &mut scene.light
+        {
+            *angular_diameter_deg = 3.0;
+        }
         scene.camera.width = 96;
         scene.camera.height = 72;
         let prepared = engine.prepare(&scene).expect("prepare");
@@ -153,6 +166,14 @@ fn rect_light() -> Light {
     }
 }
 
+/// A 12° sun, oblique: the boxes cast penumbrae several pixels wide.
+fn sun_disk() -> Light {
+    Light::Directional {
+        direction: Vec3::new(0.4, -1.0, 0.2),
+        angular_diameter_deg: 12.0,
+    }
+}
+
 #[test]
 fn izb_matches_its_cpu_twin() {
     let engine = common::engine();
@@ -175,6 +196,9 @@ fn izb_matches_its_cpu_twin() {
             false,
             "1",
         ),
+        // A sun disk: izb-soft's light samples are directions (the concentric map).
+        (sun_disk(), true, "32"),
+        (sun_disk(), true, "48"),
     ];
     for (light, soft, samples) in lights {
         let scene = boxes(light, false);
@@ -218,17 +242,34 @@ fn izb_matches_its_cpu_twin() {
                 "izb-twin-{technique}-{samples}-{}-batch{batch}",
                 scene.light_kind_name()
             );
-            let mismatched = expected
+            let mismatched: Vec<(f32, f32)> = expected
                 .iter()
                 .zip(&frame.visibility)
                 .filter(|(e, a)| e.to_bits() != a.to_bits())
-                .count();
-            if mismatched > 0 {
+                .map(|(&e, &a)| (e, a))
+                .collect();
+            if !mismatched.is_empty() {
                 common::write_diff(&name, 64, 48, &expected, &frame.visibility);
             }
-            assert_eq!(
-                mismatched, 0,
-                "{name}: visibility differs from the brute-force twin"
+            // A sun's light samples go through cos and sin, Rust's on the CPU and the driver's
+            // on the GPU (src/cpu/izb.rs, "Tolerance"): at most 1 % of the pixels, each one
+            // light sample apart. Everything else: bit for bit.
+            let sun = matches!(light, Light::Directional { .. }) && soft;
+            if soft {
+                assert!(
+                    counter(&frame, "penumbra") > 0,
+                    "{name}: no penumbra to test"
+                );
+            }
+            let one_sample = 1.0 / samples.parse::<f32>().unwrap() + 1e-6;
+            let allowed = if sun { 64 * 48 / 100 } else { 0 };
+            assert!(
+                mismatched.len() <= allowed
+                    && mismatched.iter().all(|(e, a)| (e - a).abs() <= one_sample),
+                "{name}: visibility differs from the brute-force twin at {} pixels (allowed \
+                 {allowed} one light sample apart): {:?}",
+                mismatched.len(),
+                &mismatched[..mismatched.len().min(8)]
             );
             assert_eq!(
                 counter(&frame, "view_samples"),
@@ -432,13 +473,10 @@ fn bad_input_gives_clear_errors() {
     scene.camera.width = 32;
     scene.camera.height = 24;
     let prepared = engine.prepare(&scene).expect("prepare");
-    let err = engine
-        .render(&prepared, "izb-soft", &BTreeMap::new(), 1)
-        .err()
-        .expect("a sun disk is not supported");
-    assert!(err.to_string().contains("sun disk"), "{err}");
-    // The hard variant takes the sun's centre direction.
+    // Both take a sun disk: the hard variant its centre direction, the soft one its light
+    // samples over the disk.
     render(&engine, &prepared, "izb", &[]);
+    render(&engine, &prepared, "izb-soft", &[]);
     for (knob, value) in [
         ("grid", "4"),
         ("grid", "100000"),

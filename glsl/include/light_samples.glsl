@@ -1,7 +1,8 @@
 // Stratified light samples: cell (i, j) of an n_a × n_b grid over [0, 1)², jittered inside its
-// cell by a hash of (pixel seed, cell) or at its centre. The reference (N × N) and izb-soft
-// (n_a × n_b) draw the same points for the same grid; the CPU side (src/cpu/ray_cast.rs
-// `cell_point`) generates them independently, bit for bit.
+// cell by a hash of (pixel seed, cell) or at its centre, and taken to a sun's disk by the
+// concentric map. The reference (N × N) and izb-soft (n_a × n_b) draw the same points for the
+// same grid; the CPU side (src/cpu/ray_cast.rs `cell_point`, `concentric`) generates them
+// independently (the square's points bit for bit; the disk's through its own cos and sin).
 
 // Jarzynski and Olano's PCG hash (JCGT 2020).
 uint pcg(uint v) {
@@ -32,4 +33,27 @@ vec2 light_cell_point(uint seed, int i, int j, int n_a, vec2 inv, bool jitter) {
     }
     precise vec2 x = (vec2(float(i), float(j)) + jit) * inv;
     return x;
+}
+
+const float QUARTER_PI = 0.78539816339744830962;
+const float HALF_PI = 1.57079632679489661923;
+
+// Shirley and Chiu's concentric square-to-disk map (area-preserving): a point of [0, 1)² to the
+// unit disk, where a sun's light sample is its direction c + u d.x + v d.y.
+vec2 concentric(vec2 x) {
+    precise vec2 a = x * 2.0 - 1.0;
+    if (a.x == 0.0 && a.y == 0.0) {
+        return vec2(0.0);
+    }
+    precise float r;
+    precise float phi;
+    if (abs(a.x) > abs(a.y)) {
+        r = a.x;
+        phi = QUARTER_PI * (a.y / a.x);
+    } else {
+        r = a.y;
+        phi = HALF_PI - QUARTER_PI * (a.x / a.y);
+    }
+    precise vec2 disk = r * vec2(cos(phi), sin(phi));
+    return disk;
 }

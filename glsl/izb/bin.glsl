@@ -7,9 +7,10 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 // How much of the light lies in front of the sample's tangent plane: 0 none, 1 some, 2 all.
-// Rect: by its corners, with a tolerance either way, so "none" and "all" also hold for every
-// light sample inside the rect (which rounds differently); with "some", the test and resolve
-// passes check each light sample's side exactly as the reference does.
+// Rect: by its corners (a sun disk: by its bounding square of directions), with a tolerance
+// either way, so "none" and "all" also hold for every light sample inside (which rounds
+// differently); with "some", the test and resolve passes check each light sample's side exactly
+// as the reference does.
 uint sees_light(vec3 p, vec3 n) {
     int kind = P.view.w;
     if (kind == KIND_DIRECTIONAL) {
@@ -17,6 +18,14 @@ uint sees_light(vec3 p, vec3 n) {
     }
     if (kind == KIND_POINT) {
         return dot3(n, P.light_c.xyz - p) > 0.0 ? 2u : 0u;
+    }
+    if (kind == KIND_SUN) {
+        // The disk's directions c + u d.x + v d.y, |d| <= 1: n.(c + ...) within
+        // |n.u| + |n.v| of n.c, with a tolerance either way as for a rect.
+        float c = dot(n, P.light_c.xyz);
+        float spread = abs(dot(n, P.light_u.xyz)) + abs(dot(n, P.light_v.xyz));
+        float tol = 1e-5 * (abs(c) + spread);
+        return c + spread <= -tol ? 0u : (c - spread > tol ? 2u : 1u);
     }
     vec3 c = P.light_c.xyz - p;
     vec3 u = 0.5 * P.light_u.xyz;

@@ -7,7 +7,8 @@
 //
 // Footprint (src/techniques/izb/mod.rs, "Footprints"): the triangle's projection, grown for a rect
 // light by the light's half extents times k = 1/z_tri - 1/z_cell, z_tri its nearest depth and
-// z_cell the cell's deepest sample; every vertex nearer than the depth floor: every cell.
+// z_cell the cell's deepest sample, for a sun disk by its tangent times z_cell - z_tri
+// (izb.glsl, spread_depth); every vertex nearer than the depth floor: every cell.
 // Cells whose samples all lie nearer the light than the whole triangle are skipped.
 #include "izb.glsl"
 
@@ -47,7 +48,7 @@ Tri setup(uint t, bool keep) {
     tri.lo = ivec2(0);
     tri.hi = ivec2(last);
     if (tri.full) {
-        if (keep && P.view.w == KIND_RECT) {
+        if (keep && sampled_light()) {
             const float inf = uintBitsToFloat(0x7F800000u);
             tri_bounds[t] = vec4(-inf, -inf, inf, inf);
         }
@@ -58,10 +59,12 @@ Tri setup(uint t, bool keep) {
     }
     vec2 bmin = min(tri.g[0], min(tri.g[1], tri.g[2]));
     vec2 bmax = max(tri.g[0], max(tri.g[1], tri.g[2]));
-    if (keep && P.view.w == KIND_RECT) {
+    float deepest = uintBitsToFloat(counters[C_MAX_DEPTH]);
+    if (keep && sampled_light()) {
         // Twice the per-sample check's margins, and a relative one for the rounding of a
         // large reach (a triangle near the light's plane).
-        vec2 reach = (1.0 / tri.zmin) * ((1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw));
+        vec2 reach = spread_depth(tri.zmin, deepest) *
+                     ((1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw));
         reach = reach * (1.0 + 1e-5) + 2.0 * CELL_MARGIN;
         tri_bounds[t] = vec4(bmin - reach, bmax + reach);
     }
@@ -71,9 +74,8 @@ Tri setup(uint t, bool keep) {
     vec2 size = bmax - bmin;
     tri.flat_edges = abs(area) <= 1e-6 * max(size.x * size.x + size.y * size.y, 1e-30);
     vec2 grow = vec2(CELL_MARGIN);
-    if (P.view.w == KIND_RECT) {
-        float deepest = uintBitsToFloat(counters[C_MAX_DEPTH]);
-        float k = max(1.0 / tri.zmin - 1.0 / deepest, 0.0) * (1.0 + K_MARGIN);
+    if (sampled_light()) {
+        float k = max(spread_between(tri.zmin, deepest), 0.0) * (1.0 + K_MARGIN);
         grow += k * P.light_half.xy * P.grid_map.zw;
     }
     // Clamped in float first: a far-off projection must not overflow int.
@@ -108,8 +110,8 @@ uint visit(Tri tri, ivec2 xy) {
         return 0u;  // every sample of the cell is nearer the light than the triangle
     }
     vec2 grow = vec2(CELL_MARGIN);
-    if (P.view.w == KIND_RECT) {
-        float k = max(1.0 / tri.zmin - 1.0 / deepest, 0.0) * (1.0 + K_MARGIN);
+    if (sampled_light()) {
+        float k = max(spread_between(tri.zmin, deepest), 0.0) * (1.0 + K_MARGIN);
         grow += k * P.light_half.xy * P.grid_map.zw;
     }
     vec2 lo = vec2(xy) - grow;

@@ -5,11 +5,12 @@
 
 struct IzbParams {
     mat4 light_view;   // world -> the light's view space (looking down -z)
-    vec4 light_c;      // point / rect: centre (world); directional: unit vector towards the sun
-    vec4 light_u;      // rect: full edge u (world)
-    vec4 light_v;      // rect: full edge v (world)
+    vec4 light_c;      // point / rect: centre (world); directional, sun: unit vector towards the sun
+    vec4 light_u;      // rect: full edge u (world); sun: tan(angular radius) e1
+    vec4 light_v;      // rect: full edge v (world); sun: tan(angular radius) e2
     vec4 grid_map;     // (min.x, min.y, scale.x, scale.y): grid coordinate g = (pi - min) * scale
-    vec4 light_half;   // (hx, hy): the light's half extents in view space; z: depth floor; w: ray offset
+    vec4 light_half;   // (hx, hy): the light's half extents in view space (sun: its tangent,
+                       // the spread per unit of depth); z: depth floor; w: ray offset
     ivec4 view;        // (width, height, G, kind)
     ivec4 pattern;     // (n_a, n_b, jitter, mask words per sample)
     vec4 pattern_f;    // (1 / n_a, 1 / n_b, t_far, unused)
@@ -76,6 +77,31 @@ layout(push_constant) uniform Push {
 #define KIND_POINT 0
 #define KIND_RECT 1
 #define KIND_DIRECTIONAL 2
+// izb-soft under a sun disk: the directional light's orthographic space, its light samples
+// directions over the disk (izb under a sun disk is KIND_DIRECTIONAL: the centre's ray).
+#define KIND_SUN 3
+
+// Whether the light's samples are many (izb-soft's rect or sun disk) rather than one ray.
+bool sampled_light() {
+    return P.view.w == KIND_RECT || P.view.w == KIND_SUN;
+}
+
+// A soft footprint's spread is the light's half extents times k = spread_depth(z_tri) -
+// spread_depth(z_sample) (grid cells, with P.grid_map.zw): a rect light's rays fan out from the
+// light, so in the perspective grid a triangle at depth z is reached from o within the half
+// extents times 1/z - 1/z_o; a sun's rays are parallel within its tangent, so in the
+// orthographic grid within the tangent times z_o - z. The sun's depth is counted down from
+// `deepest` (the deepest binned sample) so that both are positive and fall with depth, and the
+// same relative margins round both outwards.
+float spread_depth(float z, float deepest) {
+    return P.view.w == KIND_SUN ? max(deepest - z, 0.0) : 1.0 / z;
+}
+
+// k for a triangle at depth z_tri and a sample at z_sample: spread_depth's difference, without
+// the sun's offset.
+float spread_between(float z_tri, float z_sample) {
+    return P.view.w == KIND_SUN ? z_sample - z_tri : 1.0 / z_tri - 1.0 / z_sample;
+}
 
 #define NOT_BINNED 0xFFFFFFFFu
 // binned[].y: the whole light is in front of the sample's tangent plane (bit 31), local index.

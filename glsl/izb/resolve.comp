@@ -22,7 +22,7 @@ void main() {
         if (p.w > 0.0) {
             v = 0.0;
             if (binned[index].x != NOT_BINNED) {
-                if (P.view.w != KIND_RECT) {
+                if (!sampled_light()) {
                     v = masks[index] == 0u ? 1.0 : 0.0;
                 } else if ((binned[index].y & ALL_IN_FRONT) != 0u) {
                     uint blocked = 0u;
@@ -53,10 +53,20 @@ void main() {
                             int i = k - j * na;
                             vec2 x = light_cell_point(seed, i, j, na, P.pattern_f.xy,
                                                       P.pattern.z != 0);
-                            precise float sx = x.x - 0.5;
-                            precise float sy = x.y - 0.5;
-                            precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx + P.light_v.xyz * sy;
-                            precise vec3 to_light = ls - p.xyz;
+                            // The reference's tangent-plane test, to the bit: towards the
+                            // rect's point, or along the sun's direction.
+                            precise vec3 to_light;
+                            if (P.view.w == KIND_SUN) {
+                                vec2 d = concentric(x);
+                                to_light = P.light_c.xyz + P.light_u.xyz * d.x +
+                                           P.light_v.xyz * d.y;
+                            } else {
+                                precise float sx = x.x - 0.5;
+                                precise float sy = x.y - 0.5;
+                                precise vec3 ls = P.light_c.xyz + P.light_u.xyz * sx +
+                                                  P.light_v.xyz * sy;
+                                to_light = ls - p.xyz;
+                            }
                             if (dot3(n, to_light) > 0.0) {
                                 visible += 1u;
                             }

@@ -12,7 +12,12 @@
 // plane when the triangle lies between the two (its vertices at light-space depths in (0, 0.99
 // z_o)); otherwise (a neighbour of the receiver, a triangle crossing the light's plane) the
 // intersection of the boxes of the four half-planes that bound the back-projection: beyond the
-// triangle's plane, inside each edge's plane through o.
+// triangle's plane, inside each edge's plane through o. Under a sun disk (KIND_SUN) the light
+// samples are directions, the concentric map's points d of the unit disk taken to c + u d.x +
+// v d.y, and the triangle is projected from o onto the plane of directions at unit distance
+// along c, in d's coordinates; the concentric map keeps no box of the square a box of the disk,
+// so every open light sample is a candidate, its point d checked against the projection's box
+// before its edges and ray (test_triangle_sun).
 #include "izb.glsl"
 #include "watertight.glsl"
 #include "light_samples.glsl"
@@ -57,6 +62,11 @@ bool half_square_box(vec3 f, out vec2 lo, out vec2 hi) {
 vec3 L_C;
 vec3 L_U;
 vec3 L_V;
+// A sun disk (KIND_SUN) rather than a rect; its rays' extent; the deepest binned sample's depth
+// (izb.glsl, spread_depth).
+bool s_sun;
+float s_t_far;
+float s_deepest;
 
 // The light sample at x in the light's (a, b) square, in world space: the reference's
 // arithmetic, to the bit.
@@ -94,11 +104,11 @@ struct Sample {
     uint bits;
     uint fresh;
     uint behind;
-    // o's grid point and 1/z (for the item's bounds), and whether no projection reaches it
+    // o's grid point and spread_depth (for the item's bounds), and whether no projection reaches it
     // (the overflow cell): it keeps every triangle.
     bool every;
     vec2 g;
-    float inv_z;
+    float spread_z;  // spread_depth of o (izb.glsl)
     // The footprint check's side of the sample (reaches()): o's grid point less and plus the
     // light's spread at its depth, and the depth a triangle's nearest vertex must not pass.
     vec2 reach_lo;
@@ -131,7 +141,13 @@ uint all_bits;
 // lane its own triangle), and a test projects them with two subtractions, a division and two
 // fmas each instead of a world-space point and two dot products. The same conditioning as the
 // world-space form (the difference a(v) - a(o) carries what v - o carried).
+// Under a sun disk: (dot(w, u) / |u|², dot(w, v) / |v|²), the coordinates a direction's part
+// across c has in the disk's basis; a point v seen from o along c + u d.x + v d.y has d =
+// (light_ab(v) - light_ab(o)) / (z_o - z_v) (project).
 vec2 light_ab(vec3 w) {
+    if (s_sun) {
+        return vec2(dot(w, L_U) * inv_uv.x, dot(w, L_V) * inv_uv.y);
+    }
     vec3 x = w - L_C;
     return vec2(dot(x, L_U) * inv_uv.x, dot(x, L_V) * inv_uv.y) + 0.5;
 }
@@ -139,6 +155,9 @@ vec2 light_ab(vec3 w) {
 // (a, b) of the point where the line from the sample's o through a vertex (its light
 // coordinates ab and depth z) meets the light's plane.
 vec2 project(Sample smp, vec2 ab, float z) {
+    if (s_sun) {
+        return (ab - smp.ab) / (smp.origin.w - z);
+    }
     return fma(ab - smp.ab, vec2(smp.origin.w / (smp.origin.w - z)), smp.ab);
 }
 
@@ -254,12 +273,149 @@ uint quarter_mask(Sample smp, ivec2 l0, ivec2 l1, ivec2 c0, ivec2 c1) {
     return m;
 }
 
+// Makes word `wi` of the sample's mask the one in use: the last one's fresh bits OR-ed back,
+// the new one read (the mask's memory touched once a triangle and word).
+void use_word(inout Sample smp, int wi) {
+    uint word = smp.base + uint(wi);
+    if (word != smp.word) {
+        if (smp.fresh != 0u) {
+            atomicOr(masks[smp.word], smp.fresh);
+        }
+        smp.word = word;
+        smp.bits = masks[word];
+        smp.fresh = 0u;
+        smp.behind = 0u;
+    }
+}
+
+// decide_strata under a sun disk: the open light samples of `open` (bits lo_bit.. of the word in
+// use) whose disk point d lies in the projection's box [lo, hi] and on the inner side of the
+// half-planes h0..h3 (h.x + h.y d.x + h.z d.y >= -tol: the directions that may hit the triangle,
+// test_triangle_sun), decided against the triangle by the projected edges (in d's coordinates)
+// or the reference's ray along c + u d.x + v d.y, to the bit.
+void decide_sun(inout Sample smp, uint open, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec2 lo,
+                vec2 hi, vec3 h0, vec3 h1, vec3 h2, vec3 h3, vec4 tol, vec3 e0, vec3 e1,
+                vec3 e2, vec3 t) {
+    bool shortcut = t.x > 0.0;
+    uint todo = open & ~(smp.bits | smp.fresh | smp.behind);
+    while (todo != 0u) {
+        int b = findLSB(todo);
+        todo &= todo - 1u;
+        uint mask = 1u << uint(b);
+        int bit = lo_bit + b;
+        int j = small_int((float(bit) + 0.5) * inv_na);
+        int i = bit - j * na;
+        vec2 d = concentric(light_cell_point(smp.seed, i, j, na, inv_ab, jittered));
+        // Outside the box or a half-plane: no ray hits.
+        vec4 side = vec4(fma(h0.y, d.x, fma(h0.z, d.y, h0.x)), fma(h1.y, d.x, fma(h1.z, d.y, h1.x)),
+                         fma(h2.y, d.x, fma(h2.z, d.y, h2.x)), fma(h3.y, d.x, fma(h3.z, d.y, h3.x)));
+        if (all(greaterThanEqual(d, lo)) && all(lessThanEqual(d, hi)) &&
+            all(greaterThanEqual(side, -tol))) {
+            precise vec3 dir = L_C + L_U * d.x + L_V * d.y;
+            bool behind = !smp.all_front && dot3(smp.n, dir) <= 0.0;
+            smp.behind |= behind ? mask : 0u;
+            vec3 dist = vec3(fma(e0.x, d.x, fma(e0.y, d.y, e0.z)),
+                             fma(e1.x, d.x, fma(e1.y, d.y, e1.z)),
+                             fma(e2.x, d.x, fma(e2.y, d.y, e2.z)));
+            bool inside = all(greaterThan(dist, t));
+            bool outside = any(lessThan(dist, -t));
+            bool blocked = !behind && shortcut && inside;
+            if (!behind && !(shortcut && (inside || outside))) {
+                Ray r = make_ray(smp.origin.xyz, dir, s_t_far);
+                vec4 w;
+                smp.rays += 1u;
+                blocked = hit_triangle(r, va.xyz, vb.xyz, vc.xyz, w);
+            }
+            smp.fresh |= blocked ? mask : 0u;
+        }
+    }
+}
+
+// The half-plane of directions c + u d.x + v d.y on the positive side of the plane through o
+// with normal f, as (h.x, h.y, h.z): h.x + h.y d.x + h.z d.y = f.(c + u d.x + v d.y).
+vec3 direction_half_plane(vec3 f) {
+    return vec3(dot(f, L_C), dot(f, L_U), dot(f, L_V));
+}
+
+// Its tolerance: half_square_box's, 10^-4 of the largest value it takes over the disk's square.
+float direction_tolerance(vec3 h) {
+    return 1e-4 * (abs(h.x) + abs(h.y) + abs(h.z));
+}
+
+// test_triangle under a sun disk. The triangle is projected when it lies strictly in front of o
+// along c (every vertex at least 10^-3 z_o nearer the sun, so the projection's rounding stays
+// far inside its margin): its box bounds the candidates and its edges decide most of them.
+// Otherwise (a neighbour of the sample's own surface, mostly) the directions that may hit it
+// are bounded by four half-planes, as a rect's half-squares bound its points: beyond the
+// triangle's plane and inside its three edge planes through o; the candidates inside all four
+// take the exact ray. No box of the square bounds the candidates (the concentric map bends the
+// square's rows), so every open light sample is one: up to n_a n_b passes a test where a rect's
+// box takes a few.
+void test_triangle_sun(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2,
+                       vec3 normal, float light_side, float zmax) {
+    // Not if o lies in the triangle's plane or on the sun's side of it.
+    float side = dot(normal, smp.origin.xyz - va.xyz);
+    if (side == 0.0 || side * light_side > 0.0) {
+        return;
+    }
+    // (A disk too small for its squared axes in f32 has no projection.)
+    bool between = smp.origin.w - zmax > 1e-3 * abs(smp.origin.w) && uu > 0.0 && vv > 0.0;
+    vec2 q0 = project(smp, ab01.xy, va.w);
+    vec2 q1 = project(smp, ab01.zw, vb.w);
+    vec2 q2 = project(smp, ab2, vc.w);
+    vec2 lo = min(q0, min(q1, q2));
+    vec2 hi = max(q0, max(q1, q2));
+    vec2 margin = 1e-3 * (1.0 + max(abs(lo), abs(hi)));
+    const float inf = uintBitsToFloat(0x7F800000u);
+    lo = between ? lo - margin : vec2(-inf);
+    hi = between ? hi + margin : vec2(inf);
+    // The disk lies in [-1, 1]².
+    if (any(greaterThan(lo, vec2(1.0))) || any(lessThan(hi, vec2(-1.0)))) {
+        return;
+    }
+    // Half-planes every direction passes (a projection's box and edges decide), or the four.
+    vec3 h0 = vec3(1.0, 0.0, 0.0);
+    vec3 h1 = h0;
+    vec3 h2 = h0;
+    vec3 h3 = h0;
+    vec4 tol = vec4(0.0);
+    if (!between) {
+        vec3 o = smp.origin.xyz;
+        vec3 c0 = cross(va.xyz - o, vb.xyz - o);
+        vec3 c1 = cross(vb.xyz - o, vc.xyz - o);
+        vec3 c2 = cross(vc.xyz - o, va.xyz - o);
+        float orient = dot(c0, vc.xyz - o);
+        if (orient == 0.0) {
+            return;  // edge-on from o
+        }
+        float sg = orient > 0.0 ? 1.0 : -1.0;
+        h0 = direction_half_plane(side > 0.0 ? -normal : normal);
+        h1 = direction_half_plane(sg * c0);
+        h2 = direction_half_plane(sg * c1);
+        h3 = direction_half_plane(sg * c2);
+        tol = vec4(direction_tolerance(h0), direction_tolerance(h1), direction_tolerance(h2),
+                   direction_tolerance(h3));
+    }
+    vec3 e0, e1, e2;
+    vec3 band = projected_edges(between, q0, q1, q2, margin, e0, e1, e2);
+    for (int wi = 0; wi < P.pattern.w; ++wi) {
+        use_word(smp, wi);
+        int left = na * nb - 32 * wi;
+        uint open = left >= 32 ? 0xFFFFFFFFu : (1u << uint(left)) - 1u;
+        decide_sun(smp, open, 32 * wi, va, vb, vc, lo, hi, h0, h1, h2, h3, tol, e0, e1, e2, band);
+    }
+}
+
 // The sample's test against one triangle: the light samples it blocks go into its mask word
 // state. A function called under the caller's per-sample `if`, not a `continue` of the triangle
 // loop: that makes the loop divergent to the compiler, which then loads each triangle per
 // invocation (a scalar loop over the SIMD lanes) instead of once for all.
 void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2, vec3 normal,
                    float light_side, float zmin, float zmax) {
+    if (s_sun) {
+        test_triangle_sun(smp, va, vb, vc, ab01, ab2, normal, light_side, zmax);
+        return;
+    }
     // Whether the triangle may block any light sample, as a flag and not early returns: on
     // lavapipe a return taken by some lanes leaves every later assignment a masked one (a
     // select against the returned lanes), and all lanes run the common path anyway.
@@ -363,16 +519,7 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
     int first = c0.y * na + c0.x;
     int last = c1.y * na + c1.x;
     for (int wi = first / 32; wi <= last / 32; ++wi) {
-        uint word = smp.base + uint(wi);
-        if (word != smp.word) {
-            if (smp.fresh != 0u) {
-                atomicOr(masks[smp.word], smp.fresh);
-            }
-            smp.word = word;
-            smp.bits = masks[word];
-            smp.fresh = 0u;
-            smp.behind = 0u;
-        }
+        use_word(smp, wi);
         int lo_bit = wi * 32;
         int row0 = small_int((float(lo_bit) + 0.5) * inv_na);
         int row1 = small_int((float(lo_bit + 31) + 0.5) * inv_na);
@@ -388,12 +535,11 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
     }
 }
 
-// A rect light's half extents in grid cells per unit of 1/z, grown by K_MARGIN (0 for another
-// light), and whether the light is a rect: set once, as each uniform read is bounds-checked on
-// lavapipe (this pass 7-9 % faster on bunny-rect than with the reads in the check: minimum
-// 111.8 -> 101.7 ms, lower quartile 112.1 -> 104.3, six interleaved rounds).
+// The light's half extents in grid cells per unit of spread_depth (izb.glsl: a rect's per unit
+// of 1/z, a sun's tangent per unit of depth), grown by K_MARGIN: set once, as each uniform read
+// is bounds-checked on lavapipe (this pass 7-9 % faster on bunny-rect than with the reads in the
+// check: minimum 111.8 -> 101.7 ms, lower quartile 112.1 -> 104.3, six interleaved rounds).
 vec2 s_spread;
-bool s_rect;
 
 // What a triangle's tests need that does not depend on the sample: its plane's normal, the
 // side of that plane the whole light is on (0: it straddles it), and its side of the footprint
@@ -412,8 +558,10 @@ struct TriSetup {
 TriSetup tri_setup(vec4 va, vec4 vb, vec4 vc) {
     TriSetup ts;
     ts.normal = cross(vb.xyz - va.xyz, vc.xyz - va.xyz);
-    float a = dot(ts.normal, L_C - va.xyz);
-    float spread = 0.5 * (abs(dot(ts.normal, L_U)) + abs(dot(ts.normal, L_V)));
+    // A rect's points c + u a + v b, |a|, |b| <= 1/2; a sun's directions c + u d.x + v d.y,
+    // |d| <= 1 (the plane's side of a direction is its sign against the normal).
+    float a = dot(ts.normal, s_sun ? L_C : L_C - va.xyz);
+    float spread = (s_sun ? 1.0 : 0.5) * (abs(dot(ts.normal, L_U)) + abs(dot(ts.normal, L_V)));
     float tol = 1e-4 * (abs(a) + spread);
     ts.light_side = a - spread > tol ? 1.0 : (a + spread < -tol ? -1.0 : 0.0);
     vec3 qa = light_space(va.xyz);
@@ -424,10 +572,9 @@ TriSetup tri_setup(vec4 va, vec4 vb, vec4 vc) {
     vec2 ga = every ? vec2(0.0) : grid_coord(qa);
     vec2 gb = every ? vec2(0.0) : grid_coord(qb);
     vec2 gc = every ? vec2(0.0) : grid_coord(qc);
-    // (Only a rect light spreads: no 0 * inf for an orthographic depth of 0.)
     vec2 grow = vec2(CELL_MARGIN);
-    if (s_rect && !every) {
-        grow += (1.0 / zmin) * (1.0 + 1e-5) * s_spread;
+    if (!every) {
+        grow += spread_depth(zmin, s_deepest) * (1.0 + 1e-5) * s_spread;
     }
     const float inf = uintBitsToFloat(0x7F800000u);
     ts.reach = every ? vec4(-inf, -inf, inf, inf)
@@ -438,10 +585,11 @@ TriSetup tri_setup(vec4 va, vec4 vb, vec4 vc) {
 
 // The sample x's own footprint check (the footprint pass's, for this sample rather than its
 // cell's deepest one and whole area): a point of the triangle on a ray from o to the light
-// projects within the light's half extents times 1/z - 1/z_o of o's projection, and within the
-// triangle's projected box. The triangle's growth by 1/z and the sample's shrinking by 1/z_o
-// are each computed once (tri_setup, load_sample), each rounded outwards by 1e-5 of itself, so
-// a pair costs five comparisons. A sample no projection reaches (the overflow cell) keeps every
+// projects within the light's half extents times 1/z - 1/z_o of o's projection (a sun's tangent
+// times z_o - z), and within the triangle's projected box. The triangle's growth by
+// spread_depth(z) and the sample's shrinking by spread_depth(z_o) are each computed once
+// (tri_setup, load_sample), each rounded outwards by 1e-5 of itself, so a pair costs five
+// comparisons. A sample no projection reaches (the overflow cell) keeps every
 // triangle: its bounds are infinite the other way round.
 bool reaches(Sample x, vec4 reach, float zmin) {
     return zmin <= x.z_limit && all(greaterThanEqual(x.reach_lo, reach.xy)) &&
@@ -478,7 +626,7 @@ Sample load_sample(uint s, bool live) {
     x.q_x0 = 0u;
     x.q_y1 = 0u;
     x.q_y0 = 0u;
-    if (one_word && jittered) {
+    if (one_word && jittered && !s_sun) {
         // All 32, unrolled (a loop's passes cost lavapipe their bookkeeping: with the row
         // starts' doubling (main), the pass 52.6 -> 51.6 ms minimum on bunny-rect over four
         // interleaved rounds). Bits past the pattern's are never read: they only meet boxes,
@@ -495,9 +643,9 @@ Sample load_sample(uint s, bool live) {
     vec3 q = light_space(x.origin.xyz);
     x.every = P.sizes.w != 0u && q.z <= P.light_half.z;
     x.g = x.every ? vec2(0.0) : grid_coord(q);
-    x.inv_z = x.every ? 0.0 : 1.0 / q.z;
+    x.spread_z = x.every ? 0.0 : spread_depth(q.z, s_deepest);
     const float inf = uintBitsToFloat(0x7F800000u);
-    vec2 shrink = s_rect ? x.inv_z * (1.0 - 1e-5) * s_spread : vec2(0.0);
+    vec2 shrink = x.spread_z * (1.0 - 1e-5) * s_spread;
     x.reach_lo = x.every ? vec2(inf) : x.g - shrink;
     x.reach_hi = x.every ? vec2(-inf) : x.g + shrink;
     x.z_limit = x.every ? inf : q.z * (1.0 + 1e-5);
@@ -547,8 +695,10 @@ void main() {
         row_starts |= 16 * na < 32 ? row_starts << uint(16 * na) : 0u;
         row_starts &= one_word ? all_bits : 0u;
         row_bits = na >= 32 ? ~0u : (1u << uint(na)) - 1u;
-        s_rect = P.view.w == KIND_RECT;
-        s_spread = s_rect ? (1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw) : vec2(0.0);
+        s_sun = P.view.w == KIND_SUN;
+        s_t_far = P.pattern_f.z;
+        s_deepest = uintBitsToFloat(counters[C_MAX_DEPTH]);
+        s_spread = (1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw);
         // The invocation's samples: ITEM_SAMPLES apart in the item (the workgroup's size).
         uint s = item.s0 + gl_LocalInvocationID.x;
         S = load_sample(s, s < item.s1);
@@ -558,19 +708,19 @@ void main() {
         S2 = load_sample(s2, two && s2 < item.s1);
         // The batch's lanes are the workgroup's invocations (izb.glsl, batch_lane()).
         lane = batch_lane();
-        // The item's samples together: their grid bounds and the smallest 1/z (the deepest),
-        // a little smaller still (the per-sample check keeps triangles within 1e-5 of the
-        // sample's depth). A batch none of whose triangles' bounds, shrunk for that depth, meets
+        // The item's samples together: their grid bounds and the smallest spread_depth (the
+        // deepest), a little smaller still (the per-sample check keeps triangles within 1e-5 of
+        // the sample's depth). A batch none of whose triangles' bounds, shrunk for that depth, meets
         // them reaches none of the item's samples: its vertices are not fetched (on bunny-rect
         // 43 % of the batches).
         bool open1 = S.live && !S.every;
         bool open2 = S2.live && !S2.every;
         vec2 g_lo = min(open1 ? S.g : vec2(3.0e38), open2 ? S2.g : vec2(3.0e38));
         vec2 g_hi = max(open1 ? S.g : vec2(-3.0e38), open2 ? S2.g : vec2(-3.0e38));
-        float inv_z = min(open1 ? S.inv_z : 3.0e38, open2 ? S2.inv_z : 3.0e38);
+        float spread_z = min(open1 ? S.spread_z : 3.0e38, open2 ? S2.spread_z : 3.0e38);
         item_lo = subgroupMin(g_lo);
         item_hi = subgroupMax(g_hi);
-        item_shrink = subgroupMin(inv_z) * (1.0 - 1e-4) * s_spread;
+        item_shrink = subgroupMin(spread_z) * (1.0 - 1e-4) * s_spread;
         item_every = subgroupAny((S.live && S.every) || (S2.live && S2.every));
         // Two batches a pass (batch() says why).
         item_end = item.t1;

@@ -41,33 +41,11 @@ layout(set = 0, binding = 6) buffer Visible { uint visible_count[]; };
 const int KIND_POINT = 0;
 const int KIND_RECT = 1;
 const int KIND_DIRECTIONAL = 2;
-const float QUARTER_PI = 0.78539816339744830962;
-const float HALF_PI = 1.57079632679489661923;
-
 #include "light_samples.glsl"
 
 // Sample of cell (i, j) in [0, 1)^2: jittered by a hash of (pixel seed, cell), or the centre.
 vec2 cell_point(uint seed, int i, int j) {
     return light_cell_point(seed, i, j, pc.samples, vec2(pc.inv_samples), pc.jitter != 0);
-}
-
-// Shirley and Chiu's concentric square-to-disk map (area-preserving).
-vec2 concentric(vec2 x) {
-    precise vec2 a = x * 2.0 - 1.0;
-    if (a.x == 0.0 && a.y == 0.0) {
-        return vec2(0.0);
-    }
-    precise float r;
-    precise float phi;
-    if (abs(a.x) > abs(a.y)) {
-        r = a.x;
-        phi = QUARTER_PI * (a.y / a.x);
-    } else {
-        r = a.y;
-        phi = HALF_PI - QUARTER_PI * (a.x / a.y);
-    }
-    precise vec2 disk = r * vec2(cos(phi), sin(phi));
-    return disk;
 }
 
 // The ray that decides whether hit point H (weights w on triangle t) is directly visible from the

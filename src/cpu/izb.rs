@@ -2,17 +2,22 @@
 //! binning of view samples into it, and the visibility every view sample must end with — every
 //! triangle tested against every light sample by brute force, with the reference twin's
 //! watertight test ([`crate::cpu::ray_cast::intersect`]) on the same origins, directions and
-//! light samples. The GPU tests only the triangles its footprints and back-projections keep, so
+//! light samples (a sun disk's through the concentric map). The GPU tests only the triangles its footprints and back-projections keep, so
 //! equal visibility checks that no pruning step ever drops a blocker.
 //!
 //! Tolerance: visibility is bit for bit (the same f32 arithmetic decides every ray and every
-//! tangent-plane test). Cell indices come from a 4×4 matrix product and a division whose
+//! tangent-plane test), but under a sun disk, whose light samples go through `cos` and `sin`
+//! (Rust's and the driver's may differ in the last bit): there a light sample within an ulp of a
+//! triangle's edge may fall the other way, and the tests allow a few pixels one light sample
+//! apart. Cell indices come from a 4×4 matrix product and a division whose
 //! rounding may differ from the GPU's in the last bit, so a sample within one ulp of a cell
 //! border may land in the neighbouring cell: binning counts are compared with a small cap.
 
 use glam::{Mat4, Vec3, Vec4};
 
-use super::ray_cast::{dot3, intersect, pcg, stratum_point, sub3, triangles, Ray, Triangle};
+use super::ray_cast::{
+    concentric, dot3, intersect, pcg, stratum_point, sub3, triangles, Ray, Triangle,
+};
 use crate::scene::Light;
 
 /// `n_a × n_b` light samples for `samples`: `n_b` the largest divisor of `samples` not above
@@ -34,7 +39,8 @@ pub fn sample_grid(samples: u32) -> (u32, u32) {
 /// The light as the twin reads it.
 #[derive(Clone, Copy, Debug)]
 pub struct LightTwin {
-    /// `Some((u, v, n_a, n_b, jitter))` for an area light sampled on a grid; `None` for one ray.
+    /// `Some((u, v, n_a, n_b, jitter))` for an area light sampled on a grid (a sun: the disk's
+    /// axes, each the tangent of its angular radius long); `None` for one ray.
     pub area: Option<(Vec3, Vec3, u32, u32, bool)>,
     /// Point / rect: the centre. Sun: the unit vector towards it.
     pub centre: Vec3,
@@ -66,12 +72,29 @@ impl LightTwin {
                     t_far,
                 }
             }
-            Light::Directional { direction, .. } => LightTwin {
-                area: None,
-                centre: (-direction).normalize_or_zero(),
-                directional: true,
-                t_far,
-            },
+            Light::Directional {
+                direction,
+                angular_diameter_deg,
+            } => {
+                // A sun disk: directions c + u·d.x + v·d.y over the unit disk d, |u| = |v| the
+                // tangent of the angular radius, u and v across c.
+                let centre = (-direction).normalize_or_zero();
+                let tan_radius = (0.5 * angular_diameter_deg).to_radians().tan();
+                let (e1, e2) = centre.any_orthonormal_pair();
+                let (na, nb) = sample_grid(samples);
+                LightTwin {
+                    area: (soft && angular_diameter_deg > 0.0).then_some((
+                        e1 * tan_radius,
+                        e2 * tan_radius,
+                        na,
+                        nb,
+                        jitter,
+                    )),
+                    centre,
+                    directional: true,
+                    t_far,
+                }
+            }
         }
     }
 }
@@ -177,12 +200,19 @@ fn origin(p: [f32; 3], n: [f32; 3], offset: f32) -> [f32; 3] {
 }
 
 /// Whether any of the light is in front of the tangent plane at `p` (normal `n`): corners of a
-/// rect with the shader's tolerance, the exact step for a point or a sun.
+/// rect (a sun disk's bounding square of directions) with the shader's tolerance, the exact step
+/// for a point or a hard sun.
 fn sees_light(light: &LightTwin, p: [f32; 3], n: [f32; 3]) -> bool {
     let c = light.centre.to_array();
     match light.area {
         None if light.directional => dot3(n, c) > 0.0,
         None => dot3(n, sub3(c, p)) > 0.0,
+        Some((u, v, ..)) if light.directional => {
+            let nv = Vec3::from(n);
+            let centre = nv.dot(light.centre);
+            let spread = nv.dot(u).abs() + nv.dot(v).abs();
+            centre + spread > -1e-5 * (centre.abs() + spread)
+        }
         Some((u, v, ..)) => {
             let (nv, cp) = (Vec3::from(n), Vec3::from(sub3(c, p)));
             let (hu, hv) = (0.5 * u, 0.5 * v);
@@ -275,12 +305,21 @@ pub fn visibility(
             for j in 0..nb {
                 for i in 0..na {
                     let x = stratum_point(seed, i, j, na, inv, jitter);
-                    let (sx, sy) = (x[0] - 0.5, x[1] - 0.5);
-                    let s: [f32; 3] = std::array::from_fn(|k| c[k] + u[k] * sx + v[k] * sy);
-                    if dot3(n, sub3(s, p)) <= 0.0 {
+                    // The reference's ray: to the rect's point, or along the sun's direction.
+                    let (dir, tmax, to_light) = if light.directional {
+                        let d = concentric(x);
+                        let dir: [f32; 3] =
+                            std::array::from_fn(|k| c[k] + u[k] * d[0] + v[k] * d[1]);
+                        (dir, light.t_far, dir)
+                    } else {
+                        let (sx, sy) = (x[0] - 0.5, x[1] - 0.5);
+                        let s: [f32; 3] = std::array::from_fn(|k| c[k] + u[k] * sx + v[k] * sy);
+                        (sub3(s, o), 1.0, sub3(s, p))
+                    };
+                    if dot3(n, to_light) <= 0.0 {
                         continue;
                     }
-                    if !blocked(&Ray::new(o, sub3(s, o), 1.0), &tris) {
+                    if !blocked(&Ray::new(o, dir, tmax), &tris) {
                         visible += 1;
                     }
                 }

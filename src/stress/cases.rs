@@ -396,8 +396,7 @@ pub fn cases() -> Vec<Case> {
                 };
                 Ok(s)
             },
-            // izb-soft takes hard directional lights only (a clear `Unsupported` error).
-            knobs: |t| (t != "izb-soft").then(Vec::new),
+            knobs: |_| Some(Vec::new()),
             // izb read 0.213 here (a `known` row) before it took the engine's light clipping:
             // its one ray to the sun's centre left the ground lit where a quarter of the disk
             // is below the horizon.

@@ -307,9 +307,7 @@ pub fn run(args: &CompareArgs<'_>) -> anyhow::Result<()> {
             }
             Err(e) => {
                 let status = match e {
-                    penumbra::Error::NotApplicable { .. } | penumbra::Error::Unsupported { .. } => {
-                        "unsupported"
-                    }
+                    penumbra::Error::Unsupported { .. } => "unsupported",
                     _ => "failed",
                 };
                 cells.push(SheetCell {

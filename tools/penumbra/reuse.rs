@@ -131,10 +131,7 @@ pub fn run(args: &ReuseArgs) -> anyhow::Result<()> {
             });
             let first = match first {
                 Ok(f) => f,
-                Err(
-                    e @ (penumbra::Error::NotApplicable { .. }
-                    | penumbra::Error::Unsupported { .. }),
-                ) => {
+                Err(e @ penumbra::Error::Unsupported { .. }) => {
                     println!("{:<20} {:<14} not run: {e}", prepared.name, t);
                     continue;
                 }

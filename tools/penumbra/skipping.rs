@@ -307,10 +307,7 @@ pub fn run(args: &SkippingArgs) -> anyhow::Result<()> {
             let off = off_switches(t)?;
             let on_frame = match engine.render(&prepared, t, &BTreeMap::new(), args.frames) {
                 Ok(f) => f,
-                Err(
-                    e @ (penumbra::Error::NotApplicable { .. }
-                    | penumbra::Error::Unsupported { .. }),
-                ) => {
+                Err(e @ penumbra::Error::Unsupported { .. }) => {
                     println!("{:<24} {:<14} not run: {e}", prepared.name, t);
                     continue;
                 }

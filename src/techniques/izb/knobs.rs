@@ -33,7 +33,7 @@ pub(super) const COUNTER_WORDS: [&str; 22] = [
 
 /// `izb`'s grid, cells a side (`izb-soft`'s with one ray a sample).
 pub(super) const GRID_DEFAULT: u32 = 128;
-/// `izb-soft`'s grid with a sampled rect light.
+/// `izb-soft`'s grid with a sampled light (a rect or a sun disk).
 pub(super) const SOFT_GRID: u32 = 64;
 
 const GRID: Knob = Knob::int(
@@ -72,13 +72,13 @@ const TRIANGLE_BATCH: Knob = Knob::int(
 const HARD_KNOBS: [Knob; 5] = [GRID, PAIR_CAPACITY, RAY_OFFSET, TRIANGLE_BATCH, LIGHT_CLIP];
 
 const SOFT_KNOBS: [Knob; 6] = [
-    // 0 = auto: with a sampled rect light each sample checks its own footprint before its tests
+    // 0 = auto: with a sampled light each sample checks its own footprint before its tests
     // (the batched test pass), so a coarser grid costs the test pass little while the footprint
     // pass shrinks with the cells — 64 then; izb's 128 with one ray a sample (README, "Exact
-    // shadows at the view samples").
+    // shadows at the view samples"; under the CAD part's sun disk 64 and 128 within 5 %).
     Knob {
         summary: "light-space grid cells per side over the view samples' bounds (8-4096; 0: 64 \
-                  with a rect light, 128 with one ray a sample)",
+                  with a rect light or a sun disk, 128 with one ray a sample)",
         default: KnobDefault::Value(0.0),
         min: 0.0,
         ..GRID

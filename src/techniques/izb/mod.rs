@@ -277,7 +277,13 @@
 //! `o`, each grown by a tolerance) bounds the light samples it can block; only those of the
 //! strata that box touches take the exact ray test. Light samples behind the tangent plane are
 //! never tested and count as blocked, as in the reference. Occluder fusion is exact for the
-//! chosen samples: the mask is the union of what each triangle blocks.
+//! chosen samples: the mask is the union of what each triangle blocks. Under a sun disk the light
+//! samples are the reference's directions (the same grid taken to the disk by the concentric
+//! map, `c + u·d.x + v·d.y` with `|u| = |v|` the tangent of the angular radius): a triangle is
+//! projected from `o` onto the plane of directions at unit distance along `c`, and each open
+//! light sample whose disk point lies in the projection's box is decided by its edges or the
+//! exact ray (the map bends the square's rows, so no box of strata bounds the candidates: a test
+//! visits every open light sample, where a rect's box visits a few).
 //!
 //! **Footprints.** A perspective grid coordinate is `(x/z, y/z)` in the light's view space (z
 //! the depth), mapped onto `grid × grid` cells over the view samples' bounds
@@ -287,7 +293,9 @@
 //! 0.01 cell. A point x of the segment from `o` (depth z_o) to a light sample at lateral offset
 //! ℓ (depth 0) projects to `π(o) + ℓ·(1/z_x − 1/z_o)`, so the soft footprint of a cell is the
 //! projection grown by the light's half extents times `1/z_tri − 1/z_cell`, z_tri the triangle's
-//! nearest depth and z_cell the cell's deepest sample. A cell whose samples are all nearer the
+//! nearest depth and z_cell the cell's deepest sample. Under a sun the grid is orthographic and
+//! the rays parallel within the disk's tangent t, so the projection is grown by t·(z_cell −
+//! z_tri). A cell whose samples are all nearer the
 //! light than the whole triangle is skipped, and so is every cell without samples (work
 //! skipping: only cells holding view samples are visited; a triangle with no pair is culled).
 //!
@@ -312,7 +320,7 @@ mod setup;
 use knobs::COUNTER_WORDS;
 pub use knobs::{IZB, IZB_SOFT};
 pub use params::{
-    grid_map, sample_grid, soft_applicable, soft_item_triangles, spatial_order, IzbParams, IzbPush,
+    grid_map, sample_grid, soft_item_triangles, spatial_order, IzbParams, IzbPush,
     HARD_ITEM_TRIANGLES, ITEM_SAMPLES, SOFT_ITEM_PASSES, SOFT_SAMPLES_PER_INVOCATION,
 };
 

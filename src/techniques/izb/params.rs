@@ -5,9 +5,6 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
 
-use super::IZB_SOFT;
-use crate::error::{Error, Result};
-
 /// The test shaders' workgroup size (`ITEM_SAMPLES` in `glsl/izb/izb.glsl`): one SIMD group on
 /// lavapipe, so a small cell wastes no group on lanes without a sample. A work item takes this
 /// many samples of a cell, one an invocation, or twice as many for `izb-soft`'s batched test
@@ -157,26 +154,6 @@ pub struct IzbPush {
     /// footprint.comp: 0/1 count the pairs of small/large footprints, 2/3 write them.
     /// args.comp: 0 the cells' work items, 1 the totals and dispatch arguments.
     pub phase: u32,
-}
-
-/// Whether `izb-soft` can run under `light`: not under a sun disk (its light samples are points
-/// of an area light). Also what the renderer checks before standing the lit answer in for it.
-pub fn soft_applicable(light: &crate::scene::Light) -> Result<()> {
-    if let crate::scene::Light::Directional {
-        angular_diameter_deg,
-        ..
-    } = *light
-    {
-        if angular_diameter_deg > 0.0 {
-            return Err(Error::NotApplicable {
-                technique: IZB_SOFT.name.to_string(),
-                what: "a sun disk (angular diameter > 0): rect, point and hard directional \
-                       lights only"
-                    .into(),
-            });
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -6,8 +6,8 @@ use glam::{Vec3, Vec4};
 
 use super::knobs::{COUNTER_WORDS, GRID_DEFAULT, SOFT_GRID};
 use super::params::{
-    grid_map, sample_grid, soft_applicable, soft_item_triangles, spatial_order, IzbParams,
-    HARD_ITEM_TRIANGLES, ITEM_SAMPLES, SOFT_SAMPLES_PER_INVOCATION,
+    grid_map, sample_grid, soft_item_triangles, spatial_order, IzbParams, HARD_ITEM_TRIANGLES,
+    ITEM_SAMPLES, SOFT_SAMPLES_PER_INVOCATION,
 };
 use super::{Izb, IZB, IZB_SOFT};
 use crate::error::{Error, Result};
@@ -15,6 +15,9 @@ use crate::gpu::{Binding, Buffer, DescriptorSet, MemoryLocation, Pipeline};
 use crate::kernels::scan::Scan;
 use crate::reference::bvh::scene_scale;
 use crate::reference::{light_encoding, KIND_DIRECTIONAL, KIND_POINT, KIND_RECT};
+
+/// `KIND_SUN` of `glsl/izb/izb.glsl`: `izb-soft` under a sun disk (the reference's kinds are 0-2).
+const KIND_SUN: i32 = 3;
 use crate::scene::Light;
 use crate::techniques::{set_for, Params, TechniqueSetup};
 
@@ -30,16 +33,19 @@ impl<'a> Izb<'a> {
         let capacity = u64::from(params.u32("pair_capacity")?) * 1_000_000;
         let (mut kind, centre, u, v) = light_encoding(setup.light, name)?;
         let extent = u != Vec3::ZERO || v != Vec3::ZERO;
-        if soft {
-            soft_applicable(setup.light)?;
-        }
-        if kind == KIND_DIRECTIONAL && extent {
+        if kind == KIND_DIRECTIONAL && extent && soft {
+            // izb-soft under a sun disk: light samples over the disk of directions.
+            kind = KIND_SUN;
+        } else if kind == KIND_DIRECTIONAL && extent {
             // izb under a sun disk: the hard test from its centre direction.
         } else if kind == KIND_RECT && !(soft && extent) {
             // izb, or a rect of zero extent: a point at the centre.
             kind = KIND_POINT;
         }
-        let (na, nb) = if kind == KIND_RECT {
+        // One ray per sample unless an area light is sampled: izb-soft with a point light, a
+        // hard sun or a rect of zero extent runs izb's test.
+        let sampled = kind == KIND_RECT || kind == KIND_SUN;
+        let (na, nb) = if sampled {
             sample_grid(params.u32("samples")?)
         } else {
             (1, 1)
@@ -53,8 +59,13 @@ impl<'a> Izb<'a> {
             ));
         }
         let view = setup.light_view.view;
-        // The rect's half extents in view space (it lies in the plane z = 0 of its own view).
+        // The rect's half extents in view space (it lies in the plane z = 0 of its own view); a
+        // sun's tangent on both axes (its rays leave a sample within that of the centre's per
+        // unit of depth, whichever way the disk's axes lie in the view).
         let mut half = glam::Vec2::ZERO;
+        if kind == KIND_SUN {
+            half = glam::Vec2::splat(u.length().max(v.length()) * (1.0 + 1e-4));
+        }
         if kind == KIND_RECT {
             for (a, b) in [(0.5, 0.5), (0.5, -0.5), (-0.5, 0.5), (-0.5, -0.5)] {
                 let corner = view.transform_point3(centre + u * a + v * b);
@@ -72,9 +83,6 @@ impl<'a> Izb<'a> {
         let triangles = u32::try_from(setup.indices.len() / 3)
             .map_err(|_| bad("more than 2^32 triangles".into()))?;
         let (w, h) = (setup.view.width, setup.view.height);
-        // One ray per sample unless a rect light is sampled: izb-soft with a point light, a hard
-        // sun or a rect of zero extent runs izb's test.
-        let sampled = kind == KIND_RECT;
         // Triangles eight at a time where a subgroup holds a workgroup of ITEM_SAMPLES and has
         // the operations (the soft test also ORs its lanes' kept triangles).
         let info = ctx.info();
@@ -166,10 +174,7 @@ impl<'a> Izb<'a> {
         let cell_depth = texel_storage("izb cell depths", 4 * cells)?;
         let tri_verts = texel_storage("izb triangle vertices", 48 * tris)?;
         // Only the soft test reads them (one texel otherwise).
-        let tri_bounds = texel_storage(
-            "izb triangle bounds",
-            16 * if kind == KIND_RECT { tris } else { 1 },
-        )?;
+        let tri_bounds = texel_storage("izb triangle bounds", 16 * if sampled { tris } else { 1 })?;
         let tri_indices = ctx.buffer_with(
             "izb triangle indices (spatial order)",
             vk::BufferUsageFlags::STORAGE_BUFFER,

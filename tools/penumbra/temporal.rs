@@ -232,8 +232,8 @@ pub fn run(args: &TemporalArgs) -> anyhow::Result<()> {
                     if s.error.is_some() {
                         continue;
                     }
-                    // A technique that refuses the scene (a sun disk `izb-soft` does not handle, a
-                    // device limit) is a row with its message; the others go on.
+                    // A technique that refuses the scene (a device limit, a pair capacity) is a
+                    // row with its message; the others go on.
                     let frame = match engine.render(&prepared, technique, overrides, args.frames) {
                         Ok(frame) => frame,
                         Err(e) => {

@@ -398,11 +398,27 @@ void test_triangle_sun(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, v
     }
     vec3 e0, e1, e2;
     vec3 band = projected_edges(between, q0, q1, q2, margin, e0, e1, e2);
+    // The least and the most each edge's distance takes over the disk's square [-1, 1]²: a
+    // projection that holds the whole square beyond its band blocks every light sample in front
+    // of the tangent plane, as the loop would decide one by one without a ray; one with the
+    // square wholly outside an edge blocks none.
+    vec3 reach = vec3(abs(e0.x) + abs(e0.y), abs(e1.x) + abs(e1.y), abs(e2.x) + abs(e2.y));
+    vec3 at = vec3(e0.z, e1.z, e2.z);
+    bool shortcut = band.x > 0.0;
+    if (shortcut && any(lessThan(at + reach, -band))) {
+        return;
+    }
+    bool covers = shortcut && smp.all_front && all(greaterThan(at - reach, band));
     for (int wi = 0; wi < P.pattern.w; ++wi) {
         use_word(smp, wi);
         int left = na * nb - 32 * wi;
         uint open = left >= 32 ? 0xFFFFFFFFu : (1u << uint(left)) - 1u;
-        decide_sun(smp, open, 32 * wi, va, vb, vc, lo, hi, h0, h1, h2, h3, tol, e0, e1, e2, band);
+        if (covers) {
+            smp.fresh |= open & ~(smp.bits | smp.behind);
+        } else {
+            decide_sun(smp, open, 32 * wi, va, vb, vc, lo, hi, h0, h1, h2, h3, tol, e0, e1, e2,
+                       band);
+        }
     }
 }
 

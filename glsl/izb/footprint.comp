@@ -63,7 +63,7 @@ Tri setup(uint t, bool keep) {
     if (keep && sampled_light()) {
         // Twice the per-sample check's margins, and a relative one for the rounding of a
         // large reach (a triangle near the light's plane).
-        vec2 reach = spread_depth(tri.zmin, deepest) *
+        vec2 reach = spread_depth(tri.zmin, deepest, P.view.w == KIND_SUN) *
                      ((1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw));
         reach = reach * (1.0 + 1e-5) + 2.0 * CELL_MARGIN;
         tri_bounds[t] = vec4(bmin - reach, bmax + reach);

@@ -93,8 +93,9 @@ bool sampled_light() {
 // orthographic grid within the tangent times z_o - z. The sun's depth is counted down from
 // `deepest` (the deepest binned sample) so that both are positive and fall with depth, and the
 // same relative margins round both outwards.
-float spread_depth(float z, float deepest) {
-    return P.view.w == KIND_SUN ? max(deepest - z, 0.0) : 1.0 / z;
+// (`sun`: the light is KIND_SUN, passed in so the test pass reads the uniform once.)
+float spread_depth(float z, float deepest, bool sun) {
+    return sun ? max(deepest - z, 0.0) : 1.0 / z;
 }
 
 // k for a triangle at depth z_tri and a sample at z_sample: spread_depth's difference, without

@@ -62,9 +62,16 @@ bool half_square_box(vec3 f, out vec2 lo, out vec2 hi) {
 vec3 L_C;
 vec3 L_U;
 vec3 L_V;
-// A sun disk (KIND_SUN) rather than a rect; its rays' extent; the deepest binned sample's depth
-// (izb.glsl, spread_depth).
-bool s_sun;
+// A sun disk (KIND_SUN) rather than a rect: a constant, so each shader carries only its light's
+// code (test_soft_sun.comp and test_soft_sun_batched.comp define SUN_DISK; with the sun's
+// branches compiled into the rect's shader as a uniform flag, its test pass on bunny-rect took
+// 3 % longer, minima of eight interleaved rounds). Then the sun's rays' extent and the deepest
+// binned sample's depth (izb.glsl, spread_depth).
+#ifdef SUN_DISK
+const bool s_sun = true;
+#else
+const bool s_sun = false;
+#endif
 float s_t_far;
 float s_deepest;
 
@@ -161,6 +168,25 @@ vec2 project(Sample smp, vec2 ab, float z) {
     return fma(ab - smp.ab, vec2(smp.origin.w / (smp.origin.w - z)), smp.ab);
 }
 
+// Takes the lowest light sample off `todo` (bits lo_bit.. of the word in use): its bit in the
+// word and its stratum's column and row, without an integer division (a scalar loop over the
+// SIMD lanes on a CPU driver) or a float-to-int conversion (small_int.glsl says why): bit + 1/2
+// lies mid-way between multiples of n_a, far from the f32 product's rounding.
+void next_light_sample(inout uint todo, int lo_bit, out uint mask, out int i, out int j) {
+    int b = findLSB(todo);
+    todo &= todo - 1u;
+    mask = 1u << uint(b);
+    int bit = lo_bit + b;
+    j = small_int((float(bit) + 0.5) * inv_na);
+    i = bit - j * na;
+}
+
+// The projected edges' inward distances (times their L1 lengths) at the point x.
+vec3 edge_distances(vec3 e0, vec3 e1, vec3 e2, vec2 x) {
+    return vec3(fma(e0.x, x.x, fma(e0.y, x.y, e0.z)), fma(e1.x, x.x, fma(e1.y, x.y, e1.z)),
+                fma(e2.x, x.x, fma(e2.y, x.y, e2.z)));
+}
+
 // The light samples of `box` (bits lo_bit.. of the word in use) that no triangle has blocked
 // yet, decided one by one against the triangle (va, vb, vc), whose projection from the sample's
 // ray origin has the edges e0 e1 e2: inward signed distances e.x a + e.y b + e.z, each times its
@@ -172,15 +198,9 @@ void decide_strata(inout Sample smp, uint box, int lo_bit, vec4 va, vec4 vb, vec
     bool shortcut = t.x > 0.0;
     uint todo = box & ~(smp.bits | smp.fresh | smp.behind);
     while (todo != 0u) {
-        int b = findLSB(todo);
-        todo &= todo - 1u;
-        uint mask = 1u << uint(b);
-        int bit = lo_bit + b;
-        // Row and column without an integer division (a scalar loop over the SIMD lanes
-        // on a CPU driver) or a float-to-int conversion (small_int.glsl says why): bit + 1/2
-        // lies mid-way between multiples of n_a, far from the f32 product's rounding.
-        int j = small_int((float(bit) + 0.5) * inv_na);
-        int i = bit - j * na;
+        uint mask;
+        int i, j;
+        next_light_sample(todo, lo_bit, mask, i, j);
         // The reference's light sample, ray and tangent-plane test, to the bit.
         vec2 x = light_cell_point(smp.seed, i, j, na, inv_ab, jittered);
         // Behind the tangent plane: never blocked by anything (the resolve pass leaves it out).
@@ -196,8 +216,7 @@ void decide_strata(inout Sample smp, uint box, int lo_bit, vec4 va, vec4 vb, vec
         // strictly between o and the light): every ray does. The exact ray only in the band
         // between, as an `if` rather than `continue`s: lavapipe skips it when no lane is in the
         // band (this pass 15 % faster on bunny-rect than with the `continue`s).
-        vec3 dist = vec3(fma(e0.x, x.x, fma(e0.y, x.y, e0.z)), fma(e1.x, x.x, fma(e1.y, x.y, e1.z)),
-                         fma(e2.x, x.x, fma(e2.y, x.y, e2.z)));
+        vec3 dist = edge_distances(e0, e1, e2, x);
         // (A NaN distance decides nothing: the ray.)
         bool inside = all(greaterThan(dist, t));
         bool outside = any(lessThan(dist, -t));
@@ -299,12 +318,9 @@ void decide_sun(inout Sample smp, uint open, int lo_bit, vec4 va, vec4 vb, vec4 
     bool shortcut = t.x > 0.0;
     uint todo = open & ~(smp.bits | smp.fresh | smp.behind);
     while (todo != 0u) {
-        int b = findLSB(todo);
-        todo &= todo - 1u;
-        uint mask = 1u << uint(b);
-        int bit = lo_bit + b;
-        int j = small_int((float(bit) + 0.5) * inv_na);
-        int i = bit - j * na;
+        uint mask;
+        int i, j;
+        next_light_sample(todo, lo_bit, mask, i, j);
         vec2 d = concentric(light_cell_point(smp.seed, i, j, na, inv_ab, jittered));
         // Outside the box or a half-plane: no ray hits.
         vec4 side = vec4(fma(h0.y, d.x, fma(h0.z, d.y, h0.x)), fma(h1.y, d.x, fma(h1.z, d.y, h1.x)),
@@ -314,9 +330,7 @@ void decide_sun(inout Sample smp, uint open, int lo_bit, vec4 va, vec4 vb, vec4 
             precise vec3 dir = L_C + L_U * d.x + L_V * d.y;
             bool behind = !smp.all_front && dot3(smp.n, dir) <= 0.0;
             smp.behind |= behind ? mask : 0u;
-            vec3 dist = vec3(fma(e0.x, d.x, fma(e0.y, d.y, e0.z)),
-                             fma(e1.x, d.x, fma(e1.y, d.y, e1.z)),
-                             fma(e2.x, d.x, fma(e2.y, d.y, e2.z)));
+            vec3 dist = edge_distances(e0, e1, e2, d);
             bool inside = all(greaterThan(dist, t));
             bool outside = any(lessThan(dist, -t));
             bool blocked = !behind && shortcut && inside;
@@ -590,7 +604,7 @@ TriSetup tri_setup(vec4 va, vec4 vb, vec4 vc) {
     vec2 gc = every ? vec2(0.0) : grid_coord(qc);
     vec2 grow = vec2(CELL_MARGIN);
     if (!every) {
-        grow += spread_depth(zmin, s_deepest) * (1.0 + 1e-5) * s_spread;
+        grow += spread_depth(zmin, s_deepest, s_sun) * (1.0 + 1e-5) * s_spread;
     }
     const float inf = uintBitsToFloat(0x7F800000u);
     ts.reach = every ? vec4(-inf, -inf, inf, inf)
@@ -659,7 +673,7 @@ Sample load_sample(uint s, bool live) {
     vec3 q = light_space(x.origin.xyz);
     x.every = P.sizes.w != 0u && q.z <= P.light_half.z;
     x.g = x.every ? vec2(0.0) : grid_coord(q);
-    x.spread_z = x.every ? 0.0 : spread_depth(q.z, s_deepest);
+    x.spread_z = x.every ? 0.0 : spread_depth(q.z, s_deepest, s_sun);
     const float inf = uintBitsToFloat(0x7F800000u);
     vec2 shrink = x.spread_z * (1.0 - 1e-5) * s_spread;
     x.reach_lo = x.every ? vec2(inf) : x.g - shrink;
@@ -711,7 +725,6 @@ void main() {
         row_starts |= 16 * na < 32 ? row_starts << uint(16 * na) : 0u;
         row_starts &= one_word ? all_bits : 0u;
         row_bits = na >= 32 ? ~0u : (1u << uint(na)) - 1u;
-        s_sun = P.view.w == KIND_SUN;
         s_t_far = P.pattern_f.z;
         s_deepest = uintBitsToFloat(counters[C_MAX_DEPTH]);
         s_spread = (1.0 + K_MARGIN) * abs(P.light_half.xy * P.grid_map.zw);

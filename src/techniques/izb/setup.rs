@@ -258,11 +258,15 @@ impl<'a> Izb<'a> {
             scatter: pass("izb/scatter.comp")?,
             footprint: pass("izb/footprint.comp")?,
             args_pass: pass("izb/args.comp")?,
-            test: pass(match (sampled, batched) {
-                (true, true) => "izb/test_soft_batched.comp",
-                (true, false) => "izb/test_soft.comp",
-                (false, true) => "izb/test_hard_batched.comp",
-                (false, false) => "izb/test_hard.comp",
+            // A sun disk's test is its own shader (test_soft.glsl's SUN_DISK): the rect's
+            // carries none of its code.
+            test: pass(match (sampled, kind == KIND_SUN, batched) {
+                (true, true, true) => "izb/test_soft_sun_batched.comp",
+                (true, true, false) => "izb/test_soft_sun.comp",
+                (true, false, true) => "izb/test_soft_batched.comp",
+                (true, false, false) => "izb/test_soft.comp",
+                (false, _, true) => "izb/test_hard_batched.comp",
+                (false, _, false) => "izb/test_hard.comp",
             })?,
             resolve: pass("izb/resolve.comp")?,
             scan,

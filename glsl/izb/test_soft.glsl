@@ -17,7 +17,9 @@
 // v d.y, and the triangle is projected from o onto the plane of directions at unit distance
 // along c, in d's coordinates; the concentric map keeps no box of the square a box of the disk,
 // so every open light sample is a candidate, its point d checked against the projection's box
-// before its edges and ray (test_triangle_sun).
+// (or, for a triangle not strictly in front, four half-planes of directions) before its edges
+// and ray, and a projection holding the whole disk blocks them all at once (test_triangle_sun).
+// That code is compiled only into the sun's shaders (SUN_DISK).
 #include "izb.glsl"
 #include "watertight.glsl"
 #include "light_samples.glsl"

@@ -1,8 +1,9 @@
 //! `izb` and `izb-soft` under validation: exactly the ray-cast reference with a point light
-//! (bit for bit), exactly the reference's own light samples with a rect light or a sun disk, the CPU twin's
-//! brute force over every triangle (so no footprint or back-projection ever drops a blocker) and
-//! its binning, error falling with the sample count, monotone in added occluders, and the corner
-//! cases (grazing plane with a coarse grid, thin bars, an empty scene, a scene all in shadow).
+//! (bit for bit), exactly the reference's own light samples with a rect light or a sun disk, the
+//! CPU twin's brute force over every triangle (so no footprint or back-projection ever drops a
+//! blocker) and its binning, error falling with the sample count, monotone in added occluders,
+//! and the corner cases (grazing plane with a coarse grid, thin bars, an empty scene, a scene all
+//! in shadow).
 
 mod common;
 

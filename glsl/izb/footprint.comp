@@ -75,7 +75,8 @@ Tri setup(uint t, bool keep) {
     tri.flat_edges = abs(area) <= 1e-6 * max(size.x * size.x + size.y * size.y, 1e-30);
     vec2 grow = vec2(CELL_MARGIN);
     if (sampled_light()) {
-        float k = max(spread_between(tri.zmin, deepest), 0.0) * (1.0 + K_MARGIN);
+        float k = max(spread_between(tri.zmin, deepest, P.view.w == KIND_SUN), 0.0) *
+                  (1.0 + K_MARGIN);
         grow += k * P.light_half.xy * P.grid_map.zw;
     }
     // Clamped in float first: a far-off projection must not overflow int.
@@ -111,7 +112,8 @@ uint visit(Tri tri, ivec2 xy) {
     }
     vec2 grow = vec2(CELL_MARGIN);
     if (sampled_light()) {
-        float k = max(spread_between(tri.zmin, deepest), 0.0) * (1.0 + K_MARGIN);
+        float k = max(spread_between(tri.zmin, deepest, P.view.w == KIND_SUN), 0.0) *
+                  (1.0 + K_MARGIN);
         grow += k * P.light_half.xy * P.grid_map.zw;
     }
     vec2 lo = vec2(xy) - grow;

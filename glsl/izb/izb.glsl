@@ -5,7 +5,7 @@
 
 struct IzbParams {
     mat4 light_view;   // world -> the light's view space (looking down -z)
-    vec4 light_c;      // point / rect: centre (world); directional, sun: unit vector towards the sun
+    vec4 light_c;      // point / rect: centre (world); directional, sun: unit vector to the sun
     vec4 light_u;      // rect: full edge u (world); sun: tan(angular radius) e1
     vec4 light_v;      // rect: full edge v (world); sun: tan(angular radius) e2
     vec4 grid_map;     // (min.x, min.y, scale.x, scale.y): grid coordinate g = (pi - min) * scale
@@ -92,16 +92,16 @@ bool sampled_light() {
 // extents times 1/z - 1/z_o; a sun's rays are parallel within its tangent, so in the
 // orthographic grid within the tangent times z_o - z. The sun's depth is counted down from
 // `deepest` (the deepest binned sample) so that both are positive and fall with depth, and the
-// same relative margins round both outwards.
-// (`sun`: the light is KIND_SUN, passed in so the test pass reads the uniform once.)
+// same relative margins round both outwards. `sun`: the light is KIND_SUN (a constant in the
+// test pass's shaders).
 float spread_depth(float z, float deepest, bool sun) {
     return sun ? max(deepest - z, 0.0) : 1.0 / z;
 }
 
 // k for a triangle at depth z_tri and a sample at z_sample: spread_depth's difference, without
 // the sun's offset.
-float spread_between(float z_tri, float z_sample) {
-    return P.view.w == KIND_SUN ? z_sample - z_tri : 1.0 / z_tri - 1.0 / z_sample;
+float spread_between(float z_tri, float z_sample, bool sun) {
+    return sun ? z_sample - z_tri : 1.0 / z_tri - 1.0 / z_sample;
 }
 
 #define NOT_BINNED 0xFFFFFFFFu

@@ -183,10 +183,14 @@ void next_light_sample(inout uint todo, int lo_bit, out uint mask, out int i, ou
     i = bit - j * na;
 }
 
-// The projected edges' inward distances (times their L1 lengths) at the point x.
+// An edge's inward distance (times its L1 length) at the point x: e.x x.x + e.y x.y + e.z.
+float edge_distance(vec3 e, vec2 x) {
+    return fma(e.x, x.x, fma(e.y, x.y, e.z));
+}
+
+// The projected triangle's three.
 vec3 edge_distances(vec3 e0, vec3 e1, vec3 e2, vec2 x) {
-    return vec3(fma(e0.x, x.x, fma(e0.y, x.y, e0.z)), fma(e1.x, x.x, fma(e1.y, x.y, e1.z)),
-                fma(e2.x, x.x, fma(e2.y, x.y, e2.z)));
+    return vec3(edge_distance(e0, x), edge_distance(e1, x), edge_distance(e2, x));
 }
 
 // The light samples of `box` (bits lo_bit.. of the word in use) that no triangle has blocked
@@ -311,7 +315,7 @@ void use_word(inout Sample smp, int wi) {
 
 // decide_strata under a sun disk: the open light samples of `open` (bits lo_bit.. of the word in
 // use) whose disk point d lies in the projection's box [lo, hi] and on the inner side of the
-// half-planes h0..h3 (h.x + h.y d.x + h.z d.y >= -tol: the directions that may hit the triangle,
+// half-planes h0..h3 (h.x d.x + h.y d.y + h.z >= -tol: the directions that may hit the triangle,
 // test_triangle_sun), decided against the triangle by the projected edges (in d's coordinates)
 // or the reference's ray along c + u d.x + v d.y, to the bit.
 void decide_sun(inout Sample smp, uint open, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec2 lo,
@@ -325,8 +329,7 @@ void decide_sun(inout Sample smp, uint open, int lo_bit, vec4 va, vec4 vb, vec4 
         next_light_sample(todo, lo_bit, mask, i, j);
         vec2 d = concentric(light_cell_point(smp.seed, i, j, na, inv_ab, jittered));
         // Outside the box or a half-plane: no ray hits.
-        vec4 side = vec4(fma(h0.y, d.x, fma(h0.z, d.y, h0.x)), fma(h1.y, d.x, fma(h1.z, d.y, h1.x)),
-                         fma(h2.y, d.x, fma(h2.z, d.y, h2.x)), fma(h3.y, d.x, fma(h3.z, d.y, h3.x)));
+        vec4 side = vec4(edge_distance(h0, d), edge_distances(h1, h2, h3, d));
         if (all(greaterThanEqual(d, lo)) && all(lessThanEqual(d, hi)) &&
             all(greaterThanEqual(side, -tol))) {
             precise vec3 dir = L_C + L_U * d.x + L_V * d.y;
@@ -348,9 +351,10 @@ void decide_sun(inout Sample smp, uint open, int lo_bit, vec4 va, vec4 vb, vec4 
 }
 
 // The half-plane of directions c + u d.x + v d.y on the positive side of the plane through o
-// with normal f, as (h.x, h.y, h.z): h.x + h.y d.x + h.z d.y = f.(c + u d.x + v d.y).
+// with normal f, in the projected edges' form (edge_distances): h.x d.x + h.y d.y + h.z =
+// f.(c + u d.x + v d.y).
 vec3 direction_half_plane(vec3 f) {
-    return vec3(dot(f, L_C), dot(f, L_U), dot(f, L_V));
+    return vec3(dot(f, L_U), dot(f, L_V), dot(f, L_C));
 }
 
 // Its tolerance: half_square_box's, 10^-4 of the largest value it takes over the disk's square.
@@ -390,7 +394,7 @@ void test_triangle_sun(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, v
         return;
     }
     // Half-planes every direction passes (a projection's box and edges decide), or the four.
-    vec3 h0 = vec3(1.0, 0.0, 0.0);
+    vec3 h0 = vec3(0.0, 0.0, 1.0);
     vec3 h1 = h0;
     vec3 h2 = h0;
     vec3 h3 = h0;
@@ -741,9 +745,9 @@ void main() {
         lane = batch_lane();
         // The item's samples together: their grid bounds and the smallest spread_depth (the
         // deepest), a little smaller still (the per-sample check keeps triangles within 1e-5 of
-        // the sample's depth). A batch none of whose triangles' bounds, shrunk for that depth, meets
-        // them reaches none of the item's samples: its vertices are not fetched (on bunny-rect
-        // 43 % of the batches).
+        // the sample's depth). A batch none of whose triangles' bounds, shrunk for that depth,
+        // meets them reaches none of the item's samples: its vertices are not fetched (on
+        // bunny-rect 43 % of the batches).
         bool open1 = S.live && !S.every;
         bool open2 = S2.live && !S2.every;
         vec2 g_lo = min(open1 ? S.g : vec2(3.0e38), open2 ? S2.g : vec2(3.0e38));

@@ -41,6 +41,7 @@ layout(set = 0, binding = 6) buffer Visible { uint visible_count[]; };
 const int KIND_POINT = 0;
 const int KIND_RECT = 1;
 const int KIND_DIRECTIONAL = 2;
+
 #include "light_samples.glsl"
 
 // Sample of cell (i, j) in [0, 1)^2: jittered by a hash of (pixel seed, cell), or the centre.

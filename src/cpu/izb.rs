@@ -2,16 +2,17 @@
 //! binning of view samples into it, and the visibility every view sample must end with — every
 //! triangle tested against every light sample by brute force, with the reference twin's
 //! watertight test ([`crate::cpu::ray_cast::intersect`]) on the same origins, directions and
-//! light samples (a sun disk's through the concentric map). The GPU tests only the triangles its footprints and back-projections keep, so
-//! equal visibility checks that no pruning step ever drops a blocker.
+//! light samples (a sun disk's through the concentric map). The GPU tests only the triangles its
+//! footprints and back-projections keep, so equal visibility checks that no pruning step ever
+//! drops a blocker.
 //!
 //! Tolerance: visibility is bit for bit (the same f32 arithmetic decides every ray and every
 //! tangent-plane test), but under a sun disk, whose light samples go through `cos` and `sin`
 //! (Rust's and the driver's may differ in the last bit): there a light sample within an ulp of a
-//! triangle's edge may fall the other way, and the tests allow a few pixels one light sample
-//! apart. Cell indices come from a 4×4 matrix product and a division whose
-//! rounding may differ from the GPU's in the last bit, so a sample within one ulp of a cell
-//! border may land in the neighbouring cell: binning counts are compared with a small cap.
+//! triangle's edge may fall the other way, and the tests allow 1 % of the pixels one light
+//! sample apart. Cell indices come from a 4×4 matrix product and a division whose rounding may
+//! differ from the GPU's in the last bit, so a sample within one ulp of a cell border may land in
+//! the neighbouring cell: binning counts are compared with a small cap.
 
 use glam::{Mat4, Vec3, Vec4};
 

@@ -59,8 +59,8 @@ pub struct ReceiverDesc {
     /// saving can be measured.
     pub skip_horizon: bool,
     /// The technique reads the lookup positions (every shadow-map technique); `false` leaves
-    /// `lookup` unwritten — `izb` and `izb-soft` trace from the view samples themselves and
-    /// need only the light's fraction.
+    /// `lookup` a one-texel placeholder, never written — `izb` and `izb-soft` trace from the
+    /// view samples themselves and need only the light's fraction.
     pub lookup: bool,
 }
 
@@ -85,7 +85,8 @@ pub fn texel_world_size(view: &LightView, map_size: u32) -> f32 {
 /// the two passes.
 pub struct Receivers {
     ctx: Context,
-    /// xyz: where the technique looks the sample up; w: 1 to evaluate it, 0 to skip it.
+    /// xyz: where the technique looks the sample up; w: 1 to evaluate it, 0 to skip it (one
+    /// unwritten texel where [`ReceiverDesc::lookup`] is `false`).
     pub lookup: Image,
     /// The light's clipped fraction f per view sample (1 for background).
     pub clip: Image,
@@ -135,10 +136,13 @@ impl Receivers {
         }
         let (w, h) = (view.width, view.height);
         let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
+        // A technique that reads no lookup positions gets a one-texel placeholder for the
+        // binding (prepare.comp never stores to it), not a view-sized image it never reads.
+        let (lw, lh) = if desc.lookup { (w, h) } else { (1, 1) };
         let lookup = Image::new(
             ctx,
             "receiver lookup positions",
-            ImageDesc::new_2d(vk::Format::R32G32B32A32_SFLOAT, w, h, usage),
+            ImageDesc::new_2d(vk::Format::R32G32B32A32_SFLOAT, lw, lh, usage),
         )?;
         let clip = Image::new(
             ctx,

@@ -280,10 +280,12 @@
 //! chosen samples: the mask is the union of what each triangle blocks. Under a sun disk the light
 //! samples are the reference's directions (the same grid taken to the disk by the concentric
 //! map, `c + u·d.x + v·d.y` with `|u| = |v|` the tangent of the angular radius): a triangle is
-//! projected from `o` onto the plane of directions at unit distance along `c`, and each open
-//! light sample whose disk point lies in the projection's box is decided by its edges or the
-//! exact ray (the map bends the square's rows, so no box of strata bounds the candidates: a test
-//! visits every open light sample, where a rect's box visits a few).
+//! projected from `o` onto the plane of directions at unit distance along `c` (or, not strictly
+//! in front of `o`, bounded by four half-planes of directions), and each open light sample whose
+//! disk point lies in that bound is decided by its edges or the exact ray; a projection holding
+//! the whole disk blocks every open light sample at once (the map bends the square's rows, so no
+//! box of strata bounds the candidates: a test visits every open light sample, where a rect's box
+//! visits a few). The sun's test is a shader of its own (`SUN_DISK`).
 //!
 //! **Footprints.** A perspective grid coordinate is `(x/z, y/z)` in the light's view space (z
 //! the depth), mapped onto `grid × grid` cells over the view samples' bounds

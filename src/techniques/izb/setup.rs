@@ -15,11 +15,11 @@ use crate::gpu::{Binding, Buffer, DescriptorSet, MemoryLocation, Pipeline};
 use crate::kernels::scan::Scan;
 use crate::reference::bvh::scene_scale;
 use crate::reference::{light_encoding, KIND_DIRECTIONAL, KIND_POINT, KIND_RECT};
+use crate::scene::Light;
+use crate::techniques::{set_for, Params, TechniqueSetup};
 
 /// `KIND_SUN` of `glsl/izb/izb.glsl`: `izb-soft` under a sun disk (the reference's kinds are 0-2).
 const KIND_SUN: i32 = 3;
-use crate::scene::Light;
-use crate::techniques::{set_for, Params, TechniqueSetup};
 
 impl<'a> Izb<'a> {
     pub(super) fn new(setup: &TechniqueSetup<'a>, params: &Params, soft: bool) -> Result<Izb<'a>> {

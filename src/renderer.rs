@@ -97,6 +97,9 @@ pub enum Retuned {
     Rebuilt,
 }
 
+/// The most rebuilds [`ShadowRenderer::render`] makes for a frame that outgrew its storage.
+const MAX_REBUILDS: usize = 16;
+
 /// One technique built for one prepared scene, ready to render frame after frame.
 pub struct ShadowRenderer<'a> {
     /// The engine's context, which the technique borrows.
@@ -224,7 +227,30 @@ impl<'a> ShadowRenderer<'a> {
 
     /// Renders one frame on penumbra's queue and waits for it; each pass is timed
     /// ([`ShadowRenderer::pass_times`]). Allocates nothing once the first frame has run.
+    ///
+    /// A frame that outgrew storage its knobs size (`izb`'s pairs) is rendered again after the
+    /// technique is rebuilt to hold what it counted ([`ShadowRenderer::grow`]): the knob then
+    /// reads the grown value in [`ShadowRenderer::params`].
     pub fn render(&mut self) -> Result<()> {
+        self.submit()?;
+        // Each rebuild holds what the frame counted, or coarsens what made too much of it
+        // (`izb`'s grid, halved down to its least): a few at most.
+        for _ in 0..MAX_REBUILDS {
+            if !self.grow()? {
+                return Ok(());
+            }
+            self.submit()?;
+        }
+        Err(Error::Parameter {
+            technique: self.info.name.to_string(),
+            message: format!(
+                "the frame still outgrew its storage after {MAX_REBUILDS} rebuilds (knobs now {:?})",
+                self.params.values()
+            ),
+        })
+    }
+
+    fn submit(&mut self) -> Result<()> {
         let view = &self.prepared.view;
         let (receivers, technique, checks) = (self.receivers, &mut self.technique, &self.checks);
         let result = self.ctx.submit(Some(&mut self.timestamps), |rec| {
@@ -232,6 +258,29 @@ impl<'a> ShadowRenderer<'a> {
         });
         self.timed = result.is_ok();
         result
+    }
+
+    /// After a completed frame: when it ran out of storage a knob sizes (`izb`'s
+    /// `pair_capacity`), rebuilds the technique with that knob raised to hold what the frame
+    /// counted, or with a knob that makes less of it (`izb`'s `grid` halved, where the count
+    /// is past what the device can hold), and returns `true` — the frame was wrong and must be
+    /// rendered again. `false` when everything fit. [`ShadowRenderer::render`] calls it itself; after a frame of
+    /// [`ShadowRenderer::record`], call it once the submission has completed. An error, with
+    /// the renderer as it was, when no value of the knob holds the frame on this device.
+    pub fn grow(&mut self) -> Result<bool> {
+        let Some((knob, value)) = self.technique.outgrown()? else {
+            return Ok(false);
+        };
+        let mut overrides: BTreeMap<String, String> = self
+            .params
+            .values()
+            .iter()
+            .map(|(k, v)| (k.clone(), v.to_string()))
+            .collect();
+        overrides.insert(knob.to_string(), value.to_string());
+        let params = self.info.params(&overrides, &self.prepared.defaults)?;
+        *self = ShadowRenderer::new(self.ctx, self.prepared, self.info, params)?;
+        Ok(true)
     }
 
     /// Records one frame into `cmd`, the caller's command buffer, without submitting it. The

@@ -2,8 +2,8 @@
 //! (bit for bit), exactly the reference's own light samples with a rect light or a sun disk, the
 //! CPU twin's brute force over every triangle (so no footprint or back-projection ever drops a
 //! blocker) and its binning, error falling with the sample count, monotone in added occluders,
-//! and the corner cases (grazing plane with a coarse grid, thin bars, an empty scene, a scene all
-//! in shadow).
+//! a frame past its pair capacity grown and rendered again, and the corner cases (grazing plane
+//! with a coarse grid, thin bars, an empty scene, a scene all in shadow).
 
 mod common;
 
@@ -459,6 +459,36 @@ fn empty_and_fully_shadowed_scenes() {
             counter(&f, "lit") + counter(&f, "penumbra"),
             0,
             "{technique}"
+        );
+    }
+    common::assert_clean(&engine.context().validation());
+}
+
+/// A frame that counts more (triangle, cell) pairs than `pair_capacity` holds is rendered again
+/// with room for them: the image of a roomy build bit for bit, the same pairs, the knob grown
+/// in the frame's stats (what the bench's rows show).
+#[test]
+fn pairs_past_the_capacity_grow_it() {
+    let engine = common::engine();
+    let prepared = engine
+        .prepare(&boxes(rect_light(), false))
+        .expect("prepare");
+    for technique in ["izb", "izb-soft"] {
+        let roomy = render(&engine, &prepared, technique, &[]);
+        let pairs = counter(&roomy, "pairs");
+        assert!(pairs > 1, "{technique}: {pairs} pairs");
+        let tight = render(
+            &engine,
+            &prepared,
+            technique,
+            &[("pair_capacity", "0.000001")],
+        );
+        assert_eq!(differ(&format!("{technique}-grown"), &roomy, &tight), 0);
+        assert_eq!(counter(&tight, "pairs"), pairs, "{technique}");
+        let grown = tight.stats.params["pair_capacity"];
+        assert!(
+            grown * 1e6 >= pairs as f64,
+            "{technique}: {grown} for {pairs}"
         );
     }
     common::assert_clean(&engine.context().validation());

@@ -90,6 +90,72 @@ fn the_same_frame_twice_is_bit_identical() {
     common::assert_clean(&engine.context().validation());
 }
 
+/// A caller's command pool, one primary command buffer and a fence: what an application that
+/// records penumbra's frames into its own submissions holds.
+struct CallerCommands {
+    device: ash::Device,
+    queue_family: u32,
+    pool: vk::CommandPool,
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+}
+
+impl CallerCommands {
+    fn new(ctx: &penumbra::gpu::Context) -> CallerCommands {
+        let device = ctx.device().clone();
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(ctx.queue_family())
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let pool = unsafe { device.create_command_pool(&pool_info, None) }.expect("pool");
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        let cmd = unsafe { device.allocate_command_buffers(&alloc) }.expect("cmd")[0];
+        let fence =
+            unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.expect("fence");
+        CallerCommands {
+            device,
+            queue_family: ctx.queue_family(),
+            pool,
+            cmd,
+            fence,
+        }
+    }
+
+    /// Records one frame of `renderer` into the command buffer, submits it on the caller's
+    /// side and waits for it.
+    fn frame(&self, renderer: &mut penumbra::ShadowRenderer<'_>) {
+        let device = &self.device;
+        unsafe {
+            device
+                .begin_command_buffer(self.cmd, &vk::CommandBufferBeginInfo::default())
+                .expect("begin");
+            renderer.record(self.cmd).expect("record");
+            device.end_command_buffer(self.cmd).expect("end");
+            let queue = device.get_device_queue(self.queue_family, 0);
+            let cmds = [self.cmd];
+            let submit = vk::SubmitInfo::default().command_buffers(&cmds);
+            device
+                .queue_submit(queue, &[submit], self.fence)
+                .expect("submit");
+            device
+                .wait_for_fences(&[self.fence], true, u64::MAX)
+                .expect("wait");
+            device.reset_fences(&[self.fence]).expect("reset");
+        }
+    }
+}
+
+impl Drop for CallerCommands {
+    fn drop(&mut self) {
+        unsafe {
+            self.device.destroy_fence(self.fence, None);
+            self.device.destroy_command_pool(self.pool, None);
+        }
+    }
+}
+
 #[test]
 fn a_frame_recorded_into_the_callers_command_buffer_matches_a_submitted_one() {
     let engine = common::engine();
@@ -100,47 +166,63 @@ fn a_frame_recorded_into_the_callers_command_buffer_matches_a_submitted_one() {
         .expect("renderer");
     renderer.render().expect("submitted frame");
     let submitted = renderer.read_visibility().expect("read");
-    let device = ctx.device();
-    let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family());
-    let pool = unsafe { device.create_command_pool(&pool_info, None) }.expect("pool");
-    let alloc = vk::CommandBufferAllocateInfo::default()
-        .command_pool(pool)
-        .level(vk::CommandBufferLevel::PRIMARY)
-        .command_buffer_count(1);
-    let cmd = unsafe { device.allocate_command_buffers(&alloc) }.expect("cmd")[0];
-    let fence =
-        unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.expect("fence");
-    unsafe {
-        device
-            .begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default())
-            .expect("begin");
-        renderer.record(cmd).expect("record");
-        device.end_command_buffer(cmd).expect("end");
-        let queue = device.get_device_queue(ctx.queue_family(), 0);
-        let cmds = [cmd];
-        let submit = vk::SubmitInfo::default().command_buffers(&cmds);
-        device
-            .queue_submit(queue, &[submit], fence)
-            .expect("submit");
-        device
-            .wait_for_fences(&[fence], true, u64::MAX)
-            .expect("wait");
-    }
+    let caller = CallerCommands::new(&ctx);
+    caller.frame(&mut renderer);
     assert!(renderer.pass_times().expect("times").is_empty());
     let recorded = renderer.read_visibility().expect("read");
     assert_eq!(renderer.checks().expect("checks").nan, 0);
-    assert!(
-        submitted
-            .iter()
-            .zip(&recorded)
-            .all(|(a, b)| a.to_bits() == b.to_bits()),
-        "the recorded frame differs from the submitted one"
-    );
-    unsafe {
-        device.destroy_fence(fence, None);
-        device.destroy_command_pool(pool, None);
-    }
+    common::assert_same_bits("recorded-pcss", 96, 64, &submitted, &recorded);
+    drop(caller);
     drop(renderer);
+    drop(prepared);
+    common::assert_clean(&ctx.validation());
+}
+
+/// A recorded frame that outgrew `izb-soft`'s pairs says so, and `grow` rebuilds it with room:
+/// the next recorded frame is the one `render` (which grows by itself) and a roomy renderer
+/// draw, bit for bit.
+#[test]
+fn a_recorded_frame_past_its_pairs_is_grown_by_the_caller() {
+    let engine = common::engine();
+    let ctx = engine.context().clone();
+    let prepared = engine.prepare(&small_scene()).expect("prepare");
+    let tight = knobs(&[("pair_capacity", "0.000001")]);
+    let mut roomy = engine
+        .renderer(&prepared, "izb-soft", &knobs(&[]))
+        .expect("renderer");
+    roomy.render().expect("roomy frame");
+    let expected = roomy.read_visibility().expect("read");
+    let pairs = roomy.counters().expect("counters")["pairs"];
+    assert!(pairs > 1, "the scene must outgrow one pair: {pairs}");
+    drop(roomy);
+
+    let mut submitted = engine
+        .renderer(&prepared, "izb-soft", &tight)
+        .expect("renderer");
+    submitted.render().expect("grown by render");
+    assert!(submitted.params().values()["pair_capacity"] * 1e6 >= pairs as f64);
+    assert_eq!(submitted.counters().expect("counters")["pairs"], pairs);
+    let grown = submitted.read_visibility().expect("read");
+    common::assert_same_bits("grown-by-render", 96, 64, &expected, &grown);
+    drop(submitted);
+
+    let caller = CallerCommands::new(&ctx);
+    let mut recorded = engine
+        .renderer(&prepared, "izb-soft", &tight)
+        .expect("renderer");
+    caller.frame(&mut recorded);
+    let err = recorded
+        .counters()
+        .expect_err("an outgrown frame's counters");
+    assert!(err.to_string().contains("grow"), "{err}");
+    assert!(recorded.grow().expect("grow"));
+    caller.frame(&mut recorded);
+    assert_eq!(recorded.counters().expect("counters")["pairs"], pairs);
+    assert!(!recorded.grow().expect("nothing to grow"));
+    let again = recorded.read_visibility().expect("read");
+    common::assert_same_bits("grown-by-the-caller", 96, 64, &expected, &again);
+    drop(caller);
+    drop(recorded);
     drop(prepared);
     common::assert_clean(&ctx.validation());
 }

@@ -141,6 +141,15 @@ pub trait Technique: Send {
         let _ = params;
         Ok(false)
     }
+
+    /// After a completed frame: the knob that sizes storage the frame ran out of, with the
+    /// value that holds what the frame counted (`izb`'s `pair_capacity` for its pairs), or
+    /// `None` when everything fit. A frame that ran out is wrong, and its counters say so;
+    /// [`crate::ShadowRenderer::render`] rebuilds with the value and renders it again. An error
+    /// when no value of the knob can hold it on this device. The default never runs out.
+    fn outgrown(&self) -> Result<Option<(&'static str, f64)>> {
+        Ok(None)
+    }
 }
 
 /// The knobs that are the rasterizer's dynamic depth bias: retunable on any shadow map.

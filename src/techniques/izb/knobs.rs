@@ -36,20 +36,29 @@ pub(super) const GRID_DEFAULT: u32 = 128;
 /// `izb-soft`'s grid with a sampled light (a rect or a sun disk).
 pub(super) const SOFT_GRID: u32 = 64;
 
+/// The coarsest grid, cells a side.
+pub(super) const MIN_GRID: u32 = 8;
+
 const GRID: Knob = Knob::int(
     "grid",
     "light-space grid cells per side over the view samples' bounds",
     GRID_DEFAULT as f64,
-    8.0,
+    MIN_GRID as f64,
     4096.0,
 );
+/// The most pairs `pair_capacity` (millions) takes (about 1 GB of them).
+pub(super) const MAX_PAIRS: u64 = 256_000_000;
+
 const PAIR_CAPACITY: Knob = Knob::int(
     "pair_capacity",
-    "(triangle, cell) pairs the test pass can hold, millions (4 bytes each)",
+    "(triangle, cell) pairs the test pass holds at first, millions (4 bytes each): a frame \
+     that counts more is rendered again with room for them (up to the device's texel-buffer \
+     limit)",
     4.0,
-    1.0,
-    256.0,
-);
+    1e-6,
+    MAX_PAIRS as f64 / 1e6,
+)
+.real();
 
 const TRIANGLE_BATCH: Knob = Knob::int(
     "triangle_batch",

@@ -301,13 +301,19 @@
 //! light than the whole triangle is skipped, and so is every cell without samples (work
 //! skipping: only cells holding view samples are visited; a triangle with no pair is culled).
 //!
-//! **Limits.** Pairs beyond `pair_capacity` million are not stored: the frame then fails with
-//! a clear error naming the knob rather than return wrong shadows, as it does when lavapipe's
-//! loop limiter (65 535 loop passes per SIMD group and dispatch) cut a pass short. The pairs
-//! and the triangles' vertices (and, in the footprint pass, the cells' counts and depths) are
-//! read through texel views, so `pair_capacity`, three texels a triangle and the grid's cells
-//! must fit the device's `maxTexelBufferElements` (2^27 on lavapipe; 65 536
-//! is all Vulkan guarantees): beyond it creating the technique fails with [`Error::Unsupported`].
+//! **Limits.** Pairs beyond `pair_capacity` million are not stored, and the test pass then runs
+//! nothing. The frame counted them all, though, so [`crate::ShadowRenderer::render`] rebuilds
+//! with room for a quarter more and renders it again ([`Technique::outgrown`]; the bench's rows
+//! show the grown knob): a huge light costs a rebuild, never wrong shadows. The pairs and the
+//! triangles' vertices (and, in the footprint pass, the cells' counts and depths) are read
+//! through texel views, so pairs, three texels a triangle and the grid's cells must fit the
+//! device's `maxTexelBufferElements` (2^27 on lavapipe; 65 536 is all Vulkan guarantees): a
+//! frame counting more pairs than that is rendered again on a grid half as fine, down to 8
+//! cells a side (same result, fewer pairs: bunny-rect's light × 100 counts 138 M on the soft
+//! 64² grid, 36 M on 32²), and a technique whose triangles or cells pass it fails to build
+//! with [`Error::Unsupported`]. A frame cut short by lavapipe's loop limiter (65 535 loop
+//! passes per SIMD group and dispatch) fails with a clear error rather than return wrong
+//! shadows.
 //!
 //! **Counters**: `view_samples`, `samples_binned`, `behind_tangent_plane` (never binned: V = 0),
 //! `cells_used`, `longest_cell` (samples), `pairs` (triangle, cell), `items` (work items of the
@@ -319,7 +325,7 @@ mod knobs;
 mod params;
 mod setup;
 
-use knobs::COUNTER_WORDS;
+use knobs::{COUNTER_WORDS, MAX_PAIRS, MIN_GRID};
 pub use knobs::{IZB, IZB_SOFT};
 pub use params::{
     grid_map, sample_grid, soft_item_triangles, spatial_order, IzbParams, IzbPush,
@@ -349,6 +355,8 @@ struct Izb<'a> {
     cell_scan: ScanBinding,
     pair_scan: ScanBinding,
     item_scan: ScanBinding,
+    /// Cells a side (the `grid` knob resolved).
+    grid: u32,
     cells: u32,
     cell_count: Buffer,
     cell_depth: Buffer,
@@ -443,11 +451,13 @@ impl Technique for Izb<'_> {
             });
         }
         if get("pair_overflow") > 0 {
+            // Only a recorded frame gets here: `ShadowRenderer::render` grows and renders again.
             return Err(Error::Parameter {
                 technique: name.to_string(),
                 message: format!(
-                    "{} (triangle, cell) pairs exceed pair_capacity: raise `pair_capacity` \
-                     (millions) or lower `grid`",
+                    "{} (triangle, cell) pairs exceed pair_capacity: the frame is wrong \
+                     (`ShadowRenderer::grow` rebuilds with room for them; or raise \
+                     `pair_capacity`, millions, or lower `grid`)",
                     get("pairs")
                 ),
             });
@@ -464,5 +474,63 @@ impl Technique for Izb<'_> {
             }
         }
         Ok(out)
+    }
+
+    fn outgrown(&self) -> Result<Option<(&'static str, f64)>> {
+        let words = read_counters(&self.ctx, &self.counters, &COUNTER_WORDS)?;
+        let get = |n: &str| words.iter().find(|(k, _)| k == n).map_or(0, |(_, v)| *v);
+        if get("pair_overflow") == 0 {
+            return Ok(None);
+        }
+        let (pairs, info) = (get("pairs"), self.ctx.info());
+        let limit = u64::from(info.max_texel_buffer_elements);
+        room_for(pairs, limit, self.grid)
+            .map(Some)
+            .ok_or_else(|| Error::Unsupported {
+                device: info.name.clone(),
+                feature: format!(
+                    "{}'s {pairs} (triangle, cell) pairs at the coarsest grid in one texel \
+                     buffer (maxTexelBufferElements is {limit})",
+                    self.name
+                ),
+            })
+    }
+}
+
+/// The knob to rebuild with when a frame counted `pairs` pairs at `grid` cells a side and one
+/// texel view reads at most `limit`: room for a quarter more (so that a light or camera moving
+/// on does not rebuild it frame after frame) within the limit and the knob's range; past the
+/// limit the grid halved, as coarser cells make fewer pairs (a triangle spanning the grid, as
+/// under a huge light, pairs with a quarter as many) and the result is the same — every
+/// (triangle, sample) test still runs, in other cells. `None` at the coarsest grid.
+fn room_for(pairs: u64, limit: u64, grid: u32) -> Option<(&'static str, f64)> {
+    if pairs <= limit {
+        let room = (pairs + pairs / 4).min(limit).min(MAX_PAIRS);
+        Some(("pair_capacity", room as f64 / 1e6))
+    } else if grid / 2 >= MIN_GRID {
+        Some(("grid", f64::from(grid / 2)))
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Room for a quarter more, in whole pairs once the knob's millions are rounded back, never
+    /// past the device's limit; past it the grid halves down to its least, then nothing holds.
+    #[test]
+    fn room_for_grows_then_coarsens() {
+        let limit = 1 << 27;
+        let (knob, millions) = room_for(1_000_001, limit, 64).expect("fits");
+        assert_eq!(knob, "pair_capacity");
+        assert_eq!((millions * 1e6).round() as u64, 1_250_001);
+        let (_, millions) = room_for(limit - 10, limit, 64).expect("fits");
+        assert_eq!((millions * 1e6).round() as u64, limit);
+        assert_eq!(room_for(limit + 1, limit, 64), Some(("grid", 32.0)));
+        assert_eq!(room_for(limit + 1, limit, 17), Some(("grid", 8.0)));
+        assert_eq!(room_for(limit + 1, limit, 15), None);
+        assert_eq!(room_for(limit + 1, limit, MIN_GRID), None);
     }
 }

@@ -4,7 +4,7 @@
 use ash::vk;
 use glam::{Vec3, Vec4};
 
-use super::knobs::{COUNTER_WORDS, GRID_DEFAULT, SOFT_GRID};
+use super::knobs::{COUNTER_WORDS, GRID_DEFAULT, MIN_GRID, SOFT_GRID};
 use super::params::{
     grid_map, sample_grid, soft_item_triangles, spatial_order, IzbParams, HARD_ITEM_TRIANGLES,
     ITEM_SAMPLES, SOFT_SAMPLES_PER_INVOCATION,
@@ -30,7 +30,7 @@ impl<'a> Izb<'a> {
             message,
         };
         let grid_knob = params.u32("grid")?;
-        let capacity = u64::from(params.u32("pair_capacity")?) * 1_000_000;
+        let capacity = (params.get("pair_capacity")? * 1e6).round() as u64;
         let (mut kind, centre, u, v) = light_encoding(setup.light, name)?;
         let extent = u != Vec3::ZERO || v != Vec3::ZERO;
         if kind == KIND_DIRECTIONAL && extent && soft {
@@ -97,7 +97,7 @@ impl<'a> Izb<'a> {
         let grid = match grid_knob {
             0 if sampled => SOFT_GRID,
             0 => GRID_DEFAULT,
-            1..=7 => {
+            g if g < MIN_GRID => {
                 return Err(bad(format!(
                     "grid {grid_knob}: at least 8 cells a side (or 0 for the default)"
                 )))
@@ -273,6 +273,7 @@ impl<'a> Izb<'a> {
             cell_scan,
             pair_scan,
             item_scan,
+            grid,
             cells: cell_len,
             cell_count,
             cell_depth,

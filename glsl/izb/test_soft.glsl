@@ -19,7 +19,8 @@
 // so every open light sample is a candidate, its point d checked against the projection's box
 // (or, for a triangle not strictly in front, four half-planes of directions) before its edges
 // and ray, and a projection holding the whole disk blocks them all at once (test_triangle_sun).
-// That code is compiled only into the sun's shaders (SUN_DISK).
+// That code, in test_soft_sun.glsl, is compiled only into the sun's shaders (SUN_DISK); the
+// per-sample and per-triangle set-up is test_soft_sample.glsl's.
 #include "izb.glsl"
 #include "watertight.glsl"
 #include "light_samples.glsl"
@@ -313,134 +314,9 @@ void use_word(inout Sample smp, int wi) {
     }
 }
 
-// decide_strata under a sun disk: the open light samples of `open` (bits lo_bit.. of the word in
-// use) whose disk point d lies in the projection's box [lo, hi] and on the inner side of the
-// half-planes h0..h3 (h.x d.x + h.y d.y + h.z >= -tol: the directions that may hit the triangle,
-// test_triangle_sun), decided against the triangle by the projected edges (in d's coordinates)
-// or the reference's ray along c + u d.x + v d.y, to the bit.
-void decide_sun(inout Sample smp, uint open, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec2 lo,
-                vec2 hi, vec3 h0, vec3 h1, vec3 h2, vec3 h3, vec4 tol, vec3 e0, vec3 e1,
-                vec3 e2, vec3 t) {
-    bool shortcut = t.x > 0.0;
-    uint todo = open & ~(smp.bits | smp.fresh | smp.behind);
-    while (todo != 0u) {
-        uint mask;
-        int i, j;
-        next_light_sample(todo, lo_bit, mask, i, j);
-        vec2 d = concentric(light_cell_point(smp.seed, i, j, na, inv_ab, jittered));
-        // Outside the box or a half-plane: no ray hits.
-        vec4 side = vec4(edge_distance(h0, d), edge_distances(h1, h2, h3, d));
-        if (all(greaterThanEqual(d, lo)) && all(lessThanEqual(d, hi)) &&
-            all(greaterThanEqual(side, -tol))) {
-            precise vec3 dir = L_C + L_U * d.x + L_V * d.y;
-            bool behind = !smp.all_front && dot3(smp.n, dir) <= 0.0;
-            smp.behind |= behind ? mask : 0u;
-            vec3 dist = edge_distances(e0, e1, e2, d);
-            bool inside = all(greaterThan(dist, t));
-            bool outside = any(lessThan(dist, -t));
-            bool blocked = !behind && shortcut && inside;
-            if (!behind && !(shortcut && (inside || outside))) {
-                Ray r = make_ray(smp.origin.xyz, dir, s_t_far);
-                vec4 w;
-                smp.rays += 1u;
-                blocked = hit_triangle(r, va.xyz, vb.xyz, vc.xyz, w);
-            }
-            smp.fresh |= blocked ? mask : 0u;
-        }
-    }
-}
-
-// The half-plane of directions c + u d.x + v d.y on the positive side of the plane through o
-// with normal f, in the projected edges' form (edge_distances): h.x d.x + h.y d.y + h.z =
-// f.(c + u d.x + v d.y).
-vec3 direction_half_plane(vec3 f) {
-    return vec3(dot(f, L_U), dot(f, L_V), dot(f, L_C));
-}
-
-// Its tolerance: half_square_box's, 10^-4 of the largest value it takes over the disk's square.
-float direction_tolerance(vec3 h) {
-    return 1e-4 * (abs(h.x) + abs(h.y) + abs(h.z));
-}
-
-// test_triangle under a sun disk. The triangle is projected when it lies strictly in front of o
-// along c (every vertex at least 10^-3 z_o nearer the sun, so the projection's rounding stays
-// far inside its margin): its box bounds the candidates and its edges decide most of them.
-// Otherwise (a neighbour of the sample's own surface, mostly) the directions that may hit it
-// are bounded by four half-planes, as a rect's half-squares bound its points: beyond the
-// triangle's plane and inside its three edge planes through o; the candidates inside all four
-// take the exact ray. No box of the square bounds the candidates (the concentric map bends the
-// square's rows), so every open light sample is one: up to n_a n_b passes a test where a rect's
-// box takes a few.
-void test_triangle_sun(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2,
-                       vec3 normal, float light_side, float zmax) {
-    // Not if o lies in the triangle's plane or on the sun's side of it.
-    float side = dot(normal, smp.origin.xyz - va.xyz);
-    if (side == 0.0 || side * light_side > 0.0) {
-        return;
-    }
-    // (A disk too small for its squared axes in f32 has no projection.)
-    bool between = smp.origin.w - zmax > 1e-3 * abs(smp.origin.w) && uu > 0.0 && vv > 0.0;
-    vec2 q0 = project(smp, ab01.xy, va.w);
-    vec2 q1 = project(smp, ab01.zw, vb.w);
-    vec2 q2 = project(smp, ab2, vc.w);
-    vec2 lo = min(q0, min(q1, q2));
-    vec2 hi = max(q0, max(q1, q2));
-    vec2 margin = 1e-3 * (1.0 + max(abs(lo), abs(hi)));
-    const float inf = uintBitsToFloat(0x7F800000u);
-    lo = between ? lo - margin : vec2(-inf);
-    hi = between ? hi + margin : vec2(inf);
-    // The disk lies in [-1, 1]².
-    if (any(greaterThan(lo, vec2(1.0))) || any(lessThan(hi, vec2(-1.0)))) {
-        return;
-    }
-    // Half-planes every direction passes (a projection's box and edges decide), or the four.
-    vec3 h0 = vec3(0.0, 0.0, 1.0);
-    vec3 h1 = h0;
-    vec3 h2 = h0;
-    vec3 h3 = h0;
-    vec4 tol = vec4(0.0);
-    if (!between) {
-        vec3 o = smp.origin.xyz;
-        vec3 c0 = cross(va.xyz - o, vb.xyz - o);
-        vec3 c1 = cross(vb.xyz - o, vc.xyz - o);
-        vec3 c2 = cross(vc.xyz - o, va.xyz - o);
-        float orient = dot(c0, vc.xyz - o);
-        if (orient == 0.0) {
-            return;  // edge-on from o
-        }
-        float sg = orient > 0.0 ? 1.0 : -1.0;
-        h0 = direction_half_plane(side > 0.0 ? -normal : normal);
-        h1 = direction_half_plane(sg * c0);
-        h2 = direction_half_plane(sg * c1);
-        h3 = direction_half_plane(sg * c2);
-        tol = vec4(direction_tolerance(h0), direction_tolerance(h1), direction_tolerance(h2),
-                   direction_tolerance(h3));
-    }
-    vec3 e0, e1, e2;
-    vec3 band = projected_edges(between, q0, q1, q2, margin, e0, e1, e2);
-    // The least and the most each edge's distance takes over the disk's square [-1, 1]²: a
-    // projection that holds the whole square beyond its band blocks every light sample in front
-    // of the tangent plane, as the loop would decide one by one without a ray; one with the
-    // square wholly outside an edge blocks none.
-    vec3 reach = vec3(abs(e0.x) + abs(e0.y), abs(e1.x) + abs(e1.y), abs(e2.x) + abs(e2.y));
-    vec3 at = vec3(e0.z, e1.z, e2.z);
-    bool shortcut = band.x > 0.0;
-    if (shortcut && any(lessThan(at + reach, -band))) {
-        return;
-    }
-    bool covers = shortcut && smp.all_front && all(greaterThan(at - reach, band));
-    for (int wi = 0; wi < P.pattern.w; ++wi) {
-        use_word(smp, wi);
-        int left = na * nb - 32 * wi;
-        uint open = left >= 32 ? 0xFFFFFFFFu : (1u << uint(left)) - 1u;
-        if (covers) {
-            smp.fresh |= open & ~(smp.bits | smp.behind);
-        } else {
-            decide_sun(smp, open, 32 * wi, va, vb, vc, lo, hi, h0, h1, h2, h3, tol, e0, e1, e2,
-                       band);
-        }
-    }
-}
+#ifdef SUN_DISK
+#include "test_soft_sun.glsl"
+#endif
 
 // The sample's test against one triangle: the light samples it blocks go into its mask word
 // state. A function called under the caller's per-sample `if`, not a `continue` of the triangle
@@ -448,10 +324,10 @@ void test_triangle_sun(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, v
 // invocation (a scalar loop over the SIMD lanes) instead of once for all.
 void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2, vec3 normal,
                    float light_side, float zmin, float zmax) {
-    if (s_sun) {
-        test_triangle_sun(smp, va, vb, vc, ab01, ab2, normal, light_side, zmax);
-        return;
-    }
+#ifdef SUN_DISK
+    test_triangle_sun(smp, va, vb, vc, ab01, ab2, normal, light_side, zmax);
+    return;
+#endif
     // Whether the triangle may block any light sample, as a flag and not early returns: on
     // lavapipe a return taken by some lanes leaves every later assignment a masked one (a
     // select against the returned lanes), and all lanes run the common path anyway.
@@ -571,133 +447,7 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
     }
 }
 
-// The light's half extents in grid cells per unit of spread_depth (izb.glsl: a rect's per unit
-// of 1/z, a sun's tangent per unit of depth), grown by K_MARGIN: set once, as each uniform read
-// is bounds-checked on lavapipe (this pass 7-9 % faster on bunny-rect than with the reads in the
-// check: minimum 111.8 -> 101.7 ms, lower quartile 112.1 -> 104.3, six interleaved rounds).
-vec2 s_spread;
-
-// What a triangle's tests need that does not depend on the sample: its plane's normal, the
-// side of that plane the whole light is on (0: it straddles it), and its side of the footprint
-// check (reaches()).
-struct TriSetup {
-    vec3 normal;
-    float light_side;
-    // The footprint check's box: the projected box in grid coordinates (the footprint pass's)
-    // grown by CELL_MARGIN and by the light's spread at the triangle's nearest depth, and that
-    // depth; everything (and -inf) for a vertex at or behind the depth floor, which reaches
-    // every sample.
-    vec4 reach;
-    float zmin;
-};
-
-TriSetup tri_setup(vec4 va, vec4 vb, vec4 vc) {
-    TriSetup ts;
-    ts.normal = cross(vb.xyz - va.xyz, vc.xyz - va.xyz);
-    // A rect's points c + u a + v b, |a|, |b| <= 1/2; a sun's directions c + u d.x + v d.y,
-    // |d| <= 1 (the plane's side of a direction is its sign against the normal).
-    float a = dot(ts.normal, s_sun ? L_C : L_C - va.xyz);
-    float spread = (s_sun ? 1.0 : 0.5) * (abs(dot(ts.normal, L_U)) + abs(dot(ts.normal, L_V)));
-    float tol = 1e-4 * (abs(a) + spread);
-    ts.light_side = a - spread > tol ? 1.0 : (a + spread < -tol ? -1.0 : 0.0);
-    vec3 qa = light_space(va.xyz);
-    vec3 qb = light_space(vb.xyz);
-    vec3 qc = light_space(vc.xyz);
-    float zmin = min(qa.z, min(qb.z, qc.z));
-    bool every = P.sizes.w != 0u && zmin <= P.light_half.z;
-    vec2 ga = every ? vec2(0.0) : grid_coord(qa);
-    vec2 gb = every ? vec2(0.0) : grid_coord(qb);
-    vec2 gc = every ? vec2(0.0) : grid_coord(qc);
-    vec2 grow = vec2(CELL_MARGIN);
-    if (!every) {
-        grow += spread_depth(zmin, s_deepest, s_sun) * (1.0 + 1e-5) * s_spread;
-    }
-    const float inf = uintBitsToFloat(0x7F800000u);
-    ts.reach = every ? vec4(-inf, -inf, inf, inf)
-                     : vec4(min(ga, min(gb, gc)) - grow, max(ga, max(gb, gc)) + grow);
-    ts.zmin = every ? -inf : zmin;
-    return ts;
-}
-
-// The sample x's own footprint check (the footprint pass's, for this sample rather than its
-// cell's deepest one and whole area): a point of the triangle on a ray from o to the light
-// projects within the light's half extents times 1/z - 1/z_o of o's projection (a sun's tangent
-// times z_o - z), and within the triangle's projected box. The triangle's growth by
-// spread_depth(z) and the sample's shrinking by spread_depth(z_o) are each computed once
-// (tri_setup, load_sample), each rounded outwards by 1e-5 of itself, so a pair costs five
-// comparisons. A sample no projection reaches (the overflow cell) keeps every
-// triangle: its bounds are infinite the other way round.
-bool reaches(Sample x, vec4 reach, float zmin) {
-    return zmin <= x.z_limit && all(greaterThanEqual(x.reach_lo, reach.xy)) &&
-           all(lessThanEqual(x.reach_hi, reach.zw));
-}
-
-// Sample s of cell_samples, `live` when the item holds it, with its first mask word read.
-Sample load_sample(uint s, bool live) {
-    Sample x;
-    x.live = live;
-    uint entry = live ? cell_samples[s] : 0u;
-    uint index = entry & LOCAL_INDEX;
-    x.all_front = (entry & ALL_IN_FRONT) != 0u;
-    x.origin = live ? origins[index] : vec4(0.0);
-    x.p = vec3(0.0);
-    x.n = vec3(0.0);
-    if (live && !x.all_front) {
-        ivec2 pixel = ivec2(int(index % uint(P.view.x)), int(index / uint(P.view.x)));
-        x.p = imageLoad(positions, pixel).xyz;
-        x.n = imageLoad(normals, pixel).xyz;
-    }
-    x.seed = pcg(index);
-    x.base = index * uint(P.pattern.w);
-    // The first word now, outside all loops (with up to 32 light samples, the only one).
-    x.word = x.base;
-    x.bits = live ? masks[x.base] : 0u;
-    x.fresh = 0u;
-    x.behind = 0u;
-    x.rays = 0u;
-    x.tests = 0u;
-    // The light samples' quarters, from the reference's hash (light_samples.glsl): the top two
-    // bits of the 24 its jitter takes.
-    x.q_x1 = 0u;
-    x.q_x0 = 0u;
-    x.q_y1 = 0u;
-    x.q_y0 = 0u;
-    if (one_word && jittered && !s_sun) {
-        // All 32, unrolled (a loop's passes cost lavapipe their bookkeeping: with the row
-        // starts' doubling (main), the pass 52.6 -> 51.6 ms minimum on bunny-rect over four
-        // interleaved rounds). Bits past the pattern's are never read: they only meet boxes,
-        // which hold the pattern's bits alone.
-        [[unroll]] for (uint k = 0u; k < 32u; ++k) {
-            uvec2 h = light_cell_hashes(x.seed, k);
-            x.q_x1 |= (h.x >> 31u) << k;
-            x.q_x0 |= ((h.x >> 30u) & 1u) << k;
-            x.q_y1 |= (h.y >> 31u) << k;
-            x.q_y0 |= ((h.y >> 30u) & 1u) << k;
-        }
-    }
-    x.ab = light_ab(x.origin.xyz);
-    vec3 q = light_space(x.origin.xyz);
-    x.every = P.sizes.w != 0u && q.z <= P.light_half.z;
-    x.g = x.every ? vec2(0.0) : grid_coord(q);
-    x.spread_z = x.every ? 0.0 : spread_depth(q.z, s_deepest, s_sun);
-    const float inf = uintBitsToFloat(0x7F800000u);
-    vec2 shrink = x.spread_z * (1.0 - 1e-5) * s_spread;
-    x.reach_lo = x.every ? vec2(inf) : x.g - shrink;
-    x.reach_hi = x.every ? vec2(-inf) : x.g + shrink;
-    x.z_limit = x.every ? inf : q.z * (1.0 + 1e-5);
-    return x;
-}
-
-// The sample's last mask word back, and its counts.
-void finish_sample(Sample x) {
-    if (x.fresh != 0u) {
-        atomicOr(masks[x.word], x.fresh);
-    }
-    if (x.live) {
-        count(C_SAMPLE_TESTS, x.tests);
-        count(C_RAY_TESTS, x.rays);
-    }
-}
+#include "test_soft_sample.glsl"
 
 #ifdef TRIANGLE_BATCH
 #include "test_soft_batch.glsl"

@@ -129,7 +129,7 @@ float spread_between(float z_tri, float z_sample, bool sun) {
 #define C_BEHIND 2
 #define C_CELLS_USED 3
 #define C_LONGEST 4
-#define C_PAIRS 5
+#define C_PAIRS 5          // 64-bit: 5 (lo), C_PAIRS_HIGH (hi)
 #define C_PAIR_OVERFLOW 6
 #define C_CULLED 7
 #define C_LARGE 8
@@ -145,6 +145,8 @@ float spread_between(float z_tri, float z_sample, bool sun) {
 #define C_ITEMS 20
 #define C_BATCH_LANES 21  // batched tests: a workgroup whose lanes are not one subgroup's 0-7
 #define COUNTERS 22
+// Past the invocations' sums (only args.comp adds to it, directly): the pairs' high word.
+#define C_PAIRS_HIGH 22
 
 int grid_size() {
     return P.view.z;

@@ -6,7 +6,7 @@ use crate::reference::RAY_OFFSET;
 use crate::techniques::{Knob, KnobDefault, TechniqueInfo, LIGHT_CLIP};
 
 /// The shader's counter words, in its order (`glsl/izb/izb.glsl`, `C_*`).
-pub(super) const COUNTER_WORDS: [&str; 22] = [
+pub(super) const COUNTER_WORDS: [&str; 23] = [
     "view_samples",
     "samples_binned",
     "behind_tangent_plane",
@@ -29,6 +29,7 @@ pub(super) const COUNTER_WORDS: [&str; 22] = [
     "huge_triangles",
     "items",
     "batch_lanes",
+    "pairs_hi",
 ];
 
 /// `izb`'s grid, cells a side (`izb-soft`'s with one ray a sample).

@@ -458,18 +458,18 @@ impl Technique for Izb<'_> {
                     "{} (triangle, cell) pairs exceed pair_capacity: the frame is wrong \
                      (`ShadowRenderer::grow` rebuilds with room for them; or raise \
                      `pair_capacity`, millions, or lower `grid`)",
-                    get("pairs")
+                    pair_count(&words)
                 ),
             });
         }
         let mut out = Vec::new();
         for (k, v) in &words {
             match k.as_str() {
-                "sample_tests" | "ray_tests" => {
+                "sample_tests" | "ray_tests" | "pairs" => {
                     out.push((k.clone(), v + (get(&format!("{k}_hi")) << 32)));
                 }
-                "sample_tests_hi" | "ray_tests_hi" | "max_depth_bits" | "cut" | "pair_overflow"
-                | "batch_lanes" => {}
+                "sample_tests_hi" | "ray_tests_hi" | "pairs_hi" | "max_depth_bits" | "cut"
+                | "pair_overflow" | "batch_lanes" => {}
                 _ => out.push((k.clone(), *v)),
             }
         }
@@ -482,7 +482,7 @@ impl Technique for Izb<'_> {
         if get("pair_overflow") == 0 {
             return Ok(None);
         }
-        let (pairs, info) = (get("pairs"), self.ctx.info());
+        let (pairs, info) = (pair_count(&words), self.ctx.info());
         let limit = u64::from(info.max_texel_buffer_elements);
         room_for(pairs, limit, self.grid)
             .map(Some)
@@ -495,6 +495,13 @@ impl Technique for Izb<'_> {
                 ),
             })
     }
+}
+
+/// The frame's (triangle, cell) pairs from its counter words: counted in 64 bits, as past 2^32
+/// the scan's 32-bit starts wrap (`glsl/izb/args.comp`).
+fn pair_count(words: &[(String, u64)]) -> u64 {
+    let get = |n: &str| words.iter().find(|(k, _)| k == n).map_or(0, |(_, v)| *v);
+    get("pairs") + (get("pairs_hi") << 32)
 }
 
 /// The knob to rebuild with when a frame counted `pairs` pairs at `grid` cells a side and one

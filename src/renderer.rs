@@ -264,9 +264,10 @@ impl<'a> ShadowRenderer<'a> {
     /// `pair_capacity`), rebuilds the technique with that knob raised to hold what the frame
     /// counted, or with a knob that makes less of it (`izb`'s `grid` halved, where the count
     /// is past what the device can hold), and returns `true` — the frame was wrong and must be
-    /// rendered again. `false` when everything fit. [`ShadowRenderer::render`] calls it itself; after a frame of
-    /// [`ShadowRenderer::record`], call it once the submission has completed. An error, with
-    /// the renderer as it was, when no value of the knob holds the frame on this device.
+    /// rendered again. `false` when everything fit. [`ShadowRenderer::render`] calls it
+    /// itself; after a frame of [`ShadowRenderer::record`], call it once the submission has
+    /// completed. An error, with the renderer as it was, when no value of the knob holds the
+    /// frame on this device.
     pub fn grow(&mut self) -> Result<bool> {
         let Some((knob, value)) = self.technique.outgrown()? else {
             return Ok(false);

@@ -489,8 +489,8 @@ impl Technique for Izb<'_> {
             .ok_or_else(|| Error::Unsupported {
                 device: info.name.clone(),
                 feature: format!(
-                    "{}'s {pairs} (triangle, cell) pairs at the coarsest grid in one texel \
-                     buffer (maxTexelBufferElements is {limit})",
+                    "{}'s {pairs} (triangle, cell) pairs at the coarsest grid: one texel \
+                     buffer holds {limit} (maxTexelBufferElements), `pair_capacity` {MAX_PAIRS}",
                     self.name
                 ),
             })
@@ -506,13 +506,14 @@ fn pair_count(words: &[(String, u64)]) -> u64 {
 
 /// The knob to rebuild with when a frame counted `pairs` pairs at `grid` cells a side and one
 /// texel view reads at most `limit`: room for a quarter more (so that a light or camera moving
-/// on does not rebuild it frame after frame) within the limit and the knob's range; past the
-/// limit the grid halved, as coarser cells make fewer pairs (a triangle spanning the grid, as
-/// under a huge light, pairs with a quarter as many) and the result is the same — every
-/// (triangle, sample) test still runs, in other cells. `None` at the coarsest grid.
+/// on does not rebuild it frame after frame) within the limit and the knob's range; past either
+/// the grid halved, as coarser cells make fewer pairs (a triangle spanning the grid, as under a
+/// huge light, pairs with a quarter as many) and the result is the same — every (triangle,
+/// sample) test still runs, in other cells. `None` at the coarsest grid.
 fn room_for(pairs: u64, limit: u64, grid: u32) -> Option<(&'static str, f64)> {
-    if pairs <= limit {
-        let room = (pairs + pairs / 4).min(limit).min(MAX_PAIRS);
+    let most = limit.min(MAX_PAIRS);
+    if pairs <= most {
+        let room = (pairs + pairs / 4).min(most);
         Some(("pair_capacity", room as f64 / 1e6))
     } else if grid / 2 >= MIN_GRID {
         Some(("grid", f64::from(grid / 2)))
@@ -526,7 +527,8 @@ mod tests {
     use super::*;
 
     /// Room for a quarter more, in whole pairs once the knob's millions are rounded back, never
-    /// past the device's limit; past it the grid halves down to its least, then nothing holds.
+    /// past the device's limit or the knob's most; past them the grid halves down to its
+    /// least, then nothing holds.
     #[test]
     fn room_for_grows_then_coarsens() {
         let limit = 1 << 27;
@@ -539,5 +541,9 @@ mod tests {
         assert_eq!(room_for(limit + 1, limit, 17), Some(("grid", 8.0)));
         assert_eq!(room_for(limit + 1, limit, 15), None);
         assert_eq!(room_for(limit + 1, limit, MIN_GRID), None);
+        // A device whose texel views take more than the knob's most: the knob's most decides.
+        let (_, millions) = room_for(MAX_PAIRS - 1, 1 << 32, 64).expect("fits");
+        assert_eq!((millions * 1e6).round() as u64, MAX_PAIRS);
+        assert_eq!(room_for(MAX_PAIRS + 1, 1 << 32, 64), Some(("grid", 32.0)));
     }
 }

@@ -6,8 +6,8 @@
 //! about a technique's usual accuracy (which the bench measures):
 //! - [`Bound::LikeBaseline`]: the case is the baseline scene transformed in a way that should
 //!   not change the picture (a uniform scale, a wider or tighter depth range — the 1e-3/1e1 one
-//!   may cut the farthest ground — or a larger map): the row's MAE may exceed the same
-//!   technique's MAE on the baseline by at most `slack`.
+//!   may cut the farthest ground — a larger map, or storage too small that the technique grows):
+//!   the row's MAE may exceed the same technique's MAE on the baseline by at most `slack`.
 //! - [`Bound::Mae`]: the truth is trivial (nothing casts, everything in umbra, the light below
 //!   every receiver) or the case is a known hard one: MAE at most the figure.
 //! - [`Bound::Rejected`]: the input is invalid; the engine must refuse it with an error whose
@@ -556,6 +556,17 @@ pub fn cases() -> Vec<Case> {
                 })
             },
             bound: |_| Bound::Mae(0.05),
+        },
+        Case {
+            name: "pairs-too-few",
+            summary:
+                "an irregular z-buffer's (triangle, cell) pair storage of one pair: the frame \
+                      counts its pairs, and is rendered again with room for them",
+            quick: true,
+            scene: baseline,
+            knobs: |t| matches!(t, "izb" | "izb-soft").then(|| vec![("pair_capacity", "0.000001")]),
+            // The same image as with room to spare: the baseline's error exactly.
+            bound: |_| Bound::LikeBaseline { slack: 0.0 },
         },
     ]
 }

@@ -18,7 +18,10 @@
 //! 3. [`Engine::renderer_for`] builds one technique ([`TechniqueDesc`]: a [`TechniqueKind`] and
 //!    typed knobs checked as they are set) into a [`ShadowRenderer`] that lives across frames.
 //! 4. Each frame, [`ShadowRenderer::render`] submits and waits (timed per pass), or
-//!    [`ShadowRenderer::record`] records into the caller's command buffer.
+//!    [`ShadowRenderer::record`] records into the caller's command buffer. A frame that outgrew
+//!    storage a knob sizes (`izb`'s pairs under a huge light) is rebuilt and rendered again by
+//!    `render`; after a recorded frame, [`ShadowRenderer::grow`] says whether to record it
+//!    again.
 //!
 //! # Ownership
 //!

@@ -215,7 +215,8 @@ fn render(host: &mut Host, scene: &Scene, frames: u32, out: &Path) -> Result<Rep
     let (technique, mut renderer) = chosen.ok_or("no soft technique runs on this device")?;
 
     let mut bad_values = 0;
-    for _ in 0..frames {
+    let mut frame = 0;
+    while frame < frames {
         begin(host, cmd)?;
         record_gbuffer(
             host,
@@ -288,8 +289,14 @@ fn render(host: &mut Host, scene: &Scene, frames: u32, out: &Path) -> Result<Rep
             );
         }
         submit(host, cmd)?;
+        // A technique whose storage this frame outgrew (`izb`'s pairs, under a huge light) is
+        // rebuilt with room for it: the frame was wrong, so it is recorded again.
+        if renderer.grow()? {
+            continue;
+        }
         let checks = renderer.checks()?;
         bad_values = checks.nan + checks.inf + checks.out_of_range;
+        frame += 1;
     }
     // penumbra goes first; the engine's device lives on.
     drop(renderer);

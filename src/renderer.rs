@@ -106,7 +106,11 @@ pub struct ShadowRenderer<'a> {
     ctx: &'a Context,
     prepared: &'a PreparedScene,
     info: &'static TechniqueInfo,
+    /// The knobs it is built with.
     params: Params,
+    /// The knobs asked for: `params` but where a frame grew storage ([`ShadowRenderer::grow`]),
+    /// so that asking for the same knobs again changes nothing.
+    requested: Params,
     /// Whether `technique` is `hard` standing in for `info` ([`hard_path`]).
     hard_path: bool,
     /// Whether `technique` is the lit answer standing in for `info`: no triangle can cast into
@@ -212,6 +216,7 @@ impl<'a> ShadowRenderer<'a> {
             ctx,
             prepared,
             info: reported,
+            requested: reported_params.clone(),
             params: reported_params,
             hard_path,
             caster_skip,
@@ -280,7 +285,9 @@ impl<'a> ShadowRenderer<'a> {
             .collect();
         overrides.insert(knob.to_string(), value.to_string());
         let params = self.info.params(&overrides, &self.prepared.defaults)?;
+        let requested = self.requested.clone();
         *self = ShadowRenderer::new(self.ctx, self.prepared, self.info, params)?;
+        self.requested = requested;
         Ok(true)
     }
 
@@ -367,12 +374,14 @@ impl<'a> ShadowRenderer<'a> {
     /// fails) the renderer keeps its previous knobs and state.
     pub fn set_knobs(&mut self, overrides: &BTreeMap<String, String>) -> Result<Retuned> {
         let params = self.info.params(overrides, &self.prepared.defaults)?;
-        if params.values() == self.params.values() {
+        // The knobs asked for before, whatever storage frames grew since: nothing to do.
+        if params.values() == self.requested.values() {
             return Ok(Retuned::Unchanged);
         }
         // A knob the receivers depend on is never retunable, so an in-place change keeps them.
         // A stand-in (`hard`, the lit answer) was built from other knobs: rebuild.
         if !self.hard_path && !self.caster_skip && self.technique.retune(&params)? {
+            self.requested = params.clone();
             self.params = params;
             return Ok(Retuned::InPlace);
         }
@@ -402,7 +411,8 @@ impl<'a> ShadowRenderer<'a> {
         self.info
     }
 
-    /// Its resolved knobs.
+    /// Its resolved knobs, as built: where a frame outgrew storage, the grown value
+    /// ([`ShadowRenderer::grow`]).
     pub fn params(&self) -> &Params {
         &self.params
     }

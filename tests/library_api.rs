@@ -221,6 +221,14 @@ fn a_recorded_frame_past_its_pairs_is_grown_by_the_caller() {
     assert!(!recorded.grow().expect("nothing to grow"));
     let again = recorded.read_visibility().expect("read");
     common::assert_same_bits("grown-by-the-caller", 96, 64, &expected, &again);
+    // Asking for the knobs it was built from again keeps the grown storage.
+    let grown = recorded.params().values()["pair_capacity"];
+    let retuned = recorded.set_knobs(&tight).expect("the same knobs");
+    assert!(
+        matches!(retuned, penumbra::Retuned::Unchanged),
+        "{retuned:?}"
+    );
+    assert_eq!(recorded.params().values()["pair_capacity"], grown);
     drop(caller);
     drop(recorded);
     drop(prepared);

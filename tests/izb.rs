@@ -466,17 +466,37 @@ fn empty_and_fully_shadowed_scenes() {
 
 /// A frame that counts more (triangle, cell) pairs than `pair_capacity` holds is rendered again
 /// with room for them: the image of a roomy build bit for bit, the same pairs, the knob grown
-/// in the frame's stats (what the bench's rows show).
+/// in the frame's stats (what the bench's rows show). The count is the cells' lists' total.
 #[test]
 fn pairs_past_the_capacity_grow_it() {
     let engine = common::engine();
     let prepared = engine
         .prepare(&boxes(rect_light(), false))
         .expect("prepare");
+    let ctx = engine.context().clone();
     for technique in ["izb", "izb-soft"] {
-        let roomy = render(&engine, &prepared, technique, &[]);
+        // The pairs counted (in 64 bits, per invocation of the args pass) are the cells' lists'.
+        let mut listed = 0u64;
+        let roomy = engine
+            .render_inspect(&prepared, technique, &common::knobs(&[]), 1, |t| {
+                let (_, cells) = t
+                    .buffers()
+                    .into_iter()
+                    .find(|(n, _)| *n == "cell_triangles")
+                    .expect("izb's cell_triangles");
+                listed = penumbra::gpu::u32s(&ctx.read_buffer(cells)?)
+                    .iter()
+                    .map(|&n| u64::from(n))
+                    .sum();
+                Ok(())
+            })
+            .expect(technique);
         let pairs = counter(&roomy, "pairs");
         assert!(pairs > 1, "{technique}: {pairs} pairs");
+        assert_eq!(
+            listed, pairs,
+            "{technique}: the cells' lists against the count"
+        );
         let tight = render(
             &engine,
             &prepared,

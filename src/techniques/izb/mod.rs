@@ -476,6 +476,11 @@ impl Technique for Izb<'_> {
         Ok(out)
     }
 
+    fn buffers(&self) -> Vec<(&'static str, &Buffer)> {
+        // Per cell: its (triangle, cell) pairs, whose total the frame's `pairs` counts.
+        vec![("cell_triangles", &self.cell_tris)]
+    }
+
     fn outgrown(&self) -> Result<Option<(&'static str, f64)>> {
         let words = read_counters(&self.ctx, &self.counters, &COUNTER_WORDS)?;
         let get = |n: &str| words.iter().find(|(k, _)| k == n).map_or(0, |(_, v)| *v);

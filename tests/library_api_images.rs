@@ -6,7 +6,7 @@ mod common;
 
 use ash::vk;
 use glam::Vec4;
-use penumbra::engine::count_bad;
+use penumbra::cpu::visibility_checks::count_bad;
 use penumbra::gpu::{Image, ImageDesc};
 use penumbra::passes::{ViewSamples, VisibilityChecks};
 use penumbra::{Engine, Error};

@@ -91,7 +91,10 @@ fn bad_values_are_counted_by_kind_on_view_samples_only() {
     let v = [0.5, f32::NAN, f32::INFINITY, -0.1, 1.5, f32::NAN, 1.0];
     let w = [1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0];
     let positions: Vec<Vec4> = w.iter().map(|&w| Vec4::new(0.0, 0.0, 0.0, w)).collect();
-    assert_eq!(penumbra::engine::count_bad(&v, &positions), (1, 1, 2));
+    assert_eq!(
+        penumbra::cpu::visibility_checks::count_bad(&v, &positions),
+        (1, 1, 2)
+    );
 }
 
 #[test]

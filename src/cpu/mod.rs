@@ -46,4 +46,5 @@ pub mod sort;
 #[cfg(test)]
 pub(crate) mod test_support;
 pub mod view_samples;
+pub mod visibility_checks;
 pub mod vssm;

@@ -18,7 +18,8 @@ pub mod cases;
 
 use std::collections::BTreeMap;
 
-use crate::engine::{count_bad, Engine, Frame};
+use crate::cpu::visibility_checks::count_bad;
+use crate::engine::{Engine, Frame};
 use crate::evaluate::{reference_frame, ViewData};
 use crate::metrics;
 use crate::Result;

@@ -1,5 +1,5 @@
 //! CPU twin of the visibility checks (`glsl/visibility_checks/count.comp`,
-//! [`crate::passes::visibility_checks`]): the view samples whose visibility is NaN, infinite, or
+//! [`crate::passes::VisibilityChecks`]): the view samples whose visibility is NaN, infinite, or
 //! finite but outside [0, 1].
 
 use glam::Vec4;

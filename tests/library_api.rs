@@ -179,8 +179,8 @@ fn a_frame_recorded_into_the_callers_command_buffer_matches_a_submitted_one() {
 }
 
 /// A recorded frame that outgrew `izb-soft`'s pairs says so, and `grow` rebuilds it with room:
-/// the next recorded frame is the one `render` (which grows by itself) and a roomy renderer
-/// draw, bit for bit.
+/// the next recorded frame equals, bit for bit, what a roomy renderer draws and what `render`
+/// (which grows by itself) draws; setting the same knobs again keeps the grown storage.
 #[test]
 fn a_recorded_frame_past_its_pairs_is_grown_by_the_caller() {
     let engine = common::engine();

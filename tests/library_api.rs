@@ -2,8 +2,8 @@
 //! renders the same frame bit for bit, records into the caller's command buffer under
 //! synchronization validation, grows a recorded frame past its storage when the caller asks,
 //! applies knob changes in place or by a rebuild as a fresh renderer would, takes the hard path
-//! when asked, and crosses threads (the caller's images and the GPU's
-//! visibility checks: `tests/library_api_images.rs`).
+//! when asked, and crosses threads (the caller's images and the GPU's visibility checks:
+//! `tests/library_api_images.rs`).
 
 mod common;
 

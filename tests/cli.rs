@@ -115,7 +115,8 @@ fn render_writes_every_file_with_clean_stats() {
 
 /// A frame that left pages out for want of room says so, with the knob that gives more: bins of
 /// 4 entries a triangle or 32 a slot overflow on the lattice's long bars (pvssm's lattice test),
-/// and a pool of 64 pages holds few of its requests.
+/// and a pool of 64 pages holds few of its requests. A frame that outgrew `izb`'s pairs says
+/// with what it was rendered again.
 #[test]
 fn render_notes_pages_left_out_for_want_of_room() {
     let dir = out_dir("capacity-notes");
@@ -149,6 +150,14 @@ fn render_notes_pages_left_out_for_want_of_room() {
     // A frame of pages with room for all of them says nothing of it.
     let err = render("scenes/spot-point.toml", "pvssm", "pool_pages=1024");
     assert!(!err.contains("note:"), "{err}");
+    // Storage a frame outgrew and was rebuilt for: the knob as built, beside the one asked for.
+    let err = render("plane-boxes", "izb", "pair_capacity=0.000001");
+    assert!(
+        err.contains("outgrew its storage")
+            && err.contains("pair_capacity = ")
+            && err.contains("(asked 0.000001)"),
+        "no note of the grown pairs: {err}"
+    );
 }
 
 #[test]

@@ -111,6 +111,9 @@ pub(crate) fn render(
         frames,
         cache_dir.as_deref(),
     )?;
+    // What was asked for, beside what was built: they differ where a frame outgrew a knob's
+    // storage (`izb`'s pairs).
+    let asked = penumbra::techniques::find(technique)?.params(&overrides, &prepared.defaults)?;
     bar.inc(1);
     bar.set_message(format!("writing {}", out.display()));
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
@@ -240,7 +243,30 @@ pub(crate) fn render(
     for note in capacity_notes(&frame.stats.counters) {
         eprintln!("note: {note}");
     }
+    if let Some(note) = grown_note(asked.values(), &frame.stats.params) {
+        eprintln!("note: {note}");
+    }
     finish_validation(!device.no_validation, &ctx.validation(), out)
+}
+
+/// The knobs whose built value differs from the one asked for: storage a frame outgrew, which
+/// the renderer rebuilt with room for it and rendered again (`ShadowRenderer::grow`); `None`
+/// when every knob is as asked.
+fn grown_note(
+    asked: &std::collections::BTreeMap<String, f64>,
+    built: &std::collections::BTreeMap<String, f64>,
+) -> Option<String> {
+    let grown: Vec<String> = built
+        .iter()
+        .filter(|(k, v)| asked.get(*k).is_some_and(|a| a != *v))
+        .map(|(k, v)| format!("{k} = {v} (asked {})", asked[k]))
+        .collect();
+    (!grown.is_empty()).then(|| {
+        format!(
+            "the frame outgrew its storage and was rendered again with {}",
+            grown.join(", ")
+        )
+    })
 }
 
 /// What a frame left out for want of room, from its counters, each with the knob that gives

@@ -249,7 +249,8 @@ impl<'a> ShadowRenderer<'a> {
         Err(Error::Parameter {
             technique: self.info.name.to_string(),
             message: format!(
-                "the frame still outgrew its storage after {MAX_REBUILDS} rebuilds (knobs now {:?})",
+                "the frame still outgrew its storage after {MAX_REBUILDS} rebuilds \
+                 (knobs now {:?})",
                 self.params.values()
             ),
         })

@@ -479,12 +479,7 @@ fn pairs_past_the_capacity_grow_it() {
         let mut listed = 0u64;
         let roomy = engine
             .render_inspect(&prepared, technique, &common::knobs(&[]), 1, |t| {
-                let (_, cells) = t
-                    .buffers()
-                    .into_iter()
-                    .find(|(n, _)| *n == "cell_triangles")
-                    .expect("izb's cell_triangles");
-                listed = penumbra::gpu::u32s(&ctx.read_buffer(cells)?)
+                listed = common::read_named_words(&ctx, t, "cell_triangles")?
                     .iter()
                     .map(|&n| u64::from(n))
                     .sum();

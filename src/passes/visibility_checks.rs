@@ -1,7 +1,8 @@
 //! Visibility checks on the GPU: how many view samples' visibility is NaN, infinite, or finite
 //! but outside [0, 1], counted by a compute pass (`glsl/visibility_checks/count.comp`) into a
 //! 12-byte buffer, so a frame's health costs a dispatch and a 12-byte read instead of reading the
-//! whole visibility and positions images back. The CPU twin is [`crate::cpu::visibility_checks::count_bad`].
+//! whole visibility and positions images back. The CPU twin is
+//! [`crate::cpu::visibility_checks::count_bad`].
 
 use crate::error::Result;
 use crate::gpu::{u32s, Binding, Buffer, Context, DescriptorSet, Image, Pipeline, Recorder};

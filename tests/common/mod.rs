@@ -437,6 +437,16 @@ pub fn read_named_buffer(
     Ok(penumbra::gpu::f32s(&ctx.read_buffer(buffer)?))
 }
 
+/// A technique's intermediate buffer (`Technique::buffers`) read back by name as 32-bit words.
+pub fn read_named_words(
+    ctx: &Context,
+    technique: &dyn penumbra::techniques::Technique,
+    name: &str,
+) -> penumbra::Result<Vec<u32>> {
+    let buffer = named(technique.buffers(), "buffer", name);
+    Ok(penumbra::gpu::u32s(&ctx.read_buffer(buffer)?))
+}
+
 /// The caster test (`glsl/caster_cull/`) bound to `prepared`'s view samples and triangles at the
 /// reference's tolerance, with that tolerance and the CPU twin's tile bounds of the same samples
 /// (read back): what the caster tests compare.

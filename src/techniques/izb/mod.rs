@@ -359,9 +359,9 @@ struct Izb<'a> {
     cell_scan: ScanBinding,
     pair_scan: ScanBinding,
     item_scan: ScanBinding,
-    /// Cells a side (the `grid` knob resolved).
+    /// Cells a side (the `grid` knob resolved); the grid's cells and the overflow cell are
+    /// `grid² + 1`.
     grid: u32,
-    cells: u32,
     cell_count: Buffer,
     cell_depth: Buffer,
     tri_cells: Buffer,
@@ -415,7 +415,12 @@ impl Technique for Izb<'_> {
             }
             self.scan
                 .record(rec, &self.pair_scan, ScanKind::Exclusive)?;
-            run(rec, &self.args_pass, 0, [self.cells.min(64 * 1024), 1, 1])?;
+            run(
+                rec,
+                &self.args_pass,
+                0,
+                [(self.grid * self.grid + 1).min(64 * 1024), 1, 1],
+            )?;
             self.scan
                 .record(rec, &self.item_scan, ScanKind::Exclusive)?;
             if self.triangles > 0 {
@@ -432,7 +437,7 @@ impl Technique for Izb<'_> {
 
     fn counters(&self) -> Result<Vec<(String, u64)>> {
         let words = read_counters(&self.ctx, &self.counters, &COUNTER_WORDS)?;
-        let get = |n: &str| words.iter().find(|(k, _)| k == n).map_or(0, |(_, v)| *v);
+        let get = |n: &str| word(&words, n);
         let name = self.name;
         if get("cut") > 0 {
             return Err(Error::Shader {
@@ -487,7 +492,7 @@ impl Technique for Izb<'_> {
 
     fn outgrown(&self) -> Result<Option<(&'static str, f64)>> {
         let words = read_counters(&self.ctx, &self.counters, &COUNTER_WORDS)?;
-        let get = |n: &str| words.iter().find(|(k, _)| k == n).map_or(0, |(_, v)| *v);
+        let get = |n: &str| word(&words, n);
         if get("pair_overflow") == 0 {
             return Ok(None);
         }
@@ -506,11 +511,15 @@ impl Technique for Izb<'_> {
     }
 }
 
+/// Counter word `name` of a frame's words (0 where there is none).
+fn word(words: &[(String, u64)], name: &str) -> u64 {
+    words.iter().find(|(k, _)| k == name).map_or(0, |(_, v)| *v)
+}
+
 /// The frame's (triangle, cell) pairs from its counter words: counted in 64 bits, as past 2^32
 /// the scan's 32-bit starts wrap (`glsl/izb/args.comp`).
 fn pair_count(words: &[(String, u64)]) -> u64 {
-    let get = |n: &str| words.iter().find(|(k, _)| k == n).map_or(0, |(_, v)| *v);
-    get("pairs") + (get("pairs_hi") << 32)
+    word(words, "pairs") + (word(words, "pairs_hi") << 32)
 }
 
 /// The knob to rebuild with when a frame counted `pairs` pairs at `grid` cells a side and one

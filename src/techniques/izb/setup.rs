@@ -274,7 +274,6 @@ impl<'a> Izb<'a> {
             pair_scan,
             item_scan,
             grid,
-            cells: cell_len,
             cell_count,
             cell_depth,
             tri_cells,

@@ -15,9 +15,10 @@
 // triangle's plane, inside each edge's plane through o. Under a sun disk (KIND_SUN) the light
 // samples are directions, the concentric map's points d of the unit disk taken to c + u d.x +
 // v d.y, and the triangle is projected from o onto the plane of directions at unit distance
-// along c, in d's coordinates; the concentric map keeps no box of the square a box of the disk,
-// so every open light sample is a candidate, its point d checked against the projection's box
-// (or, for a triangle not strictly in front, four half-planes of directions) before its edges
+// along c, in d's coordinates; the concentric map bends the square's rows, so the candidates are
+// the strata of the square's box that holds every point the map takes into the projection's box
+// (or the four half-planes' box, for a triangle not strictly in front: disk_strata.glsl), each
+// open one's point d checked against the projection's box (or the half-planes) before its edges
 // and ray, and a projection holding the whole disk blocks them all at once (test_triangle_sun).
 // That code, in test_soft_sun.glsl, is compiled only into the sun's shaders (SUN_DISK); the
 // per-sample and per-triangle set-up is test_soft_sample.glsl's.
@@ -314,7 +315,24 @@ void use_word(inout Sample smp, int wi) {
     }
 }
 
+// The bits, in the mask word of bits lo_bit..lo_bit + 31, of the strata c0..c1 (columns c0.x..c1.x
+// of rows c0.y..c1.y).
+uint strata_bits(ivec2 c0, ivec2 c1, int lo_bit) {
+    int row0 = small_int((float(lo_bit) + 0.5) * inv_na);
+    int row1 = small_int((float(lo_bit + 31) + 0.5) * inv_na);
+    uint box = 0u;
+    for (int j = max(c0.y, row0); j <= min(c1.y, row1); ++j) {
+        int b0 = max(j * na + c0.x, lo_bit) - lo_bit;
+        int b1 = min(j * na + c1.x, lo_bit + 31) - lo_bit;
+        if (b0 <= b1) {
+            box |= ((2u << uint(b1 - b0)) - 1u) << uint(b0);
+        }
+    }
+    return box;
+}
+
 #ifdef SUN_DISK
+#include "disk_strata.glsl"
 #include "test_soft_sun.glsl"
 #endif
 
@@ -433,17 +451,7 @@ void test_triangle(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 
     for (int wi = first / 32; wi <= last / 32; ++wi) {
         use_word(smp, wi);
         int lo_bit = wi * 32;
-        int row0 = small_int((float(lo_bit) + 0.5) * inv_na);
-        int row1 = small_int((float(lo_bit + 31) + 0.5) * inv_na);
-        uint box = 0u;
-        for (int j = max(c0.y, row0); j <= min(c1.y, row1); ++j) {
-            int b0 = max(j * na + c0.x, lo_bit) - lo_bit;
-            int b1 = min(j * na + c1.x, lo_bit + 31) - lo_bit;
-            if (b0 <= b1) {
-                box |= ((2u << uint(b1 - b0)) - 1u) << uint(b0);
-            }
-        }
-        decide_strata(smp, box, lo_bit, va, vb, vc, e0, e1, e2, band);
+        decide_strata(smp, strata_bits(c0, c1, lo_bit), lo_bit, va, vb, vc, e0, e1, e2, band);
     }
 }
 

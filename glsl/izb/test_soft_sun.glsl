@@ -59,9 +59,11 @@ float direction_tolerance(vec3 h) {
 // Otherwise (a neighbour of the sample's own surface, mostly) the directions that may hit it
 // are bounded by four half-planes, as a rect's half-squares bound its points: beyond the
 // triangle's plane and inside its three edge planes through o; the candidates inside all four
-// take the exact ray. No box of the square bounds the candidates (the concentric map bends the
-// square's rows), so every open light sample is one: up to n_a n_b passes a test where a rect's
-// box takes a few.
+// take the exact ray. The concentric map bends the square's rows, so the box of the disk (the
+// projection's, or the half-planes') is no box of strata: the candidates are the strata of the
+// square's box that holds every point the map takes into it (disk_strata.glsl), and only the
+// mask words of their rows are read (the test pass on the CAD part, minima of interleaved
+// rounds: 184 -> 106 ms at 1024 samples, 26.7 -> 17.5 at 128, 10.3 -> 8.4 at 32).
 void test_triangle_sun(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, vec2 ab2,
                        vec3 normal, float light_side, float zmax) {
     // Not if o lies in the triangle's plane or on the sun's side of it.
@@ -120,15 +122,43 @@ void test_triangle_sun(inout Sample smp, vec4 va, vec4 vb, vec4 vc, vec4 ab01, v
         return;
     }
     bool covers = shortcut && smp.all_front && all(greaterThan(at - reach, band));
-    for (int wi = 0; wi < P.pattern.w; ++wi) {
-        use_word(smp, wi);
-        int left = na * nb - 32 * wi;
-        uint open = left >= 32 ? 0xFFFFFFFFu : (1u << uint(left)) - 1u;
-        if (covers) {
+    if (covers) {
+        for (int wi = 0; wi < P.pattern.w; ++wi) {
+            use_word(smp, wi);
+            int left = na * nb - 32 * wi;
+            uint open = left >= 32 ? 0xFFFFFFFFu : (1u << uint(left)) - 1u;
             smp.fresh |= open & ~(smp.bits | smp.behind);
-        } else {
-            decide_sun(smp, open, 32 * wi, va, vb, vc, lo, hi, h0, h1, h2, h3, tol, e0, e1, e2,
-                       band);
         }
+        return;
+    }
+    // The strata whose light samples may meet the box (the projection's, or the four
+    // half-planes'), word by word of the mask as a rect's box.
+    vec2 box_lo = lo;
+    vec2 box_hi = hi;
+    if (!between) {
+        // half_square_box's square [0, 1]² is the disk's [-1, 1]²: h.x d.x + h.y d.y + h.z =
+        // h.z + 2 h.x (a - 1/2) + 2 h.y (b - 1/2), with direction_tolerance's tolerance.
+        vec2 l0, g0, l1, g1, l2, g2, l3, g3;
+        bool k0 = half_square_box(vec3(h0.z, 2.0 * h0.xy), l0, g0);
+        bool k1 = half_square_box(vec3(h1.z, 2.0 * h1.xy), l1, g1);
+        bool k2 = half_square_box(vec3(h2.z, 2.0 * h2.xy), l2, g2);
+        bool k3 = half_square_box(vec3(h3.z, 2.0 * h3.xy), l3, g3);
+        if (!(k0 && k1 && k2 && k3)) {
+            return;
+        }
+        box_lo = 2.0 * max(max(l0, l1), max(l2, l3)) - 1.0 - 2e-4;
+        box_hi = 2.0 * min(min(g0, g1), min(g2, g3)) - 1.0 + 2e-4;
+    }
+    ivec2 c0, c1;
+    if (!disk_box_strata(box_lo, box_hi, ivec2(na, nb), c0, c1)) {
+        return;
+    }
+    int first = c0.y * na + c0.x;
+    int last = c1.y * na + c1.x;
+    for (int wi = first / 32; wi <= last / 32; ++wi) {
+        use_word(smp, wi);
+        int lo_bit = 32 * wi;
+        decide_sun(smp, strata_bits(c0, c1, lo_bit), lo_bit, va, vb, vc, lo, hi, h0, h1, h2, h3,
+                   tol, e0, e1, e2, band);
     }
 }

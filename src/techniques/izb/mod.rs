@@ -283,9 +283,11 @@
 //! projected from `o` onto the plane of directions at unit distance along `c` (or, not strictly
 //! in front of `o`, bounded by four half-planes of directions), and each open light sample whose
 //! disk point lies in that bound is decided by its edges or the exact ray; a projection holding
-//! the whole disk blocks every open light sample at once (the map bends the square's rows, so no
-//! box of strata bounds the candidates: a test visits every open light sample, where a rect's box
-//! visits a few). The sun's test is a shader of its own (`SUN_DISK`).
+//! the whole disk blocks every open light sample at once. The map bends the square's rows, so a
+//! box of the disk is no box of strata: the candidates are the strata of the box of the square
+//! that holds every point the map takes into the disk's box (`glsl/include/disk_strata.glsl`, from
+//! the box's radii and angles; its conservativeness checked on the device by
+//! `tests/disk_strata.rs`). The sun's test is a shader of its own (`SUN_DISK`).
 //!
 //! **Footprints.** A perspective grid coordinate is `(x/z, y/z)` in the light's view space (z
 //! the depth), mapped onto `grid × grid` cells over the view samples' bounds

@@ -12,6 +12,7 @@ named command):
     python3 tools/readme_tables.py skipping DIR         # DIR from `bench --suite skipping`
     python3 tools/readme_tables.py selection DIR        # DIR from `bench --suite selection`
     python3 tools/readme_tables.py reuse DIR            # DIR from `bench --suite reuse`
+    python3 tools/readme_tables.py scaling DIR          # DIR from `bench --suite scaling`
     python3 tools/readme_tables.py temporal DIR         # DIR from `bench --suite temporal`
 
 (The `pvssm` section's tables come from tools/pvssm_tables.py.)
@@ -45,6 +46,8 @@ ratio, the median process CPU milliseconds of the first and second frames, and w
 frames created (device allocations + objects, summed).
 `selection`: every held-out scene with the features, the pick, its predicted and measured error
 and time, and the slowest candidate within the budget, from selection.json.
+`scaling`: per technique, the growth exponent k and the time at both ends of each sweep
+(triangles, view samples, light size), from scaling.json.
 `temporal`: technique (and knobs) × scene, flicker / flicker in shadow (×10⁻³) and the MAE,
 then the reference's own motion per scene, from temporal.json.
 """
@@ -568,34 +571,25 @@ def temporal(directory):
                   f"{r['positions']} positions, {r['step_mrad']} mrad a step")
 
 
+# Each command's function and how many directories it takes (None: one or more, as a list).
+COMMANDS = {
+    "receivers": (receivers, 1),
+    "soft": (soft, 1),
+    "virtual": (virtual, 1),
+    "izb": (izb, None),
+    "backprojection": (backprojection, 3),
+    "resolution": (resolution, None),
+    "stress": (stress, 1),
+    "skipping": (skipping, 1),
+    "selection": (selection, 1),
+    "reuse": (reuse, 1),
+    "scaling": (scaling, 1),
+    "temporal": (temporal, 1),
+}
+
 if __name__ == "__main__":
-    if len(sys.argv) == 3 and sys.argv[1] == "temporal":
-        temporal(sys.argv[2])
-        sys.exit(0)
-    if len(sys.argv) == 3 and sys.argv[1] == "skipping":
-        skipping(sys.argv[2])
-        sys.exit(0)
-    if len(sys.argv) == 3 and sys.argv[1] == "selection":
-        selection(sys.argv[2])
-        sys.exit(0)
-    if len(sys.argv) == 3 and sys.argv[1] == "scaling":
-        scaling(sys.argv[2])
-        sys.exit(0)
-    if len(sys.argv) == 3 and sys.argv[1] == "reuse":
-        reuse(sys.argv[2])
-        sys.exit(0)
-    if len(sys.argv) == 3 and sys.argv[1] == "stress":
-        stress(sys.argv[2])
-        sys.exit(0)
-    if len(sys.argv) == 5 and sys.argv[1] == "backprojection":
-        backprojection(*sys.argv[2:])
-        sys.exit(0)
-    if len(sys.argv) >= 3 and sys.argv[1] == "resolution":
-        resolution(sys.argv[2:])
-        sys.exit(0)
-    if len(sys.argv) >= 3 and sys.argv[1] == "izb":
-        izb(sys.argv[2:])
-        sys.exit(0)
-    if len(sys.argv) != 3 or sys.argv[1] not in ("receivers", "soft", "virtual"):
+    name, dirs = (sys.argv[1], sys.argv[2:]) if len(sys.argv) > 2 else (None, [])
+    function, count = COMMANDS.get(name, (None, 0))
+    if function is None or (count is not None and len(dirs) != count):
         sys.exit(__doc__)
-    {"receivers": receivers, "soft": soft, "virtual": virtual}[sys.argv[1]](sys.argv[2])
+    function(dirs) if count is None else function(*dirs)

@@ -158,6 +158,7 @@ use crate::passes::LightProjection;
 use crate::shader_types::{PvssmMipPush, PvssmPush};
 
 mod knobs;
+mod options;
 mod root_strides;
 
 pub use knobs::{COUNTER_NAMES, PVSSM};
@@ -371,49 +372,6 @@ impl<'a> Pvssm<'a> {
                 Binding::Sampled(&root_strides.image, &pages.sampler),
             ],
         )?;
-        let mut options = 0;
-        if params.u32("antialias")? == 1 {
-            options |= 1;
-        }
-        if params.u32("rho")? == 1 {
-            options |= 2;
-        }
-        options |= params.u32("refine_search")? << 16;
-        if ancestors == 1 {
-            options |= 4;
-        }
-        if params.u32("skip")? == 1 {
-            options |= 8;
-        }
-        if params.u32("blocker_depth")? == 1 {
-            options |= 16;
-        }
-        let kernel_proof = params.u32("kernel_proof")?;
-        if kernel_proof >= 1 {
-            options |= 32;
-        }
-        if kernel_proof == 2 {
-            options |= 1 << 29;
-        }
-        if centre_distance {
-            options |= 128;
-        }
-        if params.u32("lit_flag")? == 1 {
-            options |= 1 << 24;
-        }
-        // Bits 25..28: log2(max_anisotropy) + 1, 0 for no cap (pvssm.glsl's predicted_level).
-        let max_anisotropy = params.u32("max_anisotropy")?;
-        if max_anisotropy != 0 {
-            if !max_anisotropy.is_power_of_two() {
-                return Err(Error::Parameter {
-                    technique: "pvssm".into(),
-                    message: format!(
-                        "max_anisotropy {max_anisotropy} must be 0 (no cap) or a power of two"
-                    ),
-                });
-            }
-            options |= (max_anisotropy.trailing_zeros() + 1) << 25;
-        }
         // The visibility cleared to 1 by a transfer, so the decided lit samples store nothing
         // (where the image allows it: a caller's may lack the usage).
         let clear_lit = setup
@@ -421,13 +379,8 @@ impl<'a> Pvssm<'a> {
             .desc
             .usage
             .contains(ash::vk::ImageUsageFlags::TRANSFER_DST);
-        if clear_lit {
-            options |= 64;
-        }
+        let options = options::option_bits(params, clear_lit)?;
         let clear_lit = clear_lit.then_some(setup.visibility);
-        // -1 (predicted) is stored as 0, level k as k + 1.
-        options |= ((fixed_level + 1.0) as u32) << 20;
-        options |= params.u32("search_cells")? << 8;
         let view_size = IVec2::new(samples.width as i32, samples.height as i32);
         let push = PvssmPush {
             light_view_proj: view.view_proj,

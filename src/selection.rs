@@ -70,11 +70,13 @@ impl Candidate {
 }
 
 /// The presets the selection chooses from: cheap hard and filtered shadows, the soft
-/// techniques at their defaults and at a cheaper setting, and the brute-force average.
+/// techniques at their defaults and at a cheaper setting, `izb-soft` at 32 and 128 light
+/// samples (exact visibility of its samples: its error is their noise, alike on every scene),
+/// and the brute-force average.
 /// `pcss`'s exhaustive search is left out: its time grows with the light's size in texels
 /// squared (2.3 s against 0.1 s for the 8×8 search on a held-out scene, same error), which a
 /// nearest-neighbour time prediction does not follow.
-pub const CANDIDATES: [Candidate; 8] = [
+pub const CANDIDATES: [Candidate; 10] = [
     Candidate {
         technique: "hard",
         knobs: &[],
@@ -98,6 +100,14 @@ pub const CANDIDATES: [Candidate; 8] = [
     Candidate {
         technique: "atty",
         knobs: &[],
+    },
+    Candidate {
+        technique: "izb-soft",
+        knobs: &[],
+    },
+    Candidate {
+        technique: "izb-soft",
+        knobs: &[("samples", "128")],
     },
     Candidate {
         technique: "average-maps",
@@ -146,9 +156,20 @@ impl SceneFeatures {
     }
 
     fn distance(&self, other: &SceneFeatures) -> f64 {
-        let (a, b) = (self.vector(), other.vector());
+        SceneFeatures::distance_of(&self.vector(), &other.vector())
+    }
+
+    /// [`SceneFeatures::distance`] in everything but the triangle count.
+    fn distance_but_triangles(&self, other: &SceneFeatures) -> f64 {
+        let (mut a, mut b) = (self.vector(), other.vector());
+        a[4] = 0.0;
+        b[4] = 0.0;
+        SceneFeatures::distance_of(&a, &b)
+    }
+
+    fn distance_of(a: &[f64; 6], b: &[f64; 6]) -> f64 {
         a.iter()
-            .zip(&b)
+            .zip(b)
             .map(|(x, y)| (x - y) * (x - y))
             .sum::<f64>()
             .sqrt()
@@ -253,6 +274,34 @@ pub const NEIGHBOURS: usize = 3;
 /// The quantile of the leave-one-scene-out ratios a candidate's [`Calibration::margin`] takes.
 pub const MARGIN_QUANTILE: f64 = 0.9;
 
+/// Two rows that differ in triangles by at least this factor, and in every other feature by
+/// at most [`SAME_BUT_TRIANGLES`] (the neighbour distance, triangles left out), measure how a
+/// candidate's time grows with triangles ([`Calibration::triangle_exponent`]).
+pub const TRIANGLE_PAIR_RATIO: f64 = 4.0;
+
+/// See [`TRIANGLE_PAIR_RATIO`].
+pub const SAME_BUT_TRIANGLES: f64 = 0.5;
+
+/// How a candidate's time grows with triangles, as its calibration rows measured it
+/// ([`Calibration::triangle_growth`]): per view sample, as the triangle count to the power
+/// `exponent` from `from` triangles up; below `from` the table measured nothing, and a small
+/// scene's time is mostly per-frame and per-sample work, so counts under it count as `from`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct TriangleGrowth {
+    /// The exponent: 0 (no growth measured) to 1.
+    pub exponent: f64,
+    /// The fewest triangles of the pairs it came from.
+    pub from: u64,
+}
+
+impl TriangleGrowth {
+    /// The factor from a row with `row` triangles to a scene with `scene`.
+    fn factor(&self, scene: u64, row: u64) -> f64 {
+        let at = |n: u64| n.max(self.from).max(1) as f64;
+        (at(scene) / at(row)).powf(self.exponent)
+    }
+}
+
 /// What the table predicts for one candidate on one scene.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Prediction {
@@ -262,8 +311,11 @@ pub struct Prediction {
     pub error: f64,
     /// The candidate's [`Calibration::margin`].
     pub margin: f64,
-    /// Predicted GPU ms: the nearest rows' mean, scaled by view samples.
+    /// Predicted GPU ms: the nearest rows' mean, each scaled by view samples and by
+    /// [`Prediction::triangle_growth`].
     pub gpu_ms: f64,
+    /// The candidate's [`Calibration::triangle_growth`].
+    pub triangle_growth: TriangleGrowth,
     /// The scenes the prediction came from.
     pub neighbours: Vec<String>,
 }
@@ -353,6 +405,60 @@ impl Calibration {
         ratios[at.min(ratios.len() - 1)].max(1.0)
     }
 
+    /// How `candidate`'s time per view sample grows with the triangle count: the exponent is
+    /// the median over the pairs of its rows that differ in triangles by [`TRIANGLE_PAIR_RATIO`]
+    /// or more and in nothing else the selection measures (within [`SAME_BUT_TRIANGLES`]) — one
+    /// scene at two tessellations, as the calibration's two `grid` sizes — of ln(t₂/t₁) /
+    /// ln(n₂/n₁), clamped to [0, 1], and it holds from the pairs' fewest triangles up
+    /// ([`TriangleGrowth`]); no growth without such pairs. Why: the neighbours of a scene with far
+    /// more triangles than any in the table are its largest rows, and their times scaled by view
+    /// samples alone predicted `izb-soft` on the 800k-triangle grid at 98 ms where it takes 400
+    /// (its tests grow with the triangles, `pvssm`'s pages hardly). Why from the pairs' fewest
+    /// only: scaled all the way down, a 1k-triangle neighbour's time predicted a 70k-triangle
+    /// scene at several times its cost. Leaving each scene out of the bundled table
+    /// (`calibration/lavapipe.json`, 330 rows; `python3 tools/selection_time_check.py TABLE`),
+    /// the predicted time's median |ln(predicted / measured)| is 0.34 by view samples alone,
+    /// 0.28 with the growth from any count, 0.25 from the pairs' fewest (90th percentile 1.07,
+    /// 0.84, 0.65).
+    pub fn triangle_growth(&self, candidate: &str) -> TriangleGrowth {
+        let rows: Vec<&CalibrationRow> = self
+            .rows
+            .iter()
+            .filter(|r| r.candidate == candidate && r.gpu_ms > 0.0 && r.features.triangles > 0)
+            .collect();
+        let per_sample = |r: &CalibrationRow| r.gpu_ms / r.features.view_samples.max(1) as f64;
+        let mut slopes = Vec::new();
+        let mut from = u64::MAX;
+        for (i, a) in rows.iter().enumerate() {
+            for b in &rows[i + 1..] {
+                let ratio = b.features.triangles as f64 / a.features.triangles as f64;
+                if ratio.max(1.0 / ratio) >= TRIANGLE_PAIR_RATIO
+                    && a.features.distance_but_triangles(&b.features) <= SAME_BUT_TRIANGLES
+                {
+                    slopes.push((per_sample(b) / per_sample(a)).ln() / ratio.ln());
+                    from = from.min(a.features.triangles.min(b.features.triangles));
+                }
+            }
+        }
+        if slopes.is_empty() {
+            return TriangleGrowth {
+                exponent: 0.0,
+                from: 0,
+            };
+        }
+        slopes.sort_by(f64::total_cmp);
+        let mid = slopes.len() / 2;
+        let median = if slopes.len() % 2 == 1 {
+            slopes[mid]
+        } else {
+            0.5 * (slopes[mid - 1] + slopes[mid])
+        };
+        TriangleGrowth {
+            exponent: median.clamp(0.0, 1.0),
+            from,
+        }
+    }
+
     /// The prediction for `candidate` on a scene with `features`; `None` without rows for it.
     pub fn predict(&self, candidate: &str, features: &SceneFeatures) -> Option<Prediction> {
         let rows = self.nearest(candidate, features, None);
@@ -361,11 +467,13 @@ impl Calibration {
         }
         let margin = self.margin(candidate);
         let error = margin * rows.iter().map(|r| r.error).fold(0.0, f64::max);
+        let growth = self.triangle_growth(candidate);
         let gpu_ms = rows
             .iter()
             .map(|r| {
-                r.gpu_ms * features.view_samples.max(1) as f64
-                    / r.features.view_samples.max(1) as f64
+                let samples =
+                    features.view_samples.max(1) as f64 / r.features.view_samples.max(1) as f64;
+                r.gpu_ms * samples * growth.factor(features.triangles, r.features.triangles)
             })
             .sum::<f64>()
             / rows.len() as f64;
@@ -374,6 +482,7 @@ impl Calibration {
             error,
             margin,
             gpu_ms,
+            triangle_growth: growth,
             neighbours: rows.iter().map(|r| r.scene.clone()).collect(),
         })
     }
@@ -539,6 +648,55 @@ mod tests {
             .choose(&features(0.01035, 0.05, 10_000), 0.015)
             .expect("choice");
         assert!(!c.within_budget, "{}", c.why);
+    }
+
+    /// One scene at two tessellations gives the time's growth with triangles, and a scene with
+    /// more triangles than any row is predicted by it; rows that differ in more than triangles
+    /// (another light) are no pair.
+    #[test]
+    fn time_grows_with_triangles_as_the_table_measured() {
+        let at = |triangles: u64, light: f64| SceneFeatures {
+            triangles,
+            ..features(light, 0.1, 10_000)
+        };
+        let mut rows = vec![
+            row("grid-small", "izb-soft", at(20_000, 0.1), 10.0, 0.02),
+            row(
+                "grid-large",
+                "izb-soft",
+                at(200_000, 0.1),
+                10.0 * 10f64.sqrt(),
+                0.02,
+            ),
+            // Ten times the triangles and a light far larger: not a pair.
+            row("other", "izb-soft", at(2_000_000, 1.0), 1000.0, 0.02),
+        ];
+        rows.push(row("grid-small", "pvssm", at(20_000, 0.1), 10.0, 0.02));
+        let table = Calibration {
+            device: "test".into(),
+            rows,
+        };
+        let growth = table.triangle_growth("izb-soft");
+        assert!((growth.exponent - 0.5).abs() < 1e-12, "{growth:?}");
+        assert_eq!(growth.from, 20_000);
+        // No pair: no growth.
+        assert_eq!(table.triangle_growth("pvssm").exponent, 0.0);
+        // 2 M triangles under the small light: the two grid rows (and `other`) are the
+        // neighbours, each scaled by its triangle ratio to the power 0.5.
+        let p = table
+            .predict("izb-soft", &at(2_000_000, 0.1))
+            .expect("prediction");
+        assert_eq!(p.triangle_growth, growth);
+        let expected = (10.0 * 10.0 + 10.0 * 10f64.sqrt() * 10f64.sqrt() + 1000.0) / 3.0;
+        assert!(
+            (p.gpu_ms - expected).abs() < 1e-9,
+            "{} {expected}",
+            p.gpu_ms
+        );
+        // Below the pairs' fewest triangles a count counts as that many: a 2 000-triangle scene
+        // is predicted as the 20 000-triangle row, not a tenth of it to the power 0.5.
+        assert_eq!(growth.factor(2_000, 20_000), 1.0);
+        assert!((growth.factor(200_000, 2_000) - 10f64.sqrt()).abs() < 1e-12);
     }
 
     #[test]

@@ -2,8 +2,12 @@
 //! from, then checks the selection on held-out scenes it was not calibrated on.
 //!
 //! 1. **Calibration** (`calibration.json`): every candidate ([`penumbra::selection::CANDIDATES`])
-//!    on the bundled scenes and the procedural `grid`, `thin-bars` and `plane-boxes` (6 and 20
-//!    occluders) scenes, each at its light × 0.5, 1 and 2 (a point light once), at 256×192:
+//!    on the bundled scenes and the procedural `grid` (20 k and 200 k triangles: one scene at
+//!    two tessellations, from which each candidate's time growth with triangles is measured,
+//!    [`penumbra::selection::Calibration::triangle_exponent`]), `thin-bars` and `plane-boxes`
+//!    (6 and 20 occluders) scenes, each at its light × 0.5, 1, 2 and 8 (a point light once; × 8
+//!    so that huge lights have neighbours: `izb-soft`'s time grows with the light's area), at
+//!    256×192:
 //!    the scene's features
 //!    ([`penumbra::selection::analyse`]), each candidate's GPU time and its penumbra MAE against
 //!    the 16×16-sample reference.
@@ -97,13 +101,18 @@ pub fn run(args: &SelectionArgs) -> anyhow::Result<()> {
     specs.extend(
         [
             "grid:20000@rect",
+            "grid:200000@rect",
             "thin-bars:12@rect",
             "plane-boxes:6@rect",
             "plane-boxes:20@rect",
         ]
         .map(String::from),
     );
-    let scales: &[f32] = if args.quick { &[1.0] } else { &[0.5, 1.0, 2.0] };
+    let scales: &[f32] = if args.quick {
+        &[1.0]
+    } else {
+        &[0.5, 1.0, 2.0, 8.0]
+    };
     if args.quick {
         specs.truncate(2);
     }
@@ -136,7 +145,7 @@ pub fn run(args: &SelectionArgs) -> anyhow::Result<()> {
     table.write(&args.out.join("calibration.json"))?;
 
     // 2. Held out.
-    // Occluder counts and light sizes the table never saw (it has 6 and 20, × 0.5, 1, 2).
+    // Occluder counts and light sizes the table never saw (it has 6 and 20, × 0.5, 1, 2, 8).
     let held_out: Vec<(String, f32)> = if !args.held_out.is_empty() {
         args.held_out.clone()
     } else if args.quick {

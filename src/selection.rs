@@ -276,7 +276,7 @@ pub const MARGIN_QUANTILE: f64 = 0.9;
 
 /// Two rows that differ in triangles by at least this factor, and in every other feature by
 /// at most [`SAME_BUT_TRIANGLES`] (the neighbour distance, triangles left out), measure how a
-/// candidate's time grows with triangles ([`Calibration::triangle_exponent`]).
+/// candidate's time grows with triangles ([`Calibration::triangle_growth`]).
 pub const TRIANGLE_PAIR_RATIO: f64 = 4.0;
 
 /// See [`TRIANGLE_PAIR_RATIO`].

@@ -4,7 +4,7 @@
 //! 1. **Calibration** (`calibration.json`): every candidate ([`penumbra::selection::CANDIDATES`])
 //!    on the bundled scenes and the procedural `grid` (20 k and 200 k triangles: one scene at
 //!    two tessellations, from which each candidate's time growth with triangles is measured,
-//!    [`penumbra::selection::Calibration::triangle_exponent`]), `thin-bars` and `plane-boxes`
+//!    [`penumbra::selection::Calibration::triangle_growth`]), `thin-bars` and `plane-boxes`
 //!    (6 and 20 occluders) scenes, each at its light × 0.5, 1, 2 and 8 (a point light once; × 8
 //!    so that huge lights have neighbours: `izb-soft`'s time grows with the light's area), at
 //!    256×192:

@@ -9,8 +9,7 @@
 
 mod common;
 
-use ash::vk;
-use penumbra::gpu::{u32s, Binding, Buffer, DescriptorSet, Pipeline};
+use common::Rng;
 use std::f64::consts::FRAC_PI_4;
 
 /// The grids of strata checked (n_a, n_b): square and not, one stratum, the default 32 = 8 × 4
@@ -41,7 +40,6 @@ struct Case {
 
 /// Runs the bound over the cases: each one's (c0, c1), or None where it finds no stratum.
 fn run(ctx: &penumbra::Context, cases: &[Case]) -> Vec<Option<[i32; 4]>> {
-    let pipeline = Pipeline::compute(ctx, "checks/disk_strata.comp").expect("pipeline");
     let words: Vec<[f32; 4]> = cases
         .iter()
         .flat_map(|c| {
@@ -51,22 +49,8 @@ fn run(ctx: &penumbra::Context, cases: &[Case]) -> Vec<Option<[i32; 4]>> {
             ]
         })
         .collect();
-    let input = ctx
-        .buffer_with("disk boxes", vk::BufferUsageFlags::STORAGE_BUFFER, &words)
-        .expect("cases");
-    let output = Buffer::storage(ctx, "disk strata", 16 * cases.len() as u64).expect("out");
-    let set = DescriptorSet::new(
-        ctx,
-        &pipeline,
-        &[Binding::Buffer(&input), Binding::Buffer(&output)],
-    )
-    .expect("set");
-    ctx.submit(None, |rec| {
-        rec.dispatch(&pipeline, &set, &(), [cases.len() as u32, 1, 1])
-    })
-    .expect("dispatch");
-    let got = u32s(&ctx.read_buffer(&output).expect("read"));
-    got.chunks(4)
+    common::run_check(ctx, "checks/disk_strata.comp", &words, cases.len(), 4)
+        .chunks(4)
         .map(|w| {
             let c = [w[0] as i32, w[1] as i32, w[2] as i32, w[3] as i32];
             (c != [-1; 4]).then_some(c)
@@ -74,22 +58,7 @@ fn run(ctx: &penumbra::Context, cases: &[Case]) -> Vec<Option<[i32; 4]>> {
         .collect()
 }
 
-/// xorshift64*: the same cases every run.
-struct Rng(u64);
-
 impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
     /// Log-uniform in [lo, hi).
     fn log_uniform(&mut self, lo: f64, hi: f64) -> f64 {
         lo * (hi / lo).powf(self.unit())

@@ -9,31 +9,11 @@
 
 mod common;
 
-use ash::vk;
-use penumbra::gpu::{u32s, Binding, Buffer, DescriptorSet, Pipeline};
+use common::Rng;
 
 /// Runs the cases (a bits, b bits, ulps off, mode) on the GPU: each result's bits.
 fn run(ctx: &penumbra::Context, cases: &[[u32; 4]]) -> Vec<u32> {
-    let pipeline = Pipeline::compute(ctx, "checks/rounding.comp").expect("pipeline");
-    let input = ctx
-        .buffer_with(
-            "rounding cases",
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            cases,
-        )
-        .expect("cases");
-    let output = Buffer::storage(ctx, "rounding results", 4 * cases.len() as u64).expect("out");
-    let set = DescriptorSet::new(
-        ctx,
-        &pipeline,
-        &[Binding::Buffer(&input), Binding::Buffer(&output)],
-    )
-    .expect("set");
-    ctx.submit(None, |rec| {
-        rec.dispatch(&pipeline, &set, &(), [cases.len() as u32, 1, 1])
-    })
-    .expect("dispatch");
-    u32s(&ctx.read_buffer(&output).expect("read"))
+    common::run_check(ctx, "checks/rounding.comp", cases, cases.len(), 1)
 }
 
 /// Runs the cases and compares every result's bits with `expected` (the CPU's f32 arithmetic).
@@ -55,17 +35,7 @@ fn check(ctx: &penumbra::Context, cases: &[[u32; 4]], expected: impl Fn(&[u32; 4
     common::assert_clean(&ctx.validation());
 }
 
-/// xorshift64*: the same cases every run.
-struct Rng(u64);
-
 impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
     /// A float of random sign, mantissa and an exponent in [-20, 20).
     fn float(&mut self) -> f32 {
         let r = self.next();

@@ -25,6 +25,55 @@ pub fn context() -> Context {
     })
 }
 
+/// Runs `shader`, a `glsl/checks/` kernel (binding 0: the cases, binding 1: the results, one
+/// invocation a case), over `cases` on `ctx`: the results buffer's words, `words_per_case` a
+/// case.
+pub fn run_check<T: bytemuck::Pod>(
+    ctx: &Context,
+    shader: &str,
+    cases: &[T],
+    invocations: usize,
+    words_per_case: usize,
+) -> Vec<u32> {
+    use ash::vk;
+    use penumbra::gpu::{u32s, Binding, Buffer, DescriptorSet, Pipeline};
+    let pipeline = Pipeline::compute(ctx, shader).expect("pipeline");
+    let input = ctx
+        .buffer_with("check cases", vk::BufferUsageFlags::STORAGE_BUFFER, cases)
+        .expect("cases");
+    let bytes = 4 * (words_per_case * invocations) as u64;
+    let output = Buffer::storage(ctx, "check results", bytes).expect("results");
+    let set = DescriptorSet::new(
+        ctx,
+        &pipeline,
+        &[Binding::Buffer(&input), Binding::Buffer(&output)],
+    )
+    .expect("set");
+    ctx.submit(None, |rec| {
+        rec.dispatch(&pipeline, &set, &(), [invocations as u32, 1, 1])
+    })
+    .expect("dispatch");
+    u32s(&ctx.read_buffer(&output).expect("read"))
+}
+
+/// xorshift64*: the same cases every run, without an RNG crate (a test adds what it draws with
+/// an `impl common::Rng` of its own).
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// An engine on a validated context.
 pub fn engine() -> Engine {
     Engine::from_context(context())

@@ -546,6 +546,12 @@ impl Calibration {
     }
 }
 
+/// How a calibration table names the device its times come from ([`Calibration::device`]):
+/// its name and driver.
+pub fn device_label(info: &crate::gpu::DeviceInfo) -> String {
+    format!("{} ({})", info.name, info.driver)
+}
+
 /// The candidate with `label`.
 pub fn candidate(label: &str) -> Option<&'static Candidate> {
     CANDIDATES.iter().find(|c| c.label() == label)

@@ -250,6 +250,17 @@ fn auto_technique_picks_from_the_calibration_table() {
             .as_f64()
             .is_some_and(|p| (0.0..=1.0).contains(&p)));
         assert!(f["light_angle"].as_f64().is_some_and(|a| a > 0.0));
+        // A table from another device: said, with how to calibrate this one.
+        assert_eq!(stats["selection"]["calibration_device"], "hand-written");
+        assert!(stats["selection"]["device"]
+            .as_str()
+            .is_some_and(|d| d != "hand-written"));
+        let err = stderr(&o);
+        assert!(
+            err.contains("note: the calibration table's times are hand-written's")
+                && err.contains("--suite selection"),
+            "{err}"
+        );
     }
     let scene = "plane-boxes@rect";
     let out = dir.join("bad");
@@ -360,6 +371,12 @@ fn selection_suite_writes_a_table_auto_can_use() {
         .as_str()
         .expect("pick");
     assert!(picked.starts_with(stats["technique"].as_str().expect("technique")));
+    // Calibrated on this device: no note that it was another's.
+    assert_eq!(
+        stats["selection"]["calibration_device"],
+        stats["selection"]["device"]
+    );
+    assert!(!stderr(&o).contains("calibration table's times"));
 }
 
 /// `bench --suite temporal` under validation: with the light and the camera still every

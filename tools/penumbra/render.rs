@@ -81,6 +81,7 @@ pub(crate) fn render(
     ));
     let prepared = engine.prepare(&scene)?;
     // `auto`: analyse the scene on the GPU and let the calibration table pick.
+    let mut device_note = None;
     let (technique, overrides, picked) = match &table {
         Some((max_error, table)) => {
             bar.set_message("analysing the scene for technique selection");
@@ -90,12 +91,23 @@ pub(crate) fn render(
                 .with_context(|| format!("unknown candidate {}", choice.picked.candidate))?;
             let mut knobs = candidate.overrides();
             knobs.extend(overrides);
+            let here = penumbra::selection::device_label(engine.context().info());
             let why = serde_json::json!({
                 "max_error": max_error,
                 "calibration_device": table.device,
+                "device": here,
                 "features": features,
                 "choice": choice,
             });
+            if table.device != here {
+                device_note = Some(format!(
+                    "the calibration table's times are {}'s, not this device's ({here}): its \
+                     errors hold on any device, its ranking by time may not; `penumbra bench \
+                     --suite selection --out DIR` calibrates this one (then --calibration \
+                     DIR/calibration.json)",
+                    table.device
+                ));
+            }
             (candidate.technique.to_string(), knobs, Some(why))
         }
         None => (technique.to_string(), overrides, None),
@@ -244,6 +256,9 @@ pub(crate) fn render(
         eprintln!("note: {note}");
     }
     if let Some(note) = grown_note(asked.values(), &frame.stats.params) {
+        eprintln!("note: {note}");
+    }
+    if let Some(note) = device_note {
         eprintln!("note: {note}");
     }
     finish_validation(!device.no_validation, &ctx.validation(), out)

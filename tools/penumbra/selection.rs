@@ -117,7 +117,7 @@ pub fn run(args: &SelectionArgs) -> anyhow::Result<()> {
         specs.truncate(2);
     }
     let mut table = Calibration {
-        device: format!("{} ({})", ctx.info().name, ctx.info().driver),
+        device: penumbra::selection::device_label(ctx.info()),
         rows: Vec::new(),
     };
     for spec in &specs {

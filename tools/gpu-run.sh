@@ -90,8 +90,10 @@ run() {
     { date -u; pwd; nproc
       nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.sm,clocks.mem --format=csv
     } > "$res/machine.txt" 2>&1
-    # STEPS (default: all) picks the parts: kernels, tests, benches (the technique benches),
-    # bench-all (the whole default bench, ~2 minutes on an H200).
+    # STEPS (default: all but selection) picks the parts: kernels, tests, benches (the technique
+    # benches), bench-all (the whole default bench, ~2 minutes on an H200), selection (the
+    # technique-selection suite: this GPU's calibration table, for `--technique auto
+    # --calibration`; 85 s on lavapipe, not yet timed on a GPU).
     local steps=${STEPS:-kernels tests benches bench-all}
     step devices 30 "$p" devices
     local rect=scenes/teapot-rect.toml,scenes/bunny-rect.toml
@@ -121,6 +123,9 @@ run() {
         step tests 170 bash -c "ls $b/tests/* | xargs -P 4 -I{} bash -c 'run_test_binary {}'"
         cp -r target/tmp/diffs "$res/diffs" 2> /dev/null
         save
+    fi
+    if [[ " $steps " == *" selection "* ]]; then
+        step selection 240 "$p" bench --suite selection --no-validation --out "$res/selection"
     fi
     if [[ " $steps " != *" benches "* ]]; then
         echo "total ${SECONDS}s" >> "$res/steps.txt"

@@ -89,22 +89,24 @@ fn izb_equals_the_reference_with_point_lights() {
 #[test]
 fn izb_soft_draws_the_references_light_samples() {
     let engine = common::engine();
-    for spec in [
-        "scenes/teapot-rect.toml",
-        "scenes/bunny-rect.toml",
-        "scenes/rocker-arm-directional.toml",
-        "thin-bars@directional",
-        "grazing-plane@directional",
+    // The suns' 0.5° at 3°: penumbrae a few pixels wide at this size (the grazing plane's sun
+    // then partly below its horizon); one at 40°, whose strata cull (disk_strata.glsl) meets
+    // boxes over the whole disk, in every octant of the concentric map.
+    for (spec, sun_deg) in [
+        ("scenes/teapot-rect.toml", 0.0),
+        ("scenes/bunny-rect.toml", 0.0),
+        ("scenes/rocker-arm-directional.toml", 3.0),
+        ("thin-bars@directional", 3.0),
+        ("grazing-plane@directional", 3.0),
+        ("plane-boxes@directional", 40.0),
     ] {
         let mut scene = common::small(spec);
-        // The suns' 0.5° at 3°: penumbrae a few pixels wide at this size (the grazing plane's
-        // sun then partly below its horizon).
         if let Light::Directional {
             angular_diameter_deg,
             ..
         } = &mut scene.light
         {
-            *angular_diameter_deg = 3.0;
+            *angular_diameter_deg = sun_deg;
         }
         scene.camera.width = 96;
         scene.camera.height = 72;

@@ -114,6 +114,16 @@ fn light_sized(mut s: Scene, k: f32) -> Scene {
     s
 }
 
+/// `s` lit by a sun disk `diameter_deg` across instead of its light, from above and aside (as
+/// the bundled CAD part's sun).
+fn sun_sized(mut s: Scene, diameter_deg: f32) -> Scene {
+    s.light = Light::Directional {
+        direction: Vec3::new(-0.35, -1.0, -0.25).normalize(),
+        angular_diameter_deg: diameter_deg,
+    };
+    s
+}
+
 fn all(_: &str) -> Option<CaseKnobs> {
     Some(Vec::new())
 }
@@ -401,6 +411,25 @@ pub fn cases() -> Vec<Case> {
             // its one ray to the sun's centre left the ground lit where a quarter of the disk
             // is below the horizon.
             bound: |_| Bound::Mae(0.1),
+        },
+        Case {
+            name: "sun-tiny",
+            summary: "a sun disk 10⁻⁴° across: soft shadows must become hard ones",
+            quick: false,
+            scene: |w, h| Ok(sun_sized(baseline(w, h)?, 1e-4)),
+            knobs: all,
+            bound: |_| Bound::Mae(0.05),
+        },
+        Case {
+            name: "sun-wide",
+            summary: "a sun disk 40° across: penumbrae wider than the boxes, and izb-soft's \
+                      strata cull over the whole disk",
+            quick: true,
+            scene: |w, h| Ok(sun_sized(baseline(w, h)?, 40.0)),
+            knobs: all,
+            // As `huge-light`: the hard techniques are far off by design; the exact ones are
+            // held to their noise.
+            bound: |t| Bound::Mae(if exact(t) { 0.05 } else { 0.3 }),
         },
         Case {
             name: "light-inside",

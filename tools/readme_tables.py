@@ -45,7 +45,8 @@ milliseconds of the first frame, the second and a rebuilt renderer, the largest 
 ratio, the median process CPU milliseconds of the first and second frames, and what the second
 frames created (device allocations + objects, summed).
 `selection`: every held-out scene with the features, the pick, its predicted and measured error
-and time, and the slowest candidate within the budget, from selection.json.
+and time, and the slowest candidate within the budget, then the median pick's measured time, from
+selection.json.
 `scaling`: per technique, the growth exponent k and the time at both ends of each sweep
 (triangles, view samples, light size), from scaling.json.
 `temporal`: technique (and knobs) × scene, flicker / flicker in shadow (×10⁻³) and the MAE,
@@ -53,6 +54,8 @@ then the reference's own motion per scene, from temporal.json.
 """
 import csv
 import json
+import math
+import statistics
 import sys
 from pathlib import Path
 
@@ -526,7 +529,6 @@ def selection(directory):
     )
     print("| held-out scene | light ° | px | penumbra share | picked | predicted | measured | ms | fastest within budget (ms) | slowest within budget (ms) |")
     print("|---|---|---|---|---|---|---|---|---|---|")
-    import math
     for r in d["rows"]:
         f = r["features"]
         pick = r["choice"]["picked"]
@@ -541,6 +543,9 @@ def selection(directory):
             f"{f['penumbra_fraction']:.2f} | `{pick['candidate']}` | {pick['error']:.4f} | "
             f"{m['error']:.4f}{'' if r['meets'] else ' (misses)'} | {m['gpu_ms']:.0f} | {fast_cell} | {slow_cell} |"
         )
+    picked = [next(x["gpu_ms"] for x in r["measured"]
+                   if x["candidate"] == r["choice"]["picked"]["candidate"]) for r in d["rows"]]
+    print(f"\nMedian pick: {statistics.median(picked):.1f} ms GPU (measured).")
 
 
 def temporal(directory):

@@ -24,7 +24,9 @@ def vector(f):
 
 
 def growth(rows):
-    """(exponent, from): src/selection.rs's triangle_growth over these rows."""
+    """(exponent, from): src/selection.rs's triangle_growth over these rows (it takes every row
+    with a time and triangles, whatever its error)."""
+    rows = [r for r in rows if r["gpu_ms"] > 0 and r["features"]["triangles"] > 0]
     slopes, low = [], []
     per_sample = lambda r: r["gpu_ms"] / max(r["features"]["view_samples"], 1)
     for i, a in enumerate(rows):
@@ -59,7 +61,9 @@ def predict(features, rows, model, k, low):
 
 def main(path):
     table = json.load(open(path))
-    rows = [r for r in table["rows"] if r["gpu_ms"] > 0 and math.isfinite(r["error"])]
+    every = [r for r in table["rows"] if r["gpu_ms"] > 0]
+    # The rows a prediction's neighbours come from (Calibration::nearest): a time and an error.
+    rows = [r for r in every if math.isfinite(r["error"])]
     candidates = sorted({r["candidate"] for r in rows})
     print(f"{path}: {len(rows)} rows, {len(candidates)} candidates")
     for model in "ABC":
@@ -70,7 +74,8 @@ def main(path):
                 others = [x for x in own if x["scene"] != r["scene"]]
                 if not others:
                     continue
-                k, low = growth(others)
+                k, low = growth([x for x in every
+                                 if x["candidate"] == c and x["scene"] != r["scene"]])
                 p = predict(r["features"], others, model, k, low)
                 errors.append((abs(math.log(p / r["gpu_ms"])), c, r["scene"]))
         errors.sort()

@@ -208,6 +208,10 @@ fn every_stratum_whose_points_reach_a_box_is_kept() {
             }
         }
     }
+    eprintln!(
+        "{} boxes, {checked} (box, point) pairs checked",
+        cases.len()
+    );
     assert!(checked > 100_000, "only {checked} points checked");
     assert!(
         lost.is_empty(),

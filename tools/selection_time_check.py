@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """How well a calibration table predicts its own candidates' times, three ways, leaving each
-scene out (its rows predicted from the others' three nearest, as src/selection.rs does):
+scene out (its rows predicted from the others' three nearest, as src/selection/calibration.rs does):
 
     python3 tools/selection_time_check.py calibration/lavapipe.json
 
@@ -24,7 +24,7 @@ def vector(f):
 
 
 def growth(rows):
-    """(exponent, from): src/selection.rs's triangle_growth over these rows (it takes every row
+    """(exponent, from): src/selection/calibration.rs's triangle_growth over these rows (it takes every row
     with a time and triangles, whatever its error)."""
     rows = [r for r in rows if r["gpu_ms"] > 0 and r["features"]["triangles"] > 0]
     slopes, low = [], []

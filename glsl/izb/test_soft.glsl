@@ -195,6 +195,17 @@ vec3 edge_distances(vec3 e0, vec3 e1, vec3 e2, vec2 x) {
     return vec3(edge_distance(e0, x), edge_distance(e1, x), edge_distance(e2, x));
 }
 
+// What the projected edges say of the light sample at x, before any ray: `inside` (blocked,
+// whatever the ray would find) when x is beyond the band t inside every edge, and whether only
+// the exact ray can say — x within the band of an edge, or no shortcut (t = 0). Beyond the band
+// outside an edge neither: no ray hits. (A NaN distance decides nothing: the ray.)
+void edge_decision(vec3 e0, vec3 e1, vec3 e2, vec3 t, vec2 x, out bool inside, out bool ray) {
+    bool shortcut = t.x > 0.0;
+    vec3 dist = edge_distances(e0, e1, e2, x);
+    inside = shortcut && all(greaterThan(dist, t));
+    ray = !(inside || (shortcut && any(lessThan(dist, -t))));
+}
+
 // The light samples of `box` (bits lo_bit.. of the word in use) that no triangle has blocked
 // yet, decided one by one against the triangle (va, vb, vc), whose projection from the sample's
 // ray origin has the edges e0 e1 e2: inward signed distances e.x a + e.y b + e.z, each times its
@@ -203,7 +214,6 @@ vec3 edge_distances(vec3 e0, vec3 e1, vec3 e2, vec2 x) {
 // already: an umbra, or the strata a neighbouring triangle covered).
 void decide_strata(inout Sample smp, uint box, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec3 e0,
                    vec3 e1, vec3 e2, vec3 t) {
-    bool shortcut = t.x > 0.0;
     uint todo = box & ~(smp.bits | smp.fresh | smp.behind);
     while (todo != 0u) {
         uint mask;
@@ -224,12 +234,10 @@ void decide_strata(inout Sample smp, uint box, int lo_bit, vec4 va, vec4 vb, vec
         // strictly between o and the light): every ray does. The exact ray only in the band
         // between, as an `if` rather than `continue`s: lavapipe skips it when no lane is in the
         // band (this pass 15 % faster on bunny-rect than with the `continue`s).
-        vec3 dist = edge_distances(e0, e1, e2, x);
-        // (A NaN distance decides nothing: the ray.)
-        bool inside = all(greaterThan(dist, t));
-        bool outside = any(lessThan(dist, -t));
-        bool blocked = !behind && shortcut && inside;
-        if (!behind && !(shortcut && (inside || outside))) {
+        bool inside, ray;
+        edge_decision(e0, e1, e2, t, x, inside, ray);
+        bool blocked = !behind && inside;
+        if (!behind && ray) {
             precise vec3 d = light_point(x) - smp.origin.xyz;
             Ray r = make_ray(smp.origin.xyz, d, 1.0);
             vec4 w;

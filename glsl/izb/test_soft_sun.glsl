@@ -12,7 +12,6 @@
 void decide_sun(inout Sample smp, uint open, int lo_bit, vec4 va, vec4 vb, vec4 vc, vec2 lo,
                 vec2 hi, vec3 h0, vec3 h1, vec3 h2, vec3 h3, vec4 tol, vec3 e0, vec3 e1,
                 vec3 e2, vec3 t) {
-    bool shortcut = t.x > 0.0;
     uint todo = open & ~(smp.bits | smp.fresh | smp.behind);
     while (todo != 0u) {
         uint mask;
@@ -26,11 +25,10 @@ void decide_sun(inout Sample smp, uint open, int lo_bit, vec4 va, vec4 vb, vec4 
             precise vec3 dir = L_C + L_U * d.x + L_V * d.y;
             bool behind = !smp.all_front && dot3(smp.n, dir) <= 0.0;
             smp.behind |= behind ? mask : 0u;
-            vec3 dist = edge_distances(e0, e1, e2, d);
-            bool inside = all(greaterThan(dist, t));
-            bool outside = any(lessThan(dist, -t));
-            bool blocked = !behind && shortcut && inside;
-            if (!behind && !(shortcut && (inside || outside))) {
+            bool inside, ray;
+            edge_decision(e0, e1, e2, t, d, inside, ray);
+            bool blocked = !behind && inside;
+            if (!behind && ray) {
                 Ray r = make_ray(smp.origin.xyz, dir, s_t_far);
                 vec4 w;
                 smp.rays += 1u;

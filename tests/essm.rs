@@ -61,7 +61,8 @@ fn compare(engine: &Engine, spec: &str, extra: &[(&str, &str)]) {
     let (mut beyond, mut beyond_marginal) = (0u64, 0u64);
     let mut worst = 0.0f32;
     // The first samples past the tolerance, for the failure message: where a device differs
-    // from the twin (an NVIDIA H200 once did on `plane-boxes@rect`, 77 samples, undiagnosed).
+    // from the twin (an NVIDIA H200 once did on `plane-boxes@rect`, 77 samples: the part of
+    // the box outside the map, see `box_log_means` in glsl/essm/lookup.comp).
     let mut first = Vec::new();
     for (k, ((g, c), m)) in frame
         .visibility

@@ -175,7 +175,15 @@ vec2 box_log_means(vec2 lo, vec2 hi, int first, int count, bool plane) {
     vec2 p0 = clamp(lo, vec2(0.0), size);
     vec2 p1 = clamp(hi, p0, size);
     float area = (hi.x - lo.x) * (hi.y - lo.y);
-    float outside = area - (p1.x - p0.x) * (p1.y - p0.y);
+    // The part outside the map: none unless the box crosses the map's edge, decided by
+    // comparison. Not by area - clipped area alone: for a box inside the map that is the
+    // rounding error of `area` on a device that contracts the product and the subtraction into
+    // one fused multiply-add, and at the far plane's weight exp(c) — e^56 times a blocker's at
+    // c = 80 — a sliver of 10^-7 texels outweighed the whole box: umbra samples beside the boxes
+    // of plane-boxes@rect read lit with receiver_plane = 0 (tests/essm.rs: 63 of 9 523 on
+    // lavapipe under GALLIUM_NOSSE=1, and the same signature, 77, on an H200).
+    bool crosses = any(lessThan(lo, vec2(0.0))) || any(greaterThan(hi, size));
+    float outside = crosses ? area - (p1.x - p0.x) * (p1.y - p0.y) : 0.0;
     vec2 result = vec2(0.0);
     for (int k = 0; k < count; ++k) {
         if (outside > 0.0) {

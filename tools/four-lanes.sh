@@ -8,7 +8,7 @@
 #
 # Why under valgrind (`--tool=none`, no memory checking, ~27x slower): on this project's
 # AVX-512 build host, lavapipe 25.0.7 at 128 bits crashes in its own code (a segfault or a
-# corrupted heap inside libvulkan_lvp.so's rasterizer, in `hard` on teapot-rect as in most
+# corrupted heap inside libvulkan_lvp.so, in `hard` on teapot-rect as in most
 # tests that draw a shadow map, with or without threads: LP_NUM_THREADS=0 crashes every time);
 # valgrind's CPU has no AVX-512 and the same binaries run clean. GALLIUM_NOSSE=1 also avoids the
 # crash but changes lavapipe's arithmetic (38 tests fail at 8 lanes as at 4), so it cannot tell

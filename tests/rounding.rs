@@ -183,3 +183,55 @@ fn plain_division_renders_what_the_correction_renders() {
     common::assert_clean(&measured.context().validation());
     common::assert_clean(&corrected.context().validation());
 }
+
+/// `precise` keeps a product and a sum apart (SPIR-V's NoContraction): `div_rn`'s exact
+/// residual (Dekker's product, glsl/include/div_rn.glsl) is only exact if it does. Cases where
+/// fusing changes the result — c = −(a·b rounded), so the unfused sum is 0 and the fused one
+/// a·b's rounding error — and random ones. Whether the device fuses an unmarked a·b + c or
+/// `fma()` is printed, not asserted: Vulkan allows either (lavapipe fuses neither; an H200 may
+/// fuse both), and code that must not be fused has to say `precise`, as `essm`'s box mean once
+/// did not (glsl/essm/lookup.comp).
+#[test]
+fn precise_products_and_sums_are_not_fused() {
+    let ctx = common::context();
+    let mut rng = Rng(0x5eed_c0de);
+    let cases: Vec<[u32; 4]> = (0..4096)
+        .map(|k| {
+            let a = 1.0 + (rng.next() % (1 << 23)) as f32 / (1 << 23) as f32;
+            let b = 1.0 + (rng.next() % (1 << 23)) as f32 / (1 << 23) as f32;
+            let c = if k % 2 == 0 {
+                -(a * b)
+            } else {
+                (rng.next() % (1 << 20)) as f32 / (1 << 10) as f32 - 512.0
+            };
+            [a.to_bits(), b.to_bits(), c.to_bits(), 0]
+        })
+        .collect();
+    let got = common::run_check(&ctx, "checks/contraction.comp", &cases, cases.len(), 3);
+    let (mut telling, mut kept_wrong, mut loose_fused, mut fma_fused) = (0, 0, 0, 0);
+    for (case, r) in cases.iter().zip(got.chunks(3)) {
+        let [a, b, c] = [case[0], case[1], case[2]].map(f32::from_bits);
+        let unfused = a * b + c;
+        let fused = a.mul_add(b, c);
+        if unfused.to_bits() == fused.to_bits() {
+            continue;
+        }
+        telling += 1;
+        kept_wrong += usize::from(r[0] != unfused.to_bits());
+        loose_fused += usize::from(r[1] == fused.to_bits());
+        fma_fused += usize::from(r[2] == fused.to_bits());
+    }
+    eprintln!(
+        "{telling} cases where fusing tells: unmarked a*b + c fused in {loose_fused}, fma() in \
+         {fma_fused}; precise a*b + c wrong in {kept_wrong}"
+    );
+    assert!(
+        telling > 2000,
+        "too few cases where fusing changes the result"
+    );
+    assert_eq!(
+        kept_wrong, 0,
+        "the device fused `precise` arithmetic: div_rn's residual is not exact here"
+    );
+    common::assert_clean(&ctx.validation());
+}

@@ -158,7 +158,9 @@ run_test_binary() {
     local t=$1 name
     name=$(basename "$t" | sed 's/-[0-9a-f]*$//')
     local s=$SECONDS
-    timeout 120 "$t" --test-threads 8 > "$res/test-$name.log" 2>&1
+    # --nocapture: the passing tests' own lines too (the twins' largest differences, and
+    # rounding's whether the device fuses a*b + c and fma()), which only a lent GPU can tell.
+    timeout 120 "$t" --test-threads 8 --nocapture > "$res/test-$name.log" 2>&1
     local rc=$?
     local summary
     summary=$(grep -E '^test result' "$res/test-$name.log" | tail -1)

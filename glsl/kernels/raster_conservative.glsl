@@ -206,11 +206,17 @@ Setup finish_setup(vec3 a, vec3 b, vec3 c, float zmin, vec2 tmin, vec2 tmax) {
     s.z0 = zmin;
     vec2 e1 = b.xy - a.xy;
     vec2 e2 = c.xy - a.xy;
-    float area = e1.x * e2.y - e1.y * e2.x;
+    // `precise`: no fused multiply-add in the area or the gradient. A sliver's area is a
+    // difference of nearly equal products, so fusing one of them moves the gradient by hundreds
+    // of ulp and the plane at a texel centre by several 10^-6 (tools/fused_fma.py: 65 of 16 383
+    // texels of tests/kernels_raster_depth.rs's centre map past the twin's 4e-6); kept apart,
+    // every device computes the twin's plane. Once a triangle: nothing in the texel loop.
+    precise float area = e1.x * e2.y - e1.y * e2.x;
     if (area != 0.0 && !isinf(area)) {
         float dz1 = b.z - a.z;
         float dz2 = c.z - a.z;
-        vec2 dz = vec2((dz1 * e2.y - dz2 * e1.y) / area, (dz2 * e1.x - dz1 * e2.x) / area);
+        precise vec2 dz = vec2((dz1 * e2.y - dz2 * e1.y) / area,
+                               (dz2 * e1.x - dz1 * e2.x) / area);
         if (!any(isnan(dz)) && !any(isinf(dz))) {
             // The bias moves the whole piece (its plane and its vertex minimum) back: the same
             // for every texel, so the conservative rule holds for the biased plane.

@@ -16,14 +16,16 @@ falls exactly on an f32 rounding midpoint) — and reassembled with the same ids
 --preserve-numeric-ids) and validated (spirv-val). The modules are rewritten in place, the
 tests run, and spirv/ is restored from git whatever happens; spirv/ must be clean to begin.
 
-    python3 tools/fused_fma.py                  # the whole suite (but `shaders`, which checks
-                                                # that spirv/ is what the GLSL compiles to)
+    python3 tools/fused_fma.py                  # the whole suite but the check that spirv/ is
+                                                # what the GLSL compiles to (nextest where it
+                                                # is installed, else cargo test: tools/test.sh)
     python3 tools/fused_fma.py --test essm      # cargo nextest run's own arguments
     python3 tools/fused_fma.py --rewrite-only   # leave the rewritten modules in place
                                                 # (restore: git checkout spirv/)
 """
 import pathlib
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -147,7 +149,15 @@ def main():
         return
     try:
         rewrite_all()
-        cmd = ["cargo", "nextest", "run", "--no-fail-fast"] + (args or ["-E", "not binary(shaders)"])
+        stale = "committed_spirv_is_up_to_date"
+        if args:
+            cmd = ["cargo", "nextest", "run", "--no-fail-fast"] + args
+        elif shutil.which("cargo-nextest"):
+            cmd = ["cargo", "nextest", "run", "--no-fail-fast", "--features", "shader-compiler",
+                   "-E", f"not test(={stale})"]
+        else:
+            cmd = ["cargo", "test", "--no-fail-fast", "--features", "shader-compiler", "--",
+                   "--skip", stale]
         rc = subprocess.run(cmd, cwd=ROOT).returncode
     finally:
         subprocess.run(["git", "checkout", "--", "spirv"], cwd=ROOT, check=True)

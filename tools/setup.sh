@@ -10,7 +10,7 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 packages=(
   libvulkan1 libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools
   glslc glslang-tools libshaderc-dev spirv-tools
-  build-essential pkg-config ca-certificates curl
+  build-essential pkg-config ca-certificates curl python3
 )
 missing=()
 for p in "${packages[@]}"; do

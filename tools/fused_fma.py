@@ -14,14 +14,15 @@ by f64 arithmetic — the product of two floats is exact in f64, the sum rounded
 then to f32 (a double rounding, which differs from a true fused result only where the f64 sum
 falls exactly on an f32 rounding midpoint) — and reassembled with the same ids (spirv-as
 --preserve-numeric-ids) and validated (spirv-val). The modules are rewritten in place, the
-tests run, and spirv/ is restored from git whatever happens; spirv/ must be clean to begin.
+tests run, and spirv/ is put back from a copy taken first, whatever happens.
 
     python3 tools/fused_fma.py                  # the whole suite but the check that spirv/ is
                                                 # what the GLSL compiles to (nextest where it
                                                 # is installed, else cargo test: tools/test.sh)
     python3 tools/fused_fma.py --test essm      # cargo nextest run's own arguments
     python3 tools/fused_fma.py --rewrite-only   # leave the rewritten modules in place
-                                                # (restore: git checkout spirv/)
+                                                # (restore: git checkout spirv/; refused
+                                                # unless spirv/ is as committed)
 """
 import pathlib
 import re
@@ -142,11 +143,15 @@ def rewrite_all():
 
 def main():
     args = sys.argv[1:]
-    if subprocess.run(["git", "diff", "--quiet", "--", "spirv"], cwd=ROOT).returncode != 0:
-        sys.exit("fused_fma: spirv/ has changes; commit or restore them first")
     if args == ["--rewrite-only"]:
+        clean = subprocess.run(["git", "diff", "--quiet", "--", "spirv"], cwd=ROOT)
+        if clean.returncode != 0:
+            sys.exit("fused_fma: spirv/ has changes; commit them first (git restores it after)")
         rewrite_all()
         return
+    backup = tempfile.TemporaryDirectory()
+    saved = pathlib.Path(backup.name) / "spirv"
+    shutil.copytree(SPIRV, saved)
     try:
         rewrite_all()
         stale = "committed_spirv_is_up_to_date"
@@ -160,7 +165,12 @@ def main():
                    "--skip", stale]
         rc = subprocess.run(cmd, cwd=ROOT).returncode
     finally:
-        subprocess.run(["git", "checkout", "--", "spirv"], cwd=ROOT, check=True)
+        # Copied back, not checked out: a change to the shaders not yet committed stays. With
+        # fresh times (shutil.copy, not copy2): cargo rebuilds what embeds them only if they
+        # are newer than its last build, which embedded the rewritten ones.
+        shutil.rmtree(SPIRV)
+        shutil.copytree(saved, SPIRV, copy_function=shutil.copy)
+        backup.cleanup()
         print("fused_fma: spirv/ restored", flush=True)
     sys.exit(rc)
 

@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
-"""Runs the test suite as a GPU that fuses would: every GLSL.std.450 `Fma` in spirv/ computed
-exactly once rounded, on lavapipe.
+"""Runs the test suite on lavapipe as a GPU that fuses multiply-adds would: every f32
+GLSL.std.450 `Fma` in spirv/ computed exactly and rounded once.
 
-Why: the SPIR-V shaderc writes already holds `Fma` wherever the GLSL has an unmarked a * b + c
-(and wherever it calls fma()); lavapipe evaluates it as a rounded product and a rounded sum, an
-NVIDIA GPU as one fused operation, and code whose result hangs on that difference passes every
-twin test here and fails on the GPU — as essm's box mean did on an H200 (README, "Four-lane
+Why: the SPIR-V shaderc writes already holds `Fma` for an unmarked a * b + c (as
+glsl/checks/contraction.comp shows) and for every fma(); lavapipe evaluates it as a rounded
+product and a rounded sum, an NVIDIA GPU as one fused operation, and code whose result hangs on
+that difference passes every twin test here and fails on the GPU — as essm's box mean did on an H200 (README, "Four-lane
 subgroups and fused arithmetic"). `precise` code has no `Fma` (NoContraction), so this changes
 nothing that says it must not be fused.
 

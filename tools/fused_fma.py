@@ -1,16 +1,20 @@
 #!/usr/bin/env python3
 """Runs the test suite on lavapipe as a GPU that fuses multiply-adds would: every f32
-GLSL.std.450 `Fma` in spirv/ computed exactly and rounded once.
+GLSL.std.450 `Fma` in spirv/, and every f32 product with the sum or difference that takes it
+where neither is NoContraction, computed exactly and rounded once.
 
 Why: the SPIR-V shaderc writes already holds `Fma` for an unmarked a * b + c (as
 glsl/checks/contraction.comp shows) and for every fma(); lavapipe evaluates it as a rounded
 product and a rounded sum, an NVIDIA GPU as one fused operation, and code whose result hangs on
-that difference passes every twin test here and fails on the GPU — as essm's box mean did on an H200 (README, "Four-lane
-subgroups and fused arithmetic"). `precise` code has no `Fma` (NoContraction), so this changes
-nothing that says it must not be fused.
+that difference passes every twin test here and fails on the GPU — as essm's box mean did on an
+H200 (README, "Four-lane subgroups and fused arithmetic"). `precise` code has no `Fma`
+(NoContraction), so this changes nothing that says it must not be fused. A GPU compiler may
+also contract a product into a sum that takes it in another statement, which shaderc leaves as
+OpFMul and OpFAdd/OpFSub: those pairs are fused too (OpFMul or OpVectorTimesScalar, then OpFAdd
+or OpFSub on either side), unless `--fma-only`.
 
-How: each module is disassembled (spirv-dis), each f32 (scalar or vector) `Fma` a b c replaced
-by f64 arithmetic — the product of two floats is exact in f64, the sum rounded once to f64 and
+How: each module is disassembled (spirv-dis), each f32 (scalar or vector) a b + c replaced by
+f64 arithmetic — the product of two floats is exact in f64, the sum rounded once to f64 and
 then to f32 (a double rounding, which differs from a true fused result only where the f64 sum
 falls exactly on an f32 rounding midpoint) — and reassembled with the same ids (spirv-as
 --preserve-numeric-ids) and validated (spirv-val). The modules are rewritten in place, the
@@ -20,6 +24,7 @@ tests run, and spirv/ is put back from a copy taken first, whatever happens.
                                                 # what the GLSL compiles to (nextest where it
                                                 # is installed, else cargo test: tools/test.sh)
     python3 tools/fused_fma.py --test essm      # cargo nextest run's own arguments
+    python3 tools/fused_fma.py --fma-only       # only what shaderc already wrote as Fma
     python3 tools/fused_fma.py --rewrite-only   # leave the rewritten modules in place
                                                 # (restore: git checkout spirv/; refused
                                                 # unless spirv/ is as committed)
@@ -39,8 +44,9 @@ def run(*args, **kw):
     return subprocess.run(args, check=True, text=True, capture_output=True, **kw).stdout
 
 
-def rewrite(text):
-    """The module's assembly with every f32 Fma computed in f64; (text, count)."""
+def rewrite(text, contract=False):
+    """The module's assembly with every f32 Fma computed in f64, and with `contract` every f32
+    product and the sum or difference that takes it, neither NoContraction; (text, count)."""
     lines = text.splitlines()
     bound = int(re.search(r"^; Bound: (\d+)", text, re.M).group(1))
     next_id = [bound]
@@ -72,11 +78,40 @@ def rewrite(text):
         if m and f64 is not None and m.group(2) == f64:
             vec64[int(m.group(3))] = m.group(1)
 
-    fma = re.compile(r"^(\s*)(%\d+) = OpExtInst (%\d+) " + re.escape(glsl) + r" Fma (%\d+) (%\d+) (%\d+)$")
-    uses = [fma.match(line) for line in lines]
-    widths = {vec32[m.group(3)] for m in uses if m and m.group(3) in vec32}
-    if not any(m and (m.group(3) == f32 or m.group(3) in vec32) for m in uses):
+    def is_f32(ty):
+        return ty == f32 or ty in vec32
+
+    # Each operation to compute fused: line index -> (result, type, mul op, x, y, c, how), for
+    # x * y (OpFMul, or OpVectorTimesScalar with y a scalar) and how: "+" (x y + c), "-"
+    # (x y - c) or "r" (c - x y).
+    fused = {}
+    fma = re.compile(r"^\s*(%\d+) = OpExtInst (%\d+) " + re.escape(glsl) + r" Fma (%\d+) (%\d+) (%\d+)$")
+    for i, line in enumerate(lines):
+        m = fma.match(line)
+        if m and is_f32(m.group(2)):
+            r, ty, a, b, c = m.groups()
+            fused[i] = (r, ty, "OpFMul", a, b, c, "+")
+    if contract:
+        kept = set(re.findall(r"OpDecorate (%\d+) NoContraction", text))
+        muls = {}
+        for line in lines:
+            m = re.match(r"\s*(%\d+) = (OpFMul|OpVectorTimesScalar) (%\d+) (%\d+) (%\d+)$", line)
+            if m and is_f32(m.group(3)) and m.group(1) not in kept:
+                muls[m.group(1)] = (m.group(2), m.group(3), m.group(4), m.group(5))
+        for i, line in enumerate(lines):
+            m = re.match(r"\s*(%\d+) = (OpFAdd|OpFSub) (%\d+) (%\d+) (%\d+)$", line)
+            if not m or m.group(1) in kept or not is_f32(m.group(3)):
+                continue
+            r, op, ty, p, q = m.groups()
+            for mul, c, how in ((p, q, "+" if op == "OpFAdd" else "-"),
+                                (q, p, "+" if op == "OpFAdd" else "r")):
+                if mul in muls and muls[mul][1] == ty:
+                    kind, _, x, y = muls[mul]
+                    fused[i] = (r, ty, kind, x, y, c, how)
+                    break
+    if not fused:
         return text, 0
+    widths = {vec32[f[1]] for f in fused.values() if f[1] in vec32}
 
     new_types = []
     if f64 is None:
@@ -88,23 +123,26 @@ def rewrite(text):
             new_types.append(f"{vec64[w]} = OpTypeVector {f64} {w}")
 
     out = []
-    count = 0
     decorations = []
-    for line, m in zip(lines, uses):
-        if m and (m.group(3) == f32 or m.group(3) in vec32):
-            pad, r, ty, a, b, c = m.groups()
+    for i, line in enumerate(lines):
+        if i in fused:
+            r, ty, kind, x, y, c, how = fused[i]
+            pad = re.match(r"\s*", line).group(0)
             t64 = f64 if ty == f32 else vec64[vec32[ty]]
-            a64, b64, c64, p64, s64 = (fresh() for _ in range(5))
+            # OpVectorTimesScalar's y is a scalar.
+            y64_type = f64 if kind == "OpVectorTimesScalar" else t64
+            x64, y64, c64, p64, s64 = (fresh() for _ in range(5))
+            total = {"+": f"OpFAdd {t64} {p64} {c64}", "-": f"OpFSub {t64} {p64} {c64}",
+                     "r": f"OpFSub {t64} {c64} {p64}"}[how]
             out += [
-                f"{pad}{a64} = OpFConvert {t64} {a}",
-                f"{pad}{b64} = OpFConvert {t64} {b}",
+                f"{pad}{x64} = OpFConvert {t64} {x}",
+                f"{pad}{y64} = OpFConvert {y64_type} {y}",
                 f"{pad}{c64} = OpFConvert {t64} {c}",
-                f"{pad}{p64} = OpFMul {t64} {a64} {b64}",
-                f"{pad}{s64} = OpFAdd {t64} {p64} {c64}",
+                f"{pad}{p64} = {kind} {t64} {x64} {y64}",
+                f"{pad}{s64} = {total}",
                 f"{pad}{r} = OpFConvert {ty} {s64}",
             ]
             decorations += [f"OpDecorate {p64} NoContraction", f"OpDecorate {s64} NoContraction"]
-            count += 1
             continue
         out.append(line)
         if re.match(r"\s*" + re.escape(f32) + r" = OpTypeFloat 32$", line):
@@ -115,7 +153,7 @@ def rewrite(text):
     # Decorations go before the first type declaration (the annotation section's end).
     at = next(i for i, line in enumerate(out) if re.match(r"\s*%\d+ = OpType", line))
     out[at:at] = decorations
-    return "\n".join(out) + "\n", count
+    return "\n".join(out) + "\n", len(fused)
 
 
 def target_env(text):
@@ -123,12 +161,12 @@ def target_env(text):
     return "spv{}.{}".format(*version)
 
 
-def rewrite_all():
+def rewrite_all(contract=False):
     total = modules = 0
     with tempfile.TemporaryDirectory() as tmp:
         for spv in sorted(SPIRV.rglob("*.spv")):
             text = run("spirv-dis", "--raw-id", "--no-color", str(spv))
-            new, count = rewrite(text)
+            new, count = rewrite(text, contract)
             if count == 0:
                 continue
             asm = pathlib.Path(tmp) / "m.spvasm"
@@ -138,22 +176,25 @@ def rewrite_all():
             run("spirv-val", "--target-env", "vulkan1.2" if env <= "spv1.5" else "vulkan1.3", str(spv))
             total += count
             modules += 1
-    print(f"fused_fma: {total} Fma in {modules} modules now computed once rounded", flush=True)
+    what = "Fma and contractible products and sums" if contract else "Fma"
+    print(f"fused_fma: {total} {what} in {modules} modules now computed once rounded", flush=True)
 
 
 def main():
     args = sys.argv[1:]
+    contract = "--fma-only" not in args
+    args = [a for a in args if a != "--fma-only"]
     if args == ["--rewrite-only"]:
         clean = subprocess.run(["git", "diff", "--quiet", "--", "spirv"], cwd=ROOT)
         if clean.returncode != 0:
             sys.exit("fused_fma: spirv/ has changes; commit them first (git restores it after)")
-        rewrite_all()
+        rewrite_all(contract)
         return
     backup = tempfile.TemporaryDirectory()
     saved = pathlib.Path(backup.name) / "spirv"
     shutil.copytree(SPIRV, saved)
     try:
-        rewrite_all()
+        rewrite_all(contract)
         stale = "committed_spirv_is_up_to_date"
         if args:
             cmd = ["cargo", "nextest", "run", "--no-fail-fast"] + args

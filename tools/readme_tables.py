@@ -14,6 +14,7 @@ named command):
     python3 tools/readme_tables.py reuse DIR            # DIR from `bench --suite reuse`
     python3 tools/readme_tables.py scaling DIR          # DIR from `bench --suite scaling`
     python3 tools/readme_tables.py temporal DIR         # DIR from `bench --suite temporal`
+    python3 tools/readme_tables.py moved A B            # two stress.json or two bench.csv
 
 (The `pvssm` section's tables come from tools/pvssm_tables.py.)
 
@@ -51,6 +52,9 @@ selection.json.
 (triangles, view samples, light size), from scaling.json.
 `temporal`: technique (and knobs) × scene, flicker / flicker in shadow (×10⁻³) and the MAE,
 then the reference's own motion per scene, from temporal.json.
+`moved`: of the rows with an MAE in both runs (stress.json rows by case, technique and knobs;
+bench.csv rows by scene, light scale, label and technique), how many moved by more than 10⁻⁹
+from A to B and the three that moved most (the README's runs under tools/fused_fma.py).
 """
 import csv
 import json
@@ -576,6 +580,24 @@ def temporal(directory):
                   f"{r['positions']} positions, {r['step_mrad']} mrad a step")
 
 
+def moved(a, b):
+    def load(path):
+        if path.endswith(".json"):
+            return {(r["case"], r["technique"], json.dumps(r.get("knobs"), sort_keys=True)):
+                    r["mae"] for r in json.load(open(path))["rows"]}
+        with open(path, newline="") as f:
+            return {(r["scene"], r["light_scale"], r["label"], r["technique"]):
+                    float(r["mae"]) if r["mae"] else None for r in csv.DictReader(f)}
+    before, after = load(a), load(b)
+    both = [(abs(after[k] - v), k) for k, v in before.items()
+            if v is not None and after.get(k) is not None]
+    both.sort(reverse=True)
+    print(f"{sum(1 for d, _ in both if d > 1e-9)} of {len(both)} rows moved by more than 1e-9; "
+          f"rows only in one run: {len(set(before) ^ set(after))}")
+    for d, k in both[:3]:
+        print(f"  {d:.3g}  {' / '.join(k)}")
+
+
 # Each command's function and how many directories it takes (None: one or more, as a list).
 COMMANDS = {
     "receivers": (receivers, 1),
@@ -590,6 +612,7 @@ COMMANDS = {
     "reuse": (reuse, 1),
     "scaling": (scaling, 1),
     "temporal": (temporal, 1),
+    "moved": (moved, 2),
 }
 
 if __name__ == "__main__":

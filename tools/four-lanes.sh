@@ -36,16 +36,7 @@ fi
 
 out=$(mktemp -d)
 cargo test --no-run --message-format=json 2> /dev/null |
-    python3 -c '
-import json, sys
-want = set(sys.argv[1:])
-for line in sys.stdin:
-    m = json.loads(line)
-    t = m.get("target", {})
-    if m.get("reason") == "compiler-artifact" and m.get("executable") and t.get("name") in want \
-            and "test" in t.get("kind", []):
-        print(t["name"], m["executable"])
-' "${names[@]}" > "$out/binaries"
+    python3 tools/test_binaries.py --named "${names[@]}" > "$out/binaries"
 if [ "$(wc -l < "$out/binaries")" -ne ${#names[@]} ]; then
     echo "four-lanes: found $(wc -l < "$out/binaries") of ${#names[@]} test binaries" >&2
     exit 2

@@ -28,13 +28,7 @@ pack() {
     export PATH="$HOME/.cargo/bin:$PATH"
     cargo build --release --bin penumbra
     cargo test --release --no-run --message-format=json 2> /dev/null |
-        python3 -c '
-import json, sys
-for line in sys.stdin:
-    d = json.loads(line)
-    test = d.get("reason") == "compiler-artifact" and d["target"]["kind"] == ["test"]
-    if test and d.get("executable"):
-        print(d["executable"])' > /tmp/gpu-run-tests.txt
+        python3 tools/test_binaries.py > /tmp/gpu-run-tests.txt
     local stage=.devcarry/stage
     rm -rf "$stage" && mkdir -p "$stage/tests" "$stage/bin" "$stage/layer"
     # PACK_TESTS (default: every test binary) names the ones to take, e.g. "essm page_raster".

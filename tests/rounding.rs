@@ -235,3 +235,56 @@ fn precise_products_and_sums_are_not_fused() {
     );
     common::assert_clean(&ctx.validation());
 }
+
+/// `transform_point` (glsl/include/transform.glsl), which the shadow-map lookups and the
+/// rasterizers' vertices go through, equals its twin `cpu::transform::transform_point` to the
+/// bit: its order is fixed and it is `precise`, where `m * v`'s order and fusing are the
+/// device's (printed: lavapipe sums the columns last to first, so never as the twin where the
+/// order tells).
+#[test]
+fn transform_point_is_its_twin_to_the_bit() {
+    use glam::{Mat4, Vec4};
+    use penumbra::cpu::transform::transform_point;
+    let ctx = common::context();
+    let mut rng = Rng(0x7a4e_5f0a);
+    let cases: Vec<[[u32; 4]; 5]> = (0..4096)
+        .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| rng.float().to_bits())))
+        .collect();
+    let got = common::run_check(&ctx, "checks/transform.comp", &cases, cases.len(), 8);
+    let floats = |w: &[u32]| Vec4::from_array(std::array::from_fn(|k| f32::from_bits(w[k])));
+    let (mut wrong, mut as_twin, mut as_reversed, mut telling) = (Vec::new(), 0, 0, 0);
+    for (case, r) in cases.iter().zip(got.chunks(8)) {
+        let m = Mat4::from_cols(
+            floats(&case[0]),
+            floats(&case[1]),
+            floats(&case[2]),
+            floats(&case[3]),
+        );
+        let p = floats(&case[4]).truncate();
+        let twin = transform_point(m, p);
+        let reversed = ((m.w_axis + m.z_axis * p.z) + m.y_axis * p.y) + m.x_axis * p.x;
+        if twin.to_array().map(f32::to_bits) != r[..4] {
+            wrong.push((m, p, twin, floats(&r[..4])));
+        }
+        for k in 0..4 {
+            if twin[k].to_bits() != reversed[k].to_bits() {
+                telling += 1;
+                as_twin += usize::from(r[4 + k] == twin[k].to_bits());
+                as_reversed += usize::from(r[4 + k] == reversed[k].to_bits());
+            }
+        }
+    }
+    eprintln!(
+        "{telling} components where the order tells: m * v as transform_point's in {as_twin}, \
+         summed from the translation in {as_reversed}"
+    );
+    assert!(telling > 1000, "too few cases where the order tells");
+    assert!(
+        wrong.is_empty(),
+        "{} of {} transforms not the twin's, e.g. {:?}",
+        wrong.len(),
+        cases.len(),
+        &wrong[..wrong.len().min(3)]
+    );
+    common::assert_clean(&ctx.validation());
+}

@@ -9,13 +9,14 @@
 #define PENUMBRA_SHADOW_MAP_GLSL
 
 #include "div_rn.glsl"
+#include "transform.glsl"
 
 // Light-clip-space position of a world point: xy in texels (continuous, texel centres at .5),
-// z the depth to compare, w > 0 when in front of the light. `precise` and div_rn: the CPU
+// z the depth to compare, w > 0 when in front of the light. transform_point and div_rn: the CPU
 // twin's f32 arithmetic on any device (src/cpu/shadow_map.rs), not NVIDIA's fused products and
 // approximate division (div_rn.glsl says what they did to vssm on an H200).
 vec4 shadow_coord(mat4 light_view_proj, vec3 world, ivec2 map_size) {
-    precise vec4 clip = light_view_proj * vec4(world, 1.0);
+    vec4 clip = transform_point(light_view_proj, world);
     if (clip.w <= 0.0) {
         return vec4(-1.0, -1.0, 2.0, -1.0);
     }

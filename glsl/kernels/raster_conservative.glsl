@@ -100,6 +100,7 @@
 
 #extension GL_GOOGLE_include_directive : require
 #include "small_int.glsl"
+#include "transform.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -166,7 +167,7 @@ struct Setup {
 vec4 clip_vertex(uint i) {
     uint v = indices[i];
     vec3 p = vec3(vertices[3u * v], vertices[3u * v + 1u], vertices[3u * v + 2u]);
-    return pc.light_view_proj * vec4(p, 1.0);
+    return transform_point(pc.light_view_proj, p);
 }
 
 vec3 project(vec4 c) {

@@ -36,6 +36,7 @@
 // CPU twin: triangle_overlaps_page() in src/cpu/pages.rs.
 #include "pages.glsl"
 #include "pages_push.glsl"
+#include "transform.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -88,7 +89,7 @@ bool memo_more = false;
 vec4 clip_vertex(uint i) {
     uint v = indices[i];
     vec3 p = vec3(vertices[3u * v], vertices[3u * v + 1u], vertices[3u * v + 2u]);
-    return pc.light_view_proj * vec4(p, 1.0);
+    return transform_point(pc.light_view_proj, p);
 }
 
 // Whether all four corners of the rectangle lo..hi lie strictly outside edge p->q, whose inside is

@@ -23,6 +23,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
 #include "pages_push.glsl"
+#include "transform.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -56,7 +57,7 @@ void main() {
     for (uint k = 0u; k < 8u; ++k) {
         vec3 corner = vec3((k & 1u) != 0u ? hi.x : lo.x, (k & 2u) != 0u ? hi.y : lo.y,
                            (k & 4u) != 0u ? hi.z : lo.z);
-        vec4 q = pc.light_view_proj * vec4(corner, 1.0);
+        vec4 q = transform_point(pc.light_view_proj, corner);
         all_near = all_near && q.z < 0.0;
         all_far = all_far && q.z > q.w;
         all_front = all_front && q.w > 0.0;

@@ -12,6 +12,7 @@
 // clamped) and adds it to its depth.
 #include "pages.glsl"
 #include "pages_push.glsl"
+#include "transform.glsl"
 #include "page_bias.glsl"
 
 layout(set = 0, binding = 0) readonly buffer Vertices { float vertices[]; };
@@ -32,7 +33,7 @@ out float gl_ClipDistance[4];
 vec4 clip_vertex(uint i) {
     uint v = indices[i];
     vec3 p = vec3(vertices[3u * v], vertices[3u * v + 1u], vertices[3u * v + 2u]);
-    return pc.light_view_proj * vec4(p, 1.0);
+    return transform_point(pc.light_view_proj, p);
 }
 
 #ifdef LISTED

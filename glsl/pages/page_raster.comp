@@ -19,6 +19,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "pages.glsl"
 #include "pages_push.glsl"
+#include "transform.glsl"
 #include "page_bias.glsl"
 
 layout(local_size_x = 64) in;
@@ -47,7 +48,7 @@ layout(set = 0, binding = 9) readonly buffer SlotBands { uint slot_bands[]; };
 vec4 clip_vertex(uint i) {
     uint v = indices[i];
     vec3 p = vec3(vertices[3u * v], vertices[3u * v + 1u], vertices[3u * v + 2u]);
-    return pc.light_view_proj * vec4(p, 1.0);
+    return transform_point(pc.light_view_proj, p);
 }
 
 #include "page_cover.glsl"

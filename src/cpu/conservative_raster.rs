@@ -29,6 +29,8 @@
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
+use super::transform::transform_point;
+
 /// The clip cone's half-width in NDC (the shader's `GUARD`).
 const GUARD: f32 = 2.0;
 
@@ -262,7 +264,7 @@ enum Pieces {
 }
 
 fn pieces(v: [Vec3; 3], view_proj: Mat4, n: f32, clip: bool, bias: (f32, f32)) -> Pieces {
-    let c = v.map(|p| view_proj * p.extend(1.0));
+    let c = v.map(|p| transform_point(view_proj, p));
     let front = c.iter().all(|c| c.w > 0.0);
     let behind = c.iter().all(|c| c.w <= 0.0);
     if behind || (!clip && !front) {

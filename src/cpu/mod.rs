@@ -45,6 +45,7 @@ pub mod soft_light;
 pub mod sort;
 #[cfg(test)]
 pub(crate) mod test_support;
+pub mod transform;
 pub mod view_samples;
 pub mod visibility_checks;
 pub mod vssm;

@@ -14,6 +14,8 @@
 
 use glam::{IVec2, Mat4, Vec2, Vec3, Vec4};
 
+use super::transform::transform_point;
+
 /// The atlas and bias a page raster draws with (the `PagesPush` fields it reads).
 #[derive(Clone, Copy, Debug)]
 pub struct PageRasterDesc {
@@ -142,7 +144,7 @@ pub fn rasterize_pages(
     let vertex = |i: u32| -> Vec4 {
         let v = indices[i as usize] as usize;
         let p = Vec3::new(vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2]);
-        view_proj * p.extend(1.0)
+        transform_point(view_proj, p)
     };
     let ps = desc.page_size as i32;
     for &(tri, slot) in bins {

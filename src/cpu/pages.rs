@@ -8,6 +8,8 @@
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
+use super::transform::transform_point;
+
 /// Largest `V / p` accepted: the entry count `E < 4/3 · (V/p)²` must fit a `u32`.
 const MAX_PAGES_PER_SIDE: u32 = 1 << 15;
 
@@ -399,7 +401,7 @@ pub fn cluster_level_mask(
                 pick(2, lo.y, hi.y),
                 pick(4, lo.z, hi.z),
             );
-            view_proj * p.extend(1.0)
+            transform_point(view_proj, p)
         })
         .collect();
     if corners.iter().all(|q| q.z < 0.0) || corners.iter().all(|q| q.z > q.w) {

@@ -25,11 +25,12 @@ pub use super::pages::{
     Allocation, BinFit, PageLayout,
 };
 use super::pages::{clip_texel, positive};
+use super::transform::transform_point;
 
 /// Level-0 texel coordinates (x, y) and depth z of a world point; `None` behind the light
 /// (`w <= 0`). No y flip; texel centres at .5.
 pub fn light_texel(light_view_proj: Mat4, world: Vec3, virtual_size: u32) -> Option<Vec3> {
-    clip_texel(light_view_proj * world.extend(1.0), virtual_size)
+    clip_texel(transform_point(light_view_proj, world), virtual_size)
 }
 
 /// Whether texel coordinates lie inside the virtual map and the depth range (the same test as

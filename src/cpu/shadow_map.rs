@@ -2,6 +2,8 @@
 
 use glam::{IVec2, Mat4, Vec2, Vec3, Vec4};
 
+use super::transform::transform_point;
+
 /// A depth map on the CPU, row-major, `size.x * size.y` texels.
 #[derive(Clone, Debug)]
 pub struct DepthMap<'a> {
@@ -13,7 +15,7 @@ pub struct DepthMap<'a> {
 
 /// Light-clip-space position: xy in texels, z depth, w > 0 in front of the light.
 pub fn shadow_coord(light_view_proj: Mat4, world: Vec3, map_size: IVec2) -> Vec4 {
-    let clip = light_view_proj * world.extend(1.0);
+    let clip = transform_point(light_view_proj, world);
     if clip.w <= 0.0 {
         return Vec4::new(-1.0, -1.0, 2.0, -1.0);
     }

@@ -13,6 +13,8 @@
 
 use glam::{Mat4, Vec3};
 
+use super::transform::transform_point;
+
 /// A rasterized depth map with the texels whose coverage is uncertain.
 pub struct RasterDepth {
     /// Depth per texel, row-major.
@@ -41,7 +43,7 @@ pub fn rasterize_depth(
     };
     for tri in indices.chunks_exact(3) {
         let v = [tri[0], tri[1], tri[2]].map(|i| {
-            let clip = view_proj * positions[i as usize].extend(1.0);
+            let clip = transform_point(view_proj, positions[i as usize]);
             let ndc = clip.truncate() / clip.w;
             // Viewport transform (f32 like the GPU's).
             Vec3::new(

@@ -386,8 +386,9 @@ pub fn cases() -> Vec<Case> {
                     0.08,
                     "each needle rasterizes to a line of whole map texels, and the blockers near \
                      the light ask for filters wide enough to gather many such lines, each \
-                     counted as a full occluder (MAE 0.059 at 256x192, 0.033 at 128x96; \
-                     max_width = 16: 0.013, map_size = 4096: 0.019)",
+                     counted as a full occluder (MAE 0.047 at 256x192, 0.018 at 128x96; \
+                     max_width = 16: 0.010, map_size = 4096: 0.014; edge-on to the light's \
+                     centre, whether a needle covers texels hangs on its vertices' last bits)",
                 ),
                 // Thin enough that the other map techniques see only scattered texels.
                 _ => Bound::Mae(0.05),

@@ -34,8 +34,9 @@ test -s "$out/kernels/kernels.json"
 penumbra stress --quick --cache-dir "$out/cache" --out "$out/stress"
 test -s "$out/stress/stress.json"
 rm -rf "$out"
-# The suite again as a GPU that fuses multiply-adds runs it: every Fma in spirv/, and every
-# product with the sum that takes it unless `precise`, rounded once (lavapipe rounds each), so
+# The suite again as a GPU that fuses multiply-adds runs it: every Fma in spirv/, every product
+# with the sum that takes it unless `precise`, rounded once (lavapipe rounds each), and dot,
+# m * v, cross, length, normalize and mix as chains of fused multiply-adds, so
 # code whose result hangs on that fails here rather than on a GPU, as essm's box mean did on an
 # H200. Last: it rewrites spirv/ (restored after) and so rebuilds the tests.
 python3 tools/fused_fma.py

@@ -32,6 +32,8 @@ tests run, and spirv/ is put back from a copy taken first, whatever happens.
     python3 tools/fused_fma.py --test essm      # cargo nextest run's own arguments
     python3 tools/fused_fma.py --fma-only       # only what shaderc already wrote as Fma
     python3 tools/fused_fma.py --no-builtins    # Fma and the product-sum pairs, no chains
+    python3 tools/fused_fma.py --reverse        # the chains from their last term (a GPU's
+                                                # order is its own: code must hang on neither)
     python3 tools/fused_fma.py --rewrite-only   # leave the rewritten modules in place
                                                 # (restore: git checkout spirv/; refused
                                                 # unless spirv/ is as committed)
@@ -51,7 +53,7 @@ def run(*args, **kw):
     return subprocess.run(args, check=True, text=True, capture_output=True, **kw).stdout
 
 
-def rewrite(text, contract=False, builtins=False):
+def rewrite(text, contract=False, builtins=False, reverse=False):
     """The module's assembly with every f32 Fma computed in f64, with `contract` every f32
     product and the sum or difference that takes it, neither NoContraction, and with `builtins`
     the dot products, matrix-vector products, cross products, lengths, normalizations and mixes
@@ -141,7 +143,7 @@ def rewrite(text, contract=False, builtins=False):
     for i, line in enumerate(lines):
         if i in chains:
             pad = re.match(r"\s*", line).group(0)
-            chain, exact = builtin_chain(types, glsl, *chains[i])
+            chain, exact = builtin_chain(types, glsl, *chains[i], reverse=reverse)
             out += [pad + step for step in chain]
             decorations += [f"OpDecorate {x} NoContraction" for x in exact]
             continue
@@ -230,12 +232,13 @@ def builtin_sites(lines, text, glsl, f32, vec32):
     return sites
 
 
-def builtin_chain(t, glsl, result, ty, op, args):
+def builtin_chain(t, glsl, result, ty, op, args, reverse=False):
     """The instructions computing the built-in `op` as a GPU that fuses may: a product rounded,
     then one fused multiply-add per further term (dot products and matrix-vector products term
-    by term in order; a cross product's component as x·y − (z·w rounded); a length the square
-    root of the chained dot; mix(x, y, a) as (y − x)·a + x fused). Each fused step is f64
-    arithmetic rounded once to f32, as for `Fma`. (lines, ids to mark NoContraction)."""
+    by term in order, or with `reverse` from the last term; a cross product's component as
+    x·y − (z·w rounded), or with `reverse` (x·y rounded) − z·w fused; a length the square root
+    of the chained dot; mix(x, y, a) as (y − x)·a + x fused). Each fused step is f64 arithmetic
+    rounded once to f32, as for `Fma`. (lines, ids to mark NoContraction)."""
     steps, exact = [], []
 
     def emit(instruction, ident=None, f64_arithmetic=False):
@@ -252,6 +255,8 @@ def builtin_chain(t, glsl, result, ty, op, args):
         """sum of products, first rounded, then fused one by one; terms: [(x, y)] in f64."""
         ty64 = t.wide(ty32)
         acc = None
+        if reverse:
+            terms = terms[::-1]
         for k, (x, y) in enumerate(terms):
             product = emit(f"{scale_op} {ty64} {x} {y}", f64_arithmetic=True)
             if acc is not None:
@@ -290,9 +295,11 @@ def builtin_chain(t, glsl, result, ty, op, args):
         a, b, c, d = (widen(emit(f"OpVectorShuffle {ty} {v} {v} {order}"), ty)
                       for v, order in ((x, "1 2 0"), (y, "2 0 1"), (y, "1 2 0"), (x, "2 0 1")))
         ty64 = t.wide(ty)
+        (a, b), (c, d) = ((c, d), (a, b)) if reverse else ((a, b), (c, d))
         rounded = widen(emit(f"OpFConvert {ty} {emit(f'OpFMul {ty64} {c} {d}', f64_arithmetic=True)}"), ty)
-        difference = emit(f"OpFSub {ty64} {emit(f'OpFMul {ty64} {a} {b}', f64_arithmetic=True)} {rounded}",
-                          f64_arithmetic=True)
+        fused_product = emit(f"OpFMul {ty64} {a} {b}", f64_arithmetic=True)
+        difference = emit(f"OpFSub {ty64} {rounded if reverse else fused_product} "
+                          f"{fused_product if reverse else rounded}", f64_arithmetic=True)
         emit(f"OpFConvert {ty} {difference}", result)
     elif op == "FMix":
         x, y, a = args
@@ -310,12 +317,12 @@ def target_env(text):
     return "spv{}.{}".format(*version)
 
 
-def rewrite_all(contract=False, builtins=False):
+def rewrite_all(contract=False, builtins=False, reverse=False):
     sites = chains = modules = 0
     with tempfile.TemporaryDirectory() as tmp:
         for spv in sorted(SPIRV.rglob("*.spv")):
             text = run("spirv-dis", "--raw-id", "--no-color", str(spv))
-            new, (fused, chained) = rewrite(text, contract, builtins)
+            new, (fused, chained) = rewrite(text, contract, builtins, reverse)
             if fused + chained == 0:
                 continue
             asm = pathlib.Path(tmp) / "m.spvasm"
@@ -329,7 +336,7 @@ def rewrite_all(contract=False, builtins=False):
     what = f"{sites} Fma" + (" and contractible products and sums" if contract else "")
     if builtins:
         what += (f", {chains} dot, matrix-vector and cross products, lengths, normalizations and"
-                 " mixes as multiply-add chains,")
+                 " mixes as multiply-add chains" + (" from their last term," if reverse else ","))
     print(f"fused_fma: {what} in {modules} modules now computed once rounded", flush=True)
 
 
@@ -337,18 +344,19 @@ def main():
     args = sys.argv[1:]
     contract = "--fma-only" not in args
     builtins = contract and "--no-builtins" not in args
-    args = [a for a in args if a not in ("--fma-only", "--no-builtins")]
+    reverse = "--reverse" in args
+    args = [a for a in args if a not in ("--fma-only", "--no-builtins", "--reverse")]
     if args == ["--rewrite-only"]:
         clean = subprocess.run(["git", "diff", "--quiet", "--", "spirv"], cwd=ROOT)
         if clean.returncode != 0:
             sys.exit("fused_fma: spirv/ has changes; commit them first (git restores it after)")
-        rewrite_all(contract, builtins)
+        rewrite_all(contract, builtins, reverse)
         return
     backup = tempfile.TemporaryDirectory()
     saved = pathlib.Path(backup.name) / "spirv"
     shutil.copytree(SPIRV, saved)
     try:
-        rewrite_all(contract, builtins)
+        rewrite_all(contract, builtins, reverse)
         stale = "committed_spirv_is_up_to_date"
         if args:
             cmd = ["cargo", "nextest", "run", "--no-fail-fast"] + args

@@ -15,6 +15,7 @@
 //!   the library has none by rule.
 
 pub mod cases;
+mod scenes;
 
 use std::collections::BTreeMap;
 

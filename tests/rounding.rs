@@ -288,3 +288,79 @@ fn transform_point_is_its_twin_to_the_bit() {
     );
     common::assert_clean(&ctx.validation());
 }
+
+/// Which order the device sums `m * v` and `dot` in, and whether it fuses their products:
+/// printed, not asserted (SPIR-V leaves both to the device; tools/fused_fma.py simulates the
+/// chains fused from the first term, or with `--reverse` from the last, and lavapipe sums
+/// `m * v` from its last column unfused). Code whose result must not hang on it uses
+/// `transform_point` or spells its sums out under `precise`. Asserted: that the four orders
+/// tell apart on enough cases for the counts to mean something.
+#[test]
+fn the_devices_dot_and_matrix_orders_are_printed() {
+    let ctx = common::context();
+    let mut rng = Rng(0x0bde_75ca);
+    let cases: Vec<[[u32; 4]; 5]> = (0..4096)
+        .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| rng.float().to_bits())))
+        .collect();
+    let got = common::run_check(&ctx, "checks/builtin_orders.comp", &cases, cases.len(), 8);
+    // The four candidates for the sum of x[j]·y[j]: unfused from the first term or the last,
+    // and chained fused multiply-adds from the first term or the last.
+    let candidates = |x: [f32; 4], y: [f32; 4]| -> [u32; 4] {
+        let plain = |order: [usize; 4]| {
+            order
+                .iter()
+                .skip(1)
+                .fold(x[order[0]] * y[order[0]], |s, &j| s + x[j] * y[j])
+        };
+        let fused = |order: [usize; 4]| {
+            order
+                .iter()
+                .skip(1)
+                .fold(x[order[0]] * y[order[0]], |s, &j| x[j].mul_add(y[j], s))
+        };
+        let (up, down) = ([0, 1, 2, 3], [3, 2, 1, 0]);
+        [plain(up), plain(down), fused(up), fused(down)].map(f32::to_bits)
+    };
+    let names = [
+        "unfused from the first term",
+        "unfused from the last",
+        "fused from the first",
+        "fused from the last",
+    ];
+    let (mut matrix, mut dot) = ([0usize; 4], [0usize; 4]);
+    let (mut matrix_telling, mut dot_telling) = (0, 0);
+    let mut tally = |found: u32, c: [u32; 4], counts: &mut [usize; 4], telling: &mut usize| {
+        if c.iter().all(|&b| b == c[0]) {
+            return;
+        }
+        *telling += 1;
+        for (n, &b) in counts.iter_mut().zip(&c) {
+            *n += usize::from(found == b);
+        }
+    };
+    for (case, r) in cases.iter().zip(got.chunks(8)) {
+        let f = |w: [u32; 4]| w.map(f32::from_bits);
+        let v = f(case[4]);
+        for k in 0..4 {
+            let row = [0, 1, 2, 3].map(|j| f32::from_bits(case[j][k]));
+            tally(r[k], candidates(row, v), &mut matrix, &mut matrix_telling);
+        }
+        tally(r[4], candidates(f(case[0]), v), &mut dot, &mut dot_telling);
+    }
+    let describe = |counts: [usize; 4], telling: usize| {
+        names
+            .iter()
+            .zip(counts)
+            .map(|(name, n)| format!("{name} {n}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+            + &format!(" (of {telling})")
+    };
+    eprintln!("m * v: {}", describe(matrix, matrix_telling));
+    eprintln!("dot: {}", describe(dot, dot_telling));
+    assert!(
+        matrix_telling > 4000 && dot_telling > 1000,
+        "too few telling cases"
+    );
+    common::assert_clean(&ctx.validation());
+}

@@ -23,8 +23,12 @@ How: each module is disassembled (spirv-dis), each f32 (scalar or vector) a b + 
 f64 arithmetic — the product of two floats is exact in f64, the sum rounded once to f64 and
 then to f32 (a double rounding, which differs from a true fused result only where the f64 sum
 falls exactly on an f32 rounding midpoint) — and reassembled with the same ids (spirv-as
---preserve-numeric-ids) and validated (spirv-val). The modules are rewritten in place, the
-tests run, and spirv/ is put back from a copy taken first, whatever happens.
+--preserve-numeric-ids) and validated (spirv-val). Every conversion back to f32 is marked
+NoContraction too: unmarked, lavapipe's compiler folds a narrowing and the widening after it
+into nothing, so a chain's or a nested fma's intermediate results were kept in f64 and rounded
+once at its end (tests/rounding.rs's orders test found it: a chained dot matched none of the
+four orders). The modules are rewritten in place, the tests run, and spirv/ is put back from a
+copy taken first, whatever happens.
 
     python3 tools/fused_fma.py                  # the whole suite but the check that spirv/ is
                                                 # what the GLSL compiles to (nextest where it
@@ -164,7 +168,7 @@ def rewrite(text, contract=False, builtins=False, reverse=False):
                 f"{pad}{s64} = {total}",
                 f"{pad}{r} = OpFConvert {ty} {s64}",
             ]
-            decorations += [f"OpDecorate {p64} NoContraction", f"OpDecorate {s64} NoContraction"]
+            decorations += [f"OpDecorate {x} NoContraction" for x in (p64, s64, r)]
             continue
         out.append(line)
         if re.match(r"\s*" + re.escape(f32) + r" = OpTypeFloat 32$", line):
@@ -262,7 +266,7 @@ def builtin_chain(t, glsl, result, ty, op, args, reverse=False):
             if acc is not None:
                 product = emit(f"OpFAdd {ty64} {product} {widen(acc, ty32)}", f64_arithmetic=True)
             last = k == len(terms) - 1
-            acc = emit(f"OpFConvert {ty32} {product}", ident if last else None)
+            acc = emit(f"OpFConvert {ty32} {product}", ident if last else None, f64_arithmetic=True)
         return acc
 
     def dot(a, b, n, ident=None):
@@ -296,7 +300,8 @@ def builtin_chain(t, glsl, result, ty, op, args, reverse=False):
                       for v, order in ((x, "1 2 0"), (y, "2 0 1"), (y, "1 2 0"), (x, "2 0 1")))
         ty64 = t.wide(ty)
         (a, b), (c, d) = ((c, d), (a, b)) if reverse else ((a, b), (c, d))
-        rounded = widen(emit(f"OpFConvert {ty} {emit(f'OpFMul {ty64} {c} {d}', f64_arithmetic=True)}"), ty)
+        rounded = widen(emit(f"OpFConvert {ty} {emit(f'OpFMul {ty64} {c} {d}', f64_arithmetic=True)}",
+                             f64_arithmetic=True), ty)
         fused_product = emit(f"OpFMul {ty64} {a} {b}", f64_arithmetic=True)
         difference = emit(f"OpFSub {ty64} {rounded if reverse else fused_product} "
                           f"{fused_product if reverse else rounded}", f64_arithmetic=True)

@@ -329,7 +329,7 @@ fn the_devices_dot_and_matrix_orders_are_printed() {
     ];
     let (mut matrix, mut dot) = ([0usize; 4], [0usize; 4]);
     let (mut matrix_telling, mut dot_telling) = (0, 0);
-    let mut tally = |found: u32, c: [u32; 4], counts: &mut [usize; 4], telling: &mut usize| {
+    let tally = |found: u32, c: [u32; 4], counts: &mut [usize; 4], telling: &mut usize| {
         if c.iter().all(|&b| b == c[0]) {
             return;
         }

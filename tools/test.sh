@@ -38,5 +38,8 @@ rm -rf "$out"
 # with the sum that takes it unless `precise`, rounded once (lavapipe rounds each), and dot,
 # m * v, cross, length, normalize and mix as chains of fused multiply-adds, so
 # code whose result hangs on that fails here rather than on a GPU, as essm's box mean did on an
-# H200. Last: it rewrites spirv/ (restored after) and so rebuilds the tests.
+# H200. Then with the chains from their last term, the order Mesa's SPIR-V front end writes
+# m * v in (the page raster's twin failed that way before transform_point). Last: it rewrites
+# spirv/ (restored after) and so rebuilds the tests.
 python3 tools/fused_fma.py
+python3 tools/fused_fma.py --reverse

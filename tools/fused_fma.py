@@ -26,8 +26,9 @@ falls exactly on an f32 rounding midpoint) — and reassembled with the same ids
 --preserve-numeric-ids) and validated (spirv-val). Every conversion back to f32 is marked
 NoContraction too: unmarked, lavapipe's compiler folds a narrowing and the widening after it
 into nothing, so a chain's or a nested fma's intermediate results were kept in f64 and rounded
-once at its end (tests/rounding.rs's orders test found it: a chained dot matched none of the
-four orders). The modules are rewritten in place, the tests run, and spirv/ is put back from a
+once at its end (tests/rounding.rs's
+dot_and_matrix_products_are_within_rounding_in_the_devices_order found it: a chained dot
+matched none of the four orders). The modules are rewritten in place, the tests run, and spirv/ is put back from a
 copy taken first, whatever happens.
 
     python3 tools/fused_fma.py                  # the whole suite but the check that spirv/ is
@@ -100,6 +101,7 @@ def rewrite(text, contract=False, builtins=False, reverse=False):
     # x * y (OpFMul, or OpVectorTimesScalar with y a scalar) and how: "+" (x y + c), "-"
     # (x y - c) or "r" (c - x y).
     fused = {}
+    kept = set(re.findall(r"OpDecorate (%\d+) NoContraction", text))
     fma = re.compile(r"^\s*(%\d+) = OpExtInst (%\d+) " + re.escape(glsl) + r" Fma (%\d+) (%\d+) (%\d+)$")
     for i, line in enumerate(lines):
         m = fma.match(line)
@@ -107,7 +109,6 @@ def rewrite(text, contract=False, builtins=False, reverse=False):
             r, ty, a, b, c = m.groups()
             fused[i] = (r, ty, "OpFMul", a, b, c, "+")
     if contract:
-        kept = set(re.findall(r"OpDecorate (%\d+) NoContraction", text))
         muls = {}
         for line in lines:
             m = re.match(r"\s*(%\d+) = (OpFMul|OpVectorTimesScalar) (%\d+) (%\d+) (%\d+)$", line)
@@ -126,7 +127,7 @@ def rewrite(text, contract=False, builtins=False, reverse=False):
                     break
     chains = {}  # line index -> (result, type, built-in, operands)
     if builtins:
-        chains = builtin_sites(lines, text, glsl, f32, vec32)
+        chains = builtin_sites(lines, kept, glsl, f32, vec32)
     if not fused and not chains:
         return text, (0, 0)
     widths = {vec32[f[1]] for f in fused.values() if f[1] in vec32}
@@ -154,7 +155,7 @@ def rewrite(text, contract=False, builtins=False, reverse=False):
         if i in fused:
             r, ty, kind, x, y, c, how = fused[i]
             pad = re.match(r"\s*", line).group(0)
-            t64 = f64 if ty == f32 else vec64[vec32[ty]]
+            t64 = types.wide(ty)
             # OpVectorTimesScalar's y is a scalar.
             y64_type = f64 if kind == "OpVectorTimesScalar" else t64
             x64, y64, c64, p64, s64 = (fresh() for _ in range(5))
@@ -193,10 +194,9 @@ class Types:
         return self.f64 if ty == self.f32 else self.vec64[self.vec32[ty]]
 
 
-def builtin_sites(lines, text, glsl, f32, vec32):
-    """The f32 built-ins that a GPU computes as multiply-adds, none NoContraction: line index ->
-    (result, type, built-in, operands)."""
-    kept = set(re.findall(r"OpDecorate (%\d+) NoContraction", text))
+def builtin_sites(lines, kept, glsl, f32, vec32):
+    """The f32 built-ins that a GPU computes as multiply-adds, none in `kept` (NoContraction):
+    line index -> (result, type, built-in, operands)."""
     types = {}  # value id -> its type id
     matrices = {}  # matrix type id -> its column count
     for line in lines:

@@ -1,7 +1,8 @@
 #version 460
-// transform_point against its CPU twin (tests/rounding.rs). Case i: five uvec4 of float bits,
-// the matrix's four columns and the point (w unused). Result i: eight words, the bits of
-// transform_point(m, p) and of m * vec4(p, 1.0) (whose order and fusing are the device's).
+// A matrix and a vector as the device takes them (tests/rounding.rs): transform_point against
+// its CPU twin, and how the device orders and fuses `m * v` and `dot`, which SPIR-V leaves to it.
+// Case i: five uvec4 of float bits, the matrix's four columns and v. Result i: twelve words,
+// the bits of transform_point(m, v.xyz), of m * v, and of dot(m[0], v) (three unused).
 #include "transform.glsl"
 
 layout(local_size_x = 64) in;
@@ -16,7 +17,8 @@ void main() {
     }
     mat4 m = mat4(uintBitsToFloat(cases[5u * i]), uintBitsToFloat(cases[5u * i + 1u]),
                   uintBitsToFloat(cases[5u * i + 2u]), uintBitsToFloat(cases[5u * i + 3u]));
-    vec3 p = uintBitsToFloat(cases[5u * i + 4u].xyz);
-    results[2u * i] = floatBitsToUint(transform_point(m, p));
-    results[2u * i + 1u] = floatBitsToUint(m * vec4(p, 1.0));
+    vec4 v = uintBitsToFloat(cases[5u * i + 4u]);
+    results[3u * i] = floatBitsToUint(transform_point(m, v.xyz));
+    results[3u * i + 1u] = floatBitsToUint(m * v);
+    results[3u * i + 2u] = uvec4(floatBitsToUint(dot(m[0], v)), 0u, 0u, 0u);
 }

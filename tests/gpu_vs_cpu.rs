@@ -35,6 +35,9 @@ fn compare(technique: &str, mode: i32, kernel: i32, map_size: u32, tolerance: f3
     overrides.extend(common::knobs(&common::KERNEL_ONLY));
     if mode == 1 {
         overrides.insert("kernel".to_string(), kernel.to_string());
+        // The one-depth path; the receiver plane's has its own twin comparison
+        // (`pcf_family.rs`, `pcf_receiver_plane_matches_cpu`).
+        overrides.insert("receiver_plane_bias".to_string(), "0".to_string());
     }
     let ctx = engine.context().clone();
     let mut depth = Vec::new();

@@ -118,14 +118,17 @@ fn coverage_is_continuous_in_the_kernel_width() {
 /// are the bilinear lookup (`pcf` with `kernel = 1`); a coverage box far narrower than a texel is
 /// the nearest-texel test of `hard` except where it straddles a texel edge. And for any integer
 /// width k the coverage box is `pcf`'s k×k bilinear box: k unit-spaced tent lookups integrate the
-/// texel squares over exactly k texels.
+/// texel squares over exactly k texels. All at one receiver depth (`receiver_plane_bias = 0`):
+/// with the receiver plane `pcf` tests each tap's 2×2 texels at the plane under the tap and
+/// `pcf-coverage` each texel at the plane under its centre, which differ off the flat ground.
 #[test]
 fn one_tap_kernels_are_the_standard_lookups() {
     let engine = common::engine();
     let prepared = engine
         .prepare(&common::small("plane-boxes"))
         .expect("prepare");
-    let bilinear = render(&engine, &prepared, "pcf", &[("kernel", "1")]);
+    let one_depth = ("receiver_plane_bias", "0");
+    let bilinear = render(&engine, &prepared, "pcf", &[("kernel", "1"), one_depth]);
     let hard = render(&engine, &prepared, "hard", &[]);
     let one_tap = render(&engine, &prepared, "pcf-poisson", &[("taps", "1")]);
     assert_eq!(one_tap.visibility, bilinear.visibility);
@@ -139,8 +142,13 @@ fn one_tap_kernels_are_the_standard_lookups() {
         assert!((zero_radius.visibility[i] - bilinear.visibility[i]).abs() <= 1e-6);
     }
     for k in ["1", "3", "4"] {
-        let pcf_box = render(&engine, &prepared, "pcf", &[("kernel", k)]);
-        let coverage = render(&engine, &prepared, "pcf-coverage", &[("kernel", k)]);
+        let pcf_box = render(&engine, &prepared, "pcf", &[("kernel", k), one_depth]);
+        let coverage = render(
+            &engine,
+            &prepared,
+            "pcf-coverage",
+            &[("kernel", k), one_depth],
+        );
         for i in 0..pcf_box.visibility.len() {
             let d = (coverage.visibility[i] - pcf_box.visibility[i]).abs();
             assert!(
@@ -149,7 +157,12 @@ fn one_tap_kernels_are_the_standard_lookups() {
             );
         }
     }
-    let point = render(&engine, &prepared, "pcf-coverage", &[("kernel", "0.01")]);
+    let point = render(
+        &engine,
+        &prepared,
+        "pcf-coverage",
+        &[("kernel", "0.01"), one_depth],
+    );
     let positions = prepared
         .view
         .read_positions(engine.context())

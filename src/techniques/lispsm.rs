@@ -8,7 +8,7 @@
 //! knob) and focuses on the view samples' bounds. The same matrix renders the map and looks it up
 //! with `glsl/pcf/pcf.comp`: `filter = hard` is `hard`'s nearest-texel test, `filter = pcf`
 //! `pcf`'s `kernel`² bilinear box, so the CPU twin is [`crate::cpu::pcf`] fed the warped matrix.
-//! With `filter = pcf`, `receiver_plane_bias` defaults to 1 here (0 for `pcf`): the map turned to
+//! With `filter = pcf`, `receiver_plane_bias` defaults to 1 here, as for `pcf`: the map turned to
 //! the view direction puts depth gradients on its diagonals, where the rasterizer's slope bias
 //! (the larger of the two axis slopes) falls short of the taps' reach. Measured against the
 //! reference at 1024² with a 3×3 kernel, without it 5.6 % of `rocker-arm-directional`'s view

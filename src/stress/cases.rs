@@ -370,10 +370,11 @@ pub fn cases() -> Vec<Case> {
             // normals came from position derivatives, noise at 7e-7 spacing, and the receiver
             // plane from neighbours no closer than f32 resolves. Now face normals
             // (gl_PrimitiveID) and the tangent plane there: 0 for all three. `pcf` and
-            // `pcf-coverage` read 0.034 (every sample at V ≈ 0.96): their default 3×3 box with
-            // one depth and no receiver-plane bias self-shadows the lit ground at this spot —
-            // the classic PCF acne, which the view magnifies to the whole image — and read 0
-            // with `receiver_plane_bias = 1`, `normal_offset = 1` or `kernel = 1` (2026-12-02).
+            // `pcf-coverage` read 0.036 (every sample at V ≈ 0.96) while their 3×3 box tested
+            // one depth by default: it self-shadowed the lit ground at this spot — the classic
+            // PCF acne, which the view magnifies to the whole image. 0 since the receiver
+            // plane became their default (`53a0a3b`), as with `normal_offset = 1` or
+            // `kernel = 1`.
             bound: |_| Bound::Mae(0.05),
         },
         Case {

@@ -92,11 +92,13 @@ fn known_difference(technique: &str) -> Option<(f64, &'static str)> {
         )),
         // At most 6 samples of ~130 000 (rmsm teapot-rect; pcss, pcf-poisson 1-3; essm 1-3
         // since its receiver plane, 141622d: rocker-arm-directional 3, at most 0.018, and
-        // spot-point 1, where a neighbour left unevaluated sent a sample to its tangent plane).
+        // spot-point 1, where a neighbour left unevaluated sent a sample to its tangent plane;
+        // pcf and pcf-coverage since the receiver plane is their default, 53a0a3b:
+        // rocker-arm-directional 3, at most 0.37).
         // Only where the full run measured a difference: every other technique must give 0.
-        // (lispsm and cascades with filter=pcf take the same receiver-plane path; add them
-        // here when a run shows it.)
-        "pcf-poisson" | "pcss" | "rmsm" | "essm" => Some((
+        // (lispsm with filter=pcf takes the same receiver-plane path; add it here when a run
+        // shows it.)
+        "pcf" | "pcf-coverage" | "pcf-poisson" | "pcss" | "rmsm" | "essm" => Some((
             1e-4,
             "horizon_skip=0: evaluated samples feed their neighbours — the receiver-plane \
                  bias picks its plane among evaluated neighbours, rmsm requests pages for them — \

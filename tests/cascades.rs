@@ -186,13 +186,14 @@ fn sweep(band: f32) -> Vec<f32> {
         size: n,
         mode: 1,
         kernel: 3,
+        receiver_plane: false,
         band,
         reach: filter_reach(3),
     };
     (0..400)
         .map(|i| {
             let x = 0.7 + 0.3 * i as f32 / 400.0;
-            twin::lookup(&atlas, &cascades, &input, Vec3::new(x, 0.1, -5.0)).0
+            twin::lookup(&atlas, &cascades, &input, Vec3::new(x, 0.1, -5.0)).v
         })
         .collect()
 }

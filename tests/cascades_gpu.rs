@@ -1,6 +1,7 @@
 //! `cascades` (z-partitioned shadow maps, book §4.3; SDSM) on the GPU (lavapipe, validation on):
 //! the depth-histogram reduction equals its CPU twin; for every partition every view sample is
-//! covered by some cascade (no `outside_light`), and the lookup equals its CPU twin fed the GPU's
+//! covered by some cascade (no `outside_light`), and the lookup (`pcf` with and without the
+//! receiver plane, its fallback count too) equals its CPU twin fed the GPU's
 //! atlas and matrices this test builds itself from the fitted windows; a sub-texel camera move
 //! leaves the snapped atlas unchanged, bit for bit (and moves the unsnapped one); sdsm beats
 //! `hard` on a grazing plane at equal memory and skips nothing on a scene that fills its depth
@@ -11,6 +12,7 @@ mod common;
 use common::{assert_clean, engine, knobs, small};
 use glam::{IVec2, Mat4, UVec2, Vec2, Vec3};
 use penumbra::cpu::cascades::{self as twin, CascadeInput, LookupInput};
+use penumbra::cpu::receiver_plane::ViewImages;
 use penumbra::cpu::shadow_map::DepthMap;
 use penumbra::engine::{Engine, Frame, PreparedScene};
 use penumbra::gpu::f32s;
@@ -148,22 +150,24 @@ fn every_sample_is_covered_and_the_lookup_equals_its_twin() {
         let scene = penumbra::scene::Aabb::of(&prepared.positions);
         let (d0, d1) = cascade_fit::scene_depth_range(&prepared.camera, &scene);
         let turns = cascade_fit::orientations(&lv, &prepared.camera, d0, d1);
-        for (partition, filter) in [
-            ("pssm", "hard"),
-            ("sdsm", "pcf"),
-            ("uniform", "pcf"),
-            ("log", "hard"),
+        // pcf with the receiver plane (its default) and with one depth.
+        for (partition, filter, plane) in [
+            ("pssm", "hard", "0"),
+            ("sdsm", "pcf", "1"),
+            ("uniform", "pcf", "0"),
+            ("log", "pcf", "1"),
         ] {
             let set = [
                 ("partition", partition),
                 ("filter", filter),
+                ("receiver_plane_bias", plane),
                 ("map_size", "256"),
                 ("count", "3"),
                 ("light_clip", "0"),
                 ("fit", "scene"),
             ];
             let (frame, atlas) = render(&engine, &prepared, &set);
-            let what = format!("{spec} {partition} {filter}");
+            let what = format!("{spec} {partition} {filter} receiver_plane_bias={plane}");
             assert_eq!(
                 counter(&frame, "outside_light"),
                 0,
@@ -215,29 +219,54 @@ fn every_sample_is_covered_and_the_lookup_equals_its_twin() {
                 size: tile.as_ivec2(),
                 mode: (kernel > 0) as i32,
                 kernel: kernel as i32,
+                receiver_plane: filter == "pcf" && plane == "1",
                 band: 4.0,
                 reach: filter_reach(kernel),
             };
+            let view = ViewImages {
+                positions: &positions,
+                normals: &normals,
+                size: IVec2::new(prepared.view.width as i32, prepared.view.height as i32),
+            };
             let mut differ = 0usize;
             let mut worst = 0.0f32;
+            let mut fallback = 0u64;
             let mut expected = vec![1.0f32; positions.len()];
             for (i, p) in positions.iter().enumerate() {
                 if p.w <= 0.0 {
                     continue;
                 }
-                let (v, first, _) = twin::lookup(&map, &cin, &look, p.truncate());
+                let pixel = IVec2::new(i as i32 % view.size.x, i as i32 / view.size.x);
+                let looked = twin::lookup_at(&map, &cin, &look, &view, pixel);
                 assert!(
-                    first.is_some(),
+                    looked.first.is_some(),
                     "{what}: the twin finds no cascade at pixel {i}"
                 );
-                expected[i] = v;
-                let d = (v - frame.visibility[i]).abs();
+                fallback += u64::from(looked.plane_fallback);
+                expected[i] = looked.v;
+                let d = (looked.v - frame.visibility[i]).abs();
                 if d > 1e-4 {
                     differ += 1;
                     worst = worst.max(d);
                 }
             }
+            // The fallbacks hang on the same last bits as the values: within the same allowance.
+            let gpu_fallback = counter(&frame, "plane_fallback");
+            assert!(
+                gpu_fallback.abs_diff(fallback) * 500 <= counter(&frame, "view_samples"),
+                "{what}: plane fallbacks {gpu_fallback} on the GPU, {fallback} in the twin"
+            );
+            if look.receiver_plane {
+                assert!(
+                    fallback * 2 < counter(&frame, "view_samples"),
+                    "{what}: the receiver plane is missing on {fallback} samples"
+                );
+            }
             let samples = counter(&frame, "view_samples") as usize;
+            eprintln!(
+                "{what}: {differ} of {samples} differ (worst {worst}); plane fallbacks \
+                 {fallback} (GPU {gpu_fallback})"
+            );
             // Independent matrices put a sample on the other side of a texel or band edge, or of
             // a depth tie, in the last bits: allowed on at most 0.2 % of the samples.
             if differ * 500 > samples {

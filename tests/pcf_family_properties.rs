@@ -273,17 +273,20 @@ fn a_flat_unoccluded_plane_is_exactly_lit() {
 
 /// The book's test of receiver-plane bias: a lit plane tilted ~73° from the light has
 /// self-shadowed pixels under wide kernels with one receiver depth (the rasterizer's constant +
-/// slope bias only covers a bilinear footprint), and none with per-tap receiver-plane depths.
+/// slope bias only covers a bilinear footprint), and none with per-tap receiver-plane depths —
+/// `cascades` with `filter = pcf` too.
 #[test]
 fn receiver_plane_bias_removes_self_shadowing_on_a_tilted_plane() {
     let engine = common::engine();
     let prepared = engine
         .prepare(&lone_plane(Vec3::new(-20.0, 6.0, 0.0)))
         .expect("prepare");
-    let cases: [(&str, &[(&str, &str)]); 3] = [
+    let cases: [(&str, &[(&str, &str)]); 4] = [
         ("pcf", &[("kernel", "7")]),
         ("pcf-poisson", &[("taps", "32"), ("radius", "4")]),
         ("pcf-coverage", &[("kernel", "8")]),
+        // Each cascade's plane in its own map, blended across the bands.
+        ("cascades", &[("filter", "pcf"), ("kernel", "7")]),
     ];
     for (technique, set) in cases {
         let mut counts = [0usize; 2];

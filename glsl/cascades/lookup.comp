@@ -7,9 +7,12 @@
 // continuously, so no seam shows, and past the last cascade (weight 1 wherever it covers) the
 // rest is lit and counted as outside. V_i is the nearest-texel test (mode 0) or a
 // kernel × kernel box of bilinear 2x2 tests (mode 1), as glsl/pcf/pcf.comp, read from the
-// cascade's tile of one depth atlas. CPU twin: src/cpu/cascades.rs.
+// cascade's tile of one depth atlas; with receiver_plane != 0 (mode 1 only) each tap compares the
+// receiver plane's depth under it in that cascade's map (receiver_plane.glsl: the plane's
+// gradient is per map, so per cascade). CPU twin: src/cpu/cascades.rs.
 #extension GL_GOOGLE_include_directive : require
 #include "shadow_map.glsl"
+#include "receiver_plane.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "dealt_tile.glsl"
@@ -20,21 +23,23 @@ layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
 layout(set = 0, binding = 1) uniform sampler2D atlas;
 layout(set = 0, binding = 2, r32f) uniform writeonly image2D visibility;
 // [0] view samples, [1] outside every cascade, [2] lit, [3] umbra, [4] penumbra,
-// [5] in a blend band (two cascades or more), [6 + i] looked up first in cascade i.
+// [5] in a blend band (two cascades or more), [6] receiver plane asked for but unavailable in
+// the first cascade used (constant depth there), [7 + i] looked up first in cascade i.
 layout(set = 0, binding = 3) buffer Counters { uint counters[]; };
 layout(set = 0, binding = 4) uniform Params {
     mat4 view_proj[MAX_CASCADES];
     // Tile origin (texels) x, y; 1 when the cascade is rendered; 1 for the last rendered one.
     ivec4 tiles[MAX_CASCADES];
-    // Cascades, mode (0 nearest, 1 pcf), kernel, unused.
+    // Cascades, mode (0 nearest, 1 pcf), kernel, receiver plane (1: per-tap depths, mode 1).
     ivec4 sizes;
     // Blend band (texels), filter reach (texels), unused x 2.
     vec4 band;
     ivec2 view_size;
     ivec2 tile;  // width, height (texels)
 } params;
+layout(set = 0, binding = 5, rgba32f) uniform readonly image2D normals;
 
-#define COUNTERS (6 + MAX_CASCADES)
+#define COUNTERS (7 + MAX_CASCADES)
 #define INVOCATION_COUNTS COUNTERS
 #include "invocation_counts.glsl"
 
@@ -47,6 +52,14 @@ float tile_depth(ivec2 texel, ivec2 origin, ivec2 n) {
 
 float tile_test(ivec2 texel, ivec2 origin, ivec2 n, float z) {
     return z <= tile_depth(texel, origin, n) ? 1.0 : 0.0;
+}
+
+vec4 rp_position(ivec2 pixel) {
+    return imageLoad(positions, pixel);
+}
+
+vec3 rp_normal(ivec2 pixel) {
+    return imageLoad(normals, pixel).xyz;
 }
 
 float tile_bilinear(vec2 p, ivec2 origin, ivec2 n, float z) {
@@ -93,13 +106,24 @@ void main() {
                     if (params.sizes.y == 0) {
                         vi = tile_test(ivec2(floor(c.xy)), tile.xy, n, c.z);
                     } else {
+                        vec2 dz_duv = vec2(0.0);
+                        if (params.sizes.w != 0) {
+                            vec3 g = receiver_plane(pixel, params.view_size,
+                                                    params.view_proj[i], n, p, c);
+                            dz_duv = g.xy;
+                            if (g.z == 0.0 && first < 0) {
+                                invocation_counts[6] += 1;
+                            }
+                        }
                         float s = 0.0;
                         int k = params.sizes.z;
                         float o = -0.5 * float(k - 1);
                         for (int j = 0; j < k; ++j) {
                             for (int q = 0; q < k; ++q) {
-                                s += tile_bilinear(c.xy + vec2(o + float(q), o + float(j)),
-                                                   tile.xy, n, c.z);
+                                vec2 offset = vec2(o + float(q), o + float(j));
+                                float z = params.sizes.w != 0
+                                    ? rp_tap_depth(c.z, offset, dz_duv) : c.z;
+                                s += tile_bilinear(c.xy + offset, tile.xy, n, z);
                             }
                         }
                         vi = s / float(k * k);
@@ -115,7 +139,7 @@ void main() {
             if (first < 0) {
                 invocation_counts[1] += 1;
             } else {
-                invocation_counts[6 + first] += 1;
+                invocation_counts[7 + first] += 1;
             }
             if (used > 1) {
                 invocation_counts[5] += 1;

@@ -10,6 +10,7 @@
 
 use glam::{IVec2, Mat4, Vec2, Vec3, Vec4};
 
+use super::receiver_plane::{receiver_plane, tap_depth, ReceiverPlane, ViewImages};
 use super::shadow_map::{shadow_coord, DepthMap};
 
 /// Histogram bins (as the shader's `BINS`).
@@ -152,6 +153,8 @@ pub struct LookupInput {
     pub mode: i32,
     /// Box width (0 with mode 0).
     pub kernel: i32,
+    /// Per-tap receiver-plane depths (mode 1; [`lookup_at`] only).
+    pub receiver_plane: bool,
     /// Blend band, texels.
     pub band: f32,
     /// Filter reach, texels.
@@ -187,18 +190,60 @@ fn tile_bilinear(atlas: &DepthMap<'_>, p: Vec2, origin: IVec2, n: IVec2, z: f32)
     a + (c - a) * f.y
 }
 
-/// Visibility of one lookup position and the first cascade used (None: no cascade covers it),
-/// and whether more than one was blended.
+/// One view sample's lookup.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Looked {
+    /// Visibility.
+    pub v: f32,
+    /// The first cascade used; None where no cascade covers the sample (lit).
+    pub first: Option<usize>,
+    /// More than one cascade blended.
+    pub blended: bool,
+    /// The receiver plane was asked for but missing in the first cascade used (one depth there).
+    pub plane_fallback: bool,
+    /// A receiver-plane decision sat within rounding of its threshold in some cascade used (the
+    /// GPU's may go the other way).
+    pub marginal: bool,
+}
+
+/// The lookup of one position at one receiver depth (`input.receiver_plane` ignored): the
+/// shader's path without the receiver plane.
 pub fn lookup(
     atlas: &DepthMap<'_>,
     cascades: &[CascadeInput],
     input: &LookupInput,
     p: Vec3,
-) -> (f32, Option<usize>, bool) {
+) -> Looked {
+    lookup_with(atlas, cascades, input, p, |_, _| ReceiverPlane::default())
+}
+
+/// The lookup of the view sample at `pixel` of `view`, with the receiver plane (of each
+/// cascade's map, from the sample's neighbours) where `input.receiver_plane` and mode 1 ask.
+pub fn lookup_at(
+    atlas: &DepthMap<'_>,
+    cascades: &[CascadeInput],
+    input: &LookupInput,
+    view: &ViewImages<'_>,
+    pixel: IVec2,
+) -> Looked {
+    let p = view.positions[(pixel.y * view.size.x + pixel.x) as usize];
+    lookup_with(atlas, cascades, input, p.truncate(), |view_proj, c| {
+        receiver_plane(view, pixel, view_proj, input.size, p, c)
+    })
+}
+
+fn lookup_with(
+    atlas: &DepthMap<'_>,
+    cascades: &[CascadeInput],
+    input: &LookupInput,
+    p: Vec3,
+    plane_in: impl Fn(Mat4, Vec4) -> ReceiverPlane,
+) -> Looked {
     let n = input.size;
     let (mut sum, mut left) = (0.0f32, 1.0f32);
     let mut first = None;
     let mut used = 0;
+    let (mut plane_fallback, mut marginal) = (false, false);
     for (i, c) in cascades.iter().enumerate() {
         let s = shadow_coord(c.view_proj, p, n);
         let e = s.x.min(s.y).min(n.x as f32 - s.x).min(n.y as f32 - s.y) - input.reach;
@@ -223,13 +268,26 @@ pub fn lookup(
                 s.z,
             )
         } else {
+            let plane = if input.receiver_plane {
+                let plane = plane_in(c.view_proj, s);
+                plane_fallback |= first.is_none() && !plane.found;
+                marginal |= plane.marginal;
+                plane
+            } else {
+                ReceiverPlane::default()
+            };
             let k = input.kernel;
             let o = -0.5 * (k - 1) as f32;
             let mut acc = 0.0;
             for j in 0..k {
                 for q in 0..k {
-                    let at = Vec2::new(s.x, s.y) + Vec2::new(o + q as f32, o + j as f32);
-                    acc += tile_bilinear(atlas, at, c.tile, n, s.z);
+                    let offset = Vec2::new(o + q as f32, o + j as f32);
+                    let z = if input.receiver_plane {
+                        tap_depth(s.z, offset, plane.gradient)
+                    } else {
+                        s.z
+                    };
+                    acc += tile_bilinear(atlas, Vec2::new(s.x, s.y) + offset, c.tile, n, z);
                 }
             }
             acc / (k * k) as f32
@@ -239,5 +297,11 @@ pub fn lookup(
         first.get_or_insert(i);
         used += 1;
     }
-    (sum + left, first, used > 1)
+    Looked {
+        v: sum + left,
+        first,
+        blended: used > 1,
+        plane_fallback,
+        marginal,
+    }
 }

@@ -18,10 +18,12 @@
 //! SDSM only: a frustum slice cannot know); the lookup (`glsl/cascades/lookup.comp`), finest
 //! cascade first, each fading into the next over a band of `blend` texels at its tile's edge, so
 //! no seam shows. `filter = hard` tests the nearest texel, `pcf` a `kernel` × `kernel` box of
-//! bilinear taps as `pcf`.
+//! bilinear taps as `pcf`, with each tap at the receiver plane's depth under it by default
+//! ([`RECEIVER_PLANE`]; the plane's gradient taken in each cascade's own map).
 //!
 //! Counters: `view_samples`, `outside_light` (no cascade covers it: lit), `lit`, `umbra`,
-//! `penumbra`, `blended` (in a band), `cascade0`… (samples looked up first in each cascade),
+//! `penumbra`, `blended` (in a band), `plane_fallback` (no receiver plane in the first cascade
+//! used: one depth there), `cascade0`… (samples looked up first in each cascade),
 //! `cascades_skipped`. CPU twin: [`crate::cpu::cascades`].
 
 use ash::vk;
@@ -30,7 +32,7 @@ use glam::{IVec2, IVec4, Mat4, UVec2, Vec2, Vec4};
 
 use crate::sampling_error::{nearest_rank, SampleFootprints, SamplingGrid};
 
-use super::pcf::{shadow_map_desc, FILTER, KERNEL};
+use super::pcf::{shadow_map_desc, FILTER, KERNEL, RECEIVER_PLANE_BIAS};
 use super::{Knob, Params, Technique, TechniqueInfo, TechniqueSetup, SHADOW_MAP_KNOBS};
 use crate::error::{Error, Result};
 use crate::gpu::{
@@ -47,14 +49,24 @@ use crate::scene::{Aabb, Camera};
 use crate::shader_types::LightDepthPush;
 
 /// Counter slots the lookup writes, in order (then one per cascade, `cascade0`…).
-pub const LOOKUP_COUNTERS: [&str; 6] = [
+pub const LOOKUP_COUNTERS: [&str; 7] = [
     "view_samples",
     "outside_light",
     "lit",
     "umbra",
     "penumbra",
     "blended",
+    "plane_fallback",
 ];
+
+/// `receiver_plane_bias` of the PCF family, used with `filter = pcf` (on by default, as for
+/// `pcf`: a cascade's texels grow with its slice, and one receiver depth across a kernel of them
+/// self-shadows every slope the slope bias, sized for one texel, does not cover).
+pub const RECEIVER_PLANE: Knob = Knob {
+    summary: "with filter = pcf, 1: per-tap receiver-plane depth from neighbouring view samples, \
+              in each cascade's map (default); 0: one depth",
+    ..RECEIVER_PLANE_BIAS
+};
 
 const COUNT: Knob = Knob::int("count", "number of cascades (z-partitions)", 4.0, 1.0, 8.0);
 
@@ -96,7 +108,7 @@ const SNAP: Knob = Knob::int(
     1.0,
 );
 
-const KNOBS: [Knob; 11] = [
+const KNOBS: [Knob; 12] = [
     SHADOW_MAP_KNOBS[0],
     SHADOW_MAP_KNOBS[1],
     SHADOW_MAP_KNOBS[2],
@@ -108,6 +120,7 @@ const KNOBS: [Knob; 11] = [
     SNAP,
     FILTER,
     KERNEL,
+    RECEIVER_PLANE,
 ];
 
 /// `cascades`: z-partitioned shadow maps.
@@ -133,7 +146,7 @@ pub struct CascadeParams {
     pub view_proj: [Mat4; MAX_CASCADES],
     /// Tile origin x, y (texels); 1 when rendered; 1 for the last rendered cascade.
     pub tiles: [IVec4; MAX_CASCADES],
-    /// Cascades, mode (0 nearest, 1 pcf), kernel (0 with mode 0), unused.
+    /// Cascades, mode (0 nearest, 1 pcf), kernel (0 with mode 0), receiver plane (0 with mode 0).
     pub sizes: IVec4,
     /// Blend band (texels), filter reach (texels), unused × 2.
     pub band: Vec4,
@@ -445,7 +458,17 @@ impl<'a> Cascades<'a> {
                 (Some(i) == last) as i32,
             );
         }
-        block.sizes = IVec4::new(k as i32, filter as i32, kernel as i32, 0);
+        let receiver_plane = if filter == 0 {
+            0
+        } else {
+            params.u32("receiver_plane_bias")?
+        };
+        block.sizes = IVec4::new(
+            k as i32,
+            filter as i32,
+            kernel as i32,
+            receiver_plane as i32,
+        );
         block.tile = tile.as_ivec2();
         block.band = Vec4::new(params.f32("blend")?, filter_reach(kernel), 0.0, 0.0);
         block.view_size = IVec2::new(setup.view.width as i32, setup.view.height as i32);
@@ -469,6 +492,7 @@ impl<'a> Cascades<'a> {
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&counters),
                 Binding::Buffer(&params_buffer),
+                Binding::Image(&setup.view.normals),
             ],
         )?;
         Ok(Cascades {

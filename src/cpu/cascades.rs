@@ -6,7 +6,9 @@
 //! f32 rounding of the light-view transform (1e-5 relative); the lookup's visibility equals the
 //! GPU's except where a sample's depth ties a texel's or its map position sits on a texel or band
 //! edge — the matrices are built independently, so positions may differ in the last bits —
-//! which the tests allow on a capped fraction of samples.
+//! which the tests allow on a capped fraction of samples. With the receiver plane
+//! ([`lookup_at`]) each cascade's plane is [`receiver_plane`] in that cascade's map, the
+//! shader's `receiver_plane.glsl` twin, so the same allowance holds (and the fallback counts).
 
 use glam::{IVec2, Mat4, Vec2, Vec3, Vec4};
 

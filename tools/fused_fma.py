@@ -43,6 +43,7 @@ copy taken first, whatever happens.
                                                 # (restore: git checkout spirv/; refused
                                                 # unless spirv/ is as committed)
 """
+import collections
 import pathlib
 import re
 import shutil
@@ -52,6 +53,9 @@ import tempfile
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SPIRV = ROOT / "spirv"
+# The built-ins' names as the README counts them.
+NAMES = {"OpDot": "dot", "OpMatrixTimesVector": "m * v", "Cross": "cross", "Length": "length",
+         "Normalize": "normalize", "FMix": "mix"}
 
 
 def run(*args, **kw):
@@ -62,7 +66,8 @@ def rewrite(text, contract=False, builtins=False, reverse=False):
     """The module's assembly with every f32 Fma computed in f64, with `contract` every f32
     product and the sum or difference that takes it, neither NoContraction, and with `builtins`
     the dot products, matrix-vector products, cross products, lengths, normalizations and mixes
-    as a GPU's chains of fused multiply-adds (`builtin_chain`); (text, (sites, built-ins))."""
+    as a GPU's chains of fused multiply-adds (`builtin_chain`); (text, (sites, built-ins by
+    kind))."""
     lines = text.splitlines()
     bound = int(re.search(r"^; Bound: (\d+)", text, re.M).group(1))
     next_id = [bound]
@@ -86,7 +91,7 @@ def rewrite(text, contract=False, builtins=False, reverse=False):
             elif m.group(2) == "64":
                 f64 = m.group(1)
     if glsl is None or f32 is None:
-        return text, (0, 0)
+        return text, (0, collections.Counter())
     for line in lines:
         m = re.match(r"\s*(%\d+) = OpTypeVector (%\d+) (\d+)$", line)
         if m and m.group(2) == f32:
@@ -129,7 +134,7 @@ def rewrite(text, contract=False, builtins=False, reverse=False):
     if builtins:
         chains = builtin_sites(lines, kept, glsl, f32, vec32)
     if not fused and not chains:
-        return text, (0, 0)
+        return text, (0, collections.Counter())
     widths = {vec32[f[1]] for f in fused.values() if f[1] in vec32}
     widths |= {vec32[c[1]] for c in chains.values() if c[1] in vec32}
 
@@ -180,7 +185,8 @@ def rewrite(text, contract=False, builtins=False, reverse=False):
     # Decorations go before the first type declaration (the annotation section's end).
     at = next(i for i, line in enumerate(out) if re.match(r"\s*%\d+ = OpType", line))
     out[at:at] = decorations
-    return "\n".join(out) + "\n", (len(fused), len(chains))
+    kinds = collections.Counter(c[2] for c in chains.values())
+    return "\n".join(out) + "\n", (len(fused), kinds)
 
 
 class Types:
@@ -323,12 +329,13 @@ def target_env(text):
 
 
 def rewrite_all(contract=False, builtins=False, reverse=False):
-    sites = chains = modules = 0
+    sites = modules = 0
+    chains = collections.Counter()
     with tempfile.TemporaryDirectory() as tmp:
         for spv in sorted(SPIRV.rglob("*.spv")):
             text = run("spirv-dis", "--raw-id", "--no-color", str(spv))
             new, (fused, chained) = rewrite(text, contract, builtins, reverse)
-            if fused + chained == 0:
+            if fused + sum(chained.values()) == 0:
                 continue
             asm = pathlib.Path(tmp) / "m.spvasm"
             asm.write_text(new)
@@ -340,8 +347,10 @@ def rewrite_all(contract=False, builtins=False, reverse=False):
             modules += 1
     what = f"{sites} Fma" + (" and contractible products and sums" if contract else "")
     if builtins:
-        what += (f", {chains} dot, matrix-vector and cross products, lengths, normalizations and"
-                 " mixes as multiply-add chains" + (" from their last term," if reverse else ","))
+        kinds = ", ".join(f"{n} {NAMES[k]}" for k, n in chains.most_common())
+        what += (f", {sum(chains.values())} dot, matrix-vector and cross products, lengths,"
+                 f" normalizations and mixes as multiply-add chains ({kinds})"
+                 + (" from their last term," if reverse else ","))
     print(f"fused_fma: {what} in {modules} modules now computed once rounded", flush=True)
 
 

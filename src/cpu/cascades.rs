@@ -203,9 +203,6 @@ pub struct Looked {
     pub blended: bool,
     /// The receiver plane was asked for but missing in the first cascade used (one depth there).
     pub plane_fallback: bool,
-    /// A receiver-plane decision sat within rounding of its threshold in some cascade used (the
-    /// GPU's may go the other way).
-    pub marginal: bool,
 }
 
 /// The lookup of one position at one receiver depth (`input.receiver_plane` ignored): the
@@ -245,7 +242,7 @@ fn lookup_with(
     let (mut sum, mut left) = (0.0f32, 1.0f32);
     let mut first = None;
     let mut used = 0;
-    let (mut plane_fallback, mut marginal) = (false, false);
+    let mut plane_fallback = false;
     for (i, c) in cascades.iter().enumerate() {
         let s = shadow_coord(c.view_proj, p, n);
         let e = s.x.min(s.y).min(n.x as f32 - s.x).min(n.y as f32 - s.y) - input.reach;
@@ -273,7 +270,6 @@ fn lookup_with(
             let plane = if input.receiver_plane {
                 let plane = plane_in(c.view_proj, s);
                 plane_fallback |= first.is_none() && !plane.found;
-                marginal |= plane.marginal;
                 plane
             } else {
                 ReceiverPlane::default()
@@ -304,6 +300,5 @@ fn lookup_with(
         first,
         blended: used > 1,
         plane_fallback,
-        marginal,
     }
 }

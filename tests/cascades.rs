@@ -300,7 +300,7 @@ fn the_turned_orientation_lies_along_a_slice_of_the_ground() {
 fn the_params_block_has_the_std140_layout() {
     use penumbra::techniques::cascades::CascadeParams;
     use std::mem::{offset_of, size_of};
-    // glsl/cascades/lookup.comp: mat4[8], ivec4[8], ivec4, vec4, ivec2, ivec2.
+    // glsl/cascades/lookup.glsl: mat4[8], ivec4[8], ivec4, vec4, ivec2, ivec2.
     assert_eq!(offset_of!(CascadeParams, view_proj), 0);
     assert_eq!(offset_of!(CascadeParams, tiles), 512);
     assert_eq!(offset_of!(CascadeParams, sizes), 640);

@@ -1,4 +1,4 @@
-//! CPU twins of `glsl/cascades/depth_histogram.comp` and `glsl/cascades/lookup.comp`, and a
+//! CPU twins of `glsl/cascades/depth_histogram.comp` and `glsl/cascades/lookup.glsl`, and a
 //! plain re-derivation of a cascade's matrix and tile from its window (so a test feeds the lookup
 //! twin inputs built without the technique's set-up).
 //!

@@ -15,7 +15,7 @@
 //! timed as `depth-histogram`; an engine reads it back for the next frame — here the set-up runs
 //! it once and fits from that, which for a still scene is the frame's own); the atlas
 //! (`light-depth`), skipping the maps of cascades no view sample falls in (`cascades_skipped`,
-//! SDSM only: a frustum slice cannot know); the lookup (`glsl/cascades/lookup.comp`), finest
+//! SDSM only: a frustum slice cannot know); the lookup (`glsl/cascades/lookup.glsl`), finest
 //! cascade first, each fading into the next over a band of `blend` texels at its tile's edge, so
 //! no seam shows. `filter = hard` tests the nearest texel, `pcf` a `kernel` × `kernel` box of
 //! bilinear taps as `pcf`, with each tap at the receiver plane's depth under it by default
@@ -137,7 +137,7 @@ pub const CASCADES: TechniqueInfo = TechniqueInfo {
     create: |setup, params| Ok(Box::new(Cascades::new(setup, params)?)),
 };
 
-/// The uniform block of `glsl/cascades/lookup.comp` (std140, 688 bytes: every member at its
+/// The uniform block of `glsl/cascades/lookup.glsl` (std140, 688 bytes: every member at its
 /// std140 offset, which `tests/cascades.rs` checks).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -482,19 +482,25 @@ impl<'a> Cascades<'a> {
             "cascades counters",
             ((LOOKUP_COUNTERS.len() + MAX_CASCADES) * 4) as u64,
         )?;
-        let lookup = Pipeline::compute(ctx, "cascades/lookup.comp")?;
-        let set = DescriptorSet::new(
-            ctx,
-            &lookup,
-            &[
-                Binding::Image(setup.receivers),
-                Binding::Sampled(&atlas, &sampler),
-                Binding::Image(setup.visibility),
-                Binding::Buffer(&counters),
-                Binding::Buffer(&params_buffer),
-                Binding::Image(&setup.view.normals),
-            ],
-        )?;
+        // The receiver plane is its own pipeline (the shader with RECEIVER_PLANE defined, which
+        // also reads the normals), so the default lookup does not compile it.
+        let shader = if receiver_plane != 0 {
+            "cascades/lookup_plane.comp"
+        } else {
+            "cascades/lookup.comp"
+        };
+        let mut bindings = vec![
+            Binding::Image(setup.receivers),
+            Binding::Sampled(&atlas, &sampler),
+            Binding::Image(setup.visibility),
+            Binding::Buffer(&counters),
+            Binding::Buffer(&params_buffer),
+        ];
+        if receiver_plane != 0 {
+            bindings.push(Binding::Image(&setup.view.normals));
+        }
+        let lookup = Pipeline::compute(ctx, shader)?;
+        let set = DescriptorSet::new(ctx, &lookup, &bindings)?;
         Ok(Cascades {
             ctx: ctx.clone(),
             cascades,

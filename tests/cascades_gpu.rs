@@ -250,19 +250,19 @@ fn every_sample_is_covered_and_the_lookup_equals_its_twin() {
                     worst = worst.max(d);
                 }
             }
+            let samples = counter(&frame, "view_samples") as usize;
             // The fallbacks hang on the same last bits as the values: within the same allowance.
             let gpu_fallback = counter(&frame, "plane_fallback");
             assert!(
-                gpu_fallback.abs_diff(fallback) * 500 <= counter(&frame, "view_samples"),
+                gpu_fallback.abs_diff(fallback) as usize * 500 <= samples,
                 "{what}: plane fallbacks {gpu_fallback} on the GPU, {fallback} in the twin"
             );
             if look.receiver_plane {
                 assert!(
-                    fallback * 2 < counter(&frame, "view_samples"),
+                    (fallback as usize) * 2 < samples,
                     "{what}: the receiver plane is missing on {fallback} samples"
                 );
             }
-            let samples = counter(&frame, "view_samples") as usize;
             eprintln!(
                 "{what}: {differ} of {samples} differ (worst {worst}); plane fallbacks \
                  {fallback} (GPU {gpu_fallback})"

@@ -118,9 +118,11 @@ fn coverage_is_continuous_in_the_kernel_width() {
 /// are the bilinear lookup (`pcf` with `kernel = 1`); a coverage box far narrower than a texel is
 /// the nearest-texel test of `hard` except where it straddles a texel edge. And for any integer
 /// width k the coverage box is `pcf`'s k×k bilinear box: k unit-spaced tent lookups integrate the
-/// texel squares over exactly k texels. All at one receiver depth (`receiver_plane_bias = 0`):
-/// with the receiver plane `pcf` tests each tap's 2×2 texels at the plane under the tap and
-/// `pcf-coverage` each texel at the plane under its centre, which differ off the flat ground.
+/// texel squares over exactly k texels. `pcf` and `pcf-coverage` at one receiver depth
+/// (`receiver_plane_bias = 0`): with the receiver plane `pcf` tests each tap's 2×2 texels at the
+/// plane under the tap and `pcf-coverage` each texel at the plane under its centre, which differ
+/// off the flat ground. `pcf-poisson` keeps its default plane: its taps here all sit at the
+/// sample, where the plane's depth is the sample's own.
 #[test]
 fn one_tap_kernels_are_the_standard_lookups() {
     let engine = common::engine();

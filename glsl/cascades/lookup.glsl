@@ -34,8 +34,8 @@ layout(set = 0, binding = 4) uniform Params {
     mat4 view_proj[MAX_CASCADES];
     // Tile origin (texels) x, y; 1 when the cascade is rendered; 1 for the last rendered one.
     ivec4 tiles[MAX_CASCADES];
-    // Cascades, mode (0 nearest, 1 pcf), kernel, receiver plane (1 in lookup_plane.comp's
-    // pipeline, which takes it in mode 1; 0 otherwise).
+    // Cascades, mode (0 nearest, 1 pcf), kernel, unused (the receiver plane is the pipeline's:
+    // RECEIVER_PLANE).
     ivec4 sizes;
     // Blend band (texels), filter reach (texels), unused x 2.
     vec4 band;

@@ -146,7 +146,8 @@ pub struct CascadeParams {
     pub view_proj: [Mat4; MAX_CASCADES],
     /// Tile origin x, y (texels); 1 when rendered; 1 for the last rendered cascade.
     pub tiles: [IVec4; MAX_CASCADES],
-    /// Cascades, mode (0 nearest, 1 pcf), kernel (0 with mode 0), receiver plane (0 with mode 0).
+    /// Cascades, mode (0 nearest, 1 pcf), kernel (0 with mode 0), unused (the receiver plane is
+    /// the pipeline's).
     pub sizes: IVec4,
     /// Blend band (texels), filter reach (texels), unused × 2.
     pub band: Vec4,
@@ -458,17 +459,9 @@ impl<'a> Cascades<'a> {
                 (Some(i) == last) as i32,
             );
         }
-        let receiver_plane = if filter == 0 {
-            0
-        } else {
-            params.u32("receiver_plane_bias")?
-        };
-        block.sizes = IVec4::new(
-            k as i32,
-            filter as i32,
-            kernel as i32,
-            receiver_plane as i32,
-        );
+        // The receiver plane is a pipeline of its own (below), used with the filtered lookup.
+        let receiver_plane = filter != 0 && params.u32("receiver_plane_bias")? != 0;
+        block.sizes = IVec4::new(k as i32, filter as i32, kernel as i32, 0);
         block.tile = tile.as_ivec2();
         block.band = Vec4::new(params.f32("blend")?, filter_reach(kernel), 0.0, 0.0);
         block.view_size = IVec2::new(setup.view.width as i32, setup.view.height as i32);
@@ -482,9 +475,9 @@ impl<'a> Cascades<'a> {
             "cascades counters",
             ((LOOKUP_COUNTERS.len() + MAX_CASCADES) * 4) as u64,
         )?;
-        // The receiver plane is its own pipeline (the shader with RECEIVER_PLANE defined, which
-        // also reads the normals), so the default lookup does not compile it.
-        let shader = if receiver_plane != 0 {
+        // The shader with RECEIVER_PLANE defined also reads the normals; a pipeline of its own,
+        // so the default lookup does not compile it.
+        let shader = if receiver_plane {
             "cascades/lookup_plane.comp"
         } else {
             "cascades/lookup.comp"
@@ -496,7 +489,7 @@ impl<'a> Cascades<'a> {
             Binding::Buffer(&counters),
             Binding::Buffer(&params_buffer),
         ];
-        if receiver_plane != 0 {
+        if receiver_plane {
             bindings.push(Binding::Image(&setup.view.normals));
         }
         let lookup = Pipeline::compute(ctx, shader)?;

@@ -100,6 +100,17 @@ pub fn assert_clean(log: &ValidationLog) {
     }
 }
 
+/// Asserts that a check found nothing: otherwise panics with how many it found, `what` they are,
+/// and the first few.
+pub fn assert_none<T: std::fmt::Debug>(found: &[T], what: impl std::fmt::Display) {
+    assert!(
+        found.is_empty(),
+        "{} {what}, e.g. {:?}",
+        found.len(),
+        &found[..found.len().min(4)]
+    );
+}
+
 /// Where failing tests write their images.
 pub fn diff_dir() -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("diffs");

@@ -96,8 +96,8 @@ fn known_difference(technique: &str) -> Option<(f64, &'static str)> {
         // pcf and pcf-coverage since the receiver plane is their default, 53a0a3b:
         // rocker-arm-directional 3, at most 0.37).
         // Only where the full run measured a difference: every other technique must give 0.
-        // (lispsm with filter=pcf takes the same receiver-plane path; add it here when a run
-        // shows it.)
+        // (lispsm and cascades with filter=pcf take the same receiver-plane path; add them
+        // here when a run shows it.)
         "pcf" | "pcf-coverage" | "pcf-poisson" | "pcss" | "rmsm" | "essm" => Some((
             1e-4,
             "horizon_skip=0: evaluated samples feed their neighbours — the receiver-plane \

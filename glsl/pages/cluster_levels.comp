@@ -1,11 +1,12 @@
 #version 460
 // The levels a cluster of the culling walk may bin into: one invocation per cluster of
-// CLUSTER_TRIANGLES consecutive triangles (one walk workgroup, bin.glsl), whose world box
-// (SceneGeometry's cluster boxes, made once on the CPU) is projected into the virtual map; bit l
-// of its mask is set when a resident page of this round at level l lies under the projected box
-// widened by the walk's 1/64 texel of level l and a safety margin, and that box holds a texel
-// centre of the level (the walk bins a triangle only where its own box holds one). The walk then loops over the
-// round's resident levels and this mask, the same value for its whole workgroup, so a level
+// CLUSTER_TRIANGLES consecutive triangles (what a walk workgroup takes at a time, bin.glsl),
+// whose world box (SceneGeometry's cluster boxes, made once on the CPU) is projected into the
+// virtual map; bit l of its mask is set when a resident page of this round at level l lies
+// under the projected box widened by the walk's 1/64 texel of level l and a safety margin, and
+// that box holds a texel centre of the level (the walk bins a triangle only where its own box
+// holds one). The walk then loops over the round's resident levels and this mask, the same
+// value for the whole workgroup while it walks the cluster, so a level
 // none of the cluster's triangles can reach costs them nothing — on an 800k-triangle grid the
 // finest levels' pages sit around a few penumbrae, and each level the walk looked at cost every
 // triangle ~2.5 ms on lavapipe, found no page and moved on (the cull 63.8 -> 53.5 ms; the

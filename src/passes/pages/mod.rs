@@ -380,6 +380,11 @@ pub struct VirtualPages<'a> {
 /// cover.
 const WALK_COVER_TEXELS: u32 = 16;
 
+/// Clusters of [`crate::passes::CLUSTER_TRIANGLES`] triangles one workgroup of the appending
+/// walk (mode 2) takes one after the other (`WALK_CLUSTERS` in `glsl/pages/bin.glsl`): lavapipe's
+/// fixed cost of a SIMD group shared by four triangles.
+const WALK_CLUSTERS: u32 = 4;
+
 /// Words of `bin_cursor` after the pool's slots: bin.comp mode 2's append cursors, at these
 /// offsets (`APPEND_*` in `glsl/pages/pages_push.glsl`; the third, round 1's start, is the GPU's),
 /// then the second walk's cursors and `bin_fit.comp`'s choice (`REWALK_*`, `FIT_*`), then round

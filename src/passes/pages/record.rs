@@ -2,11 +2,12 @@
 
 use super::{
     ComputeDrawer, GroupedDraw, LargeDraw, PageDrawer, VirtualPages, SLOT_CLEAR_GROUP,
-    WALK_COVER_TEXELS,
+    WALK_CLUSTERS, WALK_COVER_TEXELS,
 };
 use crate::error::Result;
 use crate::gpu::{Access, Buffer, Recorder, SLOT_VIEWPORTS};
 use crate::kernels::scan::ScanKind;
+use crate::passes::CLUSTER_TRIANGLES;
 use crate::shader_types::PagesPush;
 
 impl VirtualPages<'_> {
@@ -81,7 +82,7 @@ impl VirtualPages<'_> {
         let triangles = self.push.triangles;
         if self.desc.cluster_skip {
             let (cluster_pipeline, cluster_set) = &self.cluster_levels;
-            let clusters = triangles.div_ceil(crate::passes::CLUSTER_TRIANGLES);
+            let clusters = triangles.div_ceil(CLUSTER_TRIANGLES);
             rec.dispatch(cluster_pipeline, cluster_set, push, [clusters, 1, 1])?;
         } else {
             rec.fill(&self.cluster_mask, u32::MAX);
@@ -110,7 +111,9 @@ impl VirtualPages<'_> {
                 mode: 2 | (cover << 8),
                 ..*push
             };
-            rec.dispatch(pipeline, set, &append, [triangles, 1, 1])?;
+            // A workgroup (CLUSTER_TRIANGLES invocations) per WALK_CLUSTERS clusters.
+            let groups = triangles.div_ceil(WALK_CLUSTERS * CLUSTER_TRIANGLES);
+            rec.dispatch(pipeline, set, &append, [groups * CLUSTER_TRIANGLES, 1, 1])?;
             if push.round == 0 {
                 // Bins past their capacity: their pairs counted per level (mode 4), the levels
                 // that fit chosen coarse first, and those binned again (mode 3); the two walks

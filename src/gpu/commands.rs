@@ -174,7 +174,8 @@ impl Recorder<'_> {
     }
 
     /// Dispatches enough workgroups to cover `threads` invocations (rounded up by the shader's
-    /// declared `local_size`), after the barriers the set's resources need.
+    /// declared `local_size`), after the barriers the set's resources need. More workgroups
+    /// along an axis than the device's `maxComputeWorkGroupCount` is [`Error::Unsupported`].
     pub fn dispatch<T: Pod>(
         &mut self,
         pipeline: &Pipeline,
@@ -185,9 +186,22 @@ impl Recorder<'_> {
         if threads.contains(&0) {
             return Ok(());
         }
+        let groups = [0, 1, 2].map(|i| threads[i].div_ceil(pipeline.local_size[i].max(1)));
+        // Past the device's limit a dispatch is undefined behaviour, not an error Vulkan
+        // reports: refused here, before anything is recorded for it.
+        let info = self.ctx.info();
+        if (0..3).any(|i| groups[i] > info.max_workgroup_count[i]) {
+            return Err(Error::Unsupported {
+                device: info.name.clone(),
+                feature: format!(
+                    "a dispatch of {groups:?} workgroups of {:?} invocations \
+                     (maxComputeWorkGroupCount {:?})",
+                    pipeline.local_size, info.max_workgroup_count
+                ),
+            });
+        }
         self.use_set(set);
         self.bind_and_push(pipeline, Some(set), push)?;
-        let groups = [0, 1, 2].map(|i| threads[i].div_ceil(pipeline.local_size[i].max(1)));
         unsafe {
             self.ctx
                 .device()

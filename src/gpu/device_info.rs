@@ -81,6 +81,9 @@ pub struct DeviceInfo {
     pub max_texel_buffer_elements: u32,
     /// `maxImageDimension2D`.
     pub max_image_dimension_2d: u32,
+    /// `maxComputeWorkGroupCount`: the most workgroups one dispatch may have along x, y, z
+    /// (65535 each on many devices, lavapipe included).
+    pub max_workgroup_count: [u32; 3],
     /// `subPixelPrecisionBits`: vertices snap to 1/2^bits of a pixel before rasterization.
     pub sub_pixel_precision_bits: u32,
     /// Whether penumbra can run on it (Vulkan 1.3, a graphics+compute queue); else why not.
@@ -387,6 +390,7 @@ pub(super) fn query_info(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Re
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
         max_texel_buffer_elements: props.limits.max_texel_buffer_elements,
         max_image_dimension_2d: props.limits.max_image_dimension2_d,
+        max_workgroup_count: props.limits.max_compute_work_group_count,
         sub_pixel_precision_bits: props.limits.sub_pixel_precision_bits,
         usable,
     })

@@ -28,6 +28,20 @@ impl<'a> VirtualPages<'a> {
     ) -> Result<Self> {
         desc.check(ctx, name)?;
         let triangles = geometry.index_count / 3;
+        // The walks but the first (bin.comp's counting and scattering modes, the later walks'
+        // indirect dispatches) take a workgroup per cluster: refused here, not mid-frame.
+        let clusters = triangles.div_ceil(crate::passes::CLUSTER_TRIANGLES);
+        let max_groups = ctx.info().max_workgroup_count[0];
+        if clusters > max_groups {
+            return Err(Error::Unsupported {
+                device: ctx.info().name.clone(),
+                feature: format!(
+                    "{name}'s culling walk over {triangles} triangles ({clusters} workgroups of \
+                     {}; maxComputeWorkGroupCount {max_groups})",
+                    crate::passes::CLUSTER_TRIANGLES
+                ),
+            });
+        }
         let capacity = u64::from(desc.bin_factor)
             * u64::from(triangles).max(u64::from(SLOT_BIN_SHARE) * u64::from(desc.pool_pages));
         let max_entries = u64::from(ctx.info().max_storage_buffer_range) / 8;

@@ -227,3 +227,96 @@ fn the_centre_map_holds_each_caster_at_texel_centres() {
     assert!(interior > 500);
     common::assert_clean(&ctx.validation());
 }
+
+/// Phase 0 draws two consecutive tiny triangles whose ranges overlap (a fine mesh's neighbours)
+/// as one: each texel of their span takes the lesser of their depths in one pair of atomics.
+/// Both maps must be those of the same triangles drawn one by one — here the same sheet with its
+/// triangles reordered so that no two consecutive ones are neighbours — bit for bit, with the
+/// same counts, and within the twin's bracket; with the clip and without.
+#[test]
+fn neighbours_drawn_as_one_give_the_maps_of_their_triangles_one_by_one() {
+    let ctx = common::context();
+    let raster = ConservativeRaster::new(&ctx).expect("pipeline");
+    let n = 128;
+    // A wavy sheet over the whole map (identity light: texel coordinates), 1.3 texels a cell.
+    let cells = 96u32;
+    let row = cells + 1;
+    let mut positions = Vec::new();
+    for j in 0..row {
+        for i in 0..row {
+            let (x, y) = (
+                i as f32 * n as f32 / cells as f32,
+                j as f32 * n as f32 / cells as f32,
+            );
+            let z = 0.5 + 0.2 * (x * 0.21).sin() * (y * 0.17).cos();
+            positions.push(texel_point(x, y, z, n));
+        }
+    }
+    let mut joined = Vec::new();
+    for j in 0..cells {
+        for i in 0..cells {
+            let a = j * row + i;
+            joined.extend([a, a + row, a + 1, a + 1, a + row, a + row + 1]);
+        }
+    }
+    // Triangle k of the first half, then triangle k of the second: neighbours nowhere.
+    let triangles: Vec<&[u32]> = joined.chunks_exact(3).collect();
+    let half = triangles.len() / 2;
+    let apart: Vec<u32> = (0..half)
+        .flat_map(|k| [triangles[k], triangles[half + k]])
+        .flatten()
+        .copied()
+        .collect();
+    for clip in [false, true] {
+        let what = format!("sheet-clip-{clip}");
+        let run = |indices: &[u32]| {
+            raster
+                .run_with_centre(
+                    &positions,
+                    indices,
+                    Mat4::IDENTITY,
+                    n,
+                    clip,
+                    RasterBias::default(),
+                )
+                .expect("run")
+        };
+        let (depth, centre, counters) = run(&joined);
+        let (depth_apart, centre_apart, counters_apart) = run(&apart);
+        for (name, a, b) in [
+            ("depth", &depth, &depth_apart),
+            ("centre", &centre, &centre_apart),
+        ] {
+            let differ: Vec<_> = (0..a.len())
+                .filter(|&i| a[i].to_bits() != b[i].to_bits())
+                .map(|i| (i % n as usize, i / n as usize, a[i], b[i]))
+                .collect();
+            if !differ.is_empty() {
+                let dir = common::write_diff(&format!("{what}-{name}"), n, n, b, a);
+                panic!(
+                    "{what}: {} texels of the {name} map differ drawn as neighbours (x, y, \
+                     joined, apart): {:?}; images in {}",
+                    differ.len(),
+                    &differ[..differ.len().min(8)],
+                    dir.display()
+                );
+            }
+        }
+        assert_eq!(counters, counters_apart, "{what}");
+        assert!(
+            depth.iter().all(|&d| d < 1.0),
+            "{what}: the sheet covers the map"
+        );
+        check_against_twin(
+            &what,
+            (&positions, &joined),
+            Mat4::IDENTITY,
+            n,
+            &depth,
+            &counters,
+            clip,
+            RasterBias::default(),
+        );
+    }
+    common::assert_clean(&ctx.validation());
+}

@@ -36,7 +36,10 @@
 //
 // phase 0: one invocation per TRIS_PER_INVOCATION (4) consecutive triangles (a SIMD group's
 // fixed cost, ~6 ms over 800k invocations on lavapipe, shared by four: the 800k grid's pass
-// 31.1 -> 29.7 ms). Skipped (counted): triangles entirely behind the light
+// 31.1 -> 29.7 ms), taken two by two (raster_pair: two tiny neighbours whose ranges span at most
+// JOINT_TEXELS together are drawn as one, a pair of atomics a texel of the span rather than a
+// pair a triangle covering it — the same minima; the 800k grid's pass 25.4 -> 21.2 ms).
+// Skipped (counted): triangles entirely behind the light
 // (every w <= 0), entirely past the far plane, or with a whole projection that is not finite. A
 // whole triangle whose clamped texel range has at most SMALL texels is rasterized here (at most
 // TINY texel by texel, by the separating-axis form of the same rule, which costs less than a
@@ -80,6 +83,9 @@
 #define PIECE_CLIPPED 3u
 // Whole triangles of at most TINY texels in range are tested texel by texel.
 #define TINY 16u
+// Most texels the ranges of two consecutive tiny triangles may span together for them to be
+// drawn as one (phase 0, raster_pair).
+#define JOINT_TEXELS 9u
 
 #define C_TRIANGLES 0
 #define C_SKIPPED 1
@@ -346,8 +352,9 @@ bool covers_texel(TinyEdge e0, TinyEdge e1, TinyEdge e2, float sgn, vec2 tmin, v
     return !(outside(e0, sgn, t) || outside(e1, sgn, t) || outside(e2, sgn, t));
 }
 
-// Lowers texel (x, y)'s depth to the piece's conservative depth there.
-void write_texel(Setup s, int x, int y) {
+// The piece's conservative depth at texel (x, y) and the depth the centre map takes there
+// (write_texel's two values): each in [0, 1], never NaN, so a float min orders them as their bits.
+vec2 texel_depths(Setup s, int x, int y) {
     // The plane's lowest corner of the expanded square.
     vec2 corner = vec2(float(x) + (s.dz.x > 0.0 ? -EPS : 1.0 + EPS),
                        float(y) + (s.dz.y > 0.0 ? -EPS : 1.0 + EPS));
@@ -359,15 +366,26 @@ void write_texel(Setup s, int x, int y) {
     if (!(z > 0.0)) {
         z = 0.0;
     }
-    uint at = uint(y) * pc.map_size + uint(x);
-    atomicMin(depth[at], floatBitsToUint(z));
     // The plane at the texel's centre, never nearer than the conservative depth (a NaN plane,
     // or a piece whose vertex minimum lies past its plane there, keeps that).
+    vec2 rc = vec2(float(x) + 0.5, float(y) + 0.5) - s.p0;
+    float zm = s.z0 + s.dz.x * rc.x + s.dz.y * rc.y;
+    return vec2(z, zm > z ? min(zm, 1.0) : z);
+}
+
+// Lowers texel (x, y)'s depths to `d` (texel_depths': the conservative one, then the centre
+// map's when it is written).
+void write_depths(int x, int y, vec2 d) {
+    uint at = uint(y) * pc.map_size + uint(x);
+    atomicMin(depth[at], floatBitsToUint(d.x));
     if (pc.centre != 0u) {
-        vec2 rc = vec2(float(x) + 0.5, float(y) + 0.5) - s.p0;
-        float zm = s.z0 + s.dz.x * rc.x + s.dz.y * rc.y;
-        atomicMin(centre_depth[at], floatBitsToUint(zm > z ? min(zm, 1.0) : z));
+        atomicMin(centre_depth[at], floatBitsToUint(d.y));
     }
+}
+
+// Lowers texel (x, y)'s depth to the piece's conservative depth there.
+void write_texel(Setup s, int x, int y) {
+    write_depths(x, y, texel_depths(s, x, y));
 }
 
 uint texel_count(Setup s) {
@@ -422,13 +440,12 @@ uint raster_rows_polygon(vec3 p[MAXV], int n, Setup s, int first, int step, int 
 
 #endif
 
+#include "raster_piece.glsl"
+
 // Phase 0's work on triangle `tri`: skipped (counted), rasterized here, or listed for phase 1.
 // Returns the texels it wrote.
-uint raster_triangle(uint tri) {
+uint raster_triangle(uint tri, vec4 a, vec4 b, vec4 c) {
     uint written = 0u;
-    vec4 a = clip_vertex(3u * tri);
-    vec4 b = clip_vertex(3u * tri + 1u);
-    vec4 c = clip_vertex(3u * tri + 2u);
     bool behind = a.w <= 0.0 && b.w <= 0.0 && c.w <= 0.0;
     bool past_far = a.w > 0.0 && b.w > 0.0 && c.w > 0.0 && a.z > a.w && b.z > b.w && c.z > c.w;
     bool front = a.w > 0.0 && b.w > 0.0 && c.w > 0.0;
@@ -449,31 +466,7 @@ uint raster_triangle(uint tri) {
             atomicAdd(counters[C_SKIPPED], 1u);
             atomicAdd(counters[C_MISSED], 1u);
         } else {
-            uint count = texel_count(s);
-            vec2 e1 = p[1].xy - p[0].xy;
-            vec2 e2 = p[2].xy - p[0].xy;
-            float area = e1.x * e2.y - e1.y * e2.x;
-            if (count > SMALL) {
-                list_piece(tri, PIECE_WHOLE, count);
-            } else if (count <= TINY && area != 0.0) {
-                // A flat loop over the box, not rows (see covers_texel).
-                float sgn = area > 0.0 ? 1.0 : -1.0;
-                vec2 tmin = min(p[0].xy, min(p[1].xy, p[2].xy));
-                vec2 tmax = max(p[0].xy, max(p[1].xy, p[2].xy));
-                TinyEdge e0 = edge_corner(p[0].xy, p[1].xy, sgn);
-                TinyEdge e1 = edge_corner(p[1].xy, p[2].xy, sgn);
-                TinyEdge e2 = edge_corner(p[2].xy, p[0].xy, sgn);
-                for (int j = s.lo.y; j <= s.hi.y; ++j) {
-                    for (int i = s.lo.x; i <= s.hi.x; ++i) {
-                        if (covers_texel(e0, e1, e2, sgn, tmin, tmax, ivec2(i, j))) {
-                            write_texel(s, i, j);
-                            written += 1u;
-                        }
-                    }
-                }
-            } else {
-                written += raster_rows_triangle(p, s, 0, 1, 0, 1);
-            }
+            written += raster_whole(tri, make_piece(p, s));
         }
     } else {
         // Rare, and set up in phase 1 only: the clip's arrays here cost every invocation of this
@@ -481,6 +474,48 @@ uint raster_triangle(uint tri) {
         // such triangles were skipped above).
         atomicAdd(counters[C_CLIPPED], 1u);
         list_piece(tri, PIECE_CLIPPED, HUGE + 1u);
+    }
+    return written;
+}
+
+// Phase 0's work on one triangle of a pair: its piece when load_piece made one, else the whole
+// of raster_triangle (nothing past the last triangle).
+uint raster_one(uint tri, bool whole, Piece t, vec4 a, vec4 b, vec4 c) {
+    if (whole) {
+        return raster_whole(tri, t);
+    }
+    return tri < pc.triangles ? raster_triangle(tri, a, b, c) : 0u;
+}
+
+// Phase 0's work on triangles `tri` and `tri` + 1: on a fine mesh, neighbours whose ranges
+// overlap (a grid cell's two halves). When both are tiny and their ranges together span at most
+// JOINT_TEXELS, each texel of that span takes the lesser of their depths there in one pair of
+// atomics, not one pair a triangle covering it — the same minima, so the same map.
+uint raster_pair(uint tri) {
+    vec4 a0, b0, c0, a1, b1, c1;
+    Piece t0, t1;
+    bool k0 = load_piece(tri, a0, b0, c0, t0);
+    bool k1 = load_piece(tri + 1u, a1, b1, c1, t1);
+    ivec2 lo = ivec2(int(pc.map_size));
+    ivec2 hi = ivec2(-1);
+    range_union(t0.s, lo, hi);
+    range_union(t1.s, lo, hi);
+    ivec2 span = max(hi - lo + 1, ivec2(0));
+    if (!(k0 && k1 && is_tiny(t0) && is_tiny(t1) && uint(span.x * span.y) <= JOINT_TEXELS)) {
+        return raster_one(tri, k0, t0, a0, b0, c0) + raster_one(tri + 1u, k1, t1, a1, b1, c1);
+    }
+    uint written = 0u;
+    for (int j = lo.y; j <= hi.y; ++j) {
+        for (int i = lo.x; i <= hi.x; ++i) {
+            vec2 best = vec2(2.0);
+            uint n = 0u;
+            tiny_fold(t0, ivec2(i, j), best, n);
+            tiny_fold(t1, ivec2(i, j), best, n);
+            if (n > 0u) {
+                write_depths(i, j, best);
+            }
+            written += n;
+        }
     }
     return written;
 }
@@ -493,11 +528,8 @@ void main() {
             // Every triangle is looked at: counted once, not by an atomic each.
             atomicAdd(counters[C_TRIANGLES], pc.triangles);
         }
-        for (uint k = 0u; k < TRIS_PER_INVOCATION; ++k) {
-            uint tri = gl_GlobalInvocationID.x * TRIS_PER_INVOCATION + k;
-            if (tri < pc.triangles) {
-                written += raster_triangle(tri);
-            }
+        for (uint k = 0u; k < TRIS_PER_INVOCATION; k += 2u) {
+            written += raster_pair(gl_GlobalInvocationID.x * TRIS_PER_INVOCATION + k);
         }
     } else {
         uint front = counters[C_FRONT];

@@ -34,11 +34,12 @@
 // bias a rasterizer would give it. pvssm asks for its finest page's (src/techniques/pvssm/mod.rs
 // says why): the map then holds each caster no nearer than any page of the virtual map will.
 //
-// phase 0: one invocation per TRIS_PER_INVOCATION (4) consecutive triangles (a SIMD group's
-// fixed cost, ~6 ms over 800k invocations on lavapipe, shared by four: the 800k grid's pass
-// 31.1 -> 29.7 ms), taken two by two (raster_pair: two tiny neighbours whose ranges span at most
-// JOINT_TEXELS together are drawn as one, a pair of atomics a texel of the span rather than a
-// pair a triangle covering it — the same minima; the 800k grid's pass 25.4 -> 21.2 ms).
+// phase 0: one invocation per TRIS_PER_INVOCATION (8) consecutive triangles (a SIMD group's
+// fixed cost, ~6 ms over 800k invocations on lavapipe, shared: by four, the 800k grid's pass
+// 31.1 -> 29.7 ms; by eight, 22.3 -> 20.9 ms after the pairs), taken two by two (raster_pair:
+// two tiny neighbours whose ranges span at most JOINT_TEXELS together are drawn as one, a pair
+// of atomics a texel of the span rather than a pair a triangle covering it — the same minima;
+// the 800k grid's pass 25.4 -> 21.2 ms).
 // Skipped (counted): triangles entirely behind the light
 // (every w <= 0), entirely past the far plane, or with a whole projection that is not finite. A
 // whole triangle whose clamped texel range has at most SMALL texels is rasterized here (at most
@@ -65,7 +66,7 @@
 // an invocation's atomic too — a rarer, costlier path where it does not show).
 
 #define WG 64u
-#define TRIS_PER_INVOCATION 4u
+#define TRIS_PER_INVOCATION 8u
 #define SMALL 1024u
 // Entries of more texels than HUGE are split into LARGE_PARTS parts in phase 1.
 #define HUGE 16384u

@@ -33,10 +33,11 @@
 //! the light's centre is drawn as the segment it projects to, at its smallest depth (from the
 //! rest of an area light it is not edge-on).
 //!
-//! Design: one invocation per triangle (four in turn, `TRIS_PER_INVOCATION`: a SIMD group's
-//! fixed cost shared) sets it up and rasterizes it when its clamped texel range has at most
-//! [`SMALL_TEXELS`] (1024) texels (nearly every triangle of a scene at these resolutions), row
-//! by row; bigger ones, and every clipped piece, are appended to a list, which
+//! Design: one invocation per triangle (eight in turn, `TRIS_PER_INVOCATION`: a SIMD group's
+//! fixed cost shared; two tiny neighbours drawn as one) sets it up and rasterizes it when its
+//! clamped texel range has at most [`SMALL_TEXELS`] (1024) texels (nearly every triangle of a
+//! scene at these resolutions), row by row; bigger ones, and every clipped piece, are appended
+//! to a list, which
 //! [`LARGE_GROUPS`] workgroups then grid-stride over, each of the group's eight runs of eight
 //! invocations taking every eighth row and its eight invocations the row's covered texels (only
 //! those: the row's extent comes from the polygon's edges, where the first version tested every
@@ -94,7 +95,7 @@ const WG: u32 = 64;
 
 /// Triangles each invocation of the per-triangle pass takes (the shader's
 /// `TRIS_PER_INVOCATION`).
-const TRIS_PER_INVOCATION: u32 = 4;
+const TRIS_PER_INVOCATION: u32 = 8;
 
 /// The float bits of depth 1.0: "nothing covers this texel".
 pub const EMPTY_DEPTH_BITS: u32 = 0x3F80_0000;

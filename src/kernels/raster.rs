@@ -37,13 +37,12 @@
 //! fixed cost shared; two tiny neighbours drawn as one) sets it up and rasterizes it when its
 //! clamped texel range has at most [`SMALL_TEXELS`] (1024) texels (nearly every triangle of a
 //! scene at these resolutions), row by row; bigger ones, and every clipped piece, are appended
-//! to a list, which
-//! [`LARGE_GROUPS`] workgroups then grid-stride over, each of the group's eight runs of eight
-//! invocations taking every eighth row and its eight invocations the row's covered texels (only
-//! those: the row's extent comes from the polygon's edges, where the first version tested every
-//! texel of the bounding box with twelve edge functions, and sent every triangle of more than 64
-//! texels to a workgroup of its own — 4 706 of teapot-rect's 6.3k triangles in pvssm's fitted 1024²
-//! map, most of a group's 64 invocations idle on each). Triangles of at most 16 texels keep the
+//! to a list, which [`LARGE_GROUPS`] workgroups then grid-stride over, each of the group's eight
+//! runs of eight invocations taking every eighth row and its eight invocations the row's covered
+//! texels (only those: the row's extent comes from the polygon's edges, where the first version
+//! tested every texel of the bounding box with twelve edge functions, and sent every triangle of
+//! more than 64 texels to a workgroup of its own — 4 706 of teapot-rect's 6.3k triangles in
+//! pvssm's fitted 1024² map, most of a group's 64 invocations idle on each). Triangles of at most 16 texels keep the
 //! texel-by-texel separating-axis test (rows cost them more). The clip lives in a second shader
 //! (`raster_conservative_clip.comp`, the same source with `CLIP`): its arrays, present in a
 //! shader at all, made every invocation of it slower on lavapipe. `pvssm-lowres` (no clip) on

@@ -36,10 +36,11 @@
 //
 // phase 0: one invocation per TRIS_PER_INVOCATION (8) consecutive triangles (a SIMD group's
 // fixed cost, ~6 ms over 800k invocations on lavapipe, shared: by four, the 800k grid's pass
-// 31.1 -> 29.7 ms; by eight, 22.3 -> 20.9 ms after the pairs), taken two by two (raster_pair:
+// 31.1 -> 29.7 ms; by eight, 21.7 -> 20.8 ms after the pairs), taken two by two (raster_pair:
 // two tiny neighbours whose ranges span at most JOINT_TEXELS together are drawn as one, a pair
 // of atomics a texel of the span rather than a pair a triangle covering it — the same minima;
-// the 800k grid's pass 25.4 -> 21.2 ms).
+// the 800k grid's pass 26.4 -> 21.7 ms; both interleaved, minima of four rounds,
+// docs/bench-pvssm-800k-lavapipe/ab-session-245a87a-to-review.txt).
 // Skipped (counted): triangles entirely behind the light
 // (every w <= 0), entirely past the far plane, or with a whole projection that is not finite. A
 // whole triangle whose clamped texel range has at most SMALL texels is rasterized here (at most

@@ -40,9 +40,10 @@
 
 layout(local_size_x = 64) in;
 // Clusters a workgroup walks one after the other in mode 2 (pages/mod.rs's WALK_CLUSTERS): a
-// SIMD group's fixed cost on lavapipe shared by four triangles, as the low-res raster does (the
-// 800k grid's walk ~2 ms faster). The cluster stays uniform in the workgroup: iteration k
-// takes cluster WALK_CLUSTERS * group + k.
+// SIMD group's fixed cost on lavapipe shared by four triangles, as the low-res raster does (with
+// the level narrowing in walk(), the 800k grid's cull 34.9 -> 31.0 ms, interleaved:
+// docs/bench-pvssm-800k-lavapipe/ab-session-245a87a-to-review.txt). The cluster stays uniform
+// in the workgroup: iteration k takes cluster WALK_CLUSTERS * group + k.
 #define WALK_CLUSTERS 4u
 
 layout(set = 0, binding = 0) readonly buffer Vertices { float vertices[]; };
@@ -316,6 +317,15 @@ void count_level_pairs(uint level, uint n) {
 #define LEVEL_PAIRS_AFTER(level)
 #endif
 
+// Whether the box tmin..tmax, widened by 1/64 texel of `level`, holds a texel centre of the
+// level (the walk's test, and the narrowing's before it: one arithmetic for both).
+bool holds_centre(vec2 tmin, vec2 tmax, uint level) {
+    float scale = 1.0 / float(1u << level);
+    float eps = float(1u << level) / 64.0;
+    return all(lessThanEqual(ceil((tmin - eps) * scale - 0.5),
+                             floor((tmax + eps) * scale - 0.5)));
+}
+
 // Walks the resident pages of this round under the triangle: returns how many it overlaps.
 uint walk(uint tri, uint cluster, Projected t, uint what) {
     uint binned = 0u;
@@ -334,20 +344,16 @@ uint walk(uint tri, uint cluster, Projected t, uint what) {
         uint resident = level_info[pc.round * pc.levels].levels_mask
                       & cluster_mask[cluster];
 #ifdef SUBGROUP_COUNT
-        // Narrowed to the levels where some lane's widened box holds a texel centre (the test
-        // below, in the same arithmetic, so the walk is the same): a level none of a SIMD
+        // Narrowed to the levels where some lane's widened box holds a texel centre
+        // (holds_centre, the loop's own test, so the walk is the same): a level none of a SIMD
         // group's triangles can draw into then costs it one test, not the level's set-up — at
-        // the coarse levels most boxes of a fine mesh hold no centre (the 800k grid's walk ~2 ms
-        // faster on lavapipe). The near test stays in the loop: with its rectangle's loads
-        // here too the walk was 20 % slower.
+        // the coarse levels most boxes of a fine mesh hold no centre (with WALK_CLUSTERS, the
+        // 800k grid's cull 34.9 -> 31.0 ms). The near test stays in the loop: with its
+        // rectangle's loads here too the walk was 20 % slower in a scratch run.
         uint lane_levels = 0u;
         for (uint left = resident; left != 0u; left &= left - 1u) {
             uint level = uint(findLSB(left));
-            float scale = 1.0 / float(1u << level);
-            float eps = float(1u << level) / 64.0;
-            bool centre = all(lessThanEqual(ceil((tmin - eps) * scale - 0.5),
-                                            floor((tmax + eps) * scale - 0.5)));
-            lane_levels |= centre ? 1u << level : 0u;
+            lane_levels |= holds_centre(tmin, tmax, level) ? 1u << level : 0u;
         }
         resident &= subgroupOr(lane_levels);
 #endif
@@ -358,7 +364,6 @@ uint walk(uint tri, uint cluster, Projected t, uint what) {
             uint level = uint(findLSB(left));
             LEVEL_PAIRS_BEFORE(level);
             LevelInfo info = level_info[pc.round * pc.levels + level];
-            float scale = 1.0 / float(1u << level);
             float eps = float(1u << level) / 64.0;
             float texels = float(pc.page_size << level);
             vec2 wmin = tmin - eps;
@@ -368,7 +373,7 @@ uint walk(uint tri, uint cluster, Projected t, uint what) {
             // mesh, most triangles at the coarse levels (the root took them all before). Nor
             // does one whose widened box misses the level's resident rectangle (at the fine
             // levels, pages only around the penumbrae: most triangles), which saves the table.
-            bool centre = all(lessThanEqual(ceil(wmin * scale - 0.5), floor(wmax * scale - 0.5)));
+            bool centre = holds_centre(tmin, tmax, level);
             vec2 rect_lo = vec2(~info.min_x_not, ~info.min_y_not) * texels;
             vec2 rect_hi = (vec2(info.max_x, info.max_y) + 1.0) * texels;
             bool near = all(lessThanEqual(wmin, rect_hi)) && all(greaterThanEqual(wmax, rect_lo));
@@ -498,7 +503,7 @@ void main() {
 #endif
     for (uint k = 0u; k < per; ++k) {
         uint cluster = gl_WorkGroupID.x * per + k;
-        uint tri = cluster * 64u + gl_LocalInvocationIndex;
+        uint tri = cluster * gl_WorkGroupSize.x + gl_LocalInvocationIndex;
         if (tri < pc.triangles) {
             walk_triangle(tri, cluster);
         }

@@ -213,7 +213,11 @@ pub fn lookup(
     input: &LookupInput,
     p: Vec3,
 ) -> Looked {
-    lookup_with(atlas, cascades, input, p, |_, _| ReceiverPlane::default())
+    let input = LookupInput {
+        receiver_plane: false,
+        ..*input
+    };
+    lookup_with(atlas, cascades, &input, p, |_, _| ReceiverPlane::default())
 }
 
 /// The lookup of the view sample at `pixel` of `view`, with the receiver plane (of each

@@ -485,3 +485,16 @@ impl VirtualPages<'_> {
 mod build;
 mod readback;
 mod record;
+
+#[cfg(test)]
+mod tests {
+    use super::WALK_CLUSTERS;
+
+    #[test]
+    fn the_walk_dispatch_covers_every_cluster() {
+        // record_bins dispatches a workgroup per WALK_CLUSTERS clusters in mode 2: the shader
+        // must walk as many each.
+        let line = format!("#define WALK_CLUSTERS {WALK_CLUSTERS}u\n");
+        assert!(include_str!("../../../glsl/pages/bin.glsl").contains(&line));
+    }
+}

@@ -257,9 +257,13 @@ fn every_sample_is_covered_and_the_lookup_equals_its_twin() {
                 gpu_fallback.abs_diff(fallback) as usize * 500 <= samples,
                 "{what}: plane fallbacks {gpu_fallback} on the GPU, {fallback} in the twin"
             );
+            // Where the plane is asked for, most samples must have it: the scenes here fall back
+            // on 8.8 % (the rocker arm's creases), 3.0 % (the thin bars' edges) and 0.04 % (the
+            // grazing plane) of their samples; a lookup that lost the plane would fall back on
+            // all of them.
             if look.receiver_plane {
                 assert!(
-                    (fallback as usize) * 2 < samples,
+                    (fallback as usize) * 5 < samples,
                     "{what}: the receiver plane is missing on {fallback} samples"
                 );
             }

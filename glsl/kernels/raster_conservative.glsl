@@ -385,7 +385,8 @@ void write_depths(int x, int y, vec2 d) {
     }
 }
 
-// Lowers texel (x, y)'s depth to the piece's conservative depth there.
+// Lowers texel (x, y)'s depths to the piece's there (texel_depths: the conservative map's, and
+// the centre map's when it is written).
 void write_texel(Setup s, int x, int y) {
     write_depths(x, y, texel_depths(s, x, y));
 }

@@ -42,14 +42,15 @@
 //! texels (only those: the row's extent comes from the polygon's edges, where the first version
 //! tested every texel of the bounding box with twelve edge functions, and sent every triangle of
 //! more than 64 texels to a workgroup of its own — 4 706 of teapot-rect's 6.3k triangles in
-//! pvssm's fitted 1024² map, most of a group's 64 invocations idle on each). Triangles of at most 16 texels keep the
-//! texel-by-texel separating-axis test (rows cost them more). The clip lives in a second shader
-//! (`raster_conservative_clip.comp`, the same source with `CLIP`): its arrays, present in a
-//! shader at all, made every invocation of it slower on lavapipe. `pvssm-lowres` (no clip) on
-//! teapot-rect 24.3 → 7.7 ms, on `grid:800000@rect` (800k tiny triangles) 63.9 → 53.0 ms
-//! (with the clip in the same shader it had been 48 → 64): interleaved `penumbra render SCENE
-//! --technique pvssm --no-validation --frames 3` runs against `89893f4`'s binary, medians of
-//! five and three, on the 2-core VM in a slow phase (2026-12-03). One of
+//! pvssm's fitted 1024² map, most of a group's 64 invocations idle on each). Triangles of at
+//! most 16 texels keep the texel-by-texel separating-axis test (rows cost them more). The clip
+//! lives in a second shader (`raster_conservative_clip.comp`, the same source with `CLIP`): its
+//! arrays, present in a shader at all, made every invocation of it slower on lavapipe.
+//! `pvssm-lowres` (no clip) on teapot-rect 24.3 → 7.7 ms, on `grid:800000@rect` (800k tiny
+//! triangles) 63.9 → 53.0 ms (with the clip in the same shader it had been 48 → 64):
+//! interleaved `penumbra render SCENE --technique pvssm --no-validation --frames 3` runs
+//! against `89893f4`'s binary, medians of five and three, on the 2-core VM in a slow phase
+//! (2026-12-03). One of
 //! more than 128² texels is split into 16 parts (part k: every 16th row from row k on), so a
 //! triangle over the whole map (a ground plane) keeps several groups busy, not one (lavapipe
 //! runs a workgroup on one CPU thread). Fixed groups keep per-workgroup overhead bounded;

@@ -130,24 +130,24 @@ fn bins_past_capacity_fall_back_to_coarser_pages() {
 /// [`twin::bins_fit_levels`] on the twin's counts, every page of the levels kept whole stays,
 /// every page left in the table has exactly its casters, and the pages dropped are counted.
 /// Before, the walk's appends ran out in whatever order the triangles came, and pages of every
-/// level were dropped. Two scenes: on `spot-point` no finer page fits after the whole levels (13
-/// of 22 pages dropped); on `plane-boxes` (the stress suite's `bins-too-small` knobs) some of the
-/// finer levels' pages, bare ground, fit and stay.
+/// level were dropped. Two scenes, `spot-point` and `plane-boxes` (the stress suite's
+/// `bins-too-small` knobs). Which of the finer levels' pages stay is not asserted: their pairs
+/// follow in the order the GPU's invocations append them (bin_fit.comp), so a page whose casters
+/// all fit in one run may not in another — on `plane-boxes` 8 finer pages stayed in most runs and
+/// none in one under a loaded test run; on `spot-point` 0–5. That each page that stays has all
+/// its casters, and each that does not is counted, holds in every order and is checked.
 #[test]
 fn overflowing_bins_keep_the_coarsest_levels() {
     let engine = common::engine();
     check_bin_fit(&engine, "scenes/spot-point.toml", "1024");
-    // The finer levels' pages that fit are kept (8 here), each checked above.
-    assert!(
-        check_bin_fit(&engine, "plane-boxes", "512") > 0,
-        "plane-boxes: no finer page kept"
-    );
+    check_bin_fit(&engine, "plane-boxes", "512");
     common::assert_clean(&engine.context().validation());
 }
 
 /// [`overflowing_bins_keep_the_coarsest_levels`] on one scene, with one bin entry a triangle and
-/// a pool of `pool` slots: returns how many pages of the levels finer than those kept whole stayed.
-fn check_bin_fit(engine: &Engine, spec: &str, pool: &str) -> usize {
+/// a pool of `pool` slots (printing how many pages of the levels finer than those kept whole
+/// stayed).
+fn check_bin_fit(engine: &Engine, spec: &str, pool: &str) {
     let prepared = prepare(engine, spec);
     let (virtual_size, page) = (2048u32, 64u32);
     let set = knobs(&[
@@ -250,5 +250,4 @@ fn check_bin_fit(engine: &Engine, spec: &str, pool: &str) -> usize {
         counter(&frame, "allocated_pages") - counter(&frame, "bin_overflow_pages"),
         "{spec}: dropped pages must be counted"
     );
-    finer_kept
 }

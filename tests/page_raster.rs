@@ -225,7 +225,12 @@ fn check_cluster_levels(
     pairs: &[(u32, u32)],
 ) {
     let cluster = penumbra::passes::CLUSTER_TRIANGLES;
-    let resident: Vec<(u32, u32, u32)> = gpu.slots.iter().map(|s| (s[0], s[1], s[2])).collect();
+    let resident: Vec<(u32, u32, u32, u32)> = gpu
+        .slots
+        .iter()
+        .zip(&gpu.bands)
+        .map(|(s, &bands)| (s[0], s[1], s[2], bands))
+        .collect();
     let all_levels = resident.iter().fold(0u32, |m, r| m | (1 << r.0));
     let missing = pairs
         .iter()

@@ -2,10 +2,14 @@
 // The levels a cluster of the culling walk may bin into: one invocation per cluster of
 // CLUSTER_TRIANGLES consecutive triangles (what a walk workgroup takes at a time, bin.glsl),
 // whose world box (SceneGeometry's cluster boxes, made once on the CPU) is projected into the
-// virtual map; bit l of its mask is set when a resident page of this round at level l lies
-// under the projected box widened by the walk's 1/64 texel of level l and a safety margin, and
-// that box holds a texel centre of the level (the walk bins a triangle only where its own box
-// holds one). The walk then loops over the round's resident levels and this mask, the same
+// virtual map; bit l of its mask is set when a resident page of this round at level l has its
+// used rectangle (the bands its kernels read, pages.glsl's page_used_rect: the walk bins a
+// triangle only where it reaches that part) under the projected box widened by the walk's 1/64
+// texel of level l and a safety margin, and that box holds a texel centre of the level (the walk
+// bins a triangle only where its own box holds one). The used rectangle rather than the page:
+// on the 800k grid a page's kernels read about a third of it, and the walk's skipped
+// triangle-levels went 2.77 M -> 3.90 M (its cull 32.8 -> 31.0 ms, minima of five interleaved
+// rounds, docs/bench-pvssm-800k-lavapipe/ab-cluster-used-rect.txt). The walk then loops over the round's resident levels and this mask, the same
 // value for the whole workgroup while it walks the cluster, so a level
 // none of the cluster's triangles can reach costs them nothing — on an 800k-triangle grid the
 // finest levels' pages sit around a few penumbrae, and each level the walk looked at cost every
@@ -34,6 +38,8 @@ layout(set = 0, binding = 1) readonly buffer Table { uint table[]; };
 layout(set = 0, binding = 2) readonly buffer Levels { LevelInfo level_info[]; };
 layout(set = 0, binding = 3) buffer Counters { uint counters[]; };
 layout(set = 0, binding = 4) writeonly buffer Masks { uint cluster_mask[]; };
+// Per slot, the bands of its page drawn (allocate.comp), as the walk reads them.
+layout(set = 0, binding = 5) readonly buffer SlotBands { uint slot_bands[]; };
 
 // Triangles of a cluster: the walk's workgroup (bin.glsl's local_size_x).
 const uint CLUSTER_TRIANGLES = 64u;
@@ -106,7 +112,16 @@ void main() {
                 for (int px = ia.x; px <= ib.x && !found; ++px) {
                     uint s = table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level,
                                               uvec2(px, py))];
-                    found = s != 0u && s - 1u >= first_slot;
+                    if (s != 0u && s - 1u >= first_slot) {
+                        // Its used rectangle, in level-0 texels, against the widened box.
+                        vec4 used = vec4(page_used_rect(slot_bands[s - 1u], pc.page_size));
+                        vec2 page_lo = vec2(px, py) * texels;
+                        float texel = float(1u << level);
+                        vec2 ulo = page_lo + used.xy * texel;
+                        vec2 uhi = page_lo + (used.zw + 1.0) * texel;
+                        found = all(lessThanEqual(pmin - widen, uhi))
+                             && all(greaterThanEqual(pmax + widen, ulo));
+                    }
                 }
             }
             if (found) {

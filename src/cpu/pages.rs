@@ -377,21 +377,22 @@ pub fn triangle_overlaps_page_part(
 const CLUSTER_MAX_LOOKUPS: f32 = 64.0;
 
 /// The levels (bit l for level l) the triangles inside the world box `lo..hi` may bin into, of
-/// the round's resident pages `resident` (level, page x, page y), seen through `view_proj`
-/// (world to light clip space) — twin of `glsl/pages/cluster_levels.comp`: no level when all
-/// eight corners lie before the near or past the far plane, every resident level when one lies
-/// behind the light, else each level with a resident page under the projected box widened by
-/// 1/64 of the level's texel and a margin of `2 + 1e-4 V` level-0 texels that holds one of the
-/// level's texel centres (looked up within the level's resident rectangle; a range of more than
-/// 64 pages keeps the level unlooked).
+/// the round's resident pages `resident` (level, page x, page y, the bands it is drawn over),
+/// seen through `view_proj` (world to light clip space) — twin of
+/// `glsl/pages/cluster_levels.comp`: no level when all eight corners lie before the near or past
+/// the far plane, every resident level when one lies behind the light, else each level with a
+/// resident page whose used rectangle ([`page_used_rect`] of its bands) meets the projected box
+/// widened by 1/64 of the level's texel and a margin of `2 + 1e-4 V` level-0 texels, where that
+/// box holds one of the level's texel centres (looked up within the level's resident rectangle;
+/// a range of more than 64 pages keeps the level unlooked).
 pub fn cluster_level_mask(
     lo: Vec3,
     hi: Vec3,
     view_proj: Mat4,
     layout: &PageLayout,
-    resident: &[(u32, u32, u32)],
+    resident: &[(u32, u32, u32, u32)],
 ) -> u32 {
-    let all_levels = resident.iter().fold(0u32, |m, &(l, _, _)| m | (1 << l));
+    let all_levels = resident.iter().fold(0u32, |m, &(l, ..)| m | (1 << l));
     let v = layout.virtual_size as f32;
     let corners: Vec<Vec4> = (0..8)
         .map(|k| {
@@ -420,10 +421,10 @@ pub fn cluster_level_mask(
     let margin = 2.0 + 1e-4 * v;
     let mut mask = 0;
     for level in (0..layout.levels).filter(|l| all_levels & (1 << l) != 0) {
-        let pages: Vec<(u32, u32)> = resident
+        let pages: Vec<(u32, u32, u32)> = resident
             .iter()
             .filter(|p| p.0 == level)
-            .map(|p| (p.1, p.2))
+            .map(|p| (p.1, p.2, p.3))
             .collect();
         let rect_lo = pages.iter().fold(Vec2::splat(f32::INFINITY), |m, p| {
             m.min(Vec2::new(p.0 as f32, p.1 as f32))
@@ -445,9 +446,19 @@ pub fn cluster_level_mask(
         if first.x > last_centre.x || first.y > last_centre.y || a.x > b.x || a.y > b.y {
             continue;
         }
-        let under = |p: &&(u32, u32)| {
+        // A page within the range whose used rectangle the widened box meets.
+        let texel = 2f32.powi(level as i32);
+        let under = |p: &&(u32, u32, u32)| {
             let q = Vec2::new(p.0 as f32, p.1 as f32);
-            q.x >= a.x && q.x <= b.x && q.y >= a.y && q.y <= b.y
+            let used = page_used_rect(p.2, layout.page_size).map(|t| t as f32);
+            let used_lo = q * texels + Vec2::new(used[0], used[1]) * texel;
+            let used_hi = q * texels + (Vec2::new(used[2], used[3]) + 1.0) * texel;
+            q.x >= a.x
+                && q.x <= b.x
+                && q.y >= a.y
+                && q.y <= b.y
+                && (pmin - widen).cmple(used_hi).all()
+                && (pmax + widen).cmpge(used_lo).all()
         };
         if (b.x - a.x + 1.0) * (b.y - a.y + 1.0) > CLUSTER_MAX_LOOKUPS
             || pages.iter().any(|p| under(&p))

@@ -194,6 +194,7 @@ impl<'a> VirtualPages<'a> {
                 Binding::Buffer(&level_info),
                 Binding::Buffer(&counters),
                 Binding::Buffer(&cluster_mask),
+                Binding::Buffer(&slot_bands),
             ],
         )?;
         let bin_bindings = [

@@ -9,13 +9,14 @@
 // bins a triangle only where its own box holds one). The used rectangle rather than the page:
 // on the 800k grid a page's kernels read about a third of it, and the walk's skipped
 // triangle-levels went 2.77 M -> 3.90 M (its cull 32.8 -> 31.0 ms, minima of five interleaved
-// rounds, docs/bench-pvssm-800k-lavapipe/ab-cluster-used-rect.txt). The walk then loops over the round's resident levels and this mask, the same
-// value for the whole workgroup while it walks the cluster, so a level
-// none of the cluster's triangles can reach costs them nothing — on an 800k-triangle grid the
-// finest levels' pages sit around a few penumbrae, and each level the walk looked at cost every
-// triangle ~2.5 ms on lavapipe, found no page and moved on (the cull 63.8 -> 53.5 ms; the
-// centre test ~0.8 ms more; clusters of 8 triangles, one SIMD group's, merged by subgroupOr,
-// 4.6 ms slower, and a walk workgroup of 32, 1.2 ms: tools/ab.py).
+// rounds, docs/bench-pvssm-800k-lavapipe/ab-cluster-used-rect.txt). The walk then loops over
+// the round's resident levels and this mask, the same value for the whole workgroup while it
+// walks the cluster, so a level none of the cluster's triangles can reach costs them nothing —
+// on an 800k-triangle grid the finest levels' pages sit around a few penumbrae, and each level
+// the walk looked at cost every triangle ~2.5 ms on lavapipe, found no page and moved on (the
+// cull 63.8 -> 53.5 ms; the centre test ~0.8 ms more; clusters of 8 triangles, one SIMD
+// group's, merged by subgroupOr, 4.6 ms slower, and a walk workgroup of 32, 1.2 ms:
+// tools/ab.py).
 //
 // Why it is conservative: clip coordinates are affine in the world position, so a triangle in
 // the box lies in front of the near plane, behind the far plane or in front of the light

@@ -101,6 +101,15 @@ ivec4 page_used_rect(uint bands, uint page_size) {
     return ivec4(lo, min(hi, ivec2(int(page_size) - 1)));
 }
 
+// The part of the page with corner `page_lo` (level-0 texels) that `bands` describe
+// (page_used_rect), in level-0 texels at `texel` of them a texel of its level: (lo.xy, hi.xy),
+// the rectangle the culling walk bins into (bin.glsl) and its clusters' levels test
+// (cluster_levels.comp). Twin: page_used_bounds in src/cpu/pages.rs.
+vec4 used_bounds(uint bands, uint page_size, vec2 page_lo, float texel) {
+    vec4 used = vec4(page_used_rect(bands, page_size));
+    return vec4(page_lo + used.xy * texel, page_lo + (used.zw + 1.0) * texel);
+}
+
 // Atlas texel of level-l texel t on slot `slot`.
 ivec2 atlas_texel(uint slot, ivec2 t, uint page_size, uint atlas_cols) {
     uvec2 origin = slot_cell(slot, atlas_cols) * page_size;

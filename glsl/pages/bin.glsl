@@ -291,9 +291,8 @@ bool cover_here(Projected t, uint slot, uint level, ivec2 page) {
 // widened by `eps`: the page itself unless its bands describe a part (pages.glsl), where the
 // walk bins only the triangles reaching that part.
 bool overlaps_used(Projected t, uint slot, vec2 page_lo, float texel, float eps) {
-    vec4 used = vec4(page_used_rect(slot_bands[slot], pc.page_size));
-    return overlaps(t.p0, t.p1, t.p2, t.area, page_lo + used.xy * texel - eps,
-                    page_lo + (used.zw + 1.0) * texel + eps);
+    vec4 used = used_bounds(slot_bands[slot], pc.page_size, page_lo, texel);
+    return overlaps(t.p0, t.p1, t.p2, t.area, used.xy - eps, used.zw + eps);
 }
 
 // Slot + 1 of page `page` of `level` if it is resident and of this round, else 0.

@@ -114,14 +114,11 @@ void main() {
                     uint s = table[page_entry(pc.virtual_size, pc.page_size, pc.levels, level,
                                               uvec2(px, py))];
                     if (s != 0u && s - 1u >= first_slot) {
-                        // Its used rectangle, in level-0 texels, against the widened box.
-                        vec4 used = vec4(page_used_rect(slot_bands[s - 1u], pc.page_size));
-                        vec2 page_lo = vec2(px, py) * texels;
-                        float texel = float(1u << level);
-                        vec2 ulo = page_lo + used.xy * texel;
-                        vec2 uhi = page_lo + (used.zw + 1.0) * texel;
-                        found = all(lessThanEqual(pmin - widen, uhi))
-                             && all(greaterThanEqual(pmax + widen, ulo));
+                        // Its used rectangle against the widened box.
+                        vec4 used = used_bounds(slot_bands[s - 1u], pc.page_size,
+                                                vec2(px, py) * texels, float(1u << level));
+                        found = all(lessThanEqual(pmin - widen, used.zw))
+                             && all(greaterThanEqual(pmax + widen, used.xy));
                     }
                 }
             }

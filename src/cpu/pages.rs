@@ -283,6 +283,24 @@ pub fn page_used_rect(bands: u32, page_size: u32) -> [u32; 4] {
     [first[0], first[1], last[0], last[1]]
 }
 
+/// The part of page `(level, px, py)` its `bands` describe ([`page_used_rect`]), in level-0
+/// texels `[x0, y0, x1, y1]` (the page's own rectangle for [`PAGE_BANDS_FULL`]) — the rectangle
+/// the walk bins into (`used_bounds` in `glsl/include/pages.glsl`).
+pub fn page_used_bounds(layout: &PageLayout, [level, px, py]: [u32; 3], bands: u32) -> [f32; 4] {
+    let [x0, y0, x1, y1] = layout.page_rect(level, px, py);
+    if bands == PAGE_BANDS_FULL {
+        return [x0, y0, x1, y1];
+    }
+    let texel = 2f32.powi(level as i32);
+    let r = page_used_rect(bands, layout.page_size).map(|v| v as f32);
+    [
+        x0 + r[0] * texel,
+        y0 + r[1] * texel,
+        x0 + (r[2] + 1.0) * texel,
+        y0 + (r[3] + 1.0) * texel,
+    ]
+}
+
 /// The spec's caster-culling test: whether a triangle with light clip-space vertices `clip` may
 /// cover a texel centre of page `(level, px, py)` (conservative where a vertex lies behind the
 /// light): its box and the page's rectangle, both widened by 1/64 of the level's texel, overlap,
@@ -333,17 +351,7 @@ pub fn triangle_overlaps_page_part(
     }
     let texel = 2f32.powi(level as i32);
     let eps = texel / 64.0;
-    let (x0, y0, x1, y1) = if bands == PAGE_BANDS_FULL {
-        (x0, y0, x1, y1)
-    } else {
-        let r = page_used_rect(bands, layout.page_size).map(|v| v as f32);
-        (
-            x0 + r[0] * texel,
-            y0 + r[1] * texel,
-            x0 + (r[2] + 1.0) * texel,
-            y0 + (r[3] + 1.0) * texel,
-        )
-    };
+    let [x0, y0, x1, y1] = page_used_bounds(layout, [level, px, py], bands);
     let (r0, r1) = (Vec2::new(x0 - eps, y0 - eps), Vec2::new(x1 + eps, y1 + eps));
     let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
     if hi.x < r0.x || lo.x > r1.x || hi.y < r0.y || lo.y > r1.y {
@@ -447,12 +455,10 @@ pub fn cluster_level_mask(
             continue;
         }
         // A page within the range whose used rectangle the widened box meets.
-        let texel = 2f32.powi(level as i32);
         let under = |p: &&(u32, u32, u32)| {
             let q = Vec2::new(p.0 as f32, p.1 as f32);
-            let used = page_used_rect(p.2, layout.page_size).map(|t| t as f32);
-            let used_lo = q * texels + Vec2::new(used[0], used[1]) * texel;
-            let used_hi = q * texels + (Vec2::new(used[2], used[3]) + 1.0) * texel;
+            let [x0, y0, x1, y1] = page_used_bounds(layout, [level, p.0, p.1], p.2);
+            let (used_lo, used_hi) = (Vec2::new(x0, y0), Vec2::new(x1, y1));
             q.x >= a.x
                 && q.x <= b.x
                 && q.y >= a.y

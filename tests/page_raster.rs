@@ -11,7 +11,6 @@ use penumbra::cpu::page_raster::{rasterize_pages, PageRasterDesc};
 use penumbra::cpu::pages::{
     atlas_columns, cluster_level_mask, page_used_rect, triangle_overlaps_page_part, PageLayout,
 };
-use penumbra::gpu::f32s;
 use penumbra::{Engine, Frame, PreparedScene};
 
 /// Atlas, bins and slots of one frame of `technique`.
@@ -35,7 +34,6 @@ fn render(
     technique: &str,
     set: &[(&str, &str)],
 ) -> Pages {
-    let ctx = engine.context().clone();
     let mut knobs: BTreeMap<String, String> = common::knobs(set);
     for (k, v) in common::KERNEL_ONLY {
         knobs.insert(k.into(), v.into());
@@ -45,9 +43,9 @@ fn render(
     let frame = engine
         .render_inspect(prepared, technique, &knobs, 1, |t| {
             let pages = t.virtual_pages().expect("pages");
-            atlas = f32s(&ctx.read_image(&pages.atlas)?);
-            let e = pages.atlas.extent();
-            atlas_size = (e.width, e.height);
+            let (depths, size) = pages.read_atlas()?;
+            atlas = depths;
+            atlas_size = size;
             bins = pages.read_bins()?;
             slots = pages.read_slots()?;
             cluster_masks = pages.read_cluster_masks()?;
@@ -57,7 +55,7 @@ fn render(
             // alone (slot_clear.comp), both rasters draw only the rectangles, and nothing reads
             // the rest. Those texels read as empty here, as the twin's do (masked alike).
             let (page, cols) = (pages.desc().page_size, pages.desc().atlas_cols());
-            let width = e.width as usize;
+            let width = size.0 as usize;
             used = vec![false; atlas.len()];
             for (slot, &b) in bands.iter().enumerate() {
                 let slot = slot as u32;

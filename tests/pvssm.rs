@@ -323,8 +323,9 @@ fn match_twin(scene: &str, light_scale: f32, v_size: u32, page: u32) -> TwinMatc
             let pages = t.virtual_pages().expect("pages");
             table = pages.read_table()?;
             bands = pages.read_slot_bands()?;
-            atlas = penumbra::gpu::f32s(&ctx.read_image(&pages.atlas)?);
-            atlas_width = pages.atlas.extent().width;
+            let (depths, (width, _)) = pages.read_atlas()?;
+            atlas = depths;
+            atlas_width = width;
             shape = common::read_named_buffer(&ctx, t, "shape")?;
             Ok(())
         })

@@ -299,14 +299,18 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
-            vec!["pvssm/root_strides.comp"],
+            vec!["pvssm/root_strides.comp", "pvssm/root_strides_texels.comp"],
             twin!(PvssmStridesPush {
                 page_size,
                 atlas_cols
             }),
         ),
         (
-            vec!["pvssm/shape.comp", "pvssm/filter.comp"],
+            vec![
+                "pvssm/shape.comp",
+                "pvssm/filter.comp",
+                "pvssm/filter_texels.comp",
+            ],
             twin!(PvssmPush {
                 light_view_proj,
                 view_size,
@@ -326,7 +330,13 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
             }),
         ),
         (
-            vec!["rmsm/mark.comp", "rmsm/edges.comp", "rmsm/lookup.comp"],
+            vec![
+                "rmsm/mark.comp",
+                "rmsm/edges.comp",
+                "rmsm/edges_texels.comp",
+                "rmsm/lookup.comp",
+                "rmsm/lookup_texels.comp",
+            ],
             twin!(RmsmPush {
                 light_view_proj,
                 view_size,

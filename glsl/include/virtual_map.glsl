@@ -1,7 +1,8 @@
 // Reads through a virtual shadow map's page table into its atlas (src/passes/pages/), shared by
 // rmsm and pvssm. The including shader's push block must have `virtual_size`, `page_size`,
-// `levels` and `atlas_cols`; it defines VIRTUAL_ATLAS to bind the atlas, and TABLE_ACCESS empty
-// to write the table (the marking passes).
+// `levels` and `atlas_cols`; it defines VIRTUAL_ATLAS to bind the atlas (atlas_depth.glsl: with
+// ATLAS_TEXELS too, the compute page raster's buffer), and TABLE_ACCESS empty to write the table
+// (the marking passes).
 
 #ifndef PENUMBRA_VIRTUAL_MAP_GLSL
 #define PENUMBRA_VIRTUAL_MAP_GLSL
@@ -19,7 +20,8 @@
 layout(set = 0, binding = 4) TABLE_ACCESS buffer Table { uint table[]; };
 
 #ifdef VIRTUAL_ATLAS
-layout(set = 0, binding = 5) uniform sampler2D atlas;
+#define ATLAS_BINDING 5
+#include "atlas_depth.glsl"
 #endif
 
 // Slot + 1 of the page holding level-l texel t; 0 if not resident; ~0u for a texel outside the
@@ -68,7 +70,7 @@ float test_texel(ivec2 t, uint level, Receiver rc) {
     vec2 centre = (vec2(t) + 0.5) * float(1u << level);
     float zt = rc.z + dot(rc.dz, centre - rc.c);
     ivec2 a = atlas_texel(s - 1u, t, pc.page_size, pc.atlas_cols);
-    return zt <= texelFetch(atlas, a, 0).r ? 1.0 : 0.0;
+    return zt <= atlas_depth(a) ? 1.0 : 0.0;
 }
 #endif
 

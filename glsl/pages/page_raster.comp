@@ -8,7 +8,8 @@
 // depth, clamped like vkCmdSetDepthBias), clamped to [0, 1]; the near plane clips the triangle
 // (z >= 0, as Vulkan's clip volume), the far plane discards texels past depth 1. Texels combine
 // with atomicMin on the float bits (non-negative, so they order as unsigned integers) in a
-// buffer laid out as the atlas, which pages/record.rs then copies into the depth atlas.
+// buffer laid out as the atlas, which pages/record.rs then copies into the depth atlas — or which
+// the readers take as the atlas where no triangle goes to the rasterizer (atlas_depth.glsl).
 //
 // Everything is computed in the level's texel coordinates (shadow_coord's, divided by 2^level),
 // never relative to the page, so a texel gets the same coverage and depth in whichever page of

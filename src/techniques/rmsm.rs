@@ -176,7 +176,7 @@ impl<'a> Rmsm<'a> {
             "rmsm edge counters",
             4 * EDGE_COUNTER_NAMES.len() as u64,
         )?;
-        let edges_pipeline = Pipeline::compute(ctx, "rmsm/edges.comp")?;
+        let edges_pipeline = Pipeline::compute(ctx, &pages.atlas_reader("rmsm/edges.comp"))?;
         let edges_set = DescriptorSet::new(
             ctx,
             &edges_pipeline,
@@ -186,13 +186,13 @@ impl<'a> Rmsm<'a> {
                 Binding::Image(setup.receivers),
                 Binding::Buffer(&camera_buffer),
                 Binding::Buffer(&pages.table),
-                Binding::Sampled(&pages.atlas, &pages.sampler),
+                pages.atlas_binding(),
                 Binding::Buffer(&pages.refine_flags),
                 Binding::Image(&refine_level),
                 Binding::Buffer(&edge_counters),
             ],
         )?;
-        let lookup_pipeline = Pipeline::compute(ctx, "rmsm/lookup.comp")?;
+        let lookup_pipeline = Pipeline::compute(ctx, &pages.atlas_reader("rmsm/lookup.comp"))?;
         let lookup_set = DescriptorSet::new(
             ctx,
             &lookup_pipeline,
@@ -202,7 +202,7 @@ impl<'a> Rmsm<'a> {
                 Binding::Image(setup.receivers),
                 Binding::Buffer(&camera_buffer),
                 Binding::Buffer(&pages.table),
-                Binding::Sampled(&pages.atlas, &pages.sampler),
+                pages.atlas_binding(),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&lookup_counters),
                 Binding::Image(&refine_level),

@@ -56,7 +56,7 @@ pub const fn page_knobs(virtual_size: f64, raster_split: f64) -> [Knob; 8] {
         Knob::int(
             "raster_split",
             "page_raster = compute: triangles covering a box of more texels of a page go to the \
-             rasterizer (page_size² or more: none)",
+             rasterizer (page_size² or more: none, and the compute raster's buffer is the atlas)",
             raster_split,
             0.0,
             1_048_576.0,

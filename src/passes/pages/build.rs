@@ -3,8 +3,8 @@
 use ash::vk;
 
 use super::{
-    ComputeDrawer, GroupedDraw, LargeDraw, PageDrawer, PageRaster, PagesDesc, VirtualPages,
-    LEVEL_PAIRS, PAGE_COUNTER_NAMES, SLOT_BIN_SHARE,
+    AtlasDepths, ComputeDrawer, GroupedDraw, LargeDraw, PageDrawer, PageRaster, PagesDesc,
+    VirtualPages, LEVEL_PAIRS, PAGE_COUNTER_NAMES, SLOT_BIN_SHARE,
 };
 use crate::error::{Error, Result};
 use crate::gpu::{
@@ -91,8 +91,19 @@ impl<'a> VirtualPages<'a> {
         let bin_memo = storage("page bin memo", memo_size)?;
         // The compute raster's depths, which the walk writes too (bin.comp's cover_here); one
         // word for the rasterizer's way, where nothing writes it.
+        // Where they are the atlas itself (`atlas_in_buffer`), its readers view it as texels.
+        let in_buffer = desc.atlas_in_buffer();
         let depth_bits = match desc.raster {
-            PageRaster::Compute => storage("page atlas depth bits", desc.atlas_bytes())?,
+            PageRaster::Compute => Buffer::storage_with(
+                ctx,
+                "page atlas depth bits",
+                desc.atlas_bytes(),
+                if in_buffer {
+                    vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
+                } else {
+                    vk::BufferUsageFlags::empty()
+                },
+            )?,
             PageRaster::Graphics => storage("page atlas depth bits (unused)", 4)?,
         };
         let draws = Buffer::new(
@@ -113,19 +124,23 @@ impl<'a> VirtualPages<'a> {
             MemoryLocation::GpuOnly,
         )?;
         let (w, h) = desc.atlas_size();
-        let atlas = Image::new(
-            ctx,
-            "page atlas",
-            ImageDesc::new_2d(
-                SHADOW_MAP_FORMAT,
-                w,
-                h,
-                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
-                    | vk::ImageUsageFlags::SAMPLED
-                    | vk::ImageUsageFlags::TRANSFER_SRC
-                    | vk::ImageUsageFlags::TRANSFER_DST,
-            ),
-        )?;
+        let atlas = if in_buffer {
+            AtlasDepths::Texels(depth_bits.texel_view(vk::Format::R32G32_UINT, 8)?)
+        } else {
+            AtlasDepths::Image(Image::new(
+                ctx,
+                "page atlas",
+                ImageDesc::new_2d(
+                    SHADOW_MAP_FORMAT,
+                    w,
+                    h,
+                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                        | vk::ImageUsageFlags::SAMPLED
+                        | vk::ImageUsageFlags::TRANSFER_SRC
+                        | vk::ImageUsageFlags::TRANSFER_DST,
+                ),
+            )?)
+        };
         let sampler = Sampler::nearest_border_white(ctx, "page atlas sampler")?;
 
         let compact = Compact::new(ctx)?;
@@ -273,10 +288,12 @@ impl<'a> VirtualPages<'a> {
                 (PageDrawer::Graphics(pipeline, set), Some(depth_bits))
             }
             PageRaster::Compute => {
-                let large_list = storage("page raster large list", 4 * u64::from(capacity))?;
+                // (Nothing is listed where the raster's buffer is the atlas: a word each.)
+                let listed = if in_buffer { 0 } else { u64::from(capacity) };
+                let large_list = storage("page raster large list", 4 * listed.max(1))?;
                 let groups = u64::from(pool.div_ceil(SLOT_VIEWPORTS));
                 let group_count = storage("page raster group counts", 4 * groups)?;
-                let large_rank = storage("page raster listed ranks", 4 * u64::from(capacity))?;
+                let large_rank = storage("page raster listed ranks", 4 * listed.max(1))?;
                 let (pipeline, set) = with_set(
                     "pages/page_raster.comp",
                     &[
@@ -292,7 +309,9 @@ impl<'a> VirtualPages<'a> {
                         Binding::Buffer(&slot_bands),
                     ],
                 )?;
-                let large = if desc.viewport_draw(ctx) {
+                let large = if in_buffer {
+                    LargeDraw::None
+                } else if desc.viewport_draw(ctx) {
                     let group_first = storage("page raster group firsts", 4 * groups)?;
                     let indirect = |name: &str, size: u64| {
                         Buffer::new(

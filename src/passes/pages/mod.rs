@@ -45,8 +45,13 @@
 //!    the slope-scaled bias grows with the texel by itself. With [`PageRaster::Compute`] (the
 //!    choice where workgroups run on CPU threads) one compute invocation per bin entry
 //!    rasterizes its triangle instead, in the level's texel coordinates, `atomicMin` into a
-//!    buffer copied into the atlas, and only the triangles over boxes of more than
-//!    `raster_split` texels go through the rasterizer: where a vertex shader may pick the
+//!    buffer laid out as the atlas. Where `raster_split` is `page_size`² or more
+//!    ([`PagesDesc::atlas_in_buffer`]: pvssm's default) that buffer *is* the atlas: the readers
+//!    take their `_texels` shader variant (`glsl/include/atlas_depth.glsl`), and no depth image,
+//!    copy or draw is made (the copy of the whole pool cost ~2.1 ms a frame on lavapipe however
+//!    few slots were used). Otherwise the buffer is copied into the atlas image and the
+//!    triangles over boxes of more than `raster_split` texels go through the rasterizer: where
+//!    a vertex shader may pick the
 //!    viewport (`slot_viewports`), ordered by group of [`SLOT_VIEWPORTS`] slots and drawn one
 //!    indirect draw a group, each slot its own viewport and scissor
 //!    (`glsl/pages/slot_groups.comp`, `slot_scatter.comp`, `page_depth_grouped.vert`); else in
@@ -89,7 +94,7 @@
 
 use super::{DepthBias, SceneGeometry};
 use crate::error::{Error, Result};
-use crate::gpu::{Buffer, Context, DescriptorSet, Image, Pipeline, Sampler};
+use crate::gpu::{Binding, Buffer, Context, DescriptorSet, Image, Pipeline, Sampler, TexelView};
 use crate::kernels::compact::{Compact, CompactBinding};
 use crate::kernels::scan::{Scan, ScanBinding};
 use crate::shader_types::PagesPush;
@@ -129,7 +134,8 @@ pub enum PageRaster {
     Graphics,
     /// One compute invocation per bin entry (`glsl/pages/page_raster.comp`): texel centres
     /// covered with a top-left rule, the plane's depth plus the same per-level bias, `atomicMin`
-    /// into a buffer copied into the atlas. Where the draw path costs per triangle whatever it
+    /// into a buffer, copied into the atlas image or read as the atlas itself
+    /// ([`PagesDesc::atlas_in_buffer`]). Where the draw path costs per triangle whatever it
     /// covers (lavapipe: ~0.4 µs a triangle, measured) this pays off, since most page triangles
     /// cover a few texel centres or none.
     Compute,
@@ -216,6 +222,16 @@ impl PagesDesc {
             cols += 1;
         }
         cols.max(1)
+    }
+
+    /// Whether the atlas is the compute raster's buffer, read by the pages' readers as it is:
+    /// [`PageRaster::Compute`] with `raster_split` at `page_size`² or more, so that no triangle
+    /// goes to the rasterizer and nothing needs a depth image. Why: the image's copy from the
+    /// buffer moved the whole pool every frame (16 MiB at the defaults, ~2.1 ms on lavapipe)
+    /// however few slots a frame used, and the rasterizer's empty draws cost their set-up.
+    pub fn atlas_in_buffer(&self) -> bool {
+        self.raster == PageRaster::Compute
+            && u64::from(self.raster_split) >= u64::from(self.page_size).pow(2)
     }
 
     /// Atlas size in texels (width, height).
@@ -327,9 +343,13 @@ pub struct VirtualPages<'a> {
     /// One `u32` per slot: the bands its page was drawn over (`PAGE_BANDS_FULL`: all of it),
     /// which a lookup must stay within (pvssm's filter checks them before reading a page).
     pub slot_bands: Buffer,
-    /// The depth atlas: `pool_pages` slots of `page_size`² texels, row by row.
-    pub atlas: Image,
-    /// Nearest sampler for texel fetches from the atlas.
+    /// The depth atlas: `pool_pages` slots of `page_size`² texels, row by row — an image, or
+    /// the compute raster's buffer ([`PagesDesc::atlas_in_buffer`]). Readers bind
+    /// [`VirtualPages::atlas_binding`] in [`VirtualPages::atlas_reader`]'s variant of their
+    /// shader.
+    atlas: AtlasDepths,
+    /// Nearest sampler for texel fetches from the atlas image (and other maps of the pages'
+    /// readers).
     pub sampler: Sampler,
     list: Buffer,
     count: Buffer,
@@ -403,6 +423,15 @@ enum PageDrawer {
     Compute(Box<ComputeDrawer>),
 }
 
+/// Where the atlas's depths are read from.
+enum AtlasDepths {
+    /// The depth image the rasterizer draws into (the compute raster's depths copied in first).
+    Image(Image),
+    /// The compute raster's buffer itself, as an RG32UI texel view (two texels a texel), where
+    /// no triangle goes to the rasterizer: `glsl/include/atlas_depth.glsl`'s `ATLAS_TEXELS`.
+    Texels(TexelView),
+}
+
 /// Bin entries per pool slot, in units of `bin_factor`, that the bins hold at least however few
 /// the triangles: `bin_factor` × 8 = 128 entries a slot at the defaults. Why: a full pool of pages
 /// crossed by long triangles holds many more pairs than triangles — `lattice@rect` (2 304
@@ -424,7 +453,8 @@ struct ComputeDrawer {
     set: DescriptorSet,
     /// `pages/slot_clear.comp`: empties the round's allocated slots of `depth_bits`.
     clear: (Pipeline, DescriptorSet),
-    /// The atlas's depths as float bits, `atomicMin`-combined, copied into the atlas.
+    /// The atlas's depths as float bits, `atomicMin`-combined, copied into the atlas image —
+    /// or the atlas itself, with [`LargeDraw::None`].
     depth_bits: Buffer,
     /// The rasterizer's draw of the entries whose boxes hold more than `raster_split` texels,
     /// which the compute pass lists.
@@ -440,6 +470,9 @@ struct ComputeDrawer {
 
 /// How the compute raster's listed entries are drawn.
 enum LargeDraw {
+    /// None are listed ([`PagesDesc::atlas_in_buffer`]): the compute raster draws every
+    /// triangle, and its buffer is the atlas.
+    None,
     /// One draw clipped to each slot by clip distances (`glsl/pages/page_depth_listed.vert`).
     Clipped(Pipeline, DescriptorSet),
     /// A viewport and scissor per slot, where the device lets a vertex shader pick one.
@@ -473,6 +506,36 @@ impl VirtualPages<'_> {
     /// Bin entries the bin buffer holds.
     pub fn bin_capacity(&self) -> u32 {
         self.push.capacity
+    }
+
+    /// The atlas as a reader binds it (`glsl/include/atlas_depth.glsl`): the depth image with
+    /// [`VirtualPages::sampler`], or the compute raster's buffer as a texel view.
+    pub fn atlas_binding(&self) -> Binding<'_> {
+        match &self.atlas {
+            AtlasDepths::Image(image) => Binding::Sampled(image, &self.sampler),
+            AtlasDepths::Texels(view) => Binding::Texels(view),
+        }
+    }
+
+    /// The variant of the reader compute shader `shader` (`dir/name.comp`) that reads the
+    /// atlas as [`VirtualPages::atlas_binding`] binds it: `dir/name_texels.comp` where the atlas
+    /// is the compute raster's buffer.
+    pub fn atlas_reader(&self, shader: &str) -> String {
+        match (&self.atlas, shader.strip_suffix(".comp")) {
+            (AtlasDepths::Texels(_), Some(stem)) => format!("{stem}_texels.comp"),
+            _ => shader.to_owned(),
+        }
+    }
+
+    /// The atlas image, where the rasterizer draws into one.
+    fn atlas_image(&self) -> Result<&Image> {
+        match &self.atlas {
+            AtlasDepths::Image(image) => Ok(image),
+            AtlasDepths::Texels(_) => Err(Error::InvalidArgument(format!(
+                "{}: the atlas is the compute raster's buffer, with no image to draw into",
+                self.name
+            ))),
+        }
     }
 
     /// Whether the bins are appended unordered (the compute raster takes them so) rather than

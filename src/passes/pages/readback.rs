@@ -2,10 +2,10 @@
 //! compare with the CPU twin.
 
 use super::{
-    VirtualPages, APPEND_REST, APPEND_ROOT, FIT_LEVEL, FIT_WHOLE_END, LEVEL_PAIRS,
-    PAGE_COUNTER_NAMES, REWALK_FINER, REWALK_ROOT,
+    AtlasDepths, PageDrawer, VirtualPages, APPEND_REST, APPEND_ROOT, FIT_LEVEL, FIT_WHOLE_END,
+    LEVEL_PAIRS, PAGE_COUNTER_NAMES, REWALK_FINER, REWALK_ROOT,
 };
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::gpu::Buffer;
 
 impl VirtualPages<'_> {
@@ -24,6 +24,25 @@ impl VirtualPages<'_> {
         out.push(("drawn_pages".into(), drawn));
         out.push(("triangles_culled".into(), culled));
         Ok(out)
+    }
+
+    /// The atlas's depths row by row (`pool_pages` slots of `page_size`² texels, slot `s` at
+    /// column `s % atlas_cols`, row `s / atlas_cols`) and its width and height: from the image,
+    /// or from the compute raster's buffer where that is the atlas. For tests and debug images.
+    pub fn read_atlas(&self) -> Result<(Vec<f32>, (u32, u32))> {
+        let bytes = match (&self.atlas, &self.render) {
+            (AtlasDepths::Image(image), _) => self.ctx.read_image(image)?,
+            (AtlasDepths::Texels(_), PageDrawer::Compute(drawer)) => {
+                self.ctx.read_buffer(&drawer.depth_bits)?
+            }
+            (AtlasDepths::Texels(_), PageDrawer::Graphics(..)) => {
+                return Err(Error::InvalidArgument(format!(
+                    "{}: a buffer atlas without the compute raster",
+                    self.name
+                )))
+            }
+        };
+        Ok((crate::gpu::f32s(&bytes), self.desc.atlas_size()))
     }
 
     /// The last frame's compacted page list (the marked entries, ascending): for tests.

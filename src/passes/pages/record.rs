@@ -97,9 +97,9 @@ impl VirtualPages<'_> {
             // depths are made ready before the walk: the round's slots cleared (slot_clear.comp:
             // only those, not the pool), after, for round 1, the atlas's (which holds the
             // earlier round's listed triangles too, which the copy back after the page raster
-            // would otherwise overwrite).
-            if push.round == 1 {
-                rec.copy_image_to_buffer(&self.atlas, &drawer.depth_bits);
+            // would otherwise overwrite; where the buffer is the atlas, it holds them already).
+            if push.round == 1 && !matches!(drawer.large, LargeDraw::None) {
+                rec.copy_image_to_buffer(self.atlas_image()?, &drawer.depth_bits);
             }
             let (clear_pipeline, clear_set) = &drawer.clear;
             // A workgroup a slot, within a dispatch's guaranteed count (the shader strides on).
@@ -164,22 +164,29 @@ impl VirtualPages<'_> {
                 // The round's 12 words of `raster_args`: dispatch and entry range, then (word 8)
                 // the listed entries' draw.
                 let offset = 48 * u64::from(push.round);
+                // (Where the buffer is the atlas nothing may be listed, not even an entry
+                // whose two near-clipped pieces' boxes hold more than page_size² texels.)
                 let split = PagesPush {
-                    mode: self.desc.raster_split,
+                    mode: match large {
+                        LargeDraw::None => u32::MAX,
+                        _ => self.desc.raster_split,
+                    },
                     ..*push
                 };
                 rec.fill(group_count, 0);
                 rec.dispatch_indirect(pipeline, set, &split, &self.raster_args, offset)?;
                 let (listed, listed_set) = match large {
+                    LargeDraw::None => return Ok(()),
                     LargeDraw::Viewports(grouped) => {
                         return self.record_grouped(rec, push, grouped, depth_bits)
                     }
                     LargeDraw::Clipped(listed, listed_set) => (listed, listed_set),
                 };
-                rec.copy_buffer_to_image(depth_bits, &self.atlas);
+                let atlas = self.atlas_image()?;
+                rec.copy_buffer_to_image(depth_bits, atlas);
                 rec.use_set(listed_set);
                 rec.use_buffer(&self.raster_args, Access::IndirectRead);
-                rec.continue_rendering(&self.atlas);
+                rec.continue_rendering(atlas);
                 let result = rec.draw_indirect(
                     listed,
                     listed_set,
@@ -194,10 +201,11 @@ impl VirtualPages<'_> {
         };
         rec.use_set(set);
         rec.use_buffer(&self.draws, Access::IndirectRead);
+        let atlas = self.atlas_image()?;
         if clear {
-            rec.begin_rendering(&[], (&self.atlas, 1.0));
+            rec.begin_rendering(&[], (atlas, 1.0));
         } else {
-            rec.continue_rendering(&self.atlas);
+            rec.continue_rendering(atlas);
         }
         let bias = self.desc.bias;
         let mut result = Ok(());
@@ -241,10 +249,11 @@ impl VirtualPages<'_> {
             &grouped.scatter_args,
             0,
         )?;
-        rec.copy_buffer_to_image(depth_bits, &self.atlas);
+        let atlas = self.atlas_image()?;
+        rec.copy_buffer_to_image(depth_bits, atlas);
         rec.use_set(&grouped.set);
         rec.use_buffer(&grouped.draws, Access::IndirectRead);
-        rec.continue_rendering(&self.atlas);
+        rec.continue_rendering(atlas);
         let (page, cols) = (self.desc.page_size, self.desc.atlas_cols());
         let mut result = Ok(());
         for group in 0..self.desc.pool_pages.div_ceil(SLOT_VIEWPORTS) {

@@ -24,12 +24,16 @@ pub const COUNTER_NAMES: [&str; 15] = [
     "filter_texels_high",
 ];
 
-// raster_split 1024: pvssm's pages are drawn over the part their kernels read (a third of a page
-// on teapot-rect), so a triangle's box there is small and the compute raster takes it for less
-// than the rasterizer's set-up and its cut at the part's edges — `pvssm-render` on bunny-rect
-// 44-48 -> 40 ms against 64 (tools/ab.py, two rounds; teapot-rect and `grid:800000@rect` the
-// same within the noise). rmsm draws whole pages and keeps 64.
-const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(16384.0, 1024.0);
+// raster_split 1048576 (page_size² or more for every page size: none): pvssm's pages are drawn
+// over the part their kernels read (a third of a page on teapot-rect), so a triangle's box there
+// is small, and the compute raster draws every triangle; its buffer is then the atlas itself
+// (PagesDesc::atlas_in_buffer), with no copy of the pool into a depth image and no rasterizer
+// pass. On lavapipe, against 1024 (the rasterizer's share drawn after a copy of the buffer):
+// `pvssm-render` teapot-rect 10.3 -> 8.5 ms, bunny-rect 25.8 -> 22.1, `grid:800000@rect` 3.0 ->
+// 0.6, and the filter's buffer reads 0.4-1.2 ms faster than its gathers from the image
+// (tools/ab.py, minima; docs/pvssm-log.md). 1024 had been 4-8 ms faster than 64 on bunny-rect.
+// rmsm draws whole pages and keeps 64.
+const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(16384.0, 1_048_576.0);
 
 const KNOBS: [Knob; 29] = [
     Knob::int(

@@ -353,7 +353,7 @@ impl<'a> Pvssm<'a> {
             ],
         )?;
         let root_strides = RootStrides::new(ctx, &pages)?;
-        let filter_pipeline = Pipeline::compute(ctx, "pvssm/filter.comp")?;
+        let filter_pipeline = Pipeline::compute(ctx, &pages.atlas_reader("pvssm/filter.comp"))?;
         let filter_set = DescriptorSet::new(
             ctx,
             &filter_pipeline,
@@ -362,7 +362,7 @@ impl<'a> Pvssm<'a> {
                 Binding::Image(setup.receivers),
                 Binding::Buffer(&camera_buffer),
                 Binding::Buffer(&pages.table),
-                Binding::Sampled(&pages.atlas, &pages.sampler),
+                pages.atlas_binding(),
                 Binding::Buffer(&shape),
                 Binding::Image(setup.visibility),
                 Binding::Buffer(&counters),

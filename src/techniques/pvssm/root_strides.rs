@@ -39,13 +39,13 @@ impl RootStrides {
                 vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::SAMPLED,
             ),
         )?;
-        let pipeline = Pipeline::compute(ctx, "pvssm/root_strides.comp")?;
+        let pipeline = Pipeline::compute(ctx, &pages.atlas_reader("pvssm/root_strides.comp"))?;
         let set = DescriptorSet::new(
             ctx,
             &pipeline,
             &[
                 Binding::Buffer(&pages.table),
-                Binding::Sampled(&pages.atlas, &pages.sampler),
+                pages.atlas_binding(),
                 Binding::Image(&image),
             ],
         )?;

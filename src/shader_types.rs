@@ -218,6 +218,16 @@ pub struct PagesPush {
     pub bias_slope: f32,
     /// Level 0's bias clamp (0: none); doubles per level.
     pub bias_clamp: f32,
+    /// 1 where the compute raster's buffer is the atlas (`PagesDesc::atlas_in_buffer`), held
+    /// in 2 × 2 quads (`glsl/include/atlas_depth.glsl`); 0: row by row, as the image it is
+    /// copied into.
+    pub atlas_quads: u32,
+    /// Padding to 16 bytes.
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+    /// Padding.
+    pub pad2: u32,
 }
 
 /// `glsl/rmsm/rmsm.glsl` (mark and lookup).

@@ -286,7 +286,11 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 round,
                 bias_constant,
                 bias_slope,
-                bias_clamp
+                bias_clamp,
+                atlas_quads,
+                pad0,
+                pad1,
+                pad2
             }),
         ),
         (

@@ -1,11 +1,13 @@
 // Reads of a virtual map's depth atlas (src/passes/pages/), in either of its two forms: the
 // depth image the rasterizer draws (and the compute page raster's copy fills), or — with
 // ATLAS_TEXELS defined, where the compute page raster draws every triangle itself
-// (`raster_split` at page_size² or more) — that raster's own buffer of float bits, laid out as
-// the image (texel (x, y) at word y * atlas_cols * page_size + x), read through an RG32UI texel
-// view, two texels a fetch. Why: the atlas image exists for the rasterizer's share; without one
-// the copy of the whole pool into it (16 MiB at the defaults, ~2.1 ms a frame on lavapipe,
-// whatever the pages used) and the empty draws' set-up were the page render's fixed cost.
+// (`raster_split` at page_size² or more) — that raster's own buffer of float bits, in 2x2
+// quads (pages.glsl's atlas_word), read through an RGBA32UI texel view, a quad a fetch. Why:
+// the atlas image exists for the rasterizer's share; without one, the copy of the whole pool
+// into it (16 MiB at the defaults, ~2.1 ms a frame on lavapipe, whatever the pages used) and
+// the empty draws' set-up were the page render's fixed cost. Why quads: the filter reads 2x2
+// blocks, one fetch each — two row-pair fetches of a row-by-row buffer cost teapot-rect's
+// filter ~0.8 ms more on lavapipe, and the image's gathers more again.
 // The includer defines ATLAS_BINDING (its binding number) and has `atlas_cols` and `page_size`
 // in its push block.
 
@@ -15,27 +17,24 @@
 #include "shadow_map.glsl"
 
 #ifdef ATLAS_TEXELS
-layout(set = 0, binding = ATLAS_BINDING) uniform usamplerBuffer atlas_pairs;
+layout(set = 0, binding = ATLAS_BINDING) uniform usamplerBuffer atlas_texels;
 
-// The word of atlas texel a.
-int atlas_word(ivec2 a) {
-    return a.y * int(pc.atlas_cols * pc.page_size) + a.x;
+// The quad (RGBA32UI texel) holding atlas texel a: pages.glsl's atlas_word with quads, / 4.
+int atlas_quad(ivec2 a) {
+    return (a.y >> 1) * int(pc.atlas_cols * pc.page_size >> 1u) + (a.x >> 1);
 }
 
 // The depth of atlas texel a.
 float atlas_depth(ivec2 a) {
-    int k = atlas_word(a);
-    uvec2 pair = texelFetch(atlas_pairs, k >> 1).xy;
-    return uintBitsToFloat((k & 1) != 0 ? pair.y : pair.x);
+    uvec4 q = texelFetch(atlas_texels, atlas_quad(a));
+    uint k = uint((a.y & 1) << 1 | (a.x & 1));
+    return uintBitsToFloat(k >= 2u ? (k == 3u ? q.w : q.z) : (k == 1u ? q.y : q.x));
 }
 
-// The 2x2 block of atlas texels from a (a.x even), in gather_depths' order: a, a + (1, 0),
-// a + (0, 1), a + (1, 1).
+// The 2x2 block of atlas texels from a (a.x and a.y even: one quad), in gather_depths' order:
+// a, a + (1, 0), a + (0, 1), a + (1, 1).
 vec4 atlas_block(ivec2 a) {
-    int k = atlas_word(a) >> 1;
-    uvec2 row0 = texelFetch(atlas_pairs, k).xy;
-    uvec2 row1 = texelFetch(atlas_pairs, k + int(pc.atlas_cols * pc.page_size >> 1)).xy;
-    return uintBitsToFloat(uvec4(row0, row1));
+    return uintBitsToFloat(texelFetch(atlas_texels, atlas_quad(a)));
 }
 #else
 layout(set = 0, binding = ATLAS_BINDING) uniform sampler2D atlas;

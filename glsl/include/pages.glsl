@@ -111,6 +111,19 @@ vec4 used_bounds(uint bands, uint page_size, vec2 page_lo, float texel) {
 }
 
 // Atlas texel of level-l texel t on slot `slot`.
+// The word of atlas texel `at` in the compute page raster's buffer of `width` texels a row
+// (even: whole pages): row by row, or with `quads` in 2x2 quads, quad (x/2, y/2) at word
+// 4 ((y/2) width/2 + x/2), its texels (x, y), (x+1, y), (x, y+1), (x+1, y+1) in that order —
+// gather_depths' order, so that a reader of the buffer as the atlas takes a 2x2 block in one
+// RGBA32UI fetch (atlas_depth.glsl). The row-by-row layout is the image's, which the buffer is
+// copied into where the rasterizer draws too.
+// (One expression for both, q = 0 or 1, with no select: the page raster's texel loop runs it
+// per covered texel.)
+uint atlas_word(uvec2 at, uint width, bool quads) {
+    uint q = quads ? 1u : 0u;
+    return (at.y & ~q) * width + ((at.x & ~q) << q) + ((at.y & q) << 1u) + (at.x & q);
+}
+
 ivec2 atlas_texel(uint slot, ivec2 t, uint page_size, uint atlas_cols) {
     uvec2 origin = slot_cell(slot, atlas_cols) * page_size;
     return ivec2(origin + (uvec2(t) & (page_size - 1u)));

@@ -117,7 +117,8 @@ void cover(Tri t, int i, int j, ivec2 lo, ivec2 origin, uint atlas_width) {
     }
     z = clamp(z + t.bias, 0.0, 1.0);
     ivec2 at = origin + ivec2(i, j) - lo;
-    atomicMin(atlas_bits[uint(at.y) * atlas_width + uint(at.x)], floatBitsToUint(z));
+    atomicMin(atlas_bits[atlas_word(uvec2(at), atlas_width, pc.atlas_quads != 0u)],
+              floatBitsToUint(z));
 }
 
 

@@ -25,6 +25,12 @@ layout(push_constant) uniform Push {
     float bias_constant;
     float bias_slope;
     float bias_clamp;
+    // 1: the compute raster's buffer is the atlas, in 2x2 quads (atlas_depth.glsl's layout);
+    // 0: row by row, as the atlas image it is copied into.
+    uint atlas_quads;
+    uint pad0;
+    uint pad1;
+    uint pad2;
 } pc;
 
 // Per-level bookkeeping written by allocate.comp with atomicMax only, so one fill with 0 resets

@@ -15,7 +15,8 @@
 
 layout(local_size_x = 64) in;
 
-// The atlas's depths, four texels a word (a page row is page_size >= 16 texels, a multiple of 4).
+// The atlas's depths, four texels a word: four of a row (a page row is page_size >= 16 texels, a
+// multiple of 4), or one 2x2 quad where the buffer is the atlas (pc.atlas_quads).
 layout(set = 0, binding = 0) writeonly buffer Depths { uvec4 depth4[]; };
 layout(set = 0, binding = 1) readonly buffer Counters { uint counters[]; };
 // Per slot, the bands of its page drawn (allocate.comp; pages.glsl): only their rectangle is
@@ -27,6 +28,25 @@ const uint EMPTY_DEPTH_BITS = 0x3F800000u;
 void main() {
     uint allocated = pc.round == 0u ? counters[C_ALLOCATED] : counters[C_ROUND1 + C_ALLOCATED];
     uint width_quads = (pc.atlas_cols * pc.page_size) >> 2u;
+    if (pc.atlas_quads != 0u) {
+        // The buffer in 2x2 quads (pages.glsl's atlas_word): a word4 is one quad, and the used
+        // rectangle (whole bands of 16 texels) is whole quads, qa..qb of the slot's.
+        uint quads_per_row = (pc.atlas_cols * pc.page_size) >> 1u;
+        for (uint k = gl_WorkGroupID.x; k < allocated; k += gl_NumWorkGroups.x) {
+            uint slot = ROUND_FIRST_SLOT(pc.round) + k;
+            uvec2 origin = slot_cell(slot, pc.atlas_cols) * pc.page_size;
+            ivec4 used = page_used_rect(slot_bands[slot], pc.page_size);
+            uvec2 qa = uvec2(used.xy) >> 1u;
+            uvec2 qb = uvec2(used.zw) >> 1u;
+            uint cols = qb.x - qa.x + 1u;
+            uint first = ((origin.y >> 1u) + qa.y) * quads_per_row + (origin.x >> 1u) + qa.x;
+            for (uint q = gl_LocalInvocationID.x; q < cols * (qb.y - qa.y + 1u); q += 64u) {
+                uint row = uint(small_int((float(q) + 0.5) / float(cols)));
+                depth4[first + row * quads_per_row + (q - row * cols)] = uvec4(EMPTY_DEPTH_BITS);
+            }
+        }
+        return;
+    }
     // Slot k of the round, k from the workgroup on by the dispatch's size (the host dispatches
     // one workgroup a pool slot, at most 65 535: a dispatch's guaranteed limit).
     for (uint k = gl_WorkGroupID.x; k < allocated; k += gl_NumWorkGroups.x) {

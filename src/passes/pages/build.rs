@@ -125,7 +125,7 @@ impl<'a> VirtualPages<'a> {
         )?;
         let (w, h) = desc.atlas_size();
         let atlas = if in_buffer {
-            AtlasDepths::Texels(depth_bits.texel_view(vk::Format::R32G32_UINT, 8)?)
+            AtlasDepths::Texels(depth_bits.texel_view(vk::Format::R32G32B32A32_UINT, 16)?)
         } else {
             AtlasDepths::Image(Image::new(
                 ctx,
@@ -411,6 +411,10 @@ impl<'a> VirtualPages<'a> {
             bias_constant: desc.bias.constant,
             bias_slope: desc.bias.slope,
             bias_clamp: desc.bias.clamp,
+            atlas_quads: u32::from(in_buffer),
+            pad0: 0,
+            pad1: 0,
+            pad2: 0,
         };
         Ok(VirtualPages {
             ctx: ctx.clone(),

@@ -427,8 +427,9 @@ enum PageDrawer {
 enum AtlasDepths {
     /// The depth image the rasterizer draws into (the compute raster's depths copied in first).
     Image(Image),
-    /// The compute raster's buffer itself, as an RG32UI texel view (two texels a texel), where
-    /// no triangle goes to the rasterizer: `glsl/include/atlas_depth.glsl`'s `ATLAS_TEXELS`.
+    /// The compute raster's buffer itself, in 2 × 2 quads, as an RGBA32UI texel view (a quad a
+    /// texel), where no triangle goes to the rasterizer: `glsl/include/atlas_depth.glsl`'s
+    /// `ATLAS_TEXELS`, `atlas_word` in `glsl/include/pages.glsl`.
     Texels(TexelView),
 }
 

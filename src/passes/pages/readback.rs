@@ -28,12 +28,25 @@ impl VirtualPages<'_> {
 
     /// The atlas's depths row by row (`pool_pages` slots of `page_size`² texels, slot `s` at
     /// column `s % atlas_cols`, row `s / atlas_cols`) and its width and height: from the image,
-    /// or from the compute raster's buffer where that is the atlas. For tests and debug images.
+    /// or from the compute raster's buffer (its quads put back in rows) where that is the
+    /// atlas. For tests and debug images.
     pub fn read_atlas(&self) -> Result<(Vec<f32>, (u32, u32))> {
+        let (width, height) = self.desc.atlas_size();
         let bytes = match (&self.atlas, &self.render) {
             (AtlasDepths::Image(image), _) => self.ctx.read_image(image)?,
             (AtlasDepths::Texels(_), PageDrawer::Compute(drawer)) => {
-                self.ctx.read_buffer(&drawer.depth_bits)?
+                // In 2 × 2 quads (`atlas_word` in glsl/include/pages.glsl): back to rows.
+                let quads = crate::gpu::f32s(&self.ctx.read_buffer(&drawer.depth_bits)?);
+                let (w, h) = (width as usize, height as usize);
+                let mut rows = vec![0.0f32; w * h];
+                for (q, quad) in quads.chunks_exact(4).enumerate() {
+                    let (x, y) = (2 * (q % (w / 2)), 2 * (q / (w / 2)));
+                    rows[y * w + x] = quad[0];
+                    rows[y * w + x + 1] = quad[1];
+                    rows[(y + 1) * w + x] = quad[2];
+                    rows[(y + 1) * w + x + 1] = quad[3];
+                }
+                return Ok((rows, (width, height)));
             }
             (AtlasDepths::Texels(_), PageDrawer::Graphics(..)) => {
                 return Err(Error::InvalidArgument(format!(
@@ -42,7 +55,7 @@ impl VirtualPages<'_> {
                 )))
             }
         };
-        Ok((crate::gpu::f32s(&bytes), self.desc.atlas_size()))
+        Ok((crate::gpu::f32s(&bytes), (width, height)))
     }
 
     /// The last frame's compacted page list (the marked entries, ascending): for tests.

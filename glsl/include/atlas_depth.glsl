@@ -14,27 +14,26 @@
 #ifndef PENUMBRA_ATLAS_DEPTH_GLSL
 #define PENUMBRA_ATLAS_DEPTH_GLSL
 
-#include "shadow_map.glsl"
+#include "pages.glsl"
 
 #ifdef ATLAS_TEXELS
 layout(set = 0, binding = ATLAS_BINDING) uniform usamplerBuffer atlas_texels;
 
-// The quad (RGBA32UI texel) holding atlas texel a: pages.glsl's atlas_word with quads, / 4.
-int atlas_quad(ivec2 a) {
-    return (a.y >> 1) * int(pc.atlas_cols * pc.page_size >> 1u) + (a.x >> 1);
+// The word of atlas texel a in the buffer (pages.glsl's atlas_word, in quads).
+uint atlas_texel_word(ivec2 a) {
+    return atlas_word(uvec2(a), pc.atlas_cols * pc.page_size, true);
 }
 
 // The depth of atlas texel a.
 float atlas_depth(ivec2 a) {
-    uvec4 q = texelFetch(atlas_texels, atlas_quad(a));
-    uint k = uint((a.y & 1) << 1 | (a.x & 1));
-    return uintBitsToFloat(k >= 2u ? (k == 3u ? q.w : q.z) : (k == 1u ? q.y : q.x));
+    uint w = atlas_texel_word(a);
+    return uintBitsToFloat(texelFetch(atlas_texels, int(w >> 2u))[w & 3u]);
 }
 
 // The 2x2 block of atlas texels from a (a.x and a.y even: one quad), in gather_depths' order:
 // a, a + (1, 0), a + (0, 1), a + (1, 1).
 vec4 atlas_block(ivec2 a) {
-    return uintBitsToFloat(texelFetch(atlas_texels, atlas_quad(a)));
+    return uintBitsToFloat(texelFetch(atlas_texels, int(atlas_texel_word(a) >> 2u)));
 }
 #else
 layout(set = 0, binding = ATLAS_BINDING) uniform sampler2D atlas;
@@ -43,9 +42,7 @@ float atlas_depth(ivec2 a) {
     return texelFetch(atlas, a, 0).r;
 }
 
-vec4 atlas_block(ivec2 a) {
-    return gather_depths(atlas, vec2(a), 1.0 / vec2(textureSize(atlas, 0)));
-}
+// (The image's 2x2 blocks: gather_depths in shadow_map.glsl, as the filter reads them.)
 #endif
 
 #endif

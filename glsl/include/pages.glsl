@@ -110,7 +110,6 @@ vec4 used_bounds(uint bands, uint page_size, vec2 page_lo, float texel) {
     return vec4(page_lo + used.xy * texel, page_lo + (used.zw + 1.0) * texel);
 }
 
-// Atlas texel of level-l texel t on slot `slot`.
 // The word of atlas texel `at` in the compute page raster's buffer of `width` texels a row
 // (even: whole pages): row by row, or with `quads` in 2x2 quads, quad (x/2, y/2) at word
 // 4 ((y/2) width/2 + x/2), its texels (x, y), (x+1, y), (x, y+1), (x+1, y+1) in that order —
@@ -124,6 +123,7 @@ uint atlas_word(uvec2 at, uint width, bool quads) {
     return (at.y & ~q) * width + ((at.x & ~q) << q) + ((at.y & q) << 1u) + (at.x & q);
 }
 
+// Atlas texel of level-l texel t on slot `slot`.
 ivec2 atlas_texel(uint slot, ivec2 t, uint page_size, uint atlas_cols) {
     uvec2 origin = slot_cell(slot, atlas_cols) * page_size;
     return ivec2(origin + (uvec2(t) & (page_size - 1u)));

@@ -27,42 +27,28 @@ const uint EMPTY_DEPTH_BITS = 0x3F800000u;
 
 void main() {
     uint allocated = pc.round == 0u ? counters[C_ALLOCATED] : counters[C_ROUND1 + C_ALLOCATED];
-    uint width_quads = (pc.atlas_cols * pc.page_size) >> 2u;
-    if (pc.atlas_quads != 0u) {
-        // The buffer in 2x2 quads (pages.glsl's atlas_word): a word4 is one quad, and the used
-        // rectangle (whole bands of 16 texels) is whole quads, qa..qb of the slot's.
-        uint quads_per_row = (pc.atlas_cols * pc.page_size) >> 1u;
-        for (uint k = gl_WorkGroupID.x; k < allocated; k += gl_NumWorkGroups.x) {
-            uint slot = ROUND_FIRST_SLOT(pc.round) + k;
-            uvec2 origin = slot_cell(slot, pc.atlas_cols) * pc.page_size;
-            ivec4 used = page_used_rect(slot_bands[slot], pc.page_size);
-            uvec2 qa = uvec2(used.xy) >> 1u;
-            uvec2 qb = uvec2(used.zw) >> 1u;
-            uint cols = qb.x - qa.x + 1u;
-            uint first = ((origin.y >> 1u) + qa.y) * quads_per_row + (origin.x >> 1u) + qa.x;
-            for (uint q = gl_LocalInvocationID.x; q < cols * (qb.y - qa.y + 1u); q += 64u) {
-                uint row = uint(small_int((float(q) + 0.5) / float(cols)));
-                depth4[first + row * quads_per_row + (q - row * cols)] = uvec4(EMPTY_DEPTH_BITS);
-            }
-        }
-        return;
-    }
+    // A word4 spans `span` texels: four of a row, or (where the buffer is the atlas, in 2x2
+    // quads: pages.glsl's atlas_word) two of two rows. The used rectangle (whole bands of 16
+    // texels) is whole words either way.
+    uvec2 span = pc.atlas_quads != 0u ? uvec2(2u) : uvec2(4u, 1u);
+    uvec2 shift = pc.atlas_quads != 0u ? uvec2(1u) : uvec2(2u, 0u);
+    uint words_per_row = (pc.atlas_cols * pc.page_size) / span.x;
     // Slot k of the round, k from the workgroup on by the dispatch's size (the host dispatches
     // one workgroup a pool slot, at most 65 535: a dispatch's guaranteed limit).
     for (uint k = gl_WorkGroupID.x; k < allocated; k += gl_NumWorkGroups.x) {
         uint slot = ROUND_FIRST_SLOT(pc.round) + k;
         uvec2 origin = slot_cell(slot, pc.atlas_cols) * pc.page_size;
-        // The used rectangle's quads: columns qa.x..qb.x, rows qa.y..qb.y of the slot.
+        // The used rectangle's words: columns qa.x..qb.x, rows qa.y..qb.y of the atlas's.
         ivec4 used = page_used_rect(slot_bands[slot], pc.page_size);
-        uvec2 qa = uvec2(uint(used.x) >> 2u, used.y);
-        uvec2 qb = uvec2(uint(used.z) >> 2u, used.w);
+        uvec2 qa = (origin + uvec2(used.xy)) >> shift;
+        uvec2 qb = (origin + uvec2(used.zw)) >> shift;
         uint cols = qb.x - qa.x + 1u;
-        uint first = (origin.y + qa.y) * width_quads + (origin.x >> 2u) + qa.x;
+        uint first = qa.y * words_per_row + qa.x;
         for (uint q = gl_LocalInvocationID.x; q < cols * (qb.y - qa.y + 1u); q += 64u) {
             // (A float quotient, exact for these small counts: an integer division by a
             // value the compiler cannot see is a scalar division per lane on lavapipe.)
             uint row = uint(small_int((float(q) + 0.5) / float(cols)));
-            depth4[first + row * width_quads + (q - row * cols)] = uvec4(EMPTY_DEPTH_BITS);
+            depth4[first + row * words_per_row + (q - row * cols)] = uvec4(EMPTY_DEPTH_BITS);
         }
     }
 }

@@ -282,10 +282,10 @@ impl<'a> VirtualPages<'a> {
             let set = DescriptorSet::new(ctx, &pipeline, &bindings)?;
             Ok((pipeline, set))
         };
-        let (render, unused_depths) = match desc.raster {
+        let render = match desc.raster {
             PageRaster::Graphics => {
                 let (pipeline, set) = page_draw(&page_graphics, None)?;
-                (PageDrawer::Graphics(pipeline, set), Some(depth_bits))
+                PageDrawer::Graphics(pipeline, set)
             }
             PageRaster::Compute => {
                 // (Nothing is listed where the raster's buffer is the atlas: a word each.)
@@ -388,13 +388,12 @@ impl<'a> VirtualPages<'a> {
                     pipeline,
                     set,
                     clear,
-                    depth_bits,
                     large,
                     _large_list: large_list,
                     group_count,
                     _large_rank: large_rank,
                 };
-                (PageDrawer::Compute(Box::new(drawer)), None)
+                PageDrawer::Compute(Box::new(drawer))
             }
         };
         let push = PagesPush {
@@ -434,7 +433,7 @@ impl<'a> VirtualPages<'a> {
             bin_count,
             _bin_offset: bin_offset,
             _bin_memo: bin_memo,
-            _unused_depths: unused_depths,
+            depth_bits,
             bin_cursor,
             entries: bins,
             draws,

@@ -360,8 +360,11 @@ pub struct VirtualPages<'a> {
     _bin_offset: Buffer,
     // bin.comp mode 0's per-triangle memo of slots for mode 1 (bound in the bin set).
     _bin_memo: Buffer,
-    // The bin set's depth binding where the rasterizer draws the pages (nothing writes it).
-    _unused_depths: Option<Buffer>,
+    /// The compute raster's depths as float bits, `atomicMin`-combined (the walk's covers and
+    /// the page raster's): copied into the atlas image, or the atlas itself
+    /// ([`AtlasDepths::Texels`]); one unused word where the rasterizer draws the pages (the bin
+    /// set binds it all the same).
+    depth_bits: Buffer,
     bin_cursor: Buffer,
     entries: Buffer,
     draws: Buffer,
@@ -452,11 +455,9 @@ const SLOT_CLEAR_GROUP: u32 = 64;
 struct ComputeDrawer {
     pipeline: Pipeline,
     set: DescriptorSet,
-    /// `pages/slot_clear.comp`: empties the round's allocated slots of `depth_bits`.
+    /// `pages/slot_clear.comp`: empties the round's allocated slots of
+    /// [`VirtualPages::depth_bits`].
     clear: (Pipeline, DescriptorSet),
-    /// The atlas's depths as float bits, `atomicMin`-combined, copied into the atlas image —
-    /// or the atlas itself, with [`LargeDraw::None`].
-    depth_bits: Buffer,
     /// The rasterizer's draw of the entries whose boxes hold more than `raster_split` texels,
     /// which the compute pass lists.
     large: LargeDraw,

@@ -2,10 +2,10 @@
 //! compare with the CPU twin.
 
 use super::{
-    AtlasDepths, PageDrawer, VirtualPages, APPEND_REST, APPEND_ROOT, FIT_LEVEL, FIT_WHOLE_END,
-    LEVEL_PAIRS, PAGE_COUNTER_NAMES, REWALK_FINER, REWALK_ROOT,
+    AtlasDepths, VirtualPages, APPEND_REST, APPEND_ROOT, FIT_LEVEL, FIT_WHOLE_END, LEVEL_PAIRS,
+    PAGE_COUNTER_NAMES, REWALK_FINER, REWALK_ROOT,
 };
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::gpu::Buffer;
 
 impl VirtualPages<'_> {
@@ -32,29 +32,21 @@ impl VirtualPages<'_> {
     /// atlas. For tests and debug images.
     pub fn read_atlas(&self) -> Result<(Vec<f32>, (u32, u32))> {
         let (width, height) = self.desc.atlas_size();
-        let bytes = match (&self.atlas, &self.render) {
-            (AtlasDepths::Image(image), _) => self.ctx.read_image(image)?,
-            (AtlasDepths::Texels(_), PageDrawer::Compute(drawer)) => {
-                // In 2 × 2 quads (`atlas_word` in glsl/include/pages.glsl): back to rows.
-                let quads = crate::gpu::f32s(&self.ctx.read_buffer(&drawer.depth_bits)?);
-                let (w, h) = (width as usize, height as usize);
-                let mut rows = vec![0.0f32; w * h];
-                for (q, quad) in quads.chunks_exact(4).enumerate() {
-                    let (x, y) = (2 * (q % (w / 2)), 2 * (q / (w / 2)));
-                    rows[y * w + x] = quad[0];
-                    rows[y * w + x + 1] = quad[1];
-                    rows[(y + 1) * w + x] = quad[2];
-                    rows[(y + 1) * w + x + 1] = quad[3];
-                }
-                return Ok((rows, (width, height)));
+        let AtlasDepths::Image(image) = &self.atlas else {
+            // In 2 × 2 quads (`atlas_word` in glsl/include/pages.glsl): back to rows.
+            let quads = crate::gpu::f32s(&self.ctx.read_buffer(&self.depth_bits)?);
+            let (w, h) = (width as usize, height as usize);
+            let mut rows = vec![0.0f32; w * h];
+            for (q, quad) in quads.chunks_exact(4).enumerate() {
+                let (x, y) = (2 * (q % (w / 2)), 2 * (q / (w / 2)));
+                rows[y * w + x] = quad[0];
+                rows[y * w + x + 1] = quad[1];
+                rows[(y + 1) * w + x] = quad[2];
+                rows[(y + 1) * w + x + 1] = quad[3];
             }
-            (AtlasDepths::Texels(_), PageDrawer::Graphics(..)) => {
-                return Err(Error::InvalidArgument(format!(
-                    "{}: a buffer atlas without the compute raster",
-                    self.name
-                )))
-            }
+            return Ok((rows, (width, height)));
         };
+        let bytes = self.ctx.read_image(image)?;
         Ok((crate::gpu::f32s(&bytes), (width, height)))
     }
 

@@ -5,7 +5,7 @@ use super::{
     WALK_CLUSTERS, WALK_COVER_TEXELS,
 };
 use crate::error::Result;
-use crate::gpu::{Access, Buffer, Recorder, SLOT_VIEWPORTS};
+use crate::gpu::{Access, Recorder, SLOT_VIEWPORTS};
 use crate::kernels::scan::ScanKind;
 use crate::passes::CLUSTER_TRIANGLES;
 use crate::shader_types::PagesPush;
@@ -99,7 +99,7 @@ impl VirtualPages<'_> {
             // earlier round's listed triangles too, which the copy back after the page raster
             // would otherwise overwrite; where the buffer is the atlas, it holds them already).
             if push.round == 1 && !matches!(drawer.large, LargeDraw::None) {
-                rec.copy_image_to_buffer(self.atlas_image()?, &drawer.depth_bits);
+                rec.copy_image_to_buffer(self.atlas_image()?, &self.depth_bits);
             }
             let (clear_pipeline, clear_set) = &drawer.clear;
             // A workgroup a slot, within a dispatch's guaranteed count (the shader strides on).
@@ -154,7 +154,6 @@ impl VirtualPages<'_> {
                 let ComputeDrawer {
                     pipeline,
                     set,
-                    depth_bits,
                     large,
                     group_count,
                     ..
@@ -178,12 +177,12 @@ impl VirtualPages<'_> {
                 let (listed, listed_set) = match large {
                     LargeDraw::None => return Ok(()),
                     LargeDraw::Viewports(grouped) => {
-                        return self.record_grouped(rec, push, grouped, depth_bits)
+                        return self.record_grouped(rec, push, grouped)
                     }
                     LargeDraw::Clipped(listed, listed_set) => (listed, listed_set),
                 };
                 let atlas = self.atlas_image()?;
-                rec.copy_buffer_to_image(depth_bits, atlas);
+                rec.copy_buffer_to_image(&self.depth_bits, atlas);
                 rec.use_set(listed_set);
                 rec.use_buffer(&self.raster_args, Access::IndirectRead);
                 rec.continue_rendering(atlas);
@@ -237,7 +236,6 @@ impl VirtualPages<'_> {
         rec: &mut Recorder<'_>,
         push: &PagesPush,
         grouped: &GroupedDraw,
-        depth_bits: &Buffer,
     ) -> Result<()> {
         let (groups_pipeline, groups_set) = &grouped.groups;
         rec.dispatch(groups_pipeline, groups_set, push, [1, 1, 1])?;
@@ -250,7 +248,7 @@ impl VirtualPages<'_> {
             0,
         )?;
         let atlas = self.atlas_image()?;
-        rec.copy_buffer_to_image(depth_bits, atlas);
+        rec.copy_buffer_to_image(&self.depth_bits, atlas);
         rec.use_set(&grouped.set);
         rec.use_buffer(&grouped.draws, Access::IndirectRead);
         rec.continue_rendering(atlas);

@@ -4,10 +4,11 @@
 On a shared or CPU-rasterizer machine the speed of the whole machine drifts between runs (on the
 2-core VM this project is measured on, by up to 2x within minutes), so two binaries timed one
 after the other compare the machine's phases, not the code. This runs the variants in turn,
-round after round, and prints the total GPU time (stats.json's `total_gpu_ms`, which leaves out
-the shared `view-samples` pass) and each pass's as minimum / lower quartile / median over the
-rounds. The VM's disturbances only ever add time, so with many rounds the minimum and the lower
-quartile are the steadier figures; the median moves with the share of slow phases.
+round after round (every other round in reverse order), and prints the total GPU time
+(stats.json's `total_gpu_ms`, which leaves out the shared `view-samples` pass) and each pass's
+as minimum / lower quartile / median over the rounds. The VM's disturbances only ever add time,
+so with many rounds the minimum and the lower quartile are the steadier figures; the median
+moves with the share of slow phases.
 
 A variant is a penumbra binary, optionally with knobs after `::` (comma-separated `key=value`):
 
@@ -85,7 +86,9 @@ def main():
     totals = {v: [] for v in a.variants}
     passes = {v: {} for v in a.variants}
     for r in range(a.rounds):
-        for v in a.variants:
+        # Odd rounds run the variants in reverse, so that none always follows the same one (a
+        # run's speed may hang on what ran just before it: caches, the VM's scheduling).
+        for v in (a.variants if r % 2 == 0 else a.variants[::-1]):
             s = run(v, a.scene, a.technique, a.frames, a.set)
             totals[v].append(s["total_gpu_ms"])
             for ps in s["passes"]:

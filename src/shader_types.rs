@@ -222,9 +222,9 @@ pub struct PagesPush {
     /// in 2 × 2 quads (`glsl/include/atlas_depth.glsl`); 0: row by row, as the image it is
     /// copied into.
     pub atlas_quads: u32,
+    /// 1: the walk bins no triangle that faces away from the light (`PagesDesc::cull_back_faces`).
+    pub cull_back_faces: u32,
     /// Padding to 16 bytes.
-    pub pad0: u32,
-    /// Padding.
     pub pad1: u32,
     /// Padding.
     pub pad2: u32,

@@ -92,6 +92,7 @@ fn pages_refuse_more_clusters_than_a_dispatch_holds() {
         raster_split: 1024,
         slot_viewports: false,
         cluster_skip: true,
+        cull_back_faces: false,
     };
     match VirtualPages::new(&ctx, "test", &view, &geometry, desc) {
         Err(Error::Unsupported { feature, .. }) => {

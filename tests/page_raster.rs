@@ -374,6 +374,80 @@ fn compute_pages_match_the_rasterizer() {
     common::assert_clean(&engine.context().validation());
 }
 
+/// `cull_back_faces = 1`: the walk bins no triangle that faces away from the light (its winding
+/// in the map's texel grid, as the twin projects it), which on a closed caster is about half of
+/// its pairs, and the shadow stays that of both faces but at the silhouettes' texels (where a
+/// texel centre on the edge between a light-facing and a back-facing triangle may belong to the
+/// latter). Spot is closed (every directed edge has its opposite).
+#[test]
+fn culled_back_faces_are_not_binned_and_a_closed_caster_keeps_its_shadow() {
+    let engine = common::engine();
+    let prepared = engine
+        .prepare(&common::small("scenes/spot-point.toml"))
+        .expect("prepare");
+    let knobs = |cull| {
+        [
+            ("page_raster", "compute"),
+            ("raster_split", "1048576"),
+            // The bins index the scene's own triangle list (caster_list.rs says why).
+            ("caster_skip", "0"),
+            ("cull_back_faces", cull),
+        ]
+    };
+    let both = render(&engine, &prepared, "pvssm", &knobs("0"));
+    let front = render(&engine, &prepared, "pvssm", &knobs("1"));
+    let m = prepared.light_view.view_proj;
+    let size = front.frame.stats.params["virtual_size"] as f32;
+    // The triangle's signed area in level-0 texels (bin.glsl's project), where every corner is
+    // in front of the light.
+    let area = |tri: u32| -> Option<f32> {
+        let t = &prepared.indices[3 * tri as usize..3 * tri as usize + 3];
+        let c = [0, 1, 2].map(|k| m * prepared.positions[t[k] as usize].extend(1.0));
+        if c.iter().any(|v| v.w <= 0.0) {
+            return None;
+        }
+        let p = c.map(|v| (v.truncate().truncate() / v.w * 0.5 + 0.5) * size);
+        Some((p[1].x - p[0].x) * (p[2].y - p[0].y) - (p[1].y - p[0].y) * (p[2].x - p[0].x))
+    };
+    // (A sliver within rounding of zero area may take either sign on either side.)
+    let back = |bins: &[(u32, u32)]| {
+        bins.iter()
+            .filter(|(tri, _)| area(*tri).is_some_and(|a| a < -1e-3))
+            .count()
+    };
+    let (back_both, back_front) = (back(&both.bins), back(&front.bins));
+    let pairs = |p: &Pages| p.bins.len() as u64 + p.frame.stats.counters["walk_covered_pairs"];
+    eprintln!(
+        "pairs {} -> {} (back-facing binned {back_both} -> {back_front})",
+        pairs(&both),
+        pairs(&front)
+    );
+    assert!(
+        back_both > 0,
+        "no back-facing triangle binned with both faces"
+    );
+    assert_eq!(
+        back_front, 0,
+        "back-facing triangles binned with cull_back_faces = 1"
+    );
+    assert!(
+        pairs(&front) * 10 <= pairs(&both) * 6,
+        "{} pairs with culling against {}",
+        pairs(&front),
+        pairs(&both)
+    );
+    let v_diff = mean_abs_diff(&both.frame.visibility, &front.frame.visibility);
+    let off = differing(&both.frame.visibility, &front.frame.visibility, 0.25);
+    eprintln!("mean |dV| {v_diff}, {off} samples differ by more than 0.25");
+    assert!(v_diff < 2e-3, "mean |dV| {v_diff}");
+    assert!(
+        off * 200 <= both.frame.visibility.len(),
+        "{off} of {} samples differ by more than 0.25",
+        both.frame.visibility.len()
+    );
+    common::assert_clean(&engine.context().validation());
+}
+
 /// The rasterizer's share of the compute pages (entries with large boxes, drawn by one listed
 /// draw) takes its depth bias from the triangle's part in front of the near plane, as the
 /// compute raster and the pipeline's own bias do. With a point light inside the scene
@@ -482,6 +556,7 @@ fn a_pool_past_the_exact_slot_quotient_is_refused() {
         raster_split: 64,
         slot_viewports: true,
         cluster_skip: true,
+        cull_back_faces: false,
     };
     match desc(MAX_POOL_PAGES + 1).check(&ctx, "test") {
         Err(penumbra::Error::Parameter { message, .. }) => {

@@ -288,7 +288,7 @@ fn push_twins() -> Vec<(Vec<&'static str>, Twin)> {
                 bias_slope,
                 bias_clamp,
                 atlas_quads,
-                pad0,
+                cull_back_faces,
                 pad1,
                 pad2
             }),

@@ -28,7 +28,8 @@ layout(push_constant) uniform Push {
     // 1: the compute raster's buffer is the atlas, in 2x2 quads (atlas_depth.glsl's layout);
     // 0: row by row, as the atlas image it is copied into.
     uint atlas_quads;
-    uint pad0;
+    // 1: the walk bins no triangle facing away from the light (bin.glsl's project).
+    uint cull_back_faces;
     uint pad1;
     uint pad2;
 } pc;

@@ -61,9 +61,9 @@ pub const LOOKUP_COUNTER_NAMES: [&str; 9] = [
 /// Counter names of the edge pass, in the order of `glsl/rmsm/edges.comp`'s buffer.
 pub const EDGE_COUNTER_NAMES: [&str; 2] = ["edge_samples", "refine_requests"];
 
-const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(32768.0, 64.0);
+const PAGE_KNOBS: [Knob; 9] = virtual_map::page_knobs(32768.0, 64.0);
 
-const KNOBS: [Knob; 15] = [
+const KNOBS: [Knob; 16] = [
     PAGE_KNOBS[0],
     PAGE_KNOBS[1],
     PAGE_KNOBS[2],
@@ -96,6 +96,7 @@ const KNOBS: [Knob; 15] = [
     PAGE_KNOBS[5],
     PAGE_KNOBS[6],
     PAGE_KNOBS[7],
+    PAGE_KNOBS[8],
     super::SHADOW_MAP_KNOBS[1],
     super::SHADOW_MAP_KNOBS[2],
     super::SHADOW_MAP_KNOBS[3],

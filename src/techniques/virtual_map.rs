@@ -11,8 +11,8 @@ use crate::passes::pages::{PageRaster, PagesDesc};
 use crate::passes::DepthBias;
 
 /// `virtual_size` and `raster_split` (with the technique's defaults), `page_size`, `pool_pages`,
-/// `bin_factor`, `page_raster`, `slot_viewports` and `cluster_skip`.
-pub const fn page_knobs(virtual_size: f64, raster_split: f64) -> [Knob; 8] {
+/// `bin_factor`, `page_raster`, `slot_viewports`, `cluster_skip` and `cull_back_faces`.
+pub const fn page_knobs(virtual_size: f64, raster_split: f64) -> [Knob; 9] {
     [
         Knob::int(
             "virtual_size",
@@ -79,6 +79,15 @@ pub const fn page_knobs(virtual_size: f64, raster_split: f64) -> [Knob; 8] {
             0.0,
             1.0,
         ),
+        Knob::int(
+            "cull_back_faces",
+            "1: no triangle facing away from the light is drawn into the pages (exact for \
+             closed casters wound counter-clockwise, about half the page draws; an open caster \
+             leaks light through its openings); 0: both faces",
+            0.0,
+            0.0,
+            1.0,
+        ),
     ]
 }
 
@@ -111,6 +120,7 @@ pub fn pages_desc(ctx: &Context, params: &Params) -> Result<PagesDesc> {
         raster_split: params.u32("raster_split")?,
         slot_viewports: params.u32("slot_viewports")? == 1,
         cluster_skip: params.u32("cluster_skip")? == 1,
+        cull_back_faces: params.u32("cull_back_faces")? == 1,
     };
     desc.raster = PageRaster::from_knob(ctx, params.u32("page_raster")?, desc.atlas_bytes());
     if desc.bias.clamp != 0.0 {

@@ -411,7 +411,7 @@ impl<'a> VirtualPages<'a> {
             bias_slope: desc.bias.slope,
             bias_clamp: desc.bias.clamp,
             atlas_quads: u32::from(in_buffer),
-            pad0: 0,
+            cull_back_faces: u32::from(desc.cull_back_faces),
             pad1: 0,
             pad2: 0,
         };

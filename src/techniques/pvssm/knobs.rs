@@ -33,9 +33,9 @@ pub const COUNTER_NAMES: [&str; 15] = [
 // 0.6, and the filter's buffer reads 0.4-1.2 ms faster than its gathers from the image
 // (tools/ab.py, minima; docs/pvssm-log.md). 1024 had been 4-8 ms faster than 64 on bunny-rect.
 // rmsm draws whole pages and keeps 64.
-const PAGE_KNOBS: [Knob; 8] = virtual_map::page_knobs(16384.0, 1_048_576.0);
+const PAGE_KNOBS: [Knob; 9] = virtual_map::page_knobs(16384.0, 1_048_576.0);
 
-const KNOBS: [Knob; 29] = [
+const KNOBS: [Knob; 30] = [
     Knob::int(
         "lowres_size",
         "conservative low-resolution map for the blocker search, texels per side",
@@ -187,6 +187,7 @@ const KNOBS: [Knob; 29] = [
     PAGE_KNOBS[5],
     PAGE_KNOBS[6],
     PAGE_KNOBS[7],
+    PAGE_KNOBS[8],
     crate::techniques::SHADOW_MAP_KNOBS[1],
     crate::techniques::SHADOW_MAP_KNOBS[2],
     crate::techniques::SHADOW_MAP_KNOBS[3],

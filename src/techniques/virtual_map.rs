@@ -81,9 +81,10 @@ pub const fn page_knobs(virtual_size: f64, raster_split: f64) -> [Knob; 9] {
         ),
         Knob::int(
             "cull_back_faces",
-            "1: no triangle facing away from the light is drawn into the pages (exact for \
-             closed casters wound counter-clockwise, about half the page draws; an open caster \
-             leaks light through its openings); 0: both faces",
+            "1: no triangle facing away from the light is drawn into the pages (for closed \
+             casters wound counter-clockwise the same shadow but at silhouette texels, about \
+             half the page draws; an open caster leaks light through its openings); 0: both \
+             faces",
             0.0,
             0.0,
             1.0,

@@ -198,10 +198,11 @@ pub struct PagesDesc {
     /// (`glsl/pages/cluster_levels.comp`); off, every triangle visits every resident level.
     pub cluster_skip: bool,
     /// Bin no triangle that faces away from the light (`glsl/pages/bin.glsl`'s `project`), so
-    /// neither raster draws it. Exact for closed, consistently wound (counter-clockwise seen from
-    /// outside) casters, whose first hit from the light is always a light-facing triangle, and
-    /// about half their page draws saved; an open caster seen through an opening (the teapot's
-    /// rim) then lets light through where its inside's back faces should block it.
+    /// neither raster draws it. For closed, consistently wound (counter-clockwise seen from
+    /// outside) casters, whose first hit from the light is a light-facing triangle, the depths
+    /// are the same but at silhouette texels, and about half their page draws are saved; an open
+    /// caster seen through an opening (the teapot's rim) lets light through where its inside's
+    /// back faces should block it.
     pub cull_back_faces: bool,
 }
 

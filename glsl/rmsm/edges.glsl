@@ -9,12 +9,6 @@
 #define RMSM_ATLAS
 #include "rmsm.glsl"
 
-layout(local_size_x = 8, local_size_y = 8) in;
-#include "dealt_tile.glsl"
-
-layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
-layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
 layout(set = 0, binding = 6) buffer RefineFlags { uint refine_flags[]; };
 layout(set = 0, binding = 7, r32ui) uniform writeonly uimage2D refine_level;
 // [0] edge samples, [1] refinement page requests (before dedup)

@@ -9,12 +9,6 @@
 #define RMSM_ATLAS
 #include "rmsm.glsl"
 
-layout(local_size_x = 8, local_size_y = 8) in;
-#include "dealt_tile.glsl"
-
-layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
-layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
 layout(set = 0, binding = 6, r32f) uniform writeonly image2D visibility;
 // [0] view samples, [1] outside the light frustum, [2] lit, [3] umbra, [4] penumbra,
 // [5] fallback lookups (served coarser than the footprint asks), [6] footprint met,

@@ -9,11 +9,6 @@
 #define TABLE_ACCESS
 #include "rmsm.glsl"
 
-layout(local_size_x = 8, local_size_y = 8) in;
-
-layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
-layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
 // [0] requested pages (marks before dedup)
 layout(set = 0, binding = 5) buffer Counters { uint counters[]; };
 

@@ -28,6 +28,14 @@ layout(push_constant) uniform Push {
 // A sample's refinement target: none.
 #define NO_REFINE 0xffffffffu
 
+// Every rmsm pass runs an invocation a view sample, in 8 x 8 tiles, and reads its G-buffer.
+layout(local_size_x = 8, local_size_y = 8) in;
+#include "dealt_tile.glsl"
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D positions;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D normals;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D receivers;
+
 #ifdef RMSM_ATLAS
 #define VIRTUAL_ATLAS
 #endif

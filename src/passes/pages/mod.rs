@@ -350,8 +350,9 @@ pub struct VirtualPages<'a> {
     /// One `u32` per slot: the bands its page was drawn over (`PAGE_BANDS_FULL`: all of it),
     /// which a lookup must stay within (pvssm's filter checks them before reading a page).
     pub slot_bands: Buffer,
-    /// The depth atlas: `pool_pages` slots of `page_size`² texels, row by row — an image, or
-    /// the compute raster's buffer ([`PagesDesc::atlas_in_buffer`]). Readers bind
+    /// The depth atlas: `pool_pages` slots of `page_size`² texels — an image, row by row, or
+    /// the compute raster's buffer in 2 × 2 quads ([`PagesDesc::atlas_in_buffer`];
+    /// [`VirtualPages::read_atlas`] gives either in rows). Readers bind
     /// [`VirtualPages::atlas_binding`] in [`VirtualPages::atlas_reader`]'s variant of their
     /// shader.
     atlas: AtlasDepths,
